@@ -1,0 +1,149 @@
+//! `waam check PART PLAN`: is a plan valid for a part, and does it keep every t8/5 window?
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use serde_json::json;
+use waam::graph::WeldGraph;
+use waam::part::BlockDisplay;
+use waam::plan::Plan;
+use waam::thermal::{self, ThermalModel};
+
+use super::{read_part, EXIT_NO, EXIT_OK};
+
+/// Check a plan against a part: validity rules first, then the thermal t8/5 windows.
+///
+/// Prints VALID or INVALID with the first broken rule, then FEASIBLE or INFEASIBLE with
+/// the first violated window, then every t8/5 crossing of every windowed block.
+/// Exit code 0: valid and feasible; 1: invalid or infeasible; 2: bad input.
+#[derive(Debug, clap::Args)]
+pub struct CheckArgs {
+    /// The part file (YAML, shared part format).
+    pub part: PathBuf,
+    /// The plan file (YAML, or JSON when it ends in .json or starts with `{`).
+    pub plan: PathBuf,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
+    let part = read_part(&args.part)?;
+    let bytes = std::fs::read(&args.plan)
+        .with_context(|| format!("cannot read plan {}", args.plan.display()))?;
+    let is_json = args.plan.extension().is_some_and(|e| e == "json");
+    let plan = Plan::from_bytes(&bytes, is_json)
+        .with_context(|| format!("in plan {}", args.plan.display()))?;
+    if let Some(name) = plan.part.as_deref().filter(|n| *n != part.name) {
+        tracing::warn!("plan names part {name:?}, the part file is {:?}", part.name);
+    }
+    let graph = WeldGraph::new(&part);
+    let fragments = match plan.validate(&part, &graph) {
+        Ok(fragments) => fragments,
+        Err(invalid) => {
+            if args.json {
+                let out = json!({
+                    "valid": false,
+                    "feasible": false,
+                    "invalid": {"rule": invalid.rule(), "block": invalid.block(), "message": invalid.to_string()},
+                    "violation": null,
+                    "crossings": [],
+                });
+                println!("{out}");
+            } else {
+                println!("INVALID: {invalid}");
+                println!("INFEASIBLE (the plan is not valid)");
+            }
+            return Ok(ExitCode::from(EXIT_NO));
+        }
+    };
+    let model = ThermalModel::new(&part, &graph);
+    let outcome = thermal::simulate(&model, &fragments)
+        .with_context(|| format!("simulating plan {}", args.plan.display()))?;
+    let feasible = outcome.violation.is_none();
+    if args.json {
+        let violation = outcome.violation.as_ref().map(|v| {
+            json!({
+                "block": part.block(v.block),
+                "kind": v.kind,
+                "window": {"min_s": v.window.min_s, "max_s": v.window.max_s},
+                "t85_s": v.t85_s,
+                "time_s": v.time_s,
+                "step": v.step,
+                "prefix_len": v.prefix_len,
+                "prefix_fragments": v.prefix_fragments,
+                "phase": v.phase,
+            })
+        });
+        let crossings: Vec<_> = outcome
+            .crossings
+            .iter()
+            .map(|c| json!({"block": part.block(c.block), "t85_s": c.t85_s, "time_s": c.time_s}))
+            .collect();
+        let out = json!({
+            "valid": true,
+            "feasible": feasible,
+            "fragments": fragments.len(),
+            "blocks": part.len(),
+            "violation": violation,
+            "crossings": crossings,
+            "steps": outcome.steps,
+            "time_s": outcome.time_s,
+        });
+        println!("{out}");
+    } else {
+        println!(
+            "VALID: {} fragment(s), {} blocks",
+            fragments.len(),
+            part.len()
+        );
+        println!("{}", if feasible { "FEASIBLE" } else { "INFEASIBLE" });
+        if let Some(v) = &outcome.violation {
+            let closed = if v.phase == thermal::Phase::Deposit {
+                ""
+            } else {
+                ", last fragment closed"
+            };
+            println!(
+                "first violation: block {} window [{}, {}] s, {:?}: t8/5 = {:.2} s at t = {:.2} s \
+                 (step {}, {:?}); prefix {} blocks in {} fragment(s){closed}",
+                BlockDisplay(part.block(v.block)),
+                v.window.min_s,
+                v.window.max_s,
+                v.kind,
+                v.t85_s,
+                v.time_s,
+                v.step,
+                v.phase,
+                v.prefix_len,
+                v.prefix_fragments,
+            );
+        }
+        println!(
+            "simulated {} steps ({:.2} s)",
+            outcome.steps, outcome.time_s
+        );
+        println!("t8/5 crossings (s) per windowed block:");
+        for &(i, w) in part.windows() {
+            let values: Vec<String> = outcome
+                .crossings
+                .iter()
+                .filter(|c| c.block == i)
+                .map(|c| format!("{:.2}", c.t85_s))
+                .collect();
+            let values = if values.is_empty() {
+                "-".to_string()
+            } else {
+                values.join(" ")
+            };
+            println!(
+                "  {} [{}, {}]: {values}",
+                BlockDisplay(part.block(i)),
+                w.min_s,
+                w.max_s
+            );
+        }
+    }
+    Ok(ExitCode::from(if feasible { EXIT_OK } else { EXIT_NO }))
+}

@@ -1,0 +1,86 @@
+//! Command-line interface: one module per subcommand.
+
+use std::path::Path;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::{Args, Parser, Subcommand};
+use waam::part::Part;
+
+pub mod check;
+
+/// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
+pub const EXIT_OK: u8 = 0;
+/// Exit code of a run whose answer is "no" (invalid, infeasible, no plan, a difference).
+pub const EXIT_NO: u8 = 1;
+/// Exit code of a run that could not give an answer: bad input, unreadable file.
+pub const EXIT_BAD_INPUT: u8 = 2;
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "waam",
+    version,
+    about = "Plan weld paths for Wire Arc Additive Manufacturing and hand them to a robot cell",
+    long_about = "waam plans the weld order of a part built from blocks (or voxelized from an STL \
+                  mesh) as at most k weld paths, checks every candidate against the t8/5 cooling \
+                  windows of a thermal model, and turns the plan into torch poses and robot \
+                  trajectories.\n\nExit codes: 0 = yes (valid, feasible, found), 1 = no (invalid, \
+                  infeasible, none found, differs), 2 = bad input."
+)]
+pub struct Cli {
+    #[command(flatten)]
+    pub global: GlobalArgs,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Options every subcommand understands.
+#[derive(Debug, Args)]
+pub struct GlobalArgs {
+    /// Print only the result: no progress bars, no log lines below warnings.
+    #[arg(short, long, global = true)]
+    pub quiet: bool,
+    /// More log output (-v: debug, -vv: trace). RUST_LOG overrides this.
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    pub verbose: u8,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    Check(check::CheckArgs),
+}
+
+/// Runs the chosen subcommand; its `ExitCode` carries the answer.
+pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    match cli.command {
+        Command::Check(args) => check::run(args),
+    }
+}
+
+/// Reads a part file, logging the reader's warnings.
+pub fn read_part(path: &Path) -> anyhow::Result<Part> {
+    let bytes =
+        std::fs::read(path).with_context(|| format!("cannot read part {}", path.display()))?;
+    let part = Part::from_bytes(&bytes).with_context(|| format!("in part {}", path.display()))?;
+    for warning in &part.warnings {
+        tracing::warn!("{}: {warning}", path.display());
+    }
+    Ok(part)
+}
+
+/// Logs go to stderr through `tracing`; `RUST_LOG` wins over `-q` / `-v`.
+pub fn init_logging(global: &GlobalArgs) {
+    let default = match (global.quiet, global.verbose) {
+        (true, _) => "warn",
+        (false, 0) => "info",
+        (false, 1) => "debug",
+        (false, _) => "trace",
+    };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .init();
+}

@@ -1,0 +1,11 @@
+//! waam-planner: weld-path planning for Wire Arc Additive Manufacturing.
+//!
+//! Data flows one way: a [`part::Part`] (blocks on a grid, from a part file or a mesh)
+//! becomes a [`graph::WeldGraph`]; the planner finds a [`plan::Plan`] of at most k weld
+//! paths; the [`thermal`] model checks its t8/5 cooling windows; later stages turn the
+//! plan into torch poses, robot trajectories, ROS 2 messages and recordings.
+
+pub mod graph;
+pub mod part;
+pub mod plan;
+pub mod thermal;
