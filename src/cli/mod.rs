@@ -7,6 +7,7 @@ use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
 use waam::part::Part;
 
+pub mod bag;
 pub mod check;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
@@ -47,12 +48,14 @@ pub struct GlobalArgs {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    Bag(bag::BagArgs),
     Check(check::CheckArgs),
 }
 
 /// Runs the chosen subcommand; its `ExitCode` carries the answer.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
+        Command::Bag(args) => bag::run(args),
         Command::Check(args) => check::run(args),
     }
 }
