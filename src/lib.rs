@@ -10,4 +10,5 @@ pub mod graph;
 pub mod msgs;
 pub mod part;
 pub mod plan;
+pub mod replay;
 pub mod thermal;

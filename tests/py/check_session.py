@@ -99,6 +99,10 @@ def read_with_mcap(mcap_path, expected):
         check(stats.message_count == sum(e["count"] for e in expected.values()),
               f"statistics say {stats.message_count} messages")
         check(len(summary.chunk_indexes) >= 1, "no chunk index")
+        for ci in summary.chunk_indexes:
+            check(ci.compression == "zstd", f"chunk compression {ci.compression!r}")
+            check(len(ci.message_index_offsets) > 0 and ci.message_index_length > 0,
+                  "a chunk without message indexes")
         for schema in summary.schemas.values():
             check(schema.encoding == "ros2msg", f"schema {schema.name}: {schema.encoding}")
         for channel in summary.channels.values():
