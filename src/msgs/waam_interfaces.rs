@@ -160,8 +160,8 @@ ros_message!(
 
 impl PlanCandidate {
     pub const FEASIBLE: u8 = 0;
-    pub const TOO_SHORT: u8 = 1;
-    pub const TOO_LONG: u8 = 2;
-    pub const NOT_COOLED: u8 = 3;
-    pub const CYCLE: u8 = 4;
+    pub const VIOLATED: u8 = 1;
+    pub const TOO_SHORT: u8 = 2;
+    pub const TOO_LONG: u8 = 3;
+    pub const NOT_COOLED: u8 = 4;
 }
