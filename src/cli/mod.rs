@@ -7,7 +7,9 @@ use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
 use waam::part::Part;
 
+pub mod bench;
 pub mod check;
+pub mod plan;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
 pub const EXIT_OK: u8 = 0;
@@ -48,12 +50,16 @@ pub struct GlobalArgs {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     Check(check::CheckArgs),
+    Plan(plan::PlanArgs),
+    Bench(bench::BenchArgs),
 }
 
 /// Runs the chosen subcommand; its `ExitCode` carries the answer.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Check(args) => check::run(args),
+        Command::Plan(args) => plan::run(args, &cli.global),
+        Command::Bench(args) => bench::run(args),
     }
 }
 
