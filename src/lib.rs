@@ -10,5 +10,6 @@ pub mod graph;
 pub mod msgs;
 pub mod part;
 pub mod plan;
+pub mod planner;
 pub mod replay;
 pub mod thermal;

@@ -8,7 +8,9 @@ use clap::{Args, Parser, Subcommand};
 use waam::part::Part;
 
 pub mod bag;
+pub mod bench;
 pub mod check;
+pub mod plan;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
 pub const EXIT_OK: u8 = 0;
@@ -50,6 +52,8 @@ pub struct GlobalArgs {
 pub enum Command {
     Bag(bag::BagArgs),
     Check(check::CheckArgs),
+    Plan(plan::PlanArgs),
+    Bench(bench::BenchArgs),
 }
 
 /// Runs the chosen subcommand; its `ExitCode` carries the answer.
@@ -57,6 +61,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Bag(args) => bag::run(args),
         Command::Check(args) => check::run(args),
+        Command::Plan(args) => plan::run(args, &cli.global),
+        Command::Bench(args) => bench::run(args),
     }
 }
 
