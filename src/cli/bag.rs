@@ -1,12 +1,16 @@
 //! `waam bag`: look into recordings (rosbag2 directories with MCAP storage).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
 
+use anyhow::Context;
 use serde_json::json;
+use waam::bag::planning::PlanningRecorder;
 use waam::bag::sample::SampleSession;
 use waam::bag::{Bag, BagOptions, Recorder};
+use waam::part::Part;
+use waam::planner::Report;
 
 use super::EXIT_OK;
 
@@ -173,6 +177,41 @@ fn sample(args: SampleArgs) -> anyhow::Result<ExitCode> {
         .collect();
     println!("{}", serde_json::Value::Object(counts));
     Ok(ExitCode::from(EXIT_OK))
+}
+
+/// Opens the recording of `waam plan --record DIR` and records the part as received (the
+/// file's text, or the bundled sample's).
+pub fn start_planning(
+    dir: &Path,
+    part_file: Option<&Path>,
+    part: &Part,
+) -> anyhow::Result<(Recorder, PlanningRecorder)> {
+    let text = match part_file {
+        Some(path) => std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read part {}", path.display()))?,
+        None => super::plan::DEFAULT_PART.to_string(),
+    };
+    let recorder = Recorder::create(dir)?;
+    let planning = PlanningRecorder::start(&recorder, &text, &part.name)?;
+    Ok((recorder, planning))
+}
+
+/// Records the outcome of a planning run and closes the recording.
+pub fn finish_planning(
+    recorder: Recorder,
+    planning: PlanningRecorder,
+    part: &Part,
+    report: &Report,
+) -> anyhow::Result<()> {
+    planning.finish(part, report)?;
+    let summary = recorder.finish()?;
+    tracing::info!(
+        "recorded {} messages on {} topics to {}",
+        summary.messages,
+        summary.topics,
+        summary.dir.display()
+    );
+    Ok(())
 }
 
 fn human_size(bytes: u64) -> String {

@@ -11,6 +11,7 @@ pub mod bag;
 pub mod bench;
 pub mod check;
 pub mod plan;
+pub mod replay;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
 pub const EXIT_OK: u8 = 0;
@@ -54,6 +55,7 @@ pub enum Command {
     Check(check::CheckArgs),
     Plan(plan::PlanArgs),
     Bench(bench::BenchArgs),
+    Replay(replay::ReplayArgs),
 }
 
 /// Runs the chosen subcommand; its `ExitCode` carries the answer.
@@ -63,6 +65,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Check(args) => check::run(args),
         Command::Plan(args) => plan::run(args, &cli.global),
         Command::Bench(args) => bench::run(args),
+        Command::Replay(args) => replay::run(args),
     }
 }
 

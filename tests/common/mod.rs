@@ -1,4 +1,5 @@
 //! Helpers shared by the recording tests.
+#![allow(dead_code)] // each test crate uses a different subset
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
