@@ -243,7 +243,10 @@ fn centres_on_shared_faces_belong_to_exactly_one_of_two_touching_boxes() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(200))]
+    #![proptest_config(ProptestConfig {
+        failure_persistence: None,
+        ..ProptestConfig::with_cases(200)
+    })]
 
     /// Random boxes on random grids: exactly the centres inside (ties by the perturbation).
     #[test]
