@@ -6,7 +6,9 @@
 //! plan into torch poses, robot trajectories, ROS 2 messages and recordings.
 
 pub mod graph;
+pub mod mesh;
 pub mod part;
+pub mod part_writer;
 pub mod plan;
 pub mod planner;
 pub mod thermal;

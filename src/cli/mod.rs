@@ -10,6 +10,7 @@ use waam::part::Part;
 pub mod bench;
 pub mod check;
 pub mod plan;
+pub mod voxelize;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
 pub const EXIT_OK: u8 = 0;
@@ -52,6 +53,7 @@ pub enum Command {
     Check(check::CheckArgs),
     Plan(plan::PlanArgs),
     Bench(bench::BenchArgs),
+    Voxelize(voxelize::VoxelizeArgs),
 }
 
 /// Runs the chosen subcommand; its `ExitCode` carries the answer.
@@ -60,6 +62,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Check(args) => check::run(args),
         Command::Plan(args) => plan::run(args, &cli.global),
         Command::Bench(args) => bench::run(args),
+        Command::Voxelize(args) => voxelize::run(args),
     }
 }
 
