@@ -8,4 +8,5 @@
 pub mod graph;
 pub mod part;
 pub mod plan;
+pub mod robot;
 pub mod thermal;
