@@ -10,3 +10,4 @@ pub mod part;
 pub mod plan;
 pub mod robot;
 pub mod thermal;
+pub mod toolpath;
