@@ -6,8 +6,10 @@
 //! plan into torch poses, robot trajectories, ROS 2 messages and recordings.
 
 pub mod graph;
+pub mod motion;
 pub mod part;
 pub mod plan;
 pub mod robot;
 pub mod thermal;
 pub mod toolpath;
+pub mod trajectory;
