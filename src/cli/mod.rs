@@ -8,6 +8,7 @@ use clap::{Args, Parser, Subcommand};
 use waam::part::Part;
 
 pub mod check;
+pub mod motion;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
 pub const EXIT_OK: u8 = 0;
@@ -48,12 +49,14 @@ pub struct GlobalArgs {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     Check(check::CheckArgs),
+    Motion(motion::MotionArgs),
 }
 
 /// Runs the chosen subcommand; its `ExitCode` carries the answer.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Check(args) => check::run(args),
+        Command::Motion(args) => motion::run(args),
     }
 }
 

@@ -99,8 +99,12 @@ pub enum TrajectoryError {
     BranchSwitch { at: At, in_weld: bool },
     #[error("the numeric solver cannot follow the path continuously at {0}")]
     Discontinuous(At),
-    #[error("the TCP strays {deviation_mm:.2} mm from the path before {at} even after splitting the step")]
-    Strays { at: At, deviation_mm: f64 },
+    #[error("the TCP strays {deviation_mm:.2} mm / {deviation_deg:.2} deg from the path before {at} even after splitting the step (a joint would turn the long way round)")]
+    Strays {
+        at: At,
+        deviation_mm: f64,
+        deviation_deg: f64,
+    },
     #[error("internal check failed, no trajectory returned: {0}")]
     Violation(String),
 }
@@ -278,19 +282,20 @@ pub fn interpolate(a: &Isometry3<f64>, b: &Isometry3<f64>, t: f64) -> Isometry3<
     Isometry3::from_parts(Translation3::from(p), r)
 }
 
-/// The largest distance (mm) the TCP strays from the straight line from pose `k-1` to `k`
-/// while the joints move linearly.
-fn deviation_mm(robot: &Robot, tp: &Toolpath, path: &[Vec<f64>], k: usize) -> f64 {
+/// How far (mm, deg) the TCP strays from the straight line from pose `k-1` to `k` while
+/// the joints move linearly.
+fn deviation(robot: &Robot, tp: &Toolpath, path: &[Vec<f64>], k: usize) -> (f64, f64) {
     let (a, b) = (&tp.poses[k - 1].pose, &tp.poses[k].pose);
-    let mut worst = 0.0f64;
+    let mut worst = (0.0f64, 0.0f64);
     for t in [0.25, 0.5, 0.75] {
         let q: Vec<f64> = path[k - 1]
             .iter()
             .zip(&path[k])
             .map(|(x, y)| x + (y - x) * t)
             .collect();
-        let (dp, _) = pose_error(&robot.tcp_pose(&q), &interpolate(a, b, t));
-        worst = worst.max(dp * 1000.0);
+        let (dp, dr) = pose_error(&robot.tcp_pose(&q), &interpolate(a, b, t));
+        worst.0 = worst.0.max(dp * 1000.0);
+        worst.1 = worst.1.max(dr.to_degrees());
     }
     worst
 }
@@ -320,21 +325,22 @@ pub fn plan_trajectory(
     tp: &mut Toolpath,
     settings: &ProcessSettings,
 ) -> Result<JointTrajectory, TrajectoryError> {
-    let tol = settings.path_tolerance_mm;
+    let (tol_mm, tol_deg) = (settings.path_tolerance_mm, settings.path_tolerance_deg);
     let mut path = joint_path(robot, tp)?;
     for round in 0..=MAX_SPLIT_ROUNDS {
-        let straying: Vec<(usize, f64)> = (1..tp.poses.len())
-            .map(|k| (k, deviation_mm(robot, tp, &path, k)))
-            .filter(|(_, d)| *d > tol)
+        let straying: Vec<(usize, (f64, f64))> = (1..tp.poses.len())
+            .map(|k| (k, deviation(robot, tp, &path, k)))
+            .filter(|(_, (mm, deg))| *mm > tol_mm || *deg > tol_deg)
             .collect();
         if straying.is_empty() {
             break;
         }
         if round == MAX_SPLIT_ROUNDS {
-            let (k, d) = straying[0];
+            let (k, (mm, deg)) = straying[0];
             return Err(TrajectoryError::Strays {
                 at: at(tp, k),
-                deviation_mm: d,
+                deviation_mm: mm,
+                deviation_deg: deg,
             });
         }
         tracing::debug!("splitting {} steps where the TCP strays", straying.len());
