@@ -9,6 +9,7 @@ pub mod graph;
 pub mod motion;
 pub mod part;
 pub mod plan;
+pub mod plot;
 pub mod robot;
 pub mod thermal;
 pub mod toolpath;
