@@ -7,8 +7,13 @@
 
 pub mod graph;
 pub mod mesh;
+pub mod motion;
 pub mod part;
 pub mod part_writer;
 pub mod plan;
 pub mod planner;
+pub mod plot;
+pub mod robot;
 pub mod thermal;
+pub mod toolpath;
+pub mod trajectory;

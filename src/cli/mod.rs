@@ -9,7 +9,9 @@ use waam::part::Part;
 
 pub mod bench;
 pub mod check;
+pub mod motion;
 pub mod plan;
+pub mod plot;
 pub mod voxelize;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
@@ -54,6 +56,8 @@ pub enum Command {
     Plan(plan::PlanArgs),
     Bench(bench::BenchArgs),
     Voxelize(voxelize::VoxelizeArgs),
+    Motion(motion::MotionArgs),
+    Plot(plot::PlotArgs),
 }
 
 /// Runs the chosen subcommand; its `ExitCode` carries the answer.
@@ -63,6 +67,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Plan(args) => plan::run(args, &cli.global),
         Command::Bench(args) => bench::run(args),
         Command::Voxelize(args) => voxelize::run(args),
+        Command::Motion(args) => motion::run(args),
+        Command::Plot(args) => plot::run(args),
     }
 }
 

@@ -55,6 +55,24 @@ pub struct PlanArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Also turn the plan into torch poses and a joint trajectory for this robot (URDF),
+    /// written to DIR/toolpath.yaml and DIR/trajectory.yaml (needs --out).
+    #[arg(long, value_name = "URDF", requires = "out")]
+    pub robot: Option<PathBuf>,
+    /// With --robot: the TCP in the tip link as "x y z roll pitch yaw" (m, rad).
+    #[arg(
+        long,
+        value_name = "\"x y z roll pitch yaw\"",
+        allow_hyphen_values = true,
+        requires = "robot"
+    )]
+    pub tcp: Option<String>,
+    /// With --robot: the link the TCP is attached to.
+    #[arg(long, value_name = "LINK", requires = "robot")]
+    pub tip: Option<String>,
+    /// With --robot: process settings (YAML, see config/process.yaml).
+    #[arg(long, value_name = "FILE", requires = "robot")]
+    pub process: Option<PathBuf>,
 }
 
 pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
@@ -158,6 +176,17 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         let path = dir.join("plan.yaml");
         std::fs::write(&path, best.plan(&part).to_yaml())
             .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    // The motion is planned only for a feasible plan, and only a validated one is written.
+    let mut motion_ok = true;
+    if let (Some(robot), Some(dir), Some(best)) = (&args.robot, &args.out, &report.best) {
+        let robot_args = super::motion::RobotArgs {
+            robot: robot.clone(),
+            tcp: args.tcp.clone(),
+            tip: args.tip.clone(),
+            process: args.process.clone(),
+        };
+        motion_ok = super::motion::plan_and_write(&part, &best.fragments, &robot_args, dir)?;
     }
     let proof = match (&report.best, report.proven, args.first) {
         (Some(_), true, false) => "optimal (proven)",
