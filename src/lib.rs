@@ -7,9 +7,16 @@
 
 pub mod bag;
 pub mod graph;
+pub mod mesh;
+pub mod motion;
 pub mod msgs;
 pub mod part;
+pub mod part_writer;
 pub mod plan;
 pub mod planner;
+pub mod plot;
 pub mod replay;
+pub mod robot;
 pub mod thermal;
+pub mod toolpath;
+pub mod trajectory;

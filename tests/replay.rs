@@ -8,8 +8,8 @@ use waam::bag::{topics, Bag, Recorder};
 use waam::msgs::std_msgs::String as RosString;
 use waam::msgs::to_cdr;
 
-mod common;
-use common::waam;
+mod recording;
+use recording::waam;
 
 const PART: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/config/parts/s1-wall.yaml");
 
@@ -200,4 +200,29 @@ fn a_bag_without_parts_is_bad_input() {
     let out = waam().arg("replay").arg(&stripped).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("holds no part"));
+}
+
+#[test]
+fn a_part_planned_from_an_stl_mesh_replays_from_its_voxelized_document() {
+    let tmp = tempfile::tempdir().unwrap();
+    let recorded = tmp.path().join("mesh");
+    let stl = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/box_binary.stl");
+    let out = waam()
+        .args([
+            "-q", "plan", stl, "--pitch", "6 6 2.5", "-k", "4", "--record",
+        ])
+        .arg(&recorded)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let bag = Bag::open(&recorded).unwrap();
+    let part: RosString = bag.decode_all::<RosString>().unwrap().remove(0).2;
+    assert!(part.data.contains("name:"), "{}", part.data);
+    let (code, report) = replay(&recorded, &[]);
+    assert_eq!(code, 0, "{report}");
+    assert_eq!(report["identical"], 1);
 }

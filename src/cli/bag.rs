@@ -10,6 +10,7 @@ use waam::bag::planning::PlanningRecorder;
 use waam::bag::sample::SampleSession;
 use waam::bag::{Bag, BagOptions, Recorder};
 use waam::part::Part;
+use waam::part_writer;
 use waam::planner::Report;
 
 use super::EXIT_OK;
@@ -179,14 +180,17 @@ fn sample(args: SampleArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::from(EXIT_OK))
 }
 
-/// Opens the recording of `waam plan --record DIR` and records the part as received (the
-/// file's text, or the bundled sample's).
+/// Opens the recording of `waam plan --record DIR` and records the part as a part document:
+/// a part file's own text, the bundled sample's, or, for an STL mesh, the voxelized part that
+/// was planned (so that `waam replay` can plan it again).
 pub fn start_planning(
     dir: &Path,
     part_file: Option<&Path>,
     part: &Part,
 ) -> anyhow::Result<(Recorder, PlanningRecorder)> {
+    let is_stl = |p: &Path| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("stl"));
     let text = match part_file {
+        Some(path) if is_stl(path) => part_writer::to_yaml(part),
         Some(path) => std::fs::read_to_string(path)
             .with_context(|| format!("cannot read part {}", path.display()))?,
         None => super::plan::DEFAULT_PART.to_string(),

@@ -10,8 +10,11 @@ use waam::part::Part;
 pub mod bag;
 pub mod bench;
 pub mod check;
+pub mod motion;
 pub mod plan;
+pub mod plot;
 pub mod replay;
+pub mod voxelize;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
 pub const EXIT_OK: u8 = 0;
@@ -56,6 +59,9 @@ pub enum Command {
     Plan(plan::PlanArgs),
     Bench(bench::BenchArgs),
     Replay(replay::ReplayArgs),
+    Voxelize(voxelize::VoxelizeArgs),
+    Motion(motion::MotionArgs),
+    Plot(plot::PlotArgs),
 }
 
 /// Runs the chosen subcommand; its `ExitCode` carries the answer.
@@ -66,6 +72,9 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Plan(args) => plan::run(args, &cli.global),
         Command::Bench(args) => bench::run(args),
         Command::Replay(args) => replay::run(args),
+        Command::Voxelize(args) => voxelize::run(args),
+        Command::Motion(args) => motion::run(args),
+        Command::Plot(args) => plot::run(args),
     }
 }
 

@@ -12,7 +12,7 @@ use waam::part::Part;
 use waam::plan::Plan;
 use waam::planner::{self, Acyclicity, Options, Stats};
 
-use super::{read_part, GlobalArgs, EXIT_NO, EXIT_OK};
+use super::{GlobalArgs, EXIT_NO, EXIT_OK};
 
 /// The sample part planned when no PART is given (bundled into the binary).
 pub const DEFAULT_PART: &str = include_str!("../../config/parts/ex3-h-column.yaml");
@@ -26,8 +26,11 @@ pub const DEFAULT_PART: &str = include_str!("../../config/parts/ex3-h-column.yam
 /// none found before the timeout); 2: bad input.
 #[derive(Debug, clap::Args)]
 pub struct PlanArgs {
-    /// The part file (YAML, shared part format). Default: the bundled H-column sample.
+    /// The part file (YAML, shared part format), or an STL mesh with --pitch. Default: the
+    /// bundled H-column sample.
     pub part: Option<PathBuf>,
+    #[command(flatten, next_help_heading = "Mesh input (PART is an .stl file)")]
+    pub mesh: super::voxelize::MeshArgs,
     /// Write DIR/plan.yaml (and, with --all, DIR/feasible-plans.yaml).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
@@ -59,11 +62,29 @@ pub struct PlanArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Also turn the plan into torch poses and a joint trajectory for this robot (URDF),
+    /// written to DIR/toolpath.yaml and DIR/trajectory.yaml (needs --out).
+    #[arg(long, value_name = "URDF", requires = "out")]
+    pub robot: Option<PathBuf>,
+    /// With --robot: the TCP in the tip link as "x y z roll pitch yaw" (m, rad).
+    #[arg(
+        long,
+        value_name = "\"x y z roll pitch yaw\"",
+        allow_hyphen_values = true,
+        requires = "robot"
+    )]
+    pub tcp: Option<String>,
+    /// With --robot: the link the TCP is attached to.
+    #[arg(long, value_name = "LINK", requires = "robot")]
+    pub tip: Option<String>,
+    /// With --robot: process settings (YAML, see config/process.yaml).
+    #[arg(long, value_name = "FILE", requires = "robot")]
+    pub process: Option<PathBuf>,
 }
 
 pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     let part = match &args.part {
-        Some(path) => read_part(path)?,
+        Some(path) => args.mesh.read_part_or_mesh(path)?,
         None => Part::parse(DEFAULT_PART).context("the bundled sample part")?,
     };
     let opts = Options {
@@ -179,6 +200,17 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         std::fs::write(&path, best.plan(&part).to_yaml())
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
+    // The motion is planned only for a feasible plan, and only a validated one is written.
+    let mut motion_ok = true;
+    if let (Some(robot), Some(dir), Some(best)) = (&args.robot, &args.out, &report.best) {
+        let robot_args = super::motion::RobotArgs {
+            robot: robot.clone(),
+            tcp: args.tcp.clone(),
+            tip: args.tip.clone(),
+            process: args.process.clone(),
+        };
+        motion_ok = super::motion::plan_and_write(&part, &best.fragments, &robot_args, dir)?;
+    }
     let proof = match (&report.best, report.proven, args.first) {
         (Some(_), true, false) => "optimal (proven)",
         (Some(_), true, true) => "first found (not optimized)",
@@ -222,11 +254,8 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
             print_stats(&report.stats);
         }
     }
-    Ok(ExitCode::from(if report.best.is_some() {
-        EXIT_OK
-    } else {
-        EXIT_NO
-    }))
+    let ok = report.best.is_some() && motion_ok;
+    Ok(ExitCode::from(if ok { EXIT_OK } else { EXIT_NO }))
 }
 
 fn finite_or_null(x: f64) -> serde_json::Value {
