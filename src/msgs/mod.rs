@@ -12,6 +12,7 @@ use serde::Serialize;
 pub mod builtin_interfaces;
 pub mod definition;
 pub mod diagnostic_msgs;
+pub mod dispatch;
 pub mod geometry_msgs;
 pub mod nav_msgs;
 pub mod rcl_interfaces;

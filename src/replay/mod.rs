@@ -324,5 +324,29 @@ pub fn replay(
         .collect()
 }
 
+/// When to send each recorded message to play the recording back with its original timing:
+/// (delay from the start, index into `bag.messages`), in receive-time order. `rate` > 1 plays
+/// faster.
+pub fn schedule(bag: &Bag, rate: f64) -> Vec<(std::time::Duration, usize)> {
+    let mut order: Vec<usize> = (0..bag.messages.len()).collect();
+    order.sort_by_key(|&i| bag.messages[i].log_time);
+    let Some(&first) = order.first() else {
+        return Vec::new();
+    };
+    let t0 = bag.messages[first].log_time;
+    let rate = if rate.is_finite() && rate > 0.0 {
+        rate
+    } else {
+        1.0
+    };
+    order
+        .into_iter()
+        .map(|i| {
+            let ns = (bag.messages[i].log_time - t0) as f64 / rate;
+            (std::time::Duration::from_nanos(ns.round() as u64), i)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests;

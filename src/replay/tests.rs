@@ -203,3 +203,15 @@ fn fragment_differences() {
         Verdict::Different(d) if d[0].to_string().contains("no feasible plan")
     ));
 }
+
+#[test]
+fn playback_keeps_the_recorded_timing() {
+    let bag = session();
+    let plan = schedule(&bag, 1.0);
+    assert_eq!(plan.len(), bag.messages.len());
+    assert_eq!(plan[0].0, std::time::Duration::ZERO);
+    assert_eq!(plan[3].0, std::time::Duration::from_nanos(3));
+    let fast = schedule(&bag, 2.0);
+    assert_eq!(fast.last().unwrap().0, std::time::Duration::from_nanos(4)); // 7 ns / 2
+    assert!(plan.windows(2).all(|w| w[0].0 <= w[1].0));
+}
