@@ -26,6 +26,30 @@ pub struct BagArgs {
 pub enum BagCommand {
     Info(InfoArgs),
     Sample(SampleArgs),
+    Echo(EchoArgs),
+}
+
+/// (For tests.) Print the messages arriving on one ROS 2 topic as JSON lines, like
+/// `ros2 topic echo`, until COUNT arrived or the timeout passed. Exit code 1 when fewer came.
+#[derive(Debug, clap::Args)]
+#[command(hide = true)]
+pub struct EchoArgs {
+    /// The topic, e.g. /waam_planner/plan/weld_plan.
+    pub topic: String,
+    /// Its type, e.g. waam_interfaces/msg/WeldPlan.
+    #[arg(long = "type")]
+    pub type_name: String,
+    #[arg(long, default_value_t = 1)]
+    pub count: u64,
+    /// Seconds to wait at most.
+    #[arg(long, default_value_t = 10.0)]
+    pub timeout: f64,
+    /// Subscribe best effort (for best-effort publishers such as joint states).
+    #[arg(long)]
+    pub best_effort: bool,
+    /// Subscribe transient local (to get the last message a latched publisher sent).
+    #[arg(long)]
+    pub transient_local: bool,
 }
 
 /// Topics, types, message counts, duration and QoS of a recording, like `ros2 bag info`.
@@ -63,6 +87,7 @@ pub fn run(args: BagArgs) -> anyhow::Result<ExitCode> {
     match args.command {
         BagCommand::Info(a) => info(a),
         BagCommand::Sample(a) => sample(a),
+        BagCommand::Echo(a) => echo(a),
     }
 }
 
@@ -153,6 +178,35 @@ fn info(args: InfoArgs) -> anyhow::Result<ExitCode> {
         );
     }
     Ok(ExitCode::from(EXIT_OK))
+}
+
+fn echo(args: EchoArgs) -> anyhow::Result<ExitCode> {
+    use ros2_client::qos::{Durability, History};
+    let timeout = Duration::try_from_secs_f64(args.timeout)
+        .map_err(|_| anyhow::anyhow!("--timeout: expected seconds >= 0, got {}", args.timeout))?;
+    let mut qos =
+        ros2_client::QosProfile::publisher_default().history(History::KeepLast { depth: 100 });
+    if args.best_effort {
+        qos = qos.reliability_best_effort();
+    }
+    if args.transient_local {
+        qos = qos.durability(Durability::TransientLocal);
+    }
+    let context = waam::replay::publish::context_from_env()?;
+    let got = waam::replay::publish::echo(
+        &context,
+        &args.topic,
+        &args.type_name,
+        qos,
+        args.count,
+        timeout,
+        &mut |message| println!("{message}"),
+    )?;
+    Ok(ExitCode::from(if got >= args.count {
+        EXIT_OK
+    } else {
+        super::EXIT_NO
+    }))
 }
 
 fn sample(args: SampleArgs) -> anyhow::Result<ExitCode> {

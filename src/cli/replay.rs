@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::time::Duration;
 
 use serde_json::json;
 use waam::bag::planning::{statistics, PlanningRecorder};
@@ -41,6 +42,18 @@ pub struct ReplayArgs {
     /// Learn plain violating prefixes (as `waam plan --no-shortening`).
     #[arg(long)]
     pub no_shortening: bool,
+    /// Instead of re-planning, play the recorded messages back to ROS 2 topics with their
+    /// original timing and QoS (a dry run of a past session). Honours ROS_DOMAIN_ID and
+    /// ROS_AUTOMATIC_DISCOVERY_RANGE / ROS_LOCALHOST_ONLY.
+    #[arg(long, conflicts_with_all = ["record", "plans_only", "max_fragments"])]
+    pub publish: bool,
+    /// With --publish: play this many times faster than recorded.
+    #[arg(long, default_value_t = 1.0, requires = "publish")]
+    pub rate: f64,
+    /// With --publish: seconds to wait before the first message, for subscribers to be
+    /// discovered (as `ros2 bag play --delay`).
+    #[arg(long, default_value_t = 1.0, requires = "publish")]
+    pub delay: f64,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -56,6 +69,9 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
             t.reason,
             t.file_len
         );
+    }
+    if args.publish {
+        return publish(&args, &bag);
     }
     let cases = replay::recorded_cases(&bag)?;
     if cases.is_empty() {
@@ -212,6 +228,34 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     } else {
         EXIT_OK
     }))
+}
+
+/// `--publish`: plays the recording back to ROS 2.
+fn publish(args: &ReplayArgs, bag: &Bag) -> anyhow::Result<ExitCode> {
+    if !(args.rate.is_finite() && args.rate > 0.0) {
+        anyhow::bail!("--rate: expected a positive number, got {}", args.rate);
+    }
+    let delay = Duration::try_from_secs_f64(args.delay)
+        .map_err(|_| anyhow::anyhow!("--delay: expected seconds >= 0, got {}", args.delay))?;
+    let context = replay::publish::context_from_env()?;
+    let player = replay::publish::Player::new(context, "waam_replay", bag)?;
+    for topic in &player.skipped {
+        eprintln!("warning: not played: {topic}");
+    }
+    let sent = player.play(bag, args.rate, delay)?;
+    if args.json {
+        println!("{}", json!({"bag": args.bag, "published": sent}));
+    } else {
+        for (topic, n) in &sent {
+            println!("published {n} message(s) on {topic}");
+        }
+        println!(
+            "published {} message(s) on {} topic(s)",
+            sent.values().sum::<u64>(),
+            sent.len()
+        );
+    }
+    Ok(ExitCode::from(EXIT_OK))
 }
 
 /// The part's name from its document (for messages), or what it is.

@@ -7,6 +7,8 @@
 
 use std::fmt;
 
+pub mod publish;
+
 use crate::bag::{Bag, BagError};
 use crate::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus};
 use crate::msgs::shape_msgs::Mesh;
