@@ -379,3 +379,18 @@ fn every_recorded_message_decodes_as_its_type_and_encodes_back_to_the_same_bytes
         assert_eq!(again, m.data, "{}", t.name);
     }
 }
+
+#[test]
+fn a_chunk_compression_we_cannot_read_is_an_error_not_a_truncation() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("c");
+    let mut w = BagWriter::create(&dir, BagOptions::default()).unwrap();
+    w.write(topics::ARC_ON, &Qos::reliable(10), T0, &Bool { data: true })
+        .unwrap();
+    w.finish().unwrap();
+    let mut bytes = std::fs::read(dir.join("c_0.mcap")).unwrap();
+    let at = bytes.windows(4).position(|w| w == b"zstd").unwrap();
+    bytes[at..at + 4].copy_from_slice(b"lz4x");
+    let err = Bag::from_bytes(&dir, &bytes).unwrap_err();
+    assert!(err.to_string().contains("lz4x"), "{err}");
+}
