@@ -293,6 +293,12 @@ fn print_stats(s: &Stats) {
             s.learned_clauses, s.shortened, s.variables, s.clauses
         );
     }
+    if s.candidates > 0 {
+        eprintln!(
+            "simulation: {} deposits simulated, {} resumed from saved prefixes, {} cooldown steps",
+            s.deposits_simulated, s.deposits_reused, s.cooldown_steps
+        );
+    }
 }
 
 /// A progress spinner that appears only once a run has taken more than a second.

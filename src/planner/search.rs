@@ -43,6 +43,8 @@ pub struct Search<'p> {
     pub violations: Vec<usize>,
     trail: Vec<(usize, bool)>,
     snaps: Vec<Snapshot>,
+    /// Layers given the eager rank order (hybrid acyclicity).
+    ranked_layers: Vec<i64>,
     spacing: usize,
 }
 
@@ -75,6 +77,7 @@ impl<'p> Search<'p> {
             violations: vec![0; n],
             trail: Vec::new(),
             snaps: Vec::new(),
+            ranked_layers: Vec::new(),
             // Snapshots of every prefix cost n²/2 temperatures: space them on big parts.
             spacing: (n / 1000).max(1),
         }
@@ -107,15 +110,29 @@ impl<'p> Search<'p> {
                     return Some(fragments);
                 }
                 Decoded::Cycles(cycles) => {
-                    debug_assert_eq!(
+                    debug_assert_ne!(
                         self.acyclicity,
-                        Acyclicity::Lazy,
+                        Acyclicity::Eager,
                         "eager encoding left a cycle"
                     );
                     for cycle in &cycles {
                         let cut = self.enc.cycle_cut(cycle);
                         self.solver.add_clause(&cut);
                         self.stats.cycle_cuts += 1;
+                    }
+                    if self.acyclicity == Acyclicity::Hybrid {
+                        // Layers that cycle once tend to cycle again: order them eagerly.
+                        let z = |b: usize| self.part.block(b)[2];
+                        let fresh: Vec<i64> = cycles
+                            .iter()
+                            .map(|c| z(c[0]))
+                            .filter(|l| !self.ranked_layers.contains(l))
+                            .collect();
+                        if !fresh.is_empty() {
+                            self.ranked_layers.extend(&fresh);
+                            self.enc
+                                .encode_ranks(self.part, &mut self.solver, |l| fresh.contains(&l));
+                        }
                     }
                     // A solve that ended in a cycle is work done for acyclicity.
                     self.stats.acyclicity_s += dt + t2.elapsed().as_secs_f64();
@@ -179,7 +196,9 @@ impl<'p> Search<'p> {
             at = snap.welded();
         }
         self.trail.truncate(at);
+        self.stats.deposits_reused += at as u64;
         for &(b, new) in &seq[at..] {
+            self.stats.deposits_simulated += 1;
             if let Err(v) = sim.deposit(b, new) {
                 return Ok(Some(v));
             }
@@ -188,8 +207,10 @@ impl<'p> Search<'p> {
                 self.snaps.push(sim.snapshot());
             }
         }
-        self.stats.simulated_steps += sim.steps();
-        Ok(sim.finish()?.err())
+        let before = sim.steps();
+        let end = sim.finish()?.err();
+        self.stats.cooldown_steps += sim.steps() - before;
+        Ok(end)
     }
 
     /// Learns the clause of the violating prefix, shortened where every alternative
