@@ -226,3 +226,31 @@ fn a_part_planned_from_an_stl_mesh_replays_from_its_voxelized_document() {
     assert_eq!(code, 0, "{report}");
     assert_eq!(report["identical"], 1);
 }
+
+#[test]
+fn replay_plans_with_the_recorded_settings() {
+    let tmp = tempfile::tempdir().unwrap();
+    let recorded = tmp.path().join("eager");
+    let out = waam()
+        .args([
+            "-q",
+            "plan",
+            PART,
+            "--acyclicity",
+            "eager",
+            "--max-fragments",
+            "3",
+            "--record",
+        ])
+        .arg(&recorded)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (code, report) = replay(&recorded, &[]);
+    assert_eq!(code, 0, "{report}");
+    assert_eq!(report["identical"], 1);
+}

@@ -10,7 +10,7 @@ use crate::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
 use crate::msgs::std_msgs::{Header, String as RosString};
 use crate::msgs::waam_interfaces::{Block, PlanCandidate, PlanStatistics, WeldFragment, WeldPlan};
 use crate::part::Part;
-use crate::planner::{Report, Stats};
+use crate::planner::{Options, Report, Stats};
 use crate::thermal::ThermalModel;
 
 /// The frame of part coordinates (block centres in metres from the part origin).
@@ -72,6 +72,59 @@ pub fn weld_plan(
     })
 }
 
+/// Prefix of the status keys that record the planner's settings (replay uses them).
+pub const SETTING: &str = "planner.";
+
+/// The planner's settings as status values: `planner.acyclicity`, `planner.lookahead_budget`,
+/// `planner.max_fragments` (absent: the part's own) and `planner.timeout_s` (absent: none).
+pub fn settings(opts: &Options) -> Vec<KeyValue> {
+    let name = clap::ValueEnum::to_possible_value(&opts.acyclicity).map_or_else(
+        || format!("{:?}", opts.acyclicity),
+        |v| v.get_name().to_string(),
+    );
+    let mut values = vec![
+        KeyValue::new(format!("{SETTING}acyclicity"), name),
+        KeyValue::new(format!("{SETTING}lookahead_budget"), opts.lookahead_budget),
+    ];
+    if let Some(k) = opts.max_fragments {
+        values.push(KeyValue::new(format!("{SETTING}max_fragments"), k));
+    }
+    if let Some(t) = opts.timeout {
+        values.push(KeyValue::new(
+            format!("{SETTING}timeout_s"),
+            t.as_secs_f64(),
+        ));
+    }
+    values
+}
+
+/// Planner settings from recorded status values; settings not recorded keep `base`'s.
+pub fn options_from(values: &[(String, String)], base: &Options) -> Result<Options, String> {
+    let mut opts = base.clone();
+    for (key, value) in values {
+        let Some(name) = key.strip_prefix(SETTING) else {
+            continue;
+        };
+        let bad = |what: &str| format!("recorded setting {key}={value:?}: {what}");
+        match name {
+            "acyclicity" => {
+                opts.acyclicity = clap::ValueEnum::from_str(value, true)
+                    .map_err(|_| bad("not an acyclicity method"))?
+            }
+            "lookahead_budget" => {
+                opts.lookahead_budget = value.parse().map_err(|_| bad("not a count"))?
+            }
+            "max_fragments" => {
+                opts.max_fragments = Some(value.parse().map_err(|_| bad("not a count"))?)
+            }
+            // Replay plans to the end: a timeout makes no reproducible plan.
+            "timeout_s" => {}
+            _ => {}
+        }
+    }
+    Ok(opts)
+}
+
 /// A status report of the node's one component.
 pub fn status(level: u8, message: &str, values: Vec<KeyValue>) -> DiagnosticArray {
     DiagnosticArray {
@@ -96,21 +149,25 @@ pub struct PlanningRecorder {
 }
 
 impl PlanningRecorder {
-    /// Records the part as received (its document text) and a "received" status.
-    pub fn start(recorder: &Recorder, part_text: &str, part_name: &str) -> Result<Self, BagError> {
+    /// Records the part as received (its document text) and a "received" status with the
+    /// planner's settings.
+    pub fn start(
+        recorder: &Recorder,
+        part_text: &str,
+        part_name: &str,
+        opts: &Options,
+    ) -> Result<Self, BagError> {
         recorder.record(
             topics::PART,
             &Qos::reliable(10),
             &RosString::from(part_text),
         )?;
+        let mut values = vec![KeyValue::new("part", part_name)];
+        values.extend(settings(opts));
         recorder.record(
             topics::STATUS,
             &Qos::latched(),
-            &status(
-                DiagnosticStatus::OK,
-                "received",
-                vec![KeyValue::new("part", part_name)],
-            ),
+            &status(DiagnosticStatus::OK, "received", values),
         )?;
         Ok(PlanningRecorder {
             recorder: recorder.clone(),
@@ -211,5 +268,37 @@ impl PlanningRecorder {
             HeatOptions::default(),
         )?;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::planner::Acyclicity;
+
+    #[test]
+    fn settings_round_trip_through_status_values() {
+        let opts = Options {
+            acyclicity: Acyclicity::Eager,
+            lookahead_budget: 7,
+            timeout: Some(std::time::Duration::from_secs(3)),
+            max_fragments: Some(4),
+        };
+        let values: Vec<(String, String)> = settings(&opts)
+            .into_iter()
+            .map(|kv| (kv.key, kv.value))
+            .collect();
+        assert!(values.contains(&("planner.acyclicity".into(), "eager".into())));
+        let back = options_from(&values, &Options::default()).unwrap();
+        assert_eq!(back.acyclicity, Acyclicity::Eager);
+        assert_eq!(back.lookahead_budget, 7);
+        assert_eq!(back.max_fragments, Some(4));
+        assert_eq!(back.timeout, None, "replay never plans under a timeout");
+        let bad = [("planner.acyclicity".to_string(), "sideways".to_string())];
+        let err = options_from(&bad, &Options::default()).unwrap_err();
+        assert!(
+            err.contains("planner.acyclicity") && err.contains("sideways"),
+            "{err}"
+        );
     }
 }

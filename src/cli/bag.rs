@@ -11,7 +11,7 @@ use waam::bag::sample::SampleSession;
 use waam::bag::{Bag, BagOptions, Recorder};
 use waam::part::Part;
 use waam::part_writer;
-use waam::planner::Report;
+use waam::planner::{Options, Report};
 
 use super::EXIT_OK;
 
@@ -241,6 +241,7 @@ pub fn start_planning(
     dir: &Path,
     part_file: Option<&Path>,
     part: &Part,
+    opts: &Options,
 ) -> anyhow::Result<(Recorder, PlanningRecorder)> {
     let is_stl = |p: &Path| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("stl"));
     let text = match part_file {
@@ -250,7 +251,7 @@ pub fn start_planning(
         None => super::plan::DEFAULT_PART.to_string(),
     };
     let recorder = Recorder::create(dir)?;
-    let planning = PlanningRecorder::start(&recorder, &text, &part.name)?;
+    let planning = PlanningRecorder::start(&recorder, &text, &part.name, opts)?;
     Ok((recorder, planning))
 }
 

@@ -118,6 +118,7 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
             dir,
             args.part.as_deref(),
             &part,
+            &opts,
         )?),
         None => None,
     };

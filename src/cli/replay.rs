@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use serde_json::json;
-use waam::bag::planning::{statistics, PlanningRecorder};
+use waam::bag::planning::{options_from, statistics, PlanningRecorder};
 use waam::bag::{Bag, Recorder};
 use waam::part::Part;
 use waam::planner::{self, Acyclicity, Options, Stats};
@@ -15,6 +15,9 @@ use waam::replay::{self, CaseInput, Replanned, Verdict};
 use super::{EXIT_BAD_INPUT, EXIT_NO, EXIT_OK};
 
 /// Re-plan every part found in a recording and compare each new plan with the recorded one.
+///
+/// The planner runs with the settings recorded with the part (`waam plan --record` records
+/// them), else the defaults; options given here override them. Never with a timeout.
 ///
 /// Parts are the part documents received on `.../part` topics; each is paired with the first
 /// plan (waam_interfaces/WeldPlan) or ERROR status recorded after it. Prints IDENTICAL, or
@@ -33,13 +36,13 @@ pub struct ReplayArgs {
     /// Compare only the plans, not the planner's statistics.
     #[arg(long)]
     pub plans_only: bool,
-    /// Re-plan with this max_fragments (k) instead of each part's own.
+    /// Re-plan with this max_fragments (k) instead of the recorded setting (or the part's own).
     #[arg(long, value_name = "K")]
     pub max_fragments: Option<usize>,
-    /// How cycles are excluded (as `waam plan --acyclicity`).
-    #[arg(long, value_enum, default_value_t = Acyclicity::Lazy)]
-    pub acyclicity: Acyclicity,
-    /// Learn plain violating prefixes (as `waam plan --no-shortening`).
+    /// How cycles are excluded (as `waam plan --acyclicity`), instead of the recorded setting.
+    #[arg(long, value_enum)]
+    pub acyclicity: Option<Acyclicity>,
+    /// Learn plain violating prefixes (as `waam plan --no-shortening`), whatever was recorded.
     #[arg(long)]
     pub no_shortening: bool,
     /// Instead of re-planning, play the recorded messages back to ROS 2 topics with their
@@ -81,20 +84,27 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
         );
         return Ok(ExitCode::from(EXIT_BAD_INPUT));
     }
-    let opts = Options {
-        acyclicity: args.acyclicity,
-        lookahead_budget: if args.no_shortening {
-            0
-        } else {
-            Options::default().lookahead_budget
-        },
-        timeout: None,
-        max_fragments: args.max_fragments,
+    let overrides = |mut opts: Options| {
+        if let Some(a) = args.acyclicity {
+            opts.acyclicity = a;
+        }
+        if args.no_shortening {
+            opts.lookahead_budget = 0;
+        }
+        if args.max_fragments.is_some() {
+            opts.max_fragments = args.max_fragments;
+        }
+        opts.timeout = None;
+        opts
     };
     let recorder = args.record.as_deref().map(Recorder::create).transpose()?;
     let mut record_error = None;
-    let reports = replay::replay(cases, !args.plans_only, |input| {
-        let text = match input {
+    let reports = replay::replay(cases, !args.plans_only, |case| {
+        let opts = match options_from(&case.status_values, &Options::default()) {
+            Ok(opts) => overrides(opts),
+            Err(e) => return Replanned::Unsupported(e),
+        };
+        let text = match &case.input {
             CaseInput::PartText(text) => text,
             CaseInput::Mesh(_) => {
                 return Replanned::Unsupported(
@@ -107,7 +117,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
             Err(e) => return Replanned::NoPlan(format!("bad part: {e}")),
         };
         let mut planning = recorder.as_ref().and_then(|r| {
-            PlanningRecorder::start(r, text, &part.name)
+            PlanningRecorder::start(r, text, &part.name, &opts)
                 .map_err(|e| record_error.get_or_insert(e))
                 .ok()
         });

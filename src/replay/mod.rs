@@ -37,6 +37,9 @@ pub struct RecordedCase {
     pub plan: Option<WeldPlan>,
     /// The first ERROR status published after this part and before the next one.
     pub error: Option<String>,
+    /// Key-value pairs of the statuses published after this part and before the next one
+    /// (the planner's settings among them).
+    pub status_values: Vec<(String, String)>,
 }
 
 /// Parts are recognised on `std_msgs/String` topics whose name ends in `/part`, meshes on any
@@ -70,6 +73,7 @@ pub fn recorded_cases(bag: &Bag) -> Result<Vec<RecordedCase>, BagError> {
                 input,
                 plan: None,
                 error: None,
+                status_values: Vec::new(),
             });
             continue;
         }
@@ -78,16 +82,19 @@ pub fn recorded_cases(bag: &Bag) -> Result<Vec<RecordedCase>, BagError> {
         };
         if topic.type_name == WeldPlan::TYPE_NAME && case.plan.is_none() && case.error.is_none() {
             case.plan = Some(from_cdr(&m.data).map_err(decode_error)?);
-        } else if topic.type_name == DiagnosticArray::TYPE_NAME
-            && case.plan.is_none()
-            && case.error.is_none()
-        {
+        } else if topic.type_name == DiagnosticArray::TYPE_NAME {
             let status: DiagnosticArray = from_cdr(&m.data).map_err(decode_error)?;
-            case.error = status
-                .status
-                .iter()
-                .find(|s| s.level == DiagnosticStatus::ERROR)
-                .map(|s| s.message.clone());
+            for s in &status.status {
+                case.status_values
+                    .extend(s.values.iter().map(|kv| (kv.key.clone(), kv.value.clone())));
+            }
+            if case.plan.is_none() && case.error.is_none() {
+                case.error = status
+                    .status
+                    .iter()
+                    .find(|s| s.level == DiagnosticStatus::ERROR)
+                    .map(|s| s.message.clone());
+            }
         }
     }
     Ok(cases)
@@ -274,12 +281,12 @@ pub fn diff_statistics(recorded: &PlanStatistics, new: &PlanStatistics) -> Vec<D
 pub fn replay(
     cases: Vec<RecordedCase>,
     compare_statistics: bool,
-    mut replan: impl FnMut(&CaseInput) -> Replanned,
+    mut replan: impl FnMut(&RecordedCase) -> Replanned,
 ) -> Vec<CaseReport> {
     cases
         .into_iter()
         .map(|case| {
-            let replanned = replan(&case.input);
+            let replanned = replan(&case);
             let verdict = match (&case.plan, &case.error, &replanned) {
                 (_, _, Replanned::Unsupported(why)) => Verdict::Skipped(why.clone()),
                 (None, None, _) => Verdict::Skipped(
