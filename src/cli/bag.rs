@@ -52,7 +52,8 @@ pub struct EchoArgs {
     pub transient_local: bool,
 }
 
-/// Topics, types, message counts, duration and QoS of a recording, like `ros2 bag info`.
+/// Topics, types, message counts and duration of a recording, like `ros2 bag info` (with
+/// --json also each topic's offered QoS and type hash).
 ///
 /// BAG is a bag directory (with metadata.yaml) or an .mcap file. A recording whose process
 /// was killed is read up to its last complete chunk and reported as truncated.
