@@ -98,8 +98,9 @@ pub fn init_logging(global: &GlobalArgs) {
         (false, _) => "trace",
     };
     // varisat reports its search progress at info level: keep that to warnings.
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(format!("{default},varisat=warn")));
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
+        tracing_subscriber::EnvFilter::new(format!("{default},varisat=warn,rustdds=warn"))
+    });
     tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
