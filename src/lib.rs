@@ -9,3 +9,4 @@ pub mod graph;
 pub mod part;
 pub mod plan;
 pub mod thermal;
+pub mod layer;

@@ -1,0 +1,468 @@
+//! Exhaustive branch and bound over trails, with a proven lower bound.
+//!
+//! The search tree branches on the next directed segment (continuing from the torch, or
+//! after a deadheading move while the minimum count allows one). A child's field is
+//! stepped from its parent's (shared-prefix simulation: every tree edge is simulated
+//! once). A child is dropped when its lower bound reaches the best trail found.
+//!
+//! Lower bound of a child at step n with field u (deviation from ambient), R steps and
+//! W weld steps left, from the exact split |x| = −x + 2·max(0, x) per node and step:
+//! * cold part, linear and so exact up to the torch positions: Σ_j Σ_i (T* − T_i^j) =
+//!   R·N·(T*−T_amb) − Σ_j 1ᵀGʲu − (heat the future welds add to the node sums); the last
+//!   term is at most the W largest "heat sums" a single weld step can add with the steps
+//!   left after it (precomputed by an adjoint recursion for every torch position).
+//! * hot part, only when each step is monotone (A⁻¹ ≥ 0, see `fem`) and T* ≥ T_amb: every
+//!   future field is at least the free decay of u plus, during the weld of each remaining
+//!   segment, that segment's own heat welded from cold; for T* ≥ T_amb overshoots of sums
+//!   of non-negative parts add up, so 2·(overshoot of the free decay + Σ over remaining
+//!   segments of their own overshoot, cheaper direction) is a lower bound.
+//! Symmetries of the layer and mesh prune children that are not the smallest of their
+//! orbit under the stabilizer of the prefix (sound: some image of every trail passes).
+
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+
+use super::model::{trails_needed, Model, Move, Trail};
+use super::symmetry::symmetries;
+
+/// Search settings.
+#[derive(Debug, Clone)]
+pub struct SearchOptions {
+    /// Stop after this long and return the best trail with its proven gap.
+    pub time_limit: Option<Duration>,
+    /// Prune symmetric trails.
+    pub symmetry: bool,
+    /// Free-decay steps used for the hot part of the bound (more: tighter, slower).
+    pub free_decay_steps: usize,
+    /// Prune by the lower bound (off: plain enumeration of every trail, for checking).
+    pub bound: bool,
+}
+
+impl Default for SearchOptions {
+    fn default() -> Self {
+        SearchOptions {
+            time_limit: None,
+            symmetry: true,
+            free_decay_steps: 40,
+            bound: true,
+        }
+    }
+}
+
+/// The answer of a search.
+#[derive(Debug, Clone, Serialize)]
+pub struct SearchResult {
+    #[serde(skip)]
+    pub trail: Trail,
+    /// Objective of the trail (K·steps).
+    pub objective: f64,
+    /// Proven lower bound on the optimum.
+    pub lower_bound: f64,
+    pub proven_optimal: bool,
+    /// objective − lower_bound (0 when proven optimal).
+    pub gap: f64,
+    /// gap / objective.
+    pub relative_gap: f64,
+    /// Search nodes evaluated (each a simulated segment).
+    pub nodes_explored: u64,
+    /// Complete trails reached.
+    pub leaves: u64,
+    pub seconds: f64,
+    /// Size of the symmetry group used.
+    pub symmetries: usize,
+    /// Whether the hot part of the bound was usable (monotone steps, T* ≥ T_amb).
+    pub hot_bound: bool,
+    /// Lower bound at the root.
+    pub root_bound: f64,
+}
+
+/// Precomputed pieces of the lower bound.
+struct Bound {
+    n: usize,
+    /// free_sum[R] = Σ_{j=1..R} (Gᵀ)ʲ 1, flattened (R = 0..=H).
+    free_sum: Vec<f64>,
+    /// heat_prefix[m] = Σ_{k<m} g[k], g[m] = largest node-sum heat one weld step adds
+    /// over the m+1 steps from it on; used for the W largest of g[0..R).
+    gains: Vec<f64>,
+    gains_sorted_by_m: bool,
+    gains_prefix: Vec<f64>,
+    /// Overshoot of each directed segment welded from cold (index 2 s + reversed).
+    seg_hot: Vec<f64>,
+    hot: bool,
+}
+
+impl Bound {
+    fn new(model: &Model) -> Bound {
+        let n = model.heat.len();
+        let h = model.horizon;
+        let mut a = vec![1.0; n];
+        let mut free_sum = vec![0.0; (h + 1) * n];
+        let mut gains = vec![0.0f64; h];
+        let mut cum = vec![0.0; model.positions.len()];
+        for k in 0..h {
+            // c_k = A⁻¹ a_k; node-sum response at lag k of a weld at q is dt c_kᵀ F_q.
+            let mut c = a.clone();
+            model.heat.solve(&mut c);
+            let mut best = 0.0f64;
+            for (q, load) in model.loads.iter().enumerate() {
+                let s: f64 = load.iter().map(|&(i, f)| c[i] * f).sum::<f64>() * model.heat.dt;
+                cum[q] += s;
+                best = best.max(cum[q]);
+            }
+            gains[k] = best;
+            for (ai, (ci, m)) in a.iter_mut().zip(c.iter().zip(&model.heat.lumped_mass)) {
+                *ai = ci * m;
+            }
+            // a is now a_{k+1}; free_sum[k+1] = free_sum[k] + a_{k+1}.
+            let (lo, hi) = free_sum.split_at_mut((k + 1) * n);
+            let prev = &lo[k * n..];
+            for ((dst, p), ai) in hi[..n].iter_mut().zip(prev).zip(&a) {
+                *dst = p + ai;
+            }
+        }
+        let gains_sorted_by_m = gains.windows(2).all(|w| w[0] <= w[1]);
+        let mut gains_prefix = vec![0.0; h + 1];
+        for m in 0..h {
+            gains_prefix[m + 1] = gains_prefix[m] + gains[m];
+        }
+        let hot = model.heat.monotone && model.target >= 0.0 && model.initial >= 0.0;
+        let mut seg_hot = vec![0.0; 2 * model.layer.segments.len()];
+        if hot {
+            for (s, chunk) in seg_hot.chunks_mut(2).enumerate() {
+                for (dir, out) in chunk.iter_mut().enumerate() {
+                    let mv = Move {
+                        segment: s,
+                        reversed: dir == 1,
+                        deadhead_before: false,
+                    };
+                    let mut v = vec![0.0; n];
+                    for k in 0..model.steps[s] {
+                        model.heat.step(&mut v, &model.loads[model.position(&mv, k)]);
+                        *out += overshoot(&v, model.target);
+                    }
+                }
+            }
+        }
+        Bound {
+            n,
+            free_sum,
+            gains,
+            gains_sorted_by_m,
+            gains_prefix,
+            seg_hot,
+            hot,
+        }
+    }
+
+    /// Largest total node-sum heat W weld steps can add within the last R steps.
+    fn max_heat(&self, r: usize, w: usize) -> f64 {
+        let w = w.min(r);
+        if self.gains_sorted_by_m {
+            self.gains_prefix[r] - self.gains_prefix[r - w]
+        } else {
+            let mut g = self.gains[..r].to_vec();
+            g.sort_by(|a, b| b.total_cmp(a));
+            g[..w].iter().sum()
+        }
+    }
+
+    /// Lower bound on the cost still to come from field u with r steps, w weld steps and
+    /// the given segments left.
+    fn remaining(
+        &self,
+        model: &Model,
+        u: &[f64],
+        r: usize,
+        w: usize,
+        left: &[usize],
+        decay_steps: usize,
+        scratch: &mut Vec<f64>,
+    ) -> f64 {
+        if r == 0 {
+            return 0.0;
+        }
+        let fs = &self.free_sum[r * self.n..(r + 1) * self.n];
+        let free: f64 = fs.iter().zip(u).map(|(a, b)| a * b).sum();
+        let cold = r as f64 * self.n as f64 * model.target - free - self.max_heat(r, w);
+        if !self.hot {
+            return cold;
+        }
+        let mut hot: f64 = left
+            .iter()
+            .map(|&s| self.seg_hot[2 * s].min(self.seg_hot[2 * s + 1]))
+            .sum();
+        scratch.clear();
+        scratch.extend_from_slice(u);
+        for _ in 0..r.min(decay_steps) {
+            model.heat.step(scratch, &[]);
+            let o = overshoot(scratch, model.target);
+            if o <= 0.0 {
+                break;
+            }
+            hot += o;
+        }
+        cold + 2.0 * hot
+    }
+}
+
+fn overshoot(u: &[f64], target: f64) -> f64 {
+    u.iter().map(|&x| (x - target).max(0.0)).sum()
+}
+
+struct Child {
+    mv: Move,
+    u: Vec<f64>,
+    cost: f64,
+    steps_done: usize,
+    lb: f64,
+}
+
+struct Frame {
+    children: Vec<Child>,
+    next: usize,
+    /// Group elements that fix the prefix up to this frame's parent.
+    stabilizer: Vec<usize>,
+}
+
+/// Finds the trail of least objective (or the best within the time limit, with its gap).
+pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
+    let start = Instant::now();
+    let bound = Bound::new(model);
+    let group = if options.symmetry {
+        symmetries(model)
+    } else {
+        Vec::new()
+    };
+    let segs = model.layer.segments.len();
+    let total_weld: usize = model.steps.iter().sum();
+    let mut used = vec![false; segs];
+    let mut path: Vec<Move> = Vec::new();
+    let mut best: Option<(f64, Trail)> = None;
+    let mut nodes: u64 = 0;
+    let mut leaves: u64 = 0;
+    let mut scratch = Vec::new();
+    let mut timed_out = false;
+
+    // State of the node being expanded: its field and cost; root = initial field.
+    let root_u = vec![model.initial; model.heat.len()];
+    let all: Vec<usize> = (0..segs).collect();
+    let root_bound = bound.remaining(
+        model,
+        &root_u,
+        model.horizon,
+        total_weld,
+        &all,
+        options.free_decay_steps,
+        &mut scratch,
+    );
+    let mut expand = |u: &[f64],
+                      cost: f64,
+                      steps_done: usize,
+                      at: Option<usize>,
+                      deadheads_left: usize,
+                      used: &[bool],
+                      stabilizer: &[usize],
+                      incumbent: f64,
+                      nodes: &mut u64,
+                      leaves: &mut u64,
+                      best: &mut Option<(f64, Trail)>,
+                      path: &[Move]|
+     -> Vec<Child> {
+        let mut children = Vec::new();
+        let left: Vec<usize> = (0..segs).filter(|&s| !used[s]).collect();
+        let weld_done: usize = (0..segs).filter(|&s| used[s]).map(|s| model.steps[s]).sum();
+        let mut incumbent = incumbent;
+        for &s in &left {
+            for reversed in [false, true] {
+                let d = 2 * s + reversed as usize;
+                if stabilizer.iter().any(|&g| group[g][d] < d) {
+                    continue;
+                }
+                let probe = Move {
+                    segment: s,
+                    reversed,
+                    deadhead_before: false,
+                };
+                let (from, to) = model.ends(&probe);
+                let rest: Vec<usize> = left.iter().copied().filter(|&t| t != s).collect();
+                for deadhead in [false, true] {
+                    let (needs_deadhead, dl) = match at {
+                        None if deadhead => continue,
+                        None => (false, deadheads_left),
+                        Some(v) if !deadhead && v != from => continue,
+                        Some(_) if deadhead && deadheads_left == 0 => continue,
+                        Some(_) if deadhead => (true, deadheads_left - 1),
+                        Some(_) => (false, deadheads_left),
+                    };
+                    if trails_needed(&model.layer, &rest, Some(to)) > dl {
+                        continue;
+                    }
+                    let mv = Move {
+                        segment: s,
+                        reversed,
+                        deadhead_before: needs_deadhead,
+                    };
+                    let mut v = u.to_vec();
+                    let mut c = cost;
+                    let mut steps = steps_done;
+                    if let (true, Some(prev)) = (needs_deadhead, at) {
+                        for _ in 0..model.layer.transit_steps(prev, from) {
+                            model.heat.step(&mut v, &[]);
+                            c += model.deviation(&v);
+                            steps += 1;
+                        }
+                    }
+                    for k in 0..model.steps[s] {
+                        model.heat.step(&mut v, &model.loads[model.position(&mv, k)]);
+                        c += model.deviation(&v);
+                        steps += 1;
+                    }
+                    *nodes += 1;
+                    if rest.is_empty() {
+                        // A complete trail: cool to the horizon for its exact objective.
+                        while steps < model.horizon {
+                            model.heat.step(&mut v, &[]);
+                            c += model.deviation(&v);
+                            steps += 1;
+                        }
+                        *leaves += 1;
+                        if c < incumbent {
+                            incumbent = c;
+                            let mut moves = path.to_vec();
+                            moves.push(mv);
+                            *best = Some((c, Trail { moves }));
+                        }
+                        continue;
+                    }
+                    let w = total_weld - weld_done - model.steps[s];
+                    let lb = if !options.bound {
+                        f64::NEG_INFINITY
+                    } else {
+                        c + bound.remaining(
+                        model,
+                        &v,
+                        model.horizon - steps,
+                        w,
+                        &rest,
+                        options.free_decay_steps,
+                        &mut scratch,
+                    )
+                    };
+                    if lb < incumbent {
+                        children.push(Child {
+                            mv,
+                            u: v,
+                            cost: c,
+                            steps_done: steps,
+                            lb,
+                        });
+                    }
+                }
+            }
+        }
+        children.sort_by(|a, b| a.lb.total_cmp(&b.lb));
+        children
+    };
+
+    let identity: Vec<usize> = (0..group.len()).collect();
+    let root_children = expand(
+        &root_u,
+        0.0,
+        0,
+        None,
+        model.deadheads,
+        &used,
+        &identity,
+        f64::INFINITY,
+        &mut nodes,
+        &mut leaves,
+        &mut best,
+        &path,
+    );
+    let mut stack = vec![Frame {
+        children: root_children,
+        next: 0,
+        stabilizer: identity,
+    }];
+    let mut deadheads_used_stack: Vec<usize> = Vec::new();
+    while let Some(frame) = stack.last_mut() {
+        if let Some(limit) = options.time_limit {
+            if start.elapsed() >= limit {
+                timed_out = true;
+                break;
+            }
+        }
+        let incumbent = best.as_ref().map_or(f64::INFINITY, |b| b.0);
+        if frame.next >= frame.children.len() || frame.children[frame.next].lb >= incumbent {
+            // Exhausted (children are sorted by bound, so the rest cannot win either).
+            frame.next = frame.children.len();
+            stack.pop();
+            if let Some(mv) = path.pop() {
+                used[mv.segment] = false;
+                deadheads_used_stack.pop();
+            }
+            continue;
+        }
+        let idx = frame.next;
+        frame.next += 1;
+        let child = &frame.children[idx];
+        let mv = child.mv;
+        let d = 2 * mv.segment + mv.reversed as usize;
+        let stabilizer: Vec<usize> = frame
+            .stabilizer
+            .iter()
+            .copied()
+            .filter(|&g| group[g][d] == d)
+            .collect();
+        let (u, cost, steps_done) = (child.u.clone(), child.cost, child.steps_done);
+        used[mv.segment] = true;
+        path.push(mv);
+        let used_dh = deadheads_used_stack.last().copied().unwrap_or(0) + mv.deadhead_before as usize;
+        deadheads_used_stack.push(used_dh);
+        let at = model.ends(&mv).1;
+        let children = expand(
+            &u,
+            cost,
+            steps_done,
+            Some(at),
+            model.deadheads - used_dh,
+            &used,
+            &stabilizer,
+            incumbent,
+            &mut nodes,
+            &mut leaves,
+            &mut best,
+            &path,
+        );
+        stack.push(Frame {
+            children,
+            next: 0,
+            stabilizer,
+        });
+    }
+    let (objective, trail) = best.unwrap_or((f64::INFINITY, Trail::default()));
+    let mut lower = objective;
+    if timed_out {
+        for frame in &stack {
+            if let Some(c) = frame.children.get(frame.next) {
+                lower = lower.min(c.lb);
+            }
+        }
+    }
+    let gap = (objective - lower).max(0.0);
+    SearchResult {
+        trail,
+        objective,
+        lower_bound: lower,
+        proven_optimal: !timed_out || gap == 0.0,
+        gap,
+        relative_gap: if objective > 0.0 { gap / objective } else { 0.0 },
+        nodes_explored: nodes,
+        leaves,
+        seconds: start.elapsed().as_secs_f64(),
+        symmetries: group.len().max(1),
+        hot_bound: bound.hot,
+        root_bound,
+    }
+}
