@@ -29,3 +29,15 @@ fn enumerate_all() {
     let r = search(&model, &opts);
     eprintln!("ENUM obj {} leaves {} nodes {} secs {}", r.objective, r.leaves, r.nodes_explored, r.seconds);
 }
+#[test]
+fn debug_mono() {
+    use waam::layer::fem::Matrices;
+    let path = std::env::var("LAYER").unwrap_or("config/layers/honeycomb-12.yaml".into());
+    let layer = Layer::from_bytes(&std::fs::read(path).unwrap()).unwrap();
+    let model = Model::new(&layer).unwrap();
+    let m = Matrices::assemble(&model.mesh, 5.0, 0.5);
+    let mut worst = (0.0, 0, 0);
+    for (i, j, &v) in m.stiffness.triplet_iter() { if i != j && v > worst.0 { worst = (v, i, j); } }
+    eprintln!("worst {:?} pi {:?} pj {:?}", worst, model.mesh.points[worst.1], model.mesh.points[worst.2]);
+    eprintln!("syms {}", waam::layer::symmetry::symmetries(&model).len());
+}

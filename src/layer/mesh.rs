@@ -1,8 +1,10 @@
 //! A conforming triangle mesh of the layer's walls.
 //!
 //! Each segment becomes a straight strip of width w, cut across at (about) the torch's
-//! step length, two cells across, every rectangular cell split into four triangles around
-//! its centre (a pattern that keeps every mirror symmetry of the layer). Where walls meet,
+//! step length, two cells across, each cell split into two right triangles by a diagonal
+//! that points to the strip's middle (the middle cell is halved when their number is
+//! odd): a pattern that keeps every mirror symmetry of the layer and has no obtuse angle,
+//! so the stepper stays monotone (see `fem`). Where walls meet,
 //! the strips stop at the junction depth and a fan of triangles around the layer node
 //! fills the joint. `refinement` splits every triangle into four, as often as asked.
 //! Nodes are finally renumbered by reverse Cuthill–McKee so the Cholesky factor stays thin.
@@ -20,21 +22,34 @@ pub struct Mesh {
     pub boundary: Vec<[usize; 2]>,
 }
 
-/// Merges points that coincide (to 1e-7 mm), so neighbouring pieces share nodes.
+/// Merges points closer than 1e-5 mm, so neighbouring pieces share nodes even when the
+/// layer's coordinates were rounded (a hexagon's 120° written with six decimals).
 struct Builder {
     points: Vec<[f64; 2]>,
-    index: HashMap<(i64, i64), usize>,
+    index: HashMap<(i64, i64), Vec<usize>>,
     triangles: Vec<[usize; 3]>,
 }
 
+const MERGE_MM: f64 = 1e-5;
+
 impl Builder {
     fn point(&mut self, p: [f64; 2]) -> usize {
-        let key = ((p[0] * 1e7).round() as i64, (p[1] * 1e7).round() as i64);
-        if let Some(&i) = self.index.get(&key) {
-            return i;
+        let cell = 10.0 * MERGE_MM;
+        let key = ((p[0] / cell).floor() as i64, (p[1] / cell).floor() as i64);
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                if let Some(ids) = self.index.get(&(key.0 + dx, key.1 + dy)) {
+                    for &i in ids {
+                        let q = self.points[i];
+                        if (p[0] - q[0]).abs() <= MERGE_MM && (p[1] - q[1]).abs() <= MERGE_MM {
+                            return i;
+                        }
+                    }
+                }
+            }
         }
         self.points.push(p);
-        self.index.insert(key, self.points.len() - 1);
+        self.index.entry(key).or_default().push(self.points.len() - 1);
         self.points.len() - 1
     }
 
@@ -79,19 +94,27 @@ impl Mesh {
             let n = [-u[1], u[0]];
             let (t0, t1) = (depth[na], len - depth[nb]);
             let cells = (((t1 - t0) / step).round() as usize).max(1);
-            let station = |k: usize| t0 + (t1 - t0) * k as f64 / cells as f64;
-            for k in 0..cells {
-                let (ta, tb) = (station(k), station(k + 1));
-                for (oa, ob) in [(-half, 0.0), (0.0, half)] {
-                    let c00 = b.point(add(add(pa, u, ta), n, oa));
-                    let c10 = b.point(add(add(pa, u, tb), n, oa));
-                    let c11 = b.point(add(add(pa, u, tb), n, ob));
-                    let c01 = b.point(add(add(pa, u, ta), n, ob));
-                    let mid = b.point(add(add(pa, u, 0.5 * (ta + tb)), n, 0.5 * (oa + ob)));
-                    b.triangle(mid, c00, c10);
-                    b.triangle(mid, c10, c11);
-                    b.triangle(mid, c11, c01);
-                    b.triangle(mid, c01, c00);
+            let mut stations: Vec<f64> = (0..=cells)
+                .map(|k| t0 + (t1 - t0) * k as f64 / cells as f64)
+                .collect();
+            if cells % 2 == 1 {
+                // Halve the middle cell so the pattern below mirrors about the midpoint.
+                let k = cells / 2;
+                stations.insert(k + 1, 0.5 * (stations[k] + stations[k + 1]));
+            }
+            let middle = 0.5 * (t0 + t1);
+            for k in 0..stations.len() - 1 {
+                let (ta, tb) = (stations[k], stations[k + 1]);
+                // Right triangles: each cell's diagonal runs from the centre line at the
+                // station nearer the strip's middle to the wall edge at the other station.
+                let (tc, te) = if 0.5 * (ta + tb) < middle { (tb, ta) } else { (ta, tb) };
+                for side in [-half, half] {
+                    let c_near = b.point(add(pa, u, tc));
+                    let c_far = b.point(add(pa, u, te));
+                    let e_near = b.point(add(add(pa, u, tc), n, side));
+                    let e_far = b.point(add(add(pa, u, te), n, side));
+                    b.triangle(c_near, c_far, e_far);
+                    b.triangle(c_near, e_far, e_near);
                 }
             }
         }
@@ -121,7 +144,7 @@ impl Mesh {
                 if gap < pi - 1e-9 {
                     // Inner corner where the two wall edges cross, unless the strips touch.
                     let along = half / (0.5 * gap).tan();
-                    if along < d - 1e-9 {
+                    if along < d - 1e-4 * half {
                         ring.push(add(pv, bisector, half / (0.5 * gap).sin()));
                     }
                 } else if gap > pi + 1e-9 && gap <= 1.5 * pi + 1e-9 {
