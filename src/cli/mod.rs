@@ -8,6 +8,7 @@ use clap::{Args, Parser, Subcommand};
 use waam::part::Part;
 
 pub mod check;
+pub mod layer;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
 pub const EXIT_OK: u8 = 0;
@@ -48,12 +49,15 @@ pub struct GlobalArgs {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     Check(check::CheckArgs),
+    /// Thick-wall layers: plan, plot and benchmark one weld trail per layer.
+    Layer(layer::LayerArgs),
 }
 
 /// Runs the chosen subcommand; its `ExitCode` carries the answer.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Check(args) => check::run(args),
+        Command::Layer(args) => layer::run(args),
     }
 }
 

@@ -16,6 +16,7 @@ pub mod mesh;
 pub mod milp;
 pub mod model;
 pub mod output;
+pub mod plot;
 
 pub mod search;
 pub mod symmetry;
