@@ -387,7 +387,8 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
     }];
     let mut deadheads_used_stack: Vec<usize> = Vec::new();
     while let Some(frame) = stack.last_mut() {
-        if let Some(limit) = options.time_limit {
+        // The time limit applies once a first complete trail is known.
+        if let (Some(limit), true) = (options.time_limit, best.is_some()) {
             if start.elapsed() >= limit {
                 timed_out = true;
                 break;
