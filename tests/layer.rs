@@ -13,11 +13,7 @@ fn paper() -> Layer {
 
 /// A 2x1-cell layer ("domino"): 6 nodes, 7 walls, small enough to enumerate.
 fn domino() -> Layer {
-    let text = PAPER
-        .split("nodes:")
-        .next()
-        .unwrap()
-        .to_string()
+    let text = PAPER.split("nodes:").next().unwrap().to_string()
         + "nodes:
   - {id: A, x: 1.0, y: 1.0}
   - {id: B, x: 8.0, y: 1.0}
@@ -33,8 +29,7 @@ segments:
   - [A, D]
   - [B, E]
   - [C, F]
-"
-        + &PAPER[PAPER.find("process:").unwrap()..];
+" + &PAPER[PAPER.find("process:").unwrap()..];
     Layer::parse(&text.replace("name: paper-16mm", "name: domino")).expect("domino reads")
 }
 
@@ -43,40 +38,86 @@ fn err(text: &str) -> String {
 }
 
 fn edited(from: &str, to: &str) -> String {
-    assert!(PAPER.contains(from), "test edit {from:?} not in the paper layer");
+    assert!(
+        PAPER.contains(from),
+        "test edit {from:?} not in the paper layer"
+    );
     PAPER.replacen(from, to, 1)
 }
 
 #[test]
 fn format_rules_are_enforced_with_named_errors() {
     assert!(err("").contains("empty"));
-    assert!(Layer::from_bytes(&[0xff, 0xfe, 0x00]).unwrap_err().to_string().contains("UTF-8"));
-    let e = err(&edited("wall_width_mm: 2.0", "wall_width_mm: 2.0\ncolour: red"));
-    assert!(e.contains("unknown field `colour`") && e.contains("line"), "{e}");
+    assert!(Layer::from_bytes(&[0xff, 0xfe, 0x00])
+        .unwrap_err()
+        .to_string()
+        .contains("UTF-8"));
+    let e = err(&edited(
+        "wall_width_mm: 2.0",
+        "wall_width_mm: 2.0\ncolour: red",
+    ));
+    assert!(
+        e.contains("unknown field `colour`") && e.contains("line"),
+        "{e}"
+    );
     let e = err(&edited("wall_width_mm: 2.0\n", ""));
     assert!(e.contains("missing field `wall_width_mm`"), "{e}");
     let e = err(&edited("wall_width_mm: 2.0", "wall_width_mm: -2"));
     assert!(e.contains("wall_width_mm") && e.contains("> 0"), "{e}");
-    let e = err(&edited("{id: B, x: 8.0, y: 1.0}", "{id: A, x: 8.0, y: 1.0}"));
-    assert!(e.contains("nodes[1]") && e.contains("id A is used twice"), "{e}");
-    let e = err(&edited("{id: B, x: 8.0, y: 1.0}", "{id: B, x: .nan, y: 1.0}"));
+    let e = err(&edited(
+        "{id: B, x: 8.0, y: 1.0}",
+        "{id: A, x: 8.0, y: 1.0}",
+    ));
+    assert!(
+        e.contains("nodes[1]") && e.contains("id A is used twice"),
+        "{e}"
+    );
+    let e = err(&edited(
+        "{id: B, x: 8.0, y: 1.0}",
+        "{id: B, x: .nan, y: 1.0}",
+    ));
     assert!(e.contains("nodes[1] (id B): x"), "{e}");
     let e = err(&edited("  - [A, B]", "  - [A, Z]"));
-    assert!(e.contains("segments[0] (A -> Z): node Z is not in 'nodes'"), "{e}");
+    assert!(
+        e.contains("segments[0] (A -> Z): node Z is not in 'nodes'"),
+        "{e}"
+    );
     let e = err(&edited("  - [A, B]", "  - [A, A]"));
-    assert!(e.contains("segments[0]") && e.contains("two different nodes"), "{e}");
+    assert!(
+        e.contains("segments[0]") && e.contains("two different nodes"),
+        "{e}"
+    );
     let e = err(&edited("  - [B, C]", "  - [B, A]"));
-    assert!(e.contains("segments[1] (B -> A): the same wall as segments[0]"), "{e}");
-    let e = err(&edited("  - {id: I, x: 15.0, y: 15.0}", "  - {id: I, x: 15.0, y: 15.0}\n  - {id: J, x: 30, y: 30}"));
+    assert!(
+        e.contains("segments[1] (B -> A): the same wall as segments[0]"),
+        "{e}"
+    );
+    let e = err(&edited(
+        "  - {id: I, x: 15.0, y: 15.0}",
+        "  - {id: I, x: 15.0, y: 15.0}\n  - {id: J, x: 30, y: 30}",
+    ));
     assert!(e.contains("id J") && e.contains("on no segment"), "{e}");
     // A diagonal wall meets others at 45°.
     let e = err(&edited("  - [F, I]", "  - [F, I]\n  - [A, E]"));
-    assert!(e.contains("segments[12] (A -> E)") && e.contains("45.0°"), "{e}");
+    assert!(
+        e.contains("segments[12] (A -> E)") && e.contains("45.0°"),
+        "{e}"
+    );
     // Walls that cross without a shared node.
-    let e = err(&edited("  - {id: I, x: 15.0, y: 15.0}", "  - {id: I, x: 15.0, y: 15.0}\n  - {id: P, x: 4.5, y: 4.0}\n  - {id: Q, x: 4.5, y: 12.0}").replace("  - [F, I]", "  - [F, I]\n  - [P, Q]"));
-    assert!(e.contains("segments[12] (P -> Q)") && e.contains("without sharing a node"), "{e}");
+    let e = err(&edited(
+        "  - {id: I, x: 15.0, y: 15.0}",
+        "  - {id: I, x: 15.0, y: 15.0}\n  - {id: P, x: 4.5, y: 4.0}\n  - {id: Q, x: 4.5, y: 12.0}",
+    )
+    .replace("  - [F, I]", "  - [F, I]\n  - [P, Q]"));
+    assert!(
+        e.contains("segments[12] (P -> Q)") && e.contains("without sharing a node"),
+        "{e}"
+    );
     let e = err(&edited("wall_width_mm: 2.0", "wall_width_mm: 6.0"));
-    assert!(e.contains("segments[0] (A -> B)") && e.contains("too short"), "{e}");
+    assert!(
+        e.contains("segments[0] (A -> B)") && e.contains("too short"),
+        "{e}"
+    );
     let e = err(&edited("weights: [1.0, 0.4]", "weights: [1.0]"));
     assert!(e.contains("source.weights: 1 weights for 2 radii"), "{e}");
     let e = err(&edited("radii_mm: [1.0, 2.0]", "radii_mm: [2.0, 1.0]"));
@@ -140,7 +181,10 @@ fn without_a_source_the_field_decays_to_ambient() {
     for _ in 0..3000 {
         model.heat.step(&mut u, &[]);
         let max = u.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-        assert!(max <= last + 1e-12, "the maximum must not grow without a source");
+        assert!(
+            max <= last + 1e-12,
+            "the maximum must not grow without a source"
+        );
         last = max;
     }
     let worst = u.iter().map(|x| x.abs()).fold(0.0, f64::max);
@@ -159,8 +203,15 @@ fn constant_source_reaches_the_discrete_steady_state() {
     }
     let scale = steady.iter().cloned().fold(0.0, f64::max);
     assert!(scale > 100.0, "the source heats: steady max {scale}");
-    let diff = u.iter().zip(&steady).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
-    assert!(diff < 1e-6 * scale, "transient {diff} K away from the steady state");
+    let diff = u
+        .iter()
+        .zip(&steady)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        diff < 1e-6 * scale,
+        "transient {diff} K away from the steady state"
+    );
 }
 
 #[test]
@@ -177,7 +228,8 @@ fn mesh_refinement_converges() {
         let model = Model::with_mesh(&layer, mesh).unwrap();
         let load: Vec<(usize, f64)> = (0..model.mesh.points.len())
             .map(|i| {
-                let r2 = (model.mesh.points[i][0] - 8.0).powi(2) + (model.mesh.points[i][1] - 8.0).powi(2);
+                let r2 = (model.mesh.points[i][0] - 8.0).powi(2)
+                    + (model.mesh.points[i][1] - 8.0).powi(2);
                 (i, model.heat.lumped_mass[i] * 1000.0 * (-r2).exp())
             })
             .collect();
@@ -185,7 +237,10 @@ fn mesh_refinement_converges() {
         values.push(u[at]);
     }
     let d: Vec<f64> = values.windows(2).map(|w| (w[1] - w[0]).abs()).collect();
-    assert!(d[1] < 0.5 * d[0] && d[2] < 0.5 * d[1], "no convergence: {values:?}");
+    assert!(
+        d[1] < 0.5 * d[0] && d[2] < 0.5 * d[1],
+        "no convergence: {values:?}"
+    );
 }
 
 #[test]
@@ -211,7 +266,13 @@ fn branch_and_bound_finds_the_enumerated_optimum() {
             );
             assert!(r.proven_optimal && r.gap == 0.0);
             let rel = (r.objective - enumerate.objective).abs() / enumerate.objective;
-            assert!(rel < 1e-9, "{}: B&B {} vs enumeration {}", layer.name, r.objective, enumerate.objective);
+            assert!(
+                rel < 1e-9,
+                "{}: B&B {} vs enumeration {}",
+                layer.name,
+                r.objective,
+                enumerate.objective
+            );
             if symmetry == (layer.segments.len() > 8) {
                 assert!(r.nodes_explored <= enumerate.nodes_explored);
             }
@@ -273,6 +334,11 @@ fn passes_and_trail_file_round_trip() {
     assert_eq!(back.trail(&model).unwrap(), r.trail);
     assert_eq!(file.steps.len(), model.horizon);
     assert_eq!(file.deadheading.len(), 1);
-    let bad = Trail { moves: r.trail.moves[1..].to_vec() };
-    assert!(model.check_trail(&bad).unwrap_err().contains("never welded"));
+    let bad = Trail {
+        moves: r.trail.moves[1..].to_vec(),
+    };
+    assert!(model
+        .check_trail(&bad)
+        .unwrap_err()
+        .contains("never welded"));
 }

@@ -82,7 +82,8 @@ pub fn run(args: LayerArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn read_layer(path: &Path) -> anyhow::Result<Layer> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read layer {}", path.display()))?;
+    let bytes =
+        std::fs::read(path).with_context(|| format!("cannot read layer {}", path.display()))?;
     Layer::from_bytes(&bytes).with_context(|| format!("in layer {}", path.display()))
 }
 
@@ -148,7 +149,13 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
     let r = search(&model, &options);
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        let file = TrailFile::new(&model, &r.trail, r.objective, r.lower_bound, r.proven_optimal);
+        let file = TrailFile::new(
+            &model,
+            &r.trail,
+            r.objective,
+            r.lower_bound,
+            r.proven_optimal,
+        );
         let yaml = serde_yaml::to_string(&file)?;
         std::fs::write(dir.join("trail.yaml"), yaml)
             .with_context(|| format!("cannot write {}", dir.join("trail.yaml").display()))?;
@@ -162,7 +169,11 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
             "{}: objective {:.6e} K·steps, {} (lower bound {:.6e}, gap {:.3}%)",
             layer.name,
             r.objective,
-            if r.proven_optimal { "PROVEN OPTIMAL" } else { "NOT PROVEN (time limit)" },
+            if r.proven_optimal {
+                "PROVEN OPTIMAL"
+            } else {
+                "NOT PROVEN (time limit)"
+            },
             r.lower_bound,
             100.0 * r.relative_gap
         );
@@ -181,15 +192,21 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
             );
         }
     }
-    Ok(ExitCode::from(if r.proven_optimal { EXIT_OK } else { EXIT_NO }))
+    Ok(ExitCode::from(if r.proven_optimal {
+        EXIT_OK
+    } else {
+        EXIT_NO
+    }))
 }
 
 fn plot(args: PlotArgs) -> anyhow::Result<ExitCode> {
     let layer = read_layer(&args.dir.join("layer.yaml"))?;
     let model = build_model(&layer)?;
     let path = args.dir.join("trail.yaml");
-    let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
-    let file: TrailFile = serde_yaml::from_str(&text).with_context(|| format!("in {}", path.display()))?;
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    let file: TrailFile =
+        serde_yaml::from_str(&text).with_context(|| format!("in {}", path.display()))?;
     let trail = file
         .trail(&model)
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
@@ -202,7 +219,9 @@ fn plot(args: PlotArgs) -> anyhow::Result<ExitCode> {
                     .nodes
                     .iter()
                     .position(|n| n.id == s)
-                    .with_context(|| format!("--node {s}: neither a mesh node index nor a node id of the layer"))?;
+                    .with_context(|| {
+                        format!("--node {s}: neither a mesh node index nor a node id of the layer")
+                    })?;
                 model.mesh.nearest(layer.point(v))
             }
         },
@@ -218,7 +237,9 @@ fn plot(args: PlotArgs) -> anyhow::Result<ExitCode> {
 fn bench(args: BenchArgs) -> anyhow::Result<ExitCode> {
     let layers = if args.layers.is_empty() {
         let mut v: Vec<PathBuf> = std::fs::read_dir("config/layers")
-            .context("cannot list config/layers (run from the repository root or name layer files)")?
+            .context(
+                "cannot list config/layers (run from the repository root or name layer files)",
+            )?
             .filter_map(|e| e.ok().map(|e| e.path()))
             .filter(|p| p.extension().is_some_and(|e| e == "yaml"))
             .collect();

@@ -53,9 +53,8 @@ impl Matrices {
                     let m = area / 12.0 * if i == j { 2.0 } else { 1.0 };
                     mass.push(tri[i], tri[j], m);
                     lumped_mass[tri[i]] += m;
-                    let k = diffusivity
-                        * area
-                        * (grad[i][0] * grad[j][0] + grad[i][1] * grad[j][1]);
+                    let k =
+                        diffusivity * area * (grad[i][0] * grad[j][0] + grad[i][1] * grad[j][1]);
                     stiff.push(tri[i], tri[j], k);
                 }
             }
@@ -89,13 +88,16 @@ struct Factor {
 
 impl Factor {
     fn new(a: &CscMatrix<f64>) -> Result<Factor, String> {
-        let chol = CscCholesky::factor(a).map_err(|e| format!("Cholesky factorization failed: {e:?}"))?;
+        let chol =
+            CscCholesky::factor(a).map_err(|e| format!("Cholesky factorization failed: {e:?}"))?;
         let l = chol.take_l();
         let (col_start, rows, values) = l.disassemble();
         // Each column must start with its diagonal entry (rows sorted, lower triangle).
         for j in 0..col_start.len() - 1 {
             if col_start[j] == col_start[j + 1] || rows[col_start[j]] != j {
-                return Err(format!("Cholesky factor column {j} has no leading diagonal"));
+                return Err(format!(
+                    "Cholesky factor column {j} has no leading diagonal"
+                ));
             }
         }
         Ok(Factor {

@@ -300,7 +300,10 @@ impl Layer {
     /// Human-readable name of segment s, as in error messages: `segments[3] (B -> C)`.
     pub fn segment_name(&self, s: usize) -> String {
         let [a, b] = self.segments[s];
-        format!("segments[{s}] ({} -> {})", self.nodes[a].id, self.nodes[b].id)
+        format!(
+            "segments[{s}] ({} -> {})",
+            self.nodes[a].id, self.nodes[b].id
+        )
     }
 
     /// Segments incident to each node.
@@ -365,12 +368,8 @@ impl Layer {
                 if a == c || a == d || b == c || b == d {
                     continue;
                 }
-                let gap = segment_distance(
-                    self.point(a),
-                    self.point(b),
-                    self.point(c),
-                    self.point(d),
-                );
+                let gap =
+                    segment_distance(self.point(a), self.point(b), self.point(c), self.point(d));
                 if gap < w - 1e-9 {
                     return Err(rule(format!(
                         "{} and {} come {gap:.3} mm close without sharing a node (walls need {w} mm; split a wall at the junction)",
@@ -451,7 +450,9 @@ fn positive(key: &str, v: f64) -> Result<(), LayerError> {
     if v.is_finite() && v > 0.0 {
         Ok(())
     } else {
-        Err(rule(format!("{key}: expected a finite number > 0, got {v}")))
+        Err(rule(format!(
+            "{key}: expected a finite number > 0, got {v}"
+        )))
     }
 }
 
@@ -459,7 +460,9 @@ fn non_negative(key: &str, v: f64) -> Result<(), LayerError> {
     if v.is_finite() && v >= 0.0 {
         Ok(())
     } else {
-        Err(rule(format!("{key}: expected a finite number >= 0, got {v}")))
+        Err(rule(format!(
+            "{key}: expected a finite number >= 0, got {v}"
+        )))
     }
 }
 

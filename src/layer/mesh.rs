@@ -49,7 +49,10 @@ impl Builder {
             }
         }
         self.points.push(p);
-        self.index.entry(key).or_default().push(self.points.len() - 1);
+        self.index
+            .entry(key)
+            .or_default()
+            .push(self.points.len() - 1);
         self.points.len() - 1
     }
 
@@ -107,7 +110,11 @@ impl Mesh {
                 let (ta, tb) = (stations[k], stations[k + 1]);
                 // Right triangles: each cell's diagonal runs from the centre line at the
                 // station nearer the strip's middle to the wall edge at the other station.
-                let (tc, te) = if 0.5 * (ta + tb) < middle { (tb, ta) } else { (ta, tb) };
+                let (tc, te) = if 0.5 * (ta + tb) < middle {
+                    (tb, ta)
+                } else {
+                    (ta, tb)
+                };
                 for side in [-half, half] {
                     let c_near = b.point(add(pa, u, tc));
                     let c_far = b.point(add(pa, u, te));
@@ -119,9 +126,8 @@ impl Mesh {
             }
         }
         // Junction fans.
-        for v in 0..layer.nodes.len() {
+        for (v, &d) in depth.iter().enumerate() {
             let pv = layer.point(v);
-            let d = depth[v];
             let angles = layer.sorted_angles(v);
             let mut ring: Vec<[f64; 2]> = Vec::new();
             for k in 0..angles.len() {

@@ -202,13 +202,18 @@ impl Model {
         let mut deadheads = 0;
         for (i, m) in trail.moves.iter().enumerate() {
             if m.segment >= used.len() || std::mem::replace(&mut used[m.segment], true) {
-                return Err(format!("move {i}: segment {} welded twice or unknown", m.segment));
+                return Err(format!(
+                    "move {i}: segment {} welded twice or unknown",
+                    m.segment
+                ));
             }
             let (start, end) = self.ends(m);
             match at {
                 Some(_) if m.deadhead_before => deadheads += 1,
                 Some(prev) if prev != start => {
-                    return Err(format!("move {i}: starts away from the torch without deadheading"))
+                    return Err(format!(
+                        "move {i}: starts away from the torch without deadheading"
+                    ))
                 }
                 _ => {}
             }
@@ -240,7 +245,11 @@ impl Model {
             let n = self.steps[m.segment];
             for k in 1..=n {
                 let t = k as f64 / n as f64;
-                pass.push([pa[0] + t * (pb[0] - pa[0]), pa[1] + t * (pb[1] - pa[1]), 0.0]);
+                pass.push([
+                    pa[0] + t * (pb[0] - pa[0]),
+                    pa[1] + t * (pb[1] - pa[1]),
+                    0.0,
+                ]);
             }
         }
         passes
@@ -276,11 +285,11 @@ pub fn trails_needed(layer: &Layer, segments: &[usize], at: Option<usize>) -> us
     }
     let mut odd = vec![0usize; n];
     let mut has_edges = vec![false; n];
-    for v in 0..n {
-        if degree[v] > 0 {
+    for (v, &deg) in degree.iter().enumerate() {
+        if deg > 0 {
             let r = find(&mut parent, v);
             has_edges[r] = true;
-            odd[r] += degree[v] % 2;
+            odd[r] += deg % 2;
         }
     }
     let total: usize = (0..n)

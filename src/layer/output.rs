@@ -58,7 +58,13 @@ pub struct TrailFile {
 }
 
 impl TrailFile {
-    pub fn new(model: &Model, trail: &Trail, objective: f64, lower_bound: f64, proven: bool) -> TrailFile {
+    pub fn new(
+        model: &Model,
+        trail: &Trail,
+        objective: f64,
+        lower_bound: f64,
+        proven: bool,
+    ) -> TrailFile {
         let id = |v: usize| model.layer.nodes[v].id.clone();
         let mut moves = Vec::new();
         let mut deadheading = Vec::new();
@@ -89,9 +95,10 @@ impl TrailFile {
             .enumerate()
             .map(|(n, kind)| {
                 let (torch, arc_on, move_index) = match kind {
-                    StepKind::Weld { position, move_index } => {
-                        (Some(model.positions[position]), true, Some(move_index))
-                    }
+                    StepKind::Weld {
+                        position,
+                        move_index,
+                    } => (Some(model.positions[position]), true, Some(move_index)),
                     StepKind::Transit { move_index } => (None, false, Some(move_index)),
                     StepKind::Cool => (None, false, None),
                 };
@@ -122,7 +129,10 @@ impl TrailFile {
         let mut moves = Vec::new();
         for (i, m) in self.moves.iter().enumerate() {
             if m.segment >= model.layer.segments.len() {
-                return Err(format!("moves[{i}]: segment {} is not in the layer", m.segment));
+                return Err(format!(
+                    "moves[{i}]: segment {} is not in the layer",
+                    m.segment
+                ));
             }
             let mv = Move {
                 segment: m.segment,

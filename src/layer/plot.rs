@@ -52,7 +52,12 @@ fn draw_err(path: &Path) -> impl Fn(String) -> PlotError + '_ {
 }
 
 /// Draws the trail over the walls into a PNG of `size` pixels.
-pub fn plot_trail(model: &Model, trail: &Trail, path: &Path, size: (u32, u32)) -> Result<(), PlotError> {
+pub fn plot_trail(
+    model: &Model,
+    trail: &Trail,
+    path: &Path,
+    size: (u32, u32),
+) -> Result<(), PlotError> {
     load_font()?;
     let err = draw_err(path);
     let pts = &model.mesh.points;
@@ -66,7 +71,10 @@ pub fn plot_trail(model: &Model, trail: &Trail, path: &Path, size: (u32, u32)) -
     root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
     let mut chart = ChartBuilder::on(&root)
         .caption(
-            format!("{}: weld trail ({} deadheading moves)", model.layer.name, model.deadheads),
+            format!(
+                "{}: weld trail ({} deadheading moves)",
+                model.layer.name, model.deadheads
+            ),
             ("sans-serif", 20),
         )
         .margin(10)
@@ -84,7 +92,12 @@ pub fn plot_trail(model: &Model, trail: &Trail, path: &Path, size: (u32, u32)) -
     // The walls: the mesh's triangles, lightly.
     chart
         .draw_series(model.mesh.triangles.iter().map(|t| {
-            Polygon::new(t.iter().map(|&i| (pts[i][0], pts[i][1])).collect::<Vec<_>>(), RGBColor(225, 225, 225).filled())
+            Polygon::new(
+                t.iter()
+                    .map(|&i| (pts[i][0], pts[i][1]))
+                    .collect::<Vec<_>>(),
+                RGBColor(225, 225, 225).filled(),
+            )
         }))
         .map_err(|e| err(e.to_string()))?;
     let mut at: Option<[f64; 2]> = None;
@@ -99,7 +112,12 @@ pub fn plot_trail(model: &Model, trail: &Trail, path: &Path, size: (u32, u32)) -
                 .map(|i| {
                     let t0 = i as f64 / dashes as f64;
                     let t1 = (i + 1) as f64 / dashes as f64;
-                    let lerp = |t: f64| (prev[0] + t * (pa[0] - prev[0]), prev[1] + t * (pa[1] - prev[1]));
+                    let lerp = |t: f64| {
+                        (
+                            prev[0] + t * (pa[0] - prev[0]),
+                            prev[1] + t * (pa[1] - prev[1]),
+                        )
+                    };
                     PathElement::new(vec![lerp(t0), lerp(t1)], RED.stroke_width(2))
                 })
                 .collect();
@@ -137,7 +155,7 @@ pub fn plot_trail(model: &Model, trail: &Trail, path: &Path, size: (u32, u32)) -
         if k == 0 {
             chart
                 .draw_series([
-                    EmptyElement::at((pa[0], pa[1])) + Circle::new((0, 0), 7, GREEN.filled()),
+                    EmptyElement::at((pa[0], pa[1])) + Circle::new((0, 0), 7, GREEN.filled())
                 ])
                 .map_err(|e| err(e.to_string()))?;
             chart
@@ -175,17 +193,29 @@ pub fn plot_temperature(
     let ambient = model.layer.temperatures.ambient_c;
     let dt = model.layer.process.time_step_s;
     let mut series = vec![(0.0, model.layer.temperatures.initial_c)];
-    series.extend(fields.iter().enumerate().map(|(n, u)| ((n + 1) as f64 * dt, ambient + u[node])));
+    series.extend(
+        fields
+            .iter()
+            .enumerate()
+            .map(|(n, u)| ((n + 1) as f64 * dt, ambient + u[node])),
+    );
     let target = model.layer.temperatures.target_c;
     let tmax = series.iter().map(|p| p.1).fold(target, f64::max) * 1.05 + 1.0;
-    let tmin = series.iter().map(|p| p.1).fold(target.min(ambient), f64::min) - 10.0;
+    let tmin = series
+        .iter()
+        .map(|p| p.1)
+        .fold(target.min(ambient), f64::min)
+        - 10.0;
     let end = series.last().map_or(1.0, |p| p.0);
     let root = BitMapBackend::new(path, size).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
     let p = model.mesh.points[node];
     let mut chart = ChartBuilder::on(&root)
         .caption(
-            format!("{}: temperature at mesh node {node} ({:.1}, {:.1}) mm", model.layer.name, p[0], p[1]),
+            format!(
+                "{}: temperature at mesh node {node} ({:.1}, {:.1}) mm",
+                model.layer.name, p[0], p[1]
+            ),
             ("sans-serif", 20),
         )
         .margin(10)

@@ -16,6 +16,7 @@
 //!   segment, that segment's own heat welded from cold; for T* ≥ T_amb overshoots of sums
 //!   of non-negative parts add up, so 2·(overshoot of the free decay + Σ over remaining
 //!   segments of their own overshoot, cheaper direction) is a lower bound.
+//!
 //! Symmetries of the layer and mesh prune children that are not the smallest of their
 //! orbit under the stabilizer of the prefix (sound: some image of every trail passes).
 
@@ -90,10 +91,12 @@ struct Bound {
     /// Overshoot of each directed segment welded from cold (index 2 s + reversed).
     seg_hot: Vec<f64>,
     hot: bool,
+    /// Free-decay steps used for the hot part.
+    decay_steps: usize,
 }
 
 impl Bound {
-    fn new(model: &Model) -> Bound {
+    fn new(model: &Model, decay_steps: usize) -> Bound {
         let n = model.heat.len();
         let h = model.horizon;
         let mut a = vec![1.0; n];
@@ -138,7 +141,9 @@ impl Bound {
                     };
                     let mut v = vec![0.0; n];
                     for k in 0..model.steps[s] {
-                        model.heat.step(&mut v, &model.loads[model.position(&mv, k)]);
+                        model
+                            .heat
+                            .step(&mut v, &model.loads[model.position(&mv, k)]);
                         *out += overshoot(&v, model.target);
                     }
                 }
@@ -152,6 +157,7 @@ impl Bound {
             gains_prefix,
             seg_hot,
             hot,
+            decay_steps,
         }
     }
 
@@ -176,7 +182,6 @@ impl Bound {
         r: usize,
         w: usize,
         left: &[usize],
-        decay_steps: usize,
         scratch: &mut Vec<f64>,
     ) -> f64 {
         if r == 0 {
@@ -194,7 +199,7 @@ impl Bound {
             .sum();
         scratch.clear();
         scratch.extend_from_slice(u);
-        for _ in 0..r.min(decay_steps) {
+        for _ in 0..r.min(self.decay_steps) {
             model.heat.step(scratch, &[]);
             let o = overshoot(scratch, model.target);
             if o <= 0.0 {
@@ -228,7 +233,7 @@ struct Frame {
 /// Finds the trail of least objective (or the best within the time limit, with its gap).
 pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
     let start = Instant::now();
-    let bound = Bound::new(model);
+    let bound = Bound::new(model, options.free_decay_steps);
     let group = if options.symmetry {
         symmetries(model)
     } else {
@@ -253,7 +258,6 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
         model.horizon,
         total_weld,
         &all,
-        options.free_decay_steps,
         &mut scratch,
     );
     let mut expand = |u: &[f64],
@@ -314,7 +318,9 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
                         }
                     }
                     for k in 0..model.steps[s] {
-                        model.heat.step(&mut v, &model.loads[model.position(&mv, k)]);
+                        model
+                            .heat
+                            .step(&mut v, &model.loads[model.position(&mv, k)]);
                         c += model.deviation(&v);
                         steps += 1;
                     }
@@ -340,14 +346,13 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
                         f64::NEG_INFINITY
                     } else {
                         c + bound.remaining(
-                        model,
-                        &v,
-                        model.horizon - steps,
-                        w,
-                        &rest,
-                        options.free_decay_steps,
-                        &mut scratch,
-                    )
+                            model,
+                            &v,
+                            model.horizon - steps,
+                            w,
+                            &rest,
+                            &mut scratch,
+                        )
                     };
                     if lb < incumbent {
                         children.push(Child {
@@ -419,7 +424,8 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
         let (u, cost, steps_done) = (child.u.clone(), child.cost, child.steps_done);
         used[mv.segment] = true;
         path.push(mv);
-        let used_dh = deadheads_used_stack.last().copied().unwrap_or(0) + mv.deadhead_before as usize;
+        let used_dh =
+            deadheads_used_stack.last().copied().unwrap_or(0) + mv.deadhead_before as usize;
         deadheads_used_stack.push(used_dh);
         let at = model.ends(&mv).1;
         let children = expand(
@@ -458,7 +464,11 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
         lower_bound: lower,
         proven_optimal: !timed_out || gap == 0.0,
         gap,
-        relative_gap: if objective > 0.0 { gap / objective } else { 0.0 },
+        relative_gap: if objective > 0.0 {
+            gap / objective
+        } else {
+            0.0
+        },
         nodes_explored: nodes,
         leaves,
         seconds: start.elapsed().as_secs_f64(),
