@@ -7,6 +7,11 @@
 
 pub mod graph;
 pub mod layer;
+pub mod motion;
 pub mod part;
 pub mod plan;
+pub mod plot;
+pub mod robot;
 pub mod thermal;
+pub mod toolpath;
+pub mod trajectory;

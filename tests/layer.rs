@@ -319,14 +319,16 @@ fn passes_and_trail_file_round_trip() {
     let r = search(&model, &SearchOptions::default());
     let passes = model.passes(&r.trail);
     assert_eq!(passes.len(), model.deadheads + 1);
-    let points: usize = passes.iter().map(|p| p.len() - 1).sum();
+    let points: usize = passes.iter().map(|p| p.points_mm.len() - 1).sum();
     assert_eq!(points, model.steps.iter().sum::<usize>());
     for pass in &passes {
-        for w in pass.windows(2) {
-            let step = waam::layer::format::dist([w[0][0], w[0][1]], [w[1][0], w[1][1]]);
-            assert!((step - 1.0).abs() < 1e-9 && w[1][2] == 0.0);
+        for w in pass.points_mm.windows(2) {
+            assert!(((w[1] - w[0]).norm() - 1.0).abs() < 1e-9 && w[1].z == 0.0);
         }
     }
+    // Each pass starts where its first move starts; deadheading separates passes.
+    let first = model.ends(&r.trail.moves[0]).0;
+    assert_eq!(passes[0].points_mm[0].x, model.layer.point(first)[0]);
     let file = TrailFile::new(&model, &r.trail, r.objective, r.lower_bound, true);
     let yaml = serde_yaml::to_string(&file).unwrap();
     let back: TrailFile = serde_yaml::from_str(&yaml).unwrap();
@@ -341,4 +343,87 @@ fn passes_and_trail_file_round_trip() {
         .check_trail(&bad)
         .unwrap_err()
         .contains("never welded"));
+}
+
+#[test]
+fn plots_are_png_files_of_the_requested_size() {
+    let model = Model::new(&paper()).unwrap();
+    let r = search(&model, &SearchOptions::default());
+    let dir = tempfile::tempdir().unwrap();
+    let (trail_png, temp_png) = (dir.path().join("trail.png"), dir.path().join("temp.png"));
+    waam::layer::plot::plot_trail(&model, &r.trail, &trail_png, (640, 480)).unwrap();
+    let node = model.mesh.nearest([8.0, 8.0]);
+    waam::layer::plot::plot_temperature(&model, &r.trail, node, &temp_png, (800, 500)).unwrap();
+    for (path, (w, h)) in [(trail_png, (640u32, 480u32)), (temp_png, (800, 500))] {
+        let bytes = std::fs::read(&path).unwrap();
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+        let width = u32::from_be_bytes(bytes[16..20].try_into().unwrap());
+        let height = u32::from_be_bytes(bytes[20..24].try_into().unwrap());
+        assert_eq!((width, height), (w, h));
+        assert!(bytes.len() > 5000, "{} looks empty", path.display());
+    }
+    let missing = dir.path().join("x.png");
+    let err = waam::layer::plot::plot_temperature(&model, &r.trail, 10_000_000, &missing, (10, 10));
+    assert!(err.unwrap_err().to_string().contains("does not exist"));
+}
+
+#[test]
+fn cli_plan_json_and_out_dir() {
+    let dir = tempfile::tempdir().unwrap();
+    let waam = env!("CARGO_BIN_EXE_waam");
+    let out = std::process::Command::new(waam)
+        .args([
+            "-q",
+            "layer",
+            "plan",
+            "config/layers/paper-16mm.yaml",
+            "--json",
+            "--out",
+        ])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for key in [
+        "objective",
+        "proven_optimal",
+        "gap",
+        "nodes_explored",
+        "seconds",
+        "trail",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(v["proven_optimal"], true);
+    assert_eq!(v["trail"].as_array().unwrap().len(), 12);
+    assert!(dir.path().join("trail.yaml").exists() && dir.path().join("layer.yaml").exists());
+    let plot = std::process::Command::new(waam)
+        .args(["-q", "layer", "plot"])
+        .arg(dir.path())
+        .args(["--node", "E"])
+        .output()
+        .unwrap();
+    assert_eq!(
+        plot.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&plot.stderr)
+    );
+    assert!(dir.path().join("trail.png").exists() && dir.path().join("temperature.png").exists());
+    // Bad input: exit code 2 and the broken rule named.
+    let bad = dir.path().join("bad.yaml");
+    std::fs::write(&bad, PAPER.replace("  - [A, B]", "  - [A, Q]")).unwrap();
+    let out = std::process::Command::new(waam)
+        .args(["-q", "layer", "plan"])
+        .arg(&bad)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("node Q is not in 'nodes'"));
 }

@@ -9,6 +9,8 @@ use waam::part::Part;
 
 pub mod check;
 pub mod layer;
+pub mod motion;
+pub mod plot;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
 pub const EXIT_OK: u8 = 0;
@@ -51,6 +53,8 @@ pub enum Command {
     Check(check::CheckArgs),
     /// Thick-wall layers: plan, plot and benchmark one weld trail per layer.
     Layer(layer::LayerArgs),
+    Motion(motion::MotionArgs),
+    Plot(plot::PlotArgs),
 }
 
 /// Runs the chosen subcommand; its `ExitCode` carries the answer.
@@ -58,6 +62,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Check(args) => check::run(args),
         Command::Layer(args) => layer::run(args),
+        Command::Motion(args) => motion::run(args),
+        Command::Plot(args) => plot::run(args),
     }
 }
 

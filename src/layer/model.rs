@@ -9,11 +9,13 @@
 //! shorter trails cooling with the arc off until the horizon, so trails compare fairly.
 //! Objective: Σ over steps n = 1..H and mesh nodes i of |T_i^n − T_target| (K·steps).
 
+use nalgebra::Point3;
 use serde::Serialize;
 
 use super::fem::{Heat, Matrices};
 use super::format::{dist, Layer};
 use super::mesh::Mesh;
+use crate::toolpath::WeldPass;
 
 /// One weld of a segment in a trail.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
@@ -231,25 +233,29 @@ impl Model {
         Ok(())
     }
 
-    /// The trail as weld passes: each pass is the torch path (mm, z = 0, layer frame) from
-    /// arc-on to arc-off, one point per time step boundary; deadheading lies between passes.
-    pub fn passes(&self, trail: &Trail) -> Vec<Vec<[f64; 3]>> {
-        let mut passes: Vec<Vec<[f64; 3]>> = Vec::new();
+    /// The trail as weld passes for the toolpath builder: each pass is the torch path
+    /// (mm, layer frame, z = 0) from arc-on to arc-off, one point per time-step boundary
+    /// (so every layer node on the way is a point); deadheading lies between passes, where
+    /// the toolpath turns the arc off.
+    pub fn passes(&self, trail: &Trail) -> Vec<WeldPass> {
+        let mut passes: Vec<WeldPass> = Vec::new();
         for m in &trail.moves {
             let (a, b) = self.ends(m);
             let (pa, pb) = (self.layer.point(a), self.layer.point(b));
             if m.deadhead_before || passes.is_empty() {
-                passes.push(vec![[pa[0], pa[1], 0.0]]);
+                passes.push(WeldPass {
+                    points_mm: vec![Point3::new(pa[0], pa[1], 0.0)],
+                });
             }
             let pass = passes.last_mut().expect("a pass was just started");
             let n = self.steps[m.segment];
             for k in 1..=n {
                 let t = k as f64 / n as f64;
-                pass.push([
+                pass.points_mm.push(Point3::new(
                     pa[0] + t * (pb[0] - pa[0]),
                     pa[1] + t * (pb[1] - pa[1]),
                     0.0,
-                ]);
+                ));
             }
         }
         passes

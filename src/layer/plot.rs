@@ -2,11 +2,11 @@
 //! dashed, start marked) over the meshed walls, and the temperature of one mesh node over
 //! time against the target (like Figure 2 of Schmidt, Buhl & Fügenschuh 2021).
 //!
-//! Text needs a TrueType font at run time: `WAAM_FONT` if set, else DejaVu Sans from
-//! Debian's `fonts-dejavu-core` (installed by `scripts/install-fonts.sh`).
+//! Text is drawn with DejaVu Sans embedded from the `dejavu` crate (as `crate::plot`
+//! does), so no font has to be installed.
 
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use std::sync::Once;
 
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -14,34 +14,25 @@ use thiserror::Error;
 
 use super::model::{Model, Trail};
 
-/// Where the font is looked for when `WAAM_FONT` is not set.
-pub const DEFAULT_FONT: &str = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
-
 #[derive(Debug, Error)]
 pub enum PlotError {
-    #[error("no font for plot labels: cannot read {path}: {reason} (install Debian's fonts-dejavu-core with scripts/install-fonts.sh, or point WAAM_FONT at a .ttf file)")]
-    Font { path: PathBuf, reason: String },
     #[error("drawing {path}: {reason}")]
     Draw { path: PathBuf, reason: String },
     #[error("mesh node {node} does not exist (the mesh has {count} nodes)")]
     NoSuchNode { node: usize, count: usize },
 }
 
-static FONT: OnceLock<Result<(), String>> = OnceLock::new();
-
 /// Registers the label font once per process.
-pub fn load_font() -> Result<(), PlotError> {
-    let path = std::env::var_os("WAAM_FONT")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(DEFAULT_FONT));
-    FONT.get_or_init(|| {
-        let bytes = std::fs::read(&path).map_err(|e| e.to_string())?;
-        let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-        plotters::style::register_font("sans-serif", FontStyle::Normal, bytes)
-            .map_err(|_| "not a TrueType/OpenType font".to_string())
-    })
-    .clone()
-    .map_err(|reason| PlotError::Font { path, reason })
+fn load_font() {
+    static REGISTER: Once = Once::new();
+    REGISTER.call_once(|| {
+        // The embedded font is valid; a failure could only leave labels undrawn.
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            dejavu::sans::regular(),
+        );
+    });
 }
 
 fn draw_err(path: &Path) -> impl Fn(String) -> PlotError + '_ {
@@ -58,7 +49,7 @@ pub fn plot_trail(
     path: &Path,
     size: (u32, u32),
 ) -> Result<(), PlotError> {
-    load_font()?;
+    load_font();
     let err = draw_err(path);
     let pts = &model.mesh.points;
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
@@ -186,7 +177,7 @@ pub fn plot_temperature(
             count: model.mesh.points.len(),
         });
     }
-    load_font()?;
+    load_font();
     let err = draw_err(path);
     let mut fields = Vec::new();
     model.simulate(trail, Some(&mut fields));
