@@ -45,7 +45,7 @@ impl Default for SearchOptions {
         SearchOptions {
             time_limit: None,
             symmetry: true,
-            free_decay_steps: 40,
+            free_decay_steps: 10,
             bound: true,
         }
     }
@@ -88,8 +88,11 @@ struct Bound {
     gains: Vec<f64>,
     gains_sorted_by_m: bool,
     gains_prefix: Vec<f64>,
-    /// Overshoot of each directed segment welded from cold (index 2 s + reversed).
-    seg_hot: Vec<f64>,
+    /// history[j][d]: least overshoot while welding directed segment d (index
+    /// 2 s + reversed) from cold right after j other segments welded in one run (any walk
+    /// of j distinct segments ending where d starts); level j falls back to level j − 1
+    /// where no such walk exists.
+    history: Vec<Vec<f64>>,
     hot: bool,
     /// Free-decay steps used for the hot part.
     decay_steps: usize,
@@ -130,32 +133,18 @@ impl Bound {
             gains_prefix[m + 1] = gains_prefix[m] + gains[m];
         }
         let hot = model.heat.monotone && model.target >= 0.0 && model.initial >= 0.0;
-        let mut seg_hot = vec![0.0; 2 * model.layer.segments.len()];
-        if hot {
-            for (s, chunk) in seg_hot.chunks_mut(2).enumerate() {
-                for (dir, out) in chunk.iter_mut().enumerate() {
-                    let mv = Move {
-                        segment: s,
-                        reversed: dir == 1,
-                        deadhead_before: false,
-                    };
-                    let mut v = vec![0.0; n];
-                    for k in 0..model.steps[s] {
-                        model
-                            .heat
-                            .step(&mut v, &model.loads[model.position(&mv, k)]);
-                        *out += overshoot(&v, model.target);
-                    }
-                }
-            }
-        }
+        let history = if hot {
+            history_overshoots(model, HISTORY_DEPTH)
+        } else {
+            vec![vec![0.0; 2 * model.layer.segments.len()]]
+        };
         Bound {
             n,
             free_sum,
             gains,
             gains_sorted_by_m,
             gains_prefix,
-            seg_hot,
+            history,
             hot,
             decay_steps,
         }
@@ -173,17 +162,9 @@ impl Bound {
         }
     }
 
-    /// Lower bound on the cost still to come from field u with r steps, w weld steps and
-    /// the given segments left.
-    fn remaining(
-        &self,
-        model: &Model,
-        u: &[f64],
-        r: usize,
-        w: usize,
-        left: &[usize],
-        scratch: &mut Vec<f64>,
-    ) -> f64 {
+    /// Lower bound on the cost still to come from field u with what is left to do.
+    fn remaining(&self, model: &Model, u: &[f64], rest: &Rest, scratch: &mut Vec<f64>) -> f64 {
+        let (r, w, left) = (rest.steps, rest.weld_steps, rest.segments);
         if r == 0 {
             return 0.0;
         }
@@ -193,10 +174,26 @@ impl Bound {
         if !self.hot {
             return cold;
         }
-        let mut hot: f64 = left
-            .iter()
-            .map(|&s| self.seg_hot[2 * s].min(self.seg_hot[2 * s + 1]))
-            .sum();
+        // In a trail, at most `run_starts` remaining segments begin a run and at most
+        // `run_starts + 1` are the j-th of theirs (j ≥ 1, the current run may add one), so
+        // at most A_j = (j + 1)·run_starts + j have fewer than j + 1 predecessors: charge
+        // everything the deepest level and give back the A_{j−1} largest level differences.
+        let levels = self.history.len();
+        let best = |j: usize, s: usize| self.history[j][2 * s].min(self.history[j][2 * s + 1]);
+        let mut hot: f64 = left.iter().map(|&s| best(levels - 1, s)).sum();
+        let mut diffs = Vec::with_capacity(left.len());
+        for j in 1..levels {
+            let allowed = j * rest.run_starts + (j - 1);
+            if allowed == 0 {
+                continue;
+            }
+            diffs.clear();
+            diffs.extend(left.iter().map(|&s| best(j, s) - best(j - 1, s)));
+            if allowed < diffs.len() {
+                diffs.select_nth_unstable_by(allowed, |a, b| b.total_cmp(a));
+            }
+            hot -= diffs.iter().take(allowed).sum::<f64>();
+        }
         scratch.clear();
         scratch.extend_from_slice(u);
         for _ in 0..r.min(self.decay_steps) {
@@ -209,6 +206,83 @@ impl Bound {
         }
         cold + 2.0 * hot
     }
+}
+
+/// Predecessors considered in the hot part of the bound.
+const HISTORY_DEPTH: usize = 3;
+
+/// history[j][d] for j = 0..=depth (see [`Bound`]).
+fn history_overshoots(model: &Model, depth: usize) -> Vec<Vec<f64>> {
+    let dirs = 2 * model.layer.segments.len();
+    let directed = |d: usize| Move {
+        segment: d / 2,
+        reversed: d % 2 == 1,
+        deadhead_before: false,
+    };
+    // Directed segments ending at each node.
+    let mut ending: Vec<Vec<usize>> = vec![Vec::new(); model.layer.nodes.len()];
+    for d in 0..dirs {
+        ending[model.ends(&directed(d)).1].push(d);
+    }
+    let weld = |u: &mut Vec<f64>, d: usize| {
+        let mv = directed(d);
+        let mut o = 0.0;
+        for k in 0..model.steps[mv.segment] {
+            model.heat.step(u, &model.loads[model.position(&mv, k)]);
+            o += overshoot(u, model.target);
+        }
+        o
+    };
+    let mut history = vec![vec![f64::INFINITY; dirs]; depth + 1];
+    for d in 0..dirs {
+        // Walks backwards from d's start: (segments used, directed moves in weld order).
+        let mut walks: Vec<Vec<usize>> = vec![Vec::new()];
+        for level in 0..=depth {
+            for walk in &walks {
+                let mut u = vec![0.0; model.heat.len()];
+                for &p in walk {
+                    weld(&mut u, p);
+                }
+                let o = weld(&mut u, d);
+                history[level][d] = history[level][d].min(o);
+            }
+            if level == depth {
+                break;
+            }
+            let mut longer = Vec::new();
+            for walk in &walks {
+                let first = walk.first().copied().unwrap_or(d);
+                let start = model.ends(&directed(first)).0;
+                for &p in &ending[start] {
+                    if p / 2 == d / 2 || walk.iter().any(|&q| q / 2 == p / 2) {
+                        continue;
+                    }
+                    let mut w = vec![p];
+                    w.extend_from_slice(walk);
+                    longer.push(w);
+                }
+            }
+            walks = longer;
+        }
+        for level in 1..=depth {
+            if history[level][d].is_infinite() {
+                history[level][d] = history[level - 1][d];
+            }
+        }
+    }
+    history
+}
+
+/// What is left to do after a search node.
+struct Rest<'a> {
+    /// Time steps to the horizon.
+    steps: usize,
+    /// Of them, weld steps.
+    weld_steps: usize,
+    /// Segments not yet welded.
+    segments: &'a [usize],
+    /// How many of them may begin a run (after deadheading, or first of the trail).
+    run_starts: usize,
 }
 
 fn overshoot(u: &[f64], target: f64) -> f64 {
@@ -255,9 +329,12 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
     let root_bound = bound.remaining(
         model,
         &root_u,
-        model.horizon,
-        total_weld,
-        &all,
+        &Rest {
+            steps: model.horizon,
+            weld_steps: total_weld,
+            segments: &all,
+            run_starts: model.deadheads + 1,
+        },
         &mut scratch,
     );
     let mut expand = |u: &[f64],
@@ -348,9 +425,12 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
                         c + bound.remaining(
                             model,
                             &v,
-                            model.horizon - steps,
-                            w,
-                            &rest,
+                            &Rest {
+                                steps: model.horizon - steps,
+                                weld_steps: w,
+                                segments: &rest,
+                                run_starts: dl,
+                            },
                             &mut scratch,
                         )
                     };
