@@ -233,18 +233,18 @@ fn history_overshoots(model: &Model, depth: usize) -> Vec<Vec<f64>> {
         }
         o
     };
-    let mut history = vec![vec![f64::INFINITY; dirs]; depth + 1];
-    for d in 0..dirs {
-        // Walks backwards from d's start: (segments used, directed moves in weld order).
+    // For each directed segment, its least overshoot after walks of 0..=depth segments.
+    let per_segment = (0..dirs).map(|d| {
+        let mut best = vec![f64::INFINITY; depth + 1];
+        // Walks ending where d starts, as directed moves in weld order.
         let mut walks: Vec<Vec<usize>> = vec![Vec::new()];
-        for level in 0..=depth {
+        for (level, slot) in best.iter_mut().enumerate() {
             for walk in &walks {
                 let mut u = vec![0.0; model.heat.len()];
                 for &p in walk {
                     weld(&mut u, p);
                 }
-                let o = weld(&mut u, d);
-                history[level][d] = history[level][d].min(o);
+                *slot = slot.min(weld(&mut u, d));
             }
             if level == depth {
                 break;
@@ -265,9 +265,16 @@ fn history_overshoots(model: &Model, depth: usize) -> Vec<Vec<f64>> {
             walks = longer;
         }
         for level in 1..=depth {
-            if history[level][d].is_infinite() {
-                history[level][d] = history[level - 1][d];
+            if best[level].is_infinite() {
+                best[level] = best[level - 1];
             }
+        }
+        best
+    });
+    let mut history = vec![vec![0.0; dirs]; depth + 1];
+    for (d, best) in per_segment.enumerate() {
+        for (row, value) in history.iter_mut().zip(best) {
+            row[d] = value;
         }
     }
     history
