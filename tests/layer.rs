@@ -427,3 +427,29 @@ fn cli_plan_json_and_out_dir() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("node Q is not in 'nodes'"));
 }
+
+#[test]
+fn the_lower_bound_never_exceeds_any_completion() {
+    // Every prefix of every trail of the domino, of a three-wall star that needs one
+    // deadheading move, and of the paper's layer (all 1488 trails).
+    let star = PAPER
+        .split("nodes:")
+        .next()
+        .unwrap()
+        .replace("name: paper-16mm", "name: star")
+        + "nodes:
+  - {id: O, x: 8.0, y: 8.0}
+  - {id: E, x: 15.0, y: 8.0}
+  - {id: N, x: 8.0, y: 15.0}
+  - {id: W, x: 1.0, y: 8.0}
+segments:
+  - [O, E]
+  - [O, N]
+  - [O, W]
+" + &PAPER[PAPER.find("process:").unwrap()..];
+    for layer in [domino(), Layer::parse(&star).unwrap(), paper()] {
+        let model = Model::new(&layer).unwrap();
+        let checked = waam::layer::search::check_bound(&model).unwrap();
+        assert!(checked > 20, "{}: only {checked} prefixes", layer.name);
+    }
+}

@@ -13,9 +13,10 @@
 //!   left after it (precomputed by an adjoint recursion for every torch position).
 //! * hot part, only when each step is monotone (A⁻¹ ≥ 0, see `fem`) and T* ≥ T_amb: every
 //!   future field is at least the free decay of u plus, during the weld of each remaining
-//!   segment, that segment's own heat welded from cold; for T* ≥ T_amb overshoots of sums
-//!   of non-negative parts add up, so 2·(overshoot of the free decay + Σ over remaining
-//!   segments of their own overshoot, cheaper direction) is a lower bound.
+//!   segment, the heat of that segment and of the future welds just before it in its run;
+//!   for T* ≥ T_amb overshoots of sums of non-negative parts add up, so 2·(overshoot of
+//!   the free decay + Σ over remaining segments of their least overshoot after a walk of
+//!   as many future predecessors as a trail must give them) is a lower bound.
 //!
 //! Symmetries of the layer and mesh prune children that are not the smallest of their
 //! orbit under the stabilizer of the prefix (sound: some image of every trail passes).
@@ -288,7 +289,9 @@ struct Rest<'a> {
     weld_steps: usize,
     /// Segments not yet welded.
     segments: &'a [usize],
-    /// How many of them may begin a run (after deadheading, or first of the trail).
+    /// How many of them may have no *future* predecessor in their run: one per
+    /// deadheading move left, plus the first (which continues the current run, whose
+    /// past is already in the field, or starts the trail).
     run_starts: usize,
 }
 
@@ -436,7 +439,7 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
                                 steps: model.horizon - steps,
                                 weld_steps: w,
                                 segments: &rest,
-                                run_starts: dl,
+                                run_starts: dl + 1,
                             },
                             &mut scratch,
                         )
@@ -563,4 +566,117 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
         hot_bound: bound.hot,
         root_bound,
     }
+}
+
+/// Checks the lower bound against brute force on a small layer: for every prefix of every
+/// trail, the bound must not exceed the best objective of the prefix's completions.
+/// Returns the number of prefixes checked, or the first violation. For tests; the number
+/// of trails grows exponentially with the segments.
+pub fn check_bound(model: &Model) -> Result<usize, String> {
+    struct Walk<'a> {
+        model: &'a Model,
+        bound: Bound,
+        used: Vec<bool>,
+        checked: usize,
+        scratch: Vec<f64>,
+    }
+    impl Walk<'_> {
+        /// Best objective over completions of the state; checks every child's bound.
+        fn best(
+            &mut self,
+            u: &[f64],
+            cost: f64,
+            steps: usize,
+            at: Option<usize>,
+            deadheads_left: usize,
+        ) -> Result<f64, String> {
+            let model = self.model;
+            let segs = model.layer.segments.len();
+            let left: Vec<usize> = (0..segs).filter(|&s| !self.used[s]).collect();
+            let mut best = f64::INFINITY;
+            for &s in &left {
+                for reversed in [false, true] {
+                    for deadhead in [false, true] {
+                        let probe = Move {
+                            segment: s,
+                            reversed,
+                            deadhead_before: deadhead,
+                        };
+                        let (from, to) = model.ends(&probe);
+                        let dl = match at {
+                            None if deadhead => continue,
+                            None => deadheads_left,
+                            Some(v) if !deadhead && v != from => continue,
+                            Some(_) if deadhead && deadheads_left == 0 => continue,
+                            Some(_) => deadheads_left - deadhead as usize,
+                        };
+                        let rest: Vec<usize> = left.iter().copied().filter(|&t| t != s).collect();
+                        if trails_needed(&model.layer, &rest, Some(to)) > dl {
+                            continue;
+                        }
+                        let mut v = u.to_vec();
+                        let (mut c, mut n) = (cost, steps);
+                        if let (true, Some(prev)) = (deadhead, at) {
+                            for _ in 0..model.layer.transit_steps(prev, from) {
+                                model.heat.step(&mut v, &[]);
+                                c += model.deviation(&v);
+                                n += 1;
+                            }
+                        }
+                        for k in 0..model.steps[s] {
+                            model
+                                .heat
+                                .step(&mut v, &model.loads[model.position(&probe, k)]);
+                            c += model.deviation(&v);
+                            n += 1;
+                        }
+                        let weld: usize = rest.iter().map(|&t| model.steps[t]).sum();
+                        let lb = c + self.bound.remaining(
+                            model,
+                            &v,
+                            &Rest {
+                                steps: model.horizon - n,
+                                weld_steps: weld,
+                                segments: &rest,
+                                run_starts: dl + 1,
+                            },
+                            &mut self.scratch,
+                        );
+                        let exact = if rest.is_empty() {
+                            while n < model.horizon {
+                                model.heat.step(&mut v, &[]);
+                                c += model.deviation(&v);
+                                n += 1;
+                            }
+                            c
+                        } else {
+                            self.used[s] = true;
+                            let b = self.best(&v, c, n, Some(to), dl);
+                            self.used[s] = false;
+                            b?
+                        };
+                        self.checked += 1;
+                        if lb > exact * (1.0 + 1e-12) + 1e-9 {
+                            return Err(format!(
+                                "bound {lb} above the best completion {exact} after welding {} at step {n}",
+                                model.layer.segment_name(s)
+                            ));
+                        }
+                        best = best.min(exact);
+                    }
+                }
+            }
+            Ok(best)
+        }
+    }
+    let mut walk = Walk {
+        model,
+        bound: Bound::new(model, SearchOptions::default().free_decay_steps),
+        used: vec![false; model.layer.segments.len()],
+        checked: 0,
+        scratch: Vec::new(),
+    };
+    let u = vec![model.initial; model.heat.len()];
+    walk.best(&u, 0.0, 0, None, model.deadheads)?;
+    Ok(walk.checked)
 }
