@@ -312,6 +312,8 @@ struct Frame {
     next: usize,
     /// Group elements that fix the prefix up to this frame's parent.
     stabilizer: Vec<usize>,
+    /// The parent's lower bound: valid for every child too.
+    parent_lb: f64,
 }
 
 /// Finds the trail of least objective (or the best within the time limit, with its gap).
@@ -479,6 +481,7 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
         children: root_children,
         next: 0,
         stabilizer: identity,
+        parent_lb: root_bound,
     }];
     let mut deadheads_used_stack: Vec<usize> = Vec::new();
     while let Some(frame) = stack.last_mut() {
@@ -511,7 +514,8 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
             .copied()
             .filter(|&g| group[g][d] == d)
             .collect();
-        let (u, cost, steps_done) = (child.u.clone(), child.cost, child.steps_done);
+        let (u, cost, steps_done, child_lb) =
+            (child.u.clone(), child.cost, child.steps_done, child.lb);
         used[mv.segment] = true;
         path.push(mv);
         let used_dh =
@@ -536,14 +540,19 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
             children,
             next: 0,
             stabilizer,
+            parent_lb: child_lb,
         });
     }
     let (objective, trail) = best.unwrap_or((f64::INFINITY, Trail::default()));
     let mut lower = objective;
     if timed_out {
+        // Unexplored children (sorted, so the next is the least) bound what is left.
+        // Every ancestor's bound holds for the whole subtree below it too.
+        let mut inherited = f64::NEG_INFINITY;
         for frame in &stack {
+            inherited = inherited.max(frame.parent_lb);
             if let Some(c) = frame.children.get(frame.next) {
-                lower = lower.min(c.lb);
+                lower = lower.min(c.lb.max(inherited));
             }
         }
     }
