@@ -63,8 +63,10 @@ pub fn plot_trail(
     let mut chart = ChartBuilder::on(&root)
         .caption(
             format!(
-                "{}: weld trail ({} deadheading moves)",
-                model.layer.name, model.deadheads
+                "{}: weld trail, {} deadheading move{}",
+                model.layer.name,
+                model.deadheads,
+                if model.deadheads == 1 { "" } else { "s" }
             ),
             ("sans-serif", 20),
         )
