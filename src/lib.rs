@@ -7,9 +7,12 @@
 
 pub mod graph;
 pub mod layer;
+pub mod mesh;
 pub mod motion;
 pub mod part;
+pub mod part_writer;
 pub mod plan;
+pub mod planner;
 pub mod plot;
 pub mod robot;
 pub mod thermal;

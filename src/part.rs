@@ -8,6 +8,8 @@
 use std::collections::HashMap;
 use std::fmt;
 
+use rustc_hash::FxHashMap;
+
 use serde_yaml::Value;
 use thiserror::Error;
 
@@ -58,7 +60,8 @@ pub struct Part {
     /// k: the most weld paths (arc starts) a plan may use.
     pub max_fragments: usize,
     blocks: Vec<Block>,
-    index: HashMap<Block, usize>,
+    // Fx, not SipHash: the weld graph looks up six neighbours of every block.
+    index: FxHashMap<Block, usize>,
     /// (block index, window), sorted by block index; one window per block.
     windows: Vec<(usize, Window)>,
     pub thermal: ThermalParams,
@@ -529,7 +532,7 @@ mod tests {
             err(&format!("{HEAD}blocks: [[0,0,0]]\nmax_fragment: 2\n")).contains("'max_fragment'")
         );
         assert!(err("name: t\nmax_fragments: 1\nblocks: [[0,0,0]]\n").contains("'block_mm'"));
-        assert!(err(&format!("{HEAD}")).contains("exactly one of 'layers' or 'blocks'"));
+        assert!(err(HEAD).contains("exactly one of 'layers' or 'blocks'"));
         assert!(
             err(&format!("{HEAD}layers: ['#']\nblocks: [[0,0,0]]\n")).contains("exactly one of")
         );

@@ -7,10 +7,13 @@ use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
 use waam::part::Part;
 
+pub mod bench;
 pub mod check;
 pub mod layer;
 pub mod motion;
+pub mod plan;
 pub mod plot;
+pub mod voxelize;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
 pub const EXIT_OK: u8 = 0;
@@ -53,6 +56,9 @@ pub enum Command {
     Check(check::CheckArgs),
     /// Thick-wall layers: plan, plot and benchmark one weld trail per layer.
     Layer(layer::LayerArgs),
+    Plan(plan::PlanArgs),
+    Bench(bench::BenchArgs),
+    Voxelize(voxelize::VoxelizeArgs),
     Motion(motion::MotionArgs),
     Plot(plot::PlotArgs),
 }
@@ -62,6 +68,9 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Check(args) => check::run(args),
         Command::Layer(args) => layer::run(args),
+        Command::Plan(args) => plan::run(args, &cli.global),
+        Command::Bench(args) => bench::run(args),
+        Command::Voxelize(args) => voxelize::run(args),
         Command::Motion(args) => motion::run(args),
         Command::Plot(args) => plot::run(args),
     }
