@@ -453,3 +453,47 @@ segments:
         assert!(checked > 20, "{}: only {checked} prefixes", layer.name);
     }
 }
+
+#[test]
+fn local_search_keeps_trails_valid_and_never_worsens() {
+    use waam::layer::improve::improve;
+    let model = Model::new(&paper()).unwrap();
+    let r = search(
+        &model,
+        &SearchOptions {
+            bound: false,
+            ..SearchOptions::default()
+        },
+    );
+    assert!(r.proven_optimal);
+    // Another valid trail: the optimum welded backwards.
+    let mut moves: Vec<_> = r
+        .trail
+        .moves
+        .iter()
+        .rev()
+        .map(|m| waam::layer::Move {
+            reversed: !m.reversed,
+            deadhead_before: false,
+            ..*m
+        })
+        .collect();
+    // Re-mark the deadheading move where the reversed order breaks continuity.
+    for k in 1..moves.len() {
+        let (_, prev_end) = model.ends(&moves[k - 1]);
+        let (start, _) = model.ends(&moves[k]);
+        moves[k].deadhead_before = prev_end != start;
+    }
+    let start = waam::layer::Trail { moves };
+    model.check_trail(&start).unwrap();
+    let value = model.simulate(&start, None);
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(30);
+    let (better, v) = improve(&model, &start, value, deadline);
+    model.check_trail(&better).unwrap();
+    assert!(v <= value);
+    assert!((model.simulate(&better, None) - v).abs() <= 1e-9 * v);
+    assert!(
+        v >= r.objective * (1.0 - 1e-12),
+        "never below the proven optimum"
+    );
+}

@@ -11,6 +11,7 @@
 
 pub mod fem;
 pub mod format;
+pub mod improve;
 pub mod mesh;
 #[cfg(feature = "milp")]
 pub mod milp;

@@ -25,6 +25,7 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
+use super::improve::improve;
 use super::model::{trails_needed, Model, Move, Trail};
 use super::symmetry::symmetries;
 
@@ -484,7 +485,20 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
         parent_lb: root_bound,
     }];
     let mut deadheads_used_stack: Vec<usize> = Vec::new();
+    let mut improved = false;
     while let Some(frame) = stack.last_mut() {
+        // Under a time limit, polish the first trail by local search for a quarter of it:
+        // a better incumbent prunes more and shrinks the gap (it proves nothing itself).
+        if let (Some(limit), false, Some((value, trail))) =
+            (options.time_limit, improved, best.clone())
+        {
+            improved = true;
+            let (t, v) = improve(model, &trail, value, start + limit / 4);
+            if v < value {
+                best = Some((v, t));
+            }
+            continue;
+        }
         // The time limit applies once a first complete trail is known.
         if let (Some(limit), true) = (options.time_limit, best.is_some()) {
             if start.elapsed() >= limit {
