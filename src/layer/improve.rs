@@ -5,8 +5,11 @@
 //!
 //! A trail is a sequence of runs (walks welded without deadheading). Neighbours keep the
 //! number of runs, so the deadheading count stays the minimum: reverse a run, move a run
-//! elsewhere in the order, start a closed run at another of its nodes, or reverse a
-//! closed piece inside a run (a sub-walk that returns to its first node).
+//! elsewhere in the order, start a closed run at another of its nodes, reverse a closed
+//! piece inside a run (a sub-walk that returns to its first node), or move such a piece
+//! into another run that passes its node. Hill climbing stops in a local optimum; random
+//! kicks of three neighbour steps then restart it (iterated local search with a fixed
+//! seed, so runs repeat).
 
 use std::time::Instant;
 
@@ -75,16 +78,50 @@ fn neighbours(model: &Model, runs: &[Run]) -> Vec<Vec<Run>> {
         }
         for i in 0..run.len() {
             for j in i + 1..run.len() {
-                if start(i) == end(j) && (i, j) != (0, run.len() - 1) {
-                    let mut v = runs.to_vec();
-                    let piece = run[i..=j].iter().rev().map(flipped);
-                    v[r] = run[..i]
-                        .iter()
-                        .copied()
-                        .chain(piece)
-                        .chain(run[j + 1..].iter().copied())
-                        .collect();
-                    out.push(v);
+                if start(i) != end(j) || (i, j) == (0, run.len() - 1) {
+                    continue;
+                }
+                let mut v = runs.to_vec();
+                let piece = run[i..=j].iter().rev().map(flipped);
+                v[r] = run[..i]
+                    .iter()
+                    .copied()
+                    .chain(piece)
+                    .chain(run[j + 1..].iter().copied())
+                    .collect();
+                out.push(v);
+                // Move the closed piece i..=j (either way round) into another run.
+                let rest: Run = run[..i].iter().chain(&run[j + 1..]).copied().collect();
+                for (o, other) in runs.iter().enumerate() {
+                    if o == r {
+                        continue;
+                    }
+                    for p in 0..=other.len() {
+                        let at = if p == 0 {
+                            model.ends(&other[0]).0
+                        } else {
+                            model.ends(&other[p - 1]).1
+                        };
+                        if at != start(i) {
+                            continue;
+                        }
+                        for backwards in [false, true] {
+                            let piece: Run = if backwards {
+                                run[i..=j].iter().rev().map(flipped).collect()
+                            } else {
+                                run[i..=j].to_vec()
+                            };
+                            let mut v = runs.to_vec();
+                            v[r] = rest.clone();
+                            v[o] = other[..p]
+                                .iter()
+                                .chain(&piece)
+                                .chain(&other[p..])
+                                .copied()
+                                .collect();
+                            out.push(v);
+                        }
+                    }
                 }
             }
         }
@@ -92,26 +129,52 @@ fn neighbours(model: &Model, runs: &[Run]) -> Vec<Vec<Run>> {
     out
 }
 
-/// First-improvement hill climbing from `trail` until no neighbour is better or the
-/// deadline passes. Returns the best trail and its objective.
+/// Iterated first-improvement hill climbing from `trail` until the deadline. Returns the
+/// best trail found and its objective.
 pub fn improve(model: &Model, trail: &Trail, objective: f64, deadline: Instant) -> (Trail, f64) {
-    let mut runs = runs_of(trail);
+    let mut best_runs = runs_of(trail);
     let mut best = objective;
-    'climb: loop {
-        for candidate in neighbours(model, &runs) {
-            if Instant::now() >= deadline {
-                break 'climb;
+    let mut runs = best_runs.clone();
+    let mut value = objective;
+    let mut seed: u64 = 0x9e37_79b9_7f4a_7c15;
+    let mut random = move |n: usize| {
+        // xorshift64*: a fixed sequence, so a run repeats.
+        seed ^= seed >> 12;
+        seed ^= seed << 25;
+        seed ^= seed >> 27;
+        (seed.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 33) as usize % n.max(1)
+    };
+    while Instant::now() < deadline {
+        // Climb to a local optimum.
+        'climb: loop {
+            for candidate in neighbours(model, &runs) {
+                if Instant::now() >= deadline {
+                    break 'climb;
+                }
+                let v = model.simulate(&trail_of(&candidate), None);
+                if v < value {
+                    value = v;
+                    runs = candidate;
+                    continue 'climb;
+                }
             }
-            let t = trail_of(&candidate);
-            debug_assert!(model.check_trail(&t).is_ok());
-            let value = model.simulate(&t, None);
-            if value < best {
-                best = value;
-                runs = candidate;
-                continue 'climb;
-            }
+            break;
         }
-        break;
+        if value < best {
+            best = value;
+            best_runs = runs.clone();
+        }
+        // Kick: three random neighbour steps from the best trail, then climb again.
+        runs = best_runs.clone();
+        for _ in 0..3 {
+            let mut next = neighbours(model, &runs);
+            if next.is_empty() {
+                return (trail_of(&best_runs), best);
+            }
+            let k = random(next.len());
+            runs = next.swap_remove(k);
+        }
+        value = model.simulate(&trail_of(&runs), None);
     }
-    (trail_of(&runs), best)
+    (trail_of(&best_runs), best)
 }

@@ -494,6 +494,10 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
         {
             improved = true;
             let (t, v) = improve(model, &trail, value, start + limit / 4);
+            tracing::debug!(
+                "local search: {value:.6e} -> {v:.6e} at {:.1} s",
+                start.elapsed().as_secs_f64()
+            );
             if v < value {
                 best = Some((v, t));
             }
