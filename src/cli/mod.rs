@@ -10,6 +10,7 @@ use waam::part::Part;
 pub mod bag;
 pub mod bench;
 pub mod check;
+pub mod layer;
 pub mod motion;
 pub mod plan;
 pub mod plot;
@@ -56,6 +57,8 @@ pub struct GlobalArgs {
 pub enum Command {
     Bag(bag::BagArgs),
     Check(check::CheckArgs),
+    /// Thick-wall layers: plan, plot and benchmark one weld trail per layer.
+    Layer(layer::LayerArgs),
     Plan(plan::PlanArgs),
     Bench(bench::BenchArgs),
     Replay(replay::ReplayArgs),
@@ -69,6 +72,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Bag(args) => bag::run(args),
         Command::Check(args) => check::run(args),
+        Command::Layer(args) => layer::run(args),
         Command::Plan(args) => plan::run(args, &cli.global),
         Command::Bench(args) => bench::run(args),
         Command::Replay(args) => replay::run(args),
