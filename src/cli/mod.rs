@@ -8,6 +8,7 @@ use clap::{Args, Parser, Subcommand};
 use waam::part::Part;
 
 pub mod check;
+pub mod node;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
 pub const EXIT_OK: u8 = 0;
@@ -48,12 +49,14 @@ pub struct GlobalArgs {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     Check(check::CheckArgs),
+    Node(node::NodeArgs),
 }
 
 /// Runs the chosen subcommand; its `ExitCode` carries the answer.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Check(args) => check::run(args),
+        Command::Node(args) => node::run(args),
     }
 }
 
@@ -76,6 +79,8 @@ pub fn init_logging(global: &GlobalArgs) {
         (false, 1) => "debug",
         (false, _) => "trace",
     };
+    // RustDDS logs every discovery event at info and every large datagram at warn.
+    let default = format!("{default},rustdds=error,ros2_client=warn");
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
     tracing_subscriber::fmt()
