@@ -1,6 +1,9 @@
 //! The ROS 2 node `waam_planner`: parts in, weld plans and trajectories out.
 
+pub mod execute;
+pub mod params;
 pub mod ros;
+pub mod worker;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
