@@ -6,6 +6,7 @@
 //! plan into torch poses, robot trajectories, ROS 2 messages and recordings.
 
 pub mod graph;
+pub mod msgs;
 pub mod node;
 pub mod part;
 pub mod plan;
