@@ -10,4 +10,6 @@ pub mod msgs;
 pub mod node;
 pub mod part;
 pub mod plan;
+pub mod robot;
 pub mod thermal;
+pub mod toolpath;
