@@ -1,5 +1,6 @@
 //! The ROS 2 node `waam_planner`: parts in, weld plans and trajectories out.
 
+pub mod convert;
 pub mod execute;
 pub mod params;
 pub mod ros;

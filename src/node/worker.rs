@@ -6,7 +6,6 @@
 //! node can drop it. Events come back on one channel, in the order they happen.
 
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::Sender;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
@@ -79,17 +78,21 @@ pub enum WorkerEvent<T> {
 /// Runs one job at a time on its own thread; a newer job cancels the one in progress.
 pub struct Worker<P: Pipeline> {
     pipeline: Arc<P>,
-    events: Sender<WorkerEvent<P::Output>>,
+    events: Arc<dyn Fn(WorkerEvent<P::Output>) + Send + Sync>,
     next_id: u64,
     current: Option<(u64, Cancel)>,
     threads: Vec<JoinHandle<()>>,
 }
 
 impl<P: Pipeline> Worker<P> {
-    pub fn new(pipeline: P, events: Sender<WorkerEvent<P::Output>>) -> Worker<P> {
+    /// A worker that hands every event to `events` (called from the job threads).
+    pub fn new(
+        pipeline: P,
+        events: impl Fn(WorkerEvent<P::Output>) + Send + Sync + 'static,
+    ) -> Worker<P> {
         Worker {
             pipeline: Arc::new(pipeline),
-            events,
+            events: Arc::new(events),
             next_id: 1,
             current: None,
             threads: Vec::new(),
@@ -107,13 +110,13 @@ impl<P: Pipeline> Worker<P> {
         let cancel = Cancel::new();
         self.current = Some((job, cancel.clone()));
         let pipeline = Arc::clone(&self.pipeline);
-        let events = self.events.clone();
-        let progress_events = self.events.clone();
+        let events = Arc::clone(&self.events);
+        let progress_events = Arc::clone(&self.events);
         let ctx = JobContext {
             job,
             cancel,
             report: Box::new(move |progress| {
-                let _ = progress_events.send(WorkerEvent::Progress { job, progress });
+                progress_events(WorkerEvent::Progress { job, progress });
             }),
         };
         self.threads.retain(|t| !t.is_finished());
@@ -129,7 +132,7 @@ impl<P: Pipeline> Worker<P> {
                 } else {
                     result
                 };
-                let _ = events.send(WorkerEvent::Finished { job, result });
+                events(WorkerEvent::Finished { job, result });
             })
             .expect("cannot start a planning thread");
         self.threads.push(thread);
@@ -226,7 +229,9 @@ mod tests {
     #[test]
     fn latest_part_wins() {
         let (tx, rx) = channel();
-        let mut worker = Worker::new(Counter, tx);
+        let mut worker = Worker::new(Counter, move |e| {
+            let _ = tx.send(e);
+        });
         let (first, none) = worker.submit((100_000, "count"));
         assert_eq!(none, None);
         // Wait until the first job is under way, then supersede it.
@@ -252,7 +257,9 @@ mod tests {
     #[test]
     fn failures_and_panics_become_reasons() {
         let (tx, rx) = channel();
-        let mut worker = Worker::new(Counter, tx);
+        let mut worker = Worker::new(Counter, move |e| {
+            let _ = tx.send(e);
+        });
         worker.submit((1, "boom"));
         let mut results = finished_one(&rx);
         assert!(results.pop().unwrap().contains("internal error: boom"));
