@@ -6,6 +6,7 @@
 //! plan into torch poses, robot trajectories, ROS 2 messages and recordings.
 
 pub mod graph;
+pub mod motion;
 pub mod msgs;
 pub mod node;
 pub mod part;
@@ -13,3 +14,4 @@ pub mod plan;
 pub mod robot;
 pub mod thermal;
 pub mod toolpath;
+pub mod trajectory;

@@ -9,6 +9,7 @@ use waam::part::Part;
 
 pub mod check;
 pub mod node;
+pub mod motion;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
 pub const EXIT_OK: u8 = 0;
@@ -50,6 +51,7 @@ pub struct GlobalArgs {
 pub enum Command {
     Check(check::CheckArgs),
     Node(node::NodeArgs),
+    Motion(motion::MotionArgs),
 }
 
 /// Runs the chosen subcommand; its `ExitCode` carries the answer.
@@ -57,6 +59,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Check(args) => check::run(args),
         Command::Node(args) => node::run(args),
+        Command::Motion(args) => motion::run(args),
     }
 }
 

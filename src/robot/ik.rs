@@ -61,27 +61,22 @@ impl Robot {
                         .collect()
                 })
                 .collect();
+            if options.iter().any(Vec::is_empty) {
+                continue;
+            }
             let mut idx = [0usize; 6];
             'combos: loop {
-                let q: Vec<f64> = (0..6).map(|i| options[i][idx[i]]).collect();
-                if !options.iter().any(Vec::is_empty) {
-                    // Polish to full precision with a few Newton steps on our own chain.
-                    if let Some(q) = self.solve_dls(&tip, &q, 8) {
-                        let dup = out.iter().any(|o: &Solution| max_abs_diff(&o.q, &q) < 1e-9);
-                        if !dup
-                            && max_abs_diff(
-                                &q,
-                                &(0..6).map(|i| options[i][idx[i]]).collect::<Vec<_>>(),
-                            ) < 1e-4
-                        {
-                            out.push(Solution {
-                                configuration: Some(opw.configuration(&q)),
-                                q,
-                            });
-                        }
+                let raw: Vec<f64> = (0..6).map(|i| options[i][idx[i]]).collect();
+                // Polish to full precision with a few Newton steps on our own chain; keep
+                // it only if it stayed on the analytic solution.
+                if let Some(q) = self.solve_dls(&tip, &raw, 8) {
+                    let dup = out.iter().any(|o: &Solution| max_abs_diff(&o.q, &q) < 1e-9);
+                    if !dup && max_abs_diff(&q, &raw) < 1e-4 {
+                        out.push(Solution {
+                            configuration: Some(opw.configuration(&q)),
+                            q,
+                        });
                     }
-                } else {
-                    break;
                 }
                 for i in 0..6 {
                     idx[i] += 1;

@@ -15,7 +15,7 @@ pub mod settings;
 
 use std::fmt::Write as _;
 
-use nalgebra::{Isometry3, Point3, Rotation3, Translation3, Unit, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
@@ -238,17 +238,20 @@ fn headings(points: &[Point3<f64>], mut carry: Vector3<f64>) -> Vec<Vector3<f64>
 }
 
 /// The torch orientation for a heading: z (the wire) points down, tilted forward by the
-/// travel angle and sideways by the work angle; x points along the travel.
+/// travel angle and sideways by the work angle. The torch does not spin about its own
+/// axis: its frame is the vertical torch (x along the part's +x, z down) tilted the
+/// shortest way, so rings and spirals do not wind up the last joint.
 fn torch_rotation(h: &Vector3<f64>, s: &ProcessSettings) -> UnitQuaternion<f64> {
     let (alpha, beta) = (
         s.travel_angle_deg.to_radians(),
         s.work_angle_deg.to_radians(),
     );
-    let z0 = -Vector3::z() * alpha.cos() + h * alpha.sin();
+    let down = -Vector3::z();
+    let z0 = down * alpha.cos() + h * alpha.sin();
     let z = UnitQuaternion::from_axis_angle(&Unit::new_normalize(*h), beta) * z0;
-    let x = (h - z * h.dot(&z)).normalize();
-    let y = z.cross(&x);
-    UnitQuaternion::from_rotation_matrix(&Rotation3::from_basis_unchecked(&[x, y, z]))
+    let vertical = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI);
+    let tilt = UnitQuaternion::rotation_between(&down, &z).unwrap_or_else(UnitQuaternion::identity);
+    tilt * vertical
 }
 
 /// Builds the toolpath of the passes, in the robot's `frame` (the base link).
@@ -582,6 +585,13 @@ mod tests {
             "push: the wire points down and forward"
         );
         assert!((z.x - s.travel_angle_deg.to_radians().sin()).abs() < 1e-12);
+        // The torch does not spin with the heading: its x axis stays near the part's +x.
+        for h in [Vector3::x(), Vector3::y(), -Vector3::x(), -Vector3::y()] {
+            let r = torch_rotation(&h, &s);
+            assert!((r * Vector3::x()).x > 0.98, "{h}");
+            let tilt = (r * Vector3::z()).angle(&-Vector3::z());
+            assert!((tilt - s.travel_angle_deg.to_radians()).abs() < 1e-12);
+        }
     }
 
     #[test]

@@ -65,6 +65,8 @@ pub struct ProcessSettings {
     /// How far the TCP may stray from the straight line between two poses while the
     /// joints move linearly, mm; longer steps are split.
     pub path_tolerance_mm: f64,
+    /// The same for the torch's orientation, degrees.
+    pub path_tolerance_deg: f64,
     /// Inverse kinematics: `auto` (analytic OPW where the arm fits, else numeric) or
     /// `numeric` (damped least squares only).
     pub ik_solver: Solver,
@@ -93,6 +95,7 @@ impl Default for ProcessSettings {
             max_step_deg: 5.0,
             joint_speed_scale: 1.0,
             path_tolerance_mm: 0.2,
+            path_tolerance_deg: 0.5,
             ik_solver: Solver::Auto,
         }
     }
@@ -152,6 +155,7 @@ impl ProcessSettings {
         positive("max_step_mm", self.max_step_mm)?;
         positive("max_step_deg", self.max_step_deg)?;
         positive("path_tolerance_mm", self.path_tolerance_mm)?;
+        positive("path_tolerance_deg", self.path_tolerance_deg)?;
         if !(self.clearance_mm.is_finite() && self.clearance_mm >= 0.0) {
             return Err(bad(
                 "clearance_mm",

@@ -1,0 +1,166 @@
+//! `waam motion PART PLAN --robot URDF --out DIR`: toolpath and joint trajectory for an
+//! existing plan. [`RobotArgs`] and [`plan_and_write`] serve `waam plan --robot` too.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+use waam::graph::WeldGraph;
+use waam::motion::{plan_motion, write_outputs};
+use waam::part::Part;
+use waam::plan::Plan;
+use waam::robot::{parse_xyz_rpy, Robot, TcpChoice};
+use waam::toolpath::{PoseKind, ProcessSettings};
+
+use super::{read_part, EXIT_NO, EXIT_OK};
+
+/// The robot and process options shared by every command that makes robot motion.
+#[derive(Debug, Clone, clap::Args)]
+pub struct RobotArgs {
+    /// The robot's URDF (meshes need not exist). Its root link is the base frame.
+    #[arg(long, value_name = "URDF")]
+    pub robot: PathBuf,
+    /// The TCP in the tip link as "x y z roll pitch yaw" (m, rad), for a URDF without a
+    /// torch. Default: none when the tip link is named `tcp`, else the process file's `tcp`.
+    #[arg(
+        long,
+        value_name = "\"x y z roll pitch yaw\"",
+        allow_hyphen_values = true
+    )]
+    pub tcp: Option<String>,
+    /// The link the TCP is attached to. Default: a link named `tcp`, else the end of the
+    /// URDF's longest chain.
+    #[arg(long, value_name = "LINK")]
+    pub tip: Option<String>,
+    /// Process settings (YAML, see config/process.yaml). Default: the values in
+    /// config/process.yaml, built in.
+    #[arg(long, value_name = "FILE")]
+    pub process: Option<PathBuf>,
+}
+
+impl RobotArgs {
+    /// Reads the process settings and the robot.
+    pub fn load(&self) -> anyhow::Result<(ProcessSettings, Robot)> {
+        let settings = match &self.process {
+            Some(path) => {
+                let text = std::fs::read_to_string(path)
+                    .with_context(|| format!("cannot read process settings {}", path.display()))?;
+                ProcessSettings::from_yaml(&text)
+                    .with_context(|| format!("in process settings {}", path.display()))?
+            }
+            None => ProcessSettings::default(),
+        };
+        let explicit = match &self.tcp {
+            Some(text) => Some(parse_xyz_rpy(text).map_err(|e| anyhow::anyhow!("--tcp: {e}"))?),
+            None => None,
+        };
+        let choice = TcpChoice {
+            explicit,
+            default: settings.tcp.isometry(),
+        };
+        let robot = Robot::from_urdf_file(&self.robot, self.tip.as_deref(), choice)
+            .with_context(|| format!("in robot {}", self.robot.display()))?;
+        match (&robot.opw_reason, robot.opw().is_some()) {
+            (_, true) => tracing::info!(
+                "robot {}: {} -> {}, analytic OPW inverse kinematics",
+                robot.name,
+                robot.base_link,
+                robot.tip_link
+            ),
+            (Some(reason), false) => tracing::info!(
+                "robot {}: {} -> {}, numeric inverse kinematics ({reason})",
+                robot.name,
+                robot.base_link,
+                robot.tip_link
+            ),
+            (None, false) => {}
+        }
+        Ok((settings, robot))
+    }
+}
+
+/// Plans the motion of a valid plan and writes `DIR/toolpath.yaml` and
+/// `DIR/trajectory.yaml`. `Ok(false)`: no motion is possible (the reason is printed).
+pub fn plan_and_write(
+    part: &Part,
+    fragments: &[Vec<usize>],
+    args: &RobotArgs,
+    out: &Path,
+) -> anyhow::Result<bool> {
+    let (settings, robot) = args.load()?;
+    let settings = ProcessSettings {
+        ik_solver: settings.ik_solver,
+        ..settings
+    };
+    let (tp, traj) = match plan_motion(part, fragments, &settings, &robot) {
+        Ok(result) => result,
+        Err(e) => {
+            println!("NO MOTION: {e}");
+            return Ok(false);
+        }
+    };
+    write_outputs(out, &tp, &traj)
+        .with_context(|| format!("cannot write motion files in {}", out.display()))?;
+    let weld_s: f64 = tp
+        .poses
+        .windows(2)
+        .filter(|w| w[0].arc_on)
+        .map(|w| w[1].time_s - w[0].time_s)
+        .sum();
+    let duration = tp.poses.last().map_or(0.0, |p| p.time_s);
+    println!(
+        "MOTION: {} poses ({} weld poses at blocks), {} fragment(s), {:.1} s total, {:.1} s arc on",
+        tp.poses.len(),
+        tp.poses
+            .iter()
+            .filter(|p| p.kind == PoseKind::Weld && p.at_point)
+            .count(),
+        fragments.len(),
+        duration,
+        weld_s
+    );
+    println!(
+        "wrote {} and {}",
+        out.join("toolpath.yaml").display(),
+        out.join("trajectory.yaml").display()
+    );
+    Ok(true)
+}
+
+/// Turn an existing plan into torch poses and a joint trajectory for a robot.
+///
+/// Writes DIR/toolpath.yaml (TCP poses in the robot's base link with arc state and
+/// fragment) and DIR/trajectory.yaml (joint positions and velocities over time). Exit
+/// code 0: written; 1: the plan is invalid or the robot cannot weld it (unreachable
+/// pose, configuration change mid-weld — the message names the block and the pose);
+/// 2: bad input.
+#[derive(Debug, clap::Args)]
+pub struct MotionArgs {
+    /// The part file (YAML, shared part format).
+    pub part: PathBuf,
+    /// The plan file (YAML, or JSON when it ends in .json or starts with `{`).
+    pub plan: PathBuf,
+    #[command(flatten)]
+    pub robot: RobotArgs,
+    /// Output directory for toolpath.yaml and trajectory.yaml (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+}
+
+pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
+    let part = read_part(&args.part)?;
+    let bytes = std::fs::read(&args.plan)
+        .with_context(|| format!("cannot read plan {}", args.plan.display()))?;
+    let is_json = args.plan.extension().is_some_and(|e| e == "json");
+    let plan = Plan::from_bytes(&bytes, is_json)
+        .with_context(|| format!("in plan {}", args.plan.display()))?;
+    let fragments = match plan.validate(&part, &WeldGraph::new(&part)) {
+        Ok(f) => f,
+        Err(invalid) => {
+            println!("INVALID: {invalid}");
+            return Ok(ExitCode::from(EXIT_NO));
+        }
+    };
+    let ok = plan_and_write(&part, &fragments, &args.robot, &args.out)?;
+    Ok(ExitCode::from(if ok { EXIT_OK } else { EXIT_NO }))
+}
