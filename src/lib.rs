@@ -6,10 +6,12 @@
 //! plan into torch poses, robot trajectories, ROS 2 messages and recordings.
 
 pub mod graph;
+pub mod mesh;
 pub mod motion;
 pub mod msgs;
 pub mod node;
 pub mod part;
+pub mod part_writer;
 pub mod plan;
 pub mod robot;
 pub mod thermal;

@@ -10,6 +10,7 @@ use waam::part::Part;
 pub mod check;
 pub mod node;
 pub mod motion;
+pub mod voxelize;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
 pub const EXIT_OK: u8 = 0;
@@ -52,6 +53,7 @@ pub enum Command {
     Check(check::CheckArgs),
     Node(node::NodeArgs),
     Motion(motion::MotionArgs),
+    Voxelize(voxelize::VoxelizeArgs),
 }
 
 /// Runs the chosen subcommand; its `ExitCode` carries the answer.
@@ -60,6 +62,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Check(args) => check::run(args),
         Command::Node(args) => node::run(args),
         Command::Motion(args) => motion::run(args),
+        Command::Voxelize(args) => voxelize::run(args),
     }
 }
 
