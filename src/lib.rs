@@ -5,6 +5,7 @@
 //! paths; the [`thermal`] model checks its t8/5 cooling windows; later stages turn the
 //! plan into torch poses, robot trajectories, ROS 2 messages and recordings.
 
+pub mod bag;
 pub mod graph;
 pub mod mesh;
 pub mod motion;

@@ -1,0 +1,320 @@
+//! Round trips through the writer and the reader, truncated files, heat frames.
+
+use std::time::Duration;
+
+use super::heat::{heat_frames, HeatOptions, POINT_STEP};
+use super::metadata::BagMetadata;
+use super::*;
+use crate::graph::WeldGraph;
+use crate::msgs::builtin_interfaces::Time;
+use crate::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus};
+use crate::msgs::std_msgs::{Bool, String as RosString};
+use crate::msgs::waam_interfaces::{Block, WeldFragment, WeldPlan};
+use crate::msgs::RosMessage;
+use crate::part::Part;
+use crate::thermal::ThermalModel;
+
+const T0: u64 = 1_700_000_000_000_000_000;
+
+fn plan(x: i32) -> WeldPlan {
+    WeldPlan {
+        part_name: "wall".into(),
+        fragments: vec![WeldFragment {
+            blocks: vec![Block { x, y: 0, z: 0 }],
+        }],
+        ..Default::default()
+    }
+}
+
+#[test]
+fn a_finished_bag_reads_back_with_rosbag2_layout() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("session");
+    let mut w = BagWriter::create(&dir, BagOptions::default()).unwrap();
+    w.write(
+        topics::PART,
+        &Qos::reliable(10),
+        T0,
+        &RosString::from("name: a"),
+    )
+    .unwrap();
+    for i in 0..3 {
+        w.write(
+            topics::WELD_PLAN,
+            &Qos::latched(),
+            T0 + 10 + i,
+            &plan(i as i32),
+        )
+        .unwrap();
+    }
+    w.write(
+        topics::ARC_ON,
+        &Qos::reliable(10),
+        T0 + 20,
+        &Bool { data: true },
+    )
+    .unwrap();
+    let summary = w.finish().unwrap();
+    assert_eq!(summary.messages, 5);
+    assert_eq!(summary.topics, 3);
+    assert_eq!(summary.mcap_file, dir.join("session_0.mcap"));
+
+    let bag = Bag::open(&dir).unwrap();
+    assert_eq!(bag.truncated, None);
+    assert_eq!(bag.profile, "ros2");
+    assert_eq!(bag.messages.len(), 5);
+    let names: Vec<_> = bag.topics.iter().map(|t| t.name.as_str()).collect();
+    assert_eq!(names, [topics::PART, topics::WELD_PLAN, topics::ARC_ON]);
+    let plan_topic = &bag.topics[1];
+    assert_eq!(plan_topic.type_name, "waam_interfaces/msg/WeldPlan");
+    assert_eq!(plan_topic.schema_encoding, "ros2msg");
+    assert_eq!(plan_topic.message_encoding, "cdr");
+    assert_eq!(plan_topic.definition, WeldPlan::definition());
+    assert_eq!(plan_topic.type_hash, WeldPlan::TYPE_HASH);
+    assert_eq!(plan_topic.offered_qos, vec![Qos::latched()]);
+    assert_eq!(plan_topic.count, 3);
+    let plans = bag.decode_all::<WeldPlan>().unwrap();
+    assert_eq!(plans.len(), 3);
+    assert_eq!(plans[2].2, plan(2));
+    assert_eq!(plans[2].0, T0 + 12);
+    assert_eq!(bag.time_range(), Some((T0, T0 + 20)));
+    assert_eq!(bag.rosbag2_metadata.get("ROS_DISTRO").unwrap(), "jazzy");
+
+    // The final rosbag2 record and metadata.yaml agree on counts, QoS and files.
+    let record: BagMetadata =
+        serde_yaml::from_str(&bag.rosbag2_metadata["serialized_metadata"]).unwrap();
+    assert_eq!(record.version, 9);
+    assert_eq!(record.message_count, 5);
+    assert_eq!(record.duration.nanoseconds, 20);
+    let yaml = std::fs::read_to_string(dir.join("metadata.yaml")).unwrap();
+    let file: serde_yaml::Value = serde_yaml::from_str(&yaml).unwrap();
+    let info: BagMetadata =
+        serde_yaml::from_value(file["rosbag2_bagfile_information"].clone()).unwrap();
+    assert_eq!(info, record);
+    assert_eq!(info.relative_file_paths, ["session_0.mcap"]);
+    assert_eq!(info.topics_with_message_count[1].message_count, 3);
+    assert_eq!(
+        info.topics_with_message_count[1]
+            .topic_metadata
+            .offered_qos_profiles,
+        vec![Qos::latched()]
+    );
+}
+
+#[test]
+fn a_topic_keeps_its_type_and_directories_are_not_reused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("b");
+    let mut w = BagWriter::create(&dir, BagOptions::default()).unwrap();
+    w.write("/x", &Qos::reliable(1), T0, &Bool { data: true })
+        .unwrap();
+    let err = w
+        .write("/x", &Qos::reliable(1), T0, &RosString::from("no"))
+        .unwrap_err();
+    assert!(err.to_string().contains("std_msgs/msg/Bool"), "{err}");
+    let err = w.write_raw("/nope", T0, T0, &[0, 1, 0, 0]).unwrap_err();
+    assert!(err.to_string().contains("/nope"), "{err}");
+    w.finish().unwrap();
+    let err = BagWriter::create(&dir, BagOptions::default())
+        .err()
+        .unwrap();
+    assert!(err.to_string().contains("already exists"), "{err}");
+}
+
+/// Writes `n` status messages with flushes every few messages; returns the file bytes as they
+/// were on disk after the last flush (the writer is still open: a killed process) and the
+/// number of messages flushed by then.
+fn killed_recording(dir: &std::path::Path, n: u64) -> (Vec<u8>, usize) {
+    let options = BagOptions {
+        chunk_bytes: 2_000,
+        chunk_age: Duration::from_secs(3600),
+        zstd_level: 1,
+    };
+    let mut w = BagWriter::create(dir, options).unwrap();
+    let file = dir.join(format!(
+        "{}_0.mcap",
+        dir.file_name().unwrap().to_str().unwrap()
+    ));
+    let mut on_disk = (Vec::new(), 0);
+    for i in 0..n {
+        let status = DiagnosticArray {
+            status: vec![DiagnosticStatus {
+                message: format!("status {i} {}", "x".repeat(100)),
+                ..Default::default()
+            }],
+            ..Default::default()
+        };
+        w.write(topics::STATUS, &Qos::latched(), T0 + i, &status)
+            .unwrap();
+        if !w.chunk_is_open() {
+            on_disk = (std::fs::read(&file).unwrap(), i as usize + 1);
+        }
+    }
+    std::mem::forget(w); // a killed process finishes nothing
+    on_disk
+}
+
+#[test]
+fn a_killed_recording_reads_up_to_its_last_closed_chunk() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("killed");
+    let (bytes, flushed) = killed_recording(&dir, 100);
+    assert!(flushed >= 80, "flushed {flushed}");
+    let bag = Bag::from_bytes(&dir.join("killed_0.mcap"), &bytes).unwrap();
+    let truncated = bag.truncated.as_ref().expect("reported as truncated");
+    assert_eq!(truncated.file_len, bytes.len() as u64);
+    assert_eq!(bag.messages.len(), flushed);
+    assert!(bag.chunks >= 5, "{} chunks", bag.chunks);
+    let statuses = bag.decode_all::<DiagnosticArray>().unwrap();
+    assert!(statuses[flushed - 1].2.status[0]
+        .message
+        .starts_with(&format!("status {} ", flushed - 1)));
+    // metadata.yaml was refreshed at the last flush and names the file.
+    let yaml = std::fs::read_to_string(dir.join("metadata.yaml")).unwrap();
+    assert!(yaml.contains("killed_0.mcap"));
+}
+
+#[test]
+fn every_cut_of_a_bag_reads_as_a_prefix_without_panicking() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("full");
+    let mut w = BagWriter::create(
+        &dir,
+        BagOptions {
+            chunk_bytes: 300,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    for i in 0..40u64 {
+        w.write(
+            topics::PART,
+            &Qos::reliable(10),
+            T0 + i,
+            &RosString::from(&*format!("part {i}")),
+        )
+        .unwrap();
+    }
+    w.finish().unwrap();
+    let bytes = std::fs::read(dir.join("full_0.mcap")).unwrap();
+    let full = Bag::from_bytes(&dir, &bytes).unwrap();
+    assert_eq!(full.messages.len(), 40);
+    assert!(full.truncated.is_none());
+    let mut seen_counts = std::collections::BTreeSet::new();
+    for cut in (0..bytes.len()).step_by(7) {
+        match Bag::from_bytes(&dir, &bytes[..cut]) {
+            Ok(bag) => {
+                assert!(bag.truncated.is_some(), "cut at {cut} not reported");
+                assert_eq!(bag.messages, full.messages[..bag.messages.len()]);
+                seen_counts.insert(bag.messages.len());
+            }
+            Err(e) => assert!(cut < 8, "cut at {cut}: {e}"),
+        }
+    }
+    assert!(seen_counts.len() > 5, "{seen_counts:?}");
+}
+
+#[test]
+fn the_recorder_closes_old_chunks_on_its_own() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("rec");
+    let recorder = Recorder::with_options(
+        &dir,
+        BagOptions {
+            chunk_age: Duration::from_millis(40),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    recorder
+        .record(topics::ARC_ON, &Qos::reliable(10), &Bool { data: true })
+        .unwrap();
+    // Poll (bounded) until the background thread has closed the chunk.
+    let file = dir.join("rec_0.mcap");
+    let mut read = 0;
+    for _ in 0..200 {
+        std::thread::sleep(Duration::from_millis(10));
+        read = Bag::open(&file).unwrap().messages.len();
+        if read == 1 {
+            break;
+        }
+    }
+    assert_eq!(read, 1, "the open chunk was never flushed");
+    let clone = recorder.clone();
+    clone
+        .record(topics::ARC_ON, &Qos::reliable(10), &Bool { data: false })
+        .unwrap();
+    let summary = recorder.finish().unwrap();
+    assert_eq!(summary.messages, 2);
+    assert!(matches!(
+        clone.record(topics::ARC_ON, &Qos::reliable(10), &Bool { data: false }),
+        Err(BagError::Finished)
+    ));
+}
+
+#[test]
+fn heat_frames_follow_the_build() {
+    let part = Part::parse(
+        "name: w\nblock_mm: [6,6,2.5]\nmax_fragments: 2\nlayers: ['####', '####']\n\
+         t85: [{block: [0,0,0], min_s: 0, max_s: 1000}]\n",
+    )
+    .unwrap();
+    let graph = WeldGraph::new(&part);
+    let model = ThermalModel::new(&part, &graph);
+    let order: Vec<usize> = (0..part.len()).collect();
+    let start = Time::from_nanos(T0 as i64);
+    let mut frames = Vec::new();
+    heat_frames(
+        &part,
+        &model,
+        &[order],
+        "part",
+        start,
+        HeatOptions::default(),
+        |f| {
+            frames.push(f);
+            Ok::<_, ()>(())
+        },
+    )
+    .unwrap();
+    // One frame per block, one after cooldown.
+    assert_eq!(frames.len(), part.len() + 1);
+    for (i, f) in frames.iter().take(part.len()).enumerate() {
+        assert_eq!(f.welded, i + 1);
+        assert_eq!(f.cloud.width as usize, i + 1);
+        assert_eq!(f.cloud.data.len(), (i + 1) * POINT_STEP as usize);
+    }
+    let last = frames.last().unwrap();
+    assert!(last.time_s > frames[part.len() - 1].time_s);
+    // The newest block of frame 3 is the hottest, its position is the block centre (m).
+    let f = &frames[2].cloud;
+    let point = |k: usize| -> [f32; 4] {
+        let p = &f.data[k * 16..k * 16 + 16];
+        std::array::from_fn(|j| f32::from_le_bytes(p[j * 4..j * 4 + 4].try_into().unwrap()))
+    };
+    let newest = point(2);
+    let c = part.centre_mm(part.block(2));
+    assert!((newest[0] as f64 - c[0] / 1000.0).abs() < 1e-6);
+    assert!(newest[3] > point(0)[3]);
+    assert_eq!(
+        frames[2].cloud.header.stamp.to_nanos(),
+        T0 as i64 + (frames[2].time_s * 1e9).round() as i64
+    );
+    // Fewer frames when asked.
+    let mut n = 0;
+    heat_frames(
+        &part,
+        &model,
+        &[(0..part.len()).collect()],
+        "part",
+        start,
+        HeatOptions { max_frames: 3 },
+        |_| {
+            n += 1;
+            Ok::<_, ()>(())
+        },
+    )
+    .unwrap();
+    // Strides of three blocks (3, 6), the last block (8), and the cooldown.
+    assert_eq!(n, 4);
+}
