@@ -2,19 +2,19 @@
 //!
 //! A welding controller (MotoROS2, a `joint_trajectory_controller`) takes one
 //! FollowJointTrajectory goal at a time, and some cap the points per goal (MotoROS2: 200).
-//! The arc must strike where the torch reaches a fragment's first block and go out at its
-//! last, so goals end exactly there: per fragment, the approach (arc off) up to the arc-on
-//! point, then `~/arc_on` true, then the weld in goals of at most `max_points` points, then
-//! `~/arc_on` false. Each goal starts where the previous one ended, the robot at rest.
+//! The arc must strike when the torch reaches a fragment's first block and go out when it
+//! reaches the arc-off point after the last, so goals end exactly there: per fragment, the
+//! approach (arc off) up to the arc-on point, then `~/arc_on` true, then the weld in goals of
+//! at most `max_points` points up to the arc-off point, then `~/arc_on` false. Each goal
+//! starts where the previous one ended, with the robot at rest.
 
 use std::ops::RangeInclusive;
 
 /// One step of running a trajectory: a goal over a span of trajectory points, or an arc switch.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Step {
-    /// Move through points `span` (indices into the trajectory). The first point of the span
-    /// is where the robot already stands (the end of the previous goal), except for the
-    /// very first goal, which starts at point 0.
+    /// Send points `span` (indices into the trajectory). The robot stands on the point before
+    /// the span (the end of the previous goal), or anywhere for the very first goal.
     Goal {
         span: RangeInclusive<usize>,
         /// The fragment being welded, or `None` for approach, transit and retract moves.
@@ -24,46 +24,42 @@ pub enum Step {
     Arc(bool),
 }
 
-/// Cuts a trajectory, given by the arc state of each of its points, into execution steps with
-/// at most `max_points` points per goal (counting the shared start point; `max_points >= 2`).
+/// Cuts a trajectory, given by the arc state of each of its points (a point's state holds
+/// from that point on), into execution steps of at most `max_points` points per goal.
 pub fn plan_steps(arc_on: &[bool], max_points: usize) -> Vec<Step> {
-    assert!(
-        max_points >= 2,
-        "a goal needs room for a start and an end point"
-    );
+    assert!(max_points >= 1, "a goal needs room for a point");
     let mut steps = Vec::new();
-    if arc_on.is_empty() {
-        return steps;
-    }
-    let last = arc_on.len() - 1;
-    let mut at = 0; // the point the robot stands on after the steps so far
+    let n = arc_on.len();
+    let mut next = 0; // the next point to send
     let mut fragment = 0;
     let mut i = 0;
-    while i <= last {
+    while i < n {
         if !arc_on[i] {
             i += 1;
             continue;
         }
-        // A weld run: points start..=end are arc-on.
+        // A weld run: points start..=end are arc-on; the arc goes out at end + 1.
         let start = i;
         let mut end = i;
-        while end < last && arc_on[end + 1] {
+        while end + 1 < n && arc_on[end + 1] {
             end += 1;
         }
-        push_goals(&mut steps, at, start, max_points, None);
+        let off = (end + 1).min(n - 1);
+        push_goals(&mut steps, next, start, max_points, None);
         steps.push(Step::Arc(true));
-        push_goals(&mut steps, start, end, max_points, Some(fragment));
+        push_goals(&mut steps, start + 1, off, max_points, Some(fragment));
         steps.push(Step::Arc(false));
-        at = end;
+        next = off + 1;
         fragment += 1;
-        i = end + 1;
+        i = off + 1;
     }
-    push_goals(&mut steps, at, last, max_points, None);
+    if n > 0 {
+        push_goals(&mut steps, next, n - 1, max_points, None);
+    }
     steps
 }
 
-/// Goals from point `from` to point `to`, each at most `max_points` points long, each starting
-/// at the previous one's end. Nothing when there is nowhere to go (except a lone start point).
+/// Goals sending points `from..=to`, at most `max_points` each (nothing when `from > to`).
 fn push_goals(
     steps: &mut Vec<Step>,
     from: usize,
@@ -71,25 +67,14 @@ fn push_goals(
     max_points: usize,
     welding: Option<usize>,
 ) {
-    if from == to {
-        if from == 0 && steps.is_empty() {
-            // The trajectory starts at its first arc-on point: still send point 0, so the
-            // controller goes there before the arc strikes.
-            steps.push(Step::Goal {
-                span: 0..=0,
-                welding,
-            });
-        }
-        return;
-    }
-    let mut a = from;
-    while a < to {
-        let b = (a + max_points - 1).min(to);
+    let mut next = from;
+    while next <= to {
+        let last = (next + max_points - 1).min(to);
         steps.push(Step::Goal {
-            span: a..=b,
+            span: next..=last,
             welding,
         });
-        a = b;
+        next = last + 1;
     }
 }
 
@@ -107,52 +92,50 @@ mod tests {
 
     #[test]
     fn goals_end_at_arc_switches() {
-        // approach 0,1; weld 2..=4; transit 5,6; weld 7,8; retract 9
+        // transit 0,1; weld 2..=4 (arc off at 5); transit 6; weld 7,8 (off at 9); retract 10
         let arc = [
-            false, false, true, true, true, false, false, true, true, false,
+            false, false, true, true, true, false, false, true, true, false, false,
         ];
-        let steps = plan_steps(&arc, 200);
         assert_eq!(
-            steps,
+            plan_steps(&arc, 200),
             vec![
                 goal(0, 2, None),
                 Arc(true),
-                goal(2, 4, Some(0)),
+                goal(3, 5, Some(0)),
                 Arc(false),
-                goal(4, 7, None),
+                goal(6, 7, None),
                 Arc(true),
-                goal(7, 8, Some(1)),
+                goal(8, 9, Some(1)),
                 Arc(false),
-                goal(8, 9, None),
+                goal(10, 10, None),
             ]
         );
     }
 
     #[test]
-    fn long_welds_split_at_the_cap_and_cover_every_point() {
+    fn long_welds_split_at_the_cap_and_send_every_point_once() {
         let mut arc = vec![false; 3];
         arc.extend(vec![true; 500]);
         arc.extend(vec![false; 4]);
-        for cap in [2, 3, 7, 200] {
+        arc.extend(vec![true; 7]);
+        arc.extend(vec![false; 2]);
+        for cap in [1, 2, 3, 7, 200] {
             let steps = plan_steps(&arc, cap);
-            let mut next = 0;
+            let mut sent = Vec::new();
             let mut arc_state = false;
-            for (k, s) in steps.iter().enumerate() {
-                let strikes_next = steps.get(k + 1) == Some(&Arc(true));
+            for s in &steps {
                 match s {
                     Goal { span, welding } => {
-                        assert!(span.end() - span.start() < cap, "cap {cap}: {span:?}");
-                        // Contiguous: each goal starts where the last one ended.
-                        assert!(*span.start() == next || (next == 0 && *span.start() == 0));
-                        next = *span.end();
-                        // Welding goals run with the arc on, the others with it off.
+                        assert!(span.clone().count() <= cap, "cap {cap}: {span:?}");
                         assert_eq!(welding.is_some(), arc_state);
-                        // (An approach ends on the arc-on point, reached with the arc off.)
-                        for p in span.clone().skip(1) {
-                            if !(strikes_next && p == *span.end()) {
-                                assert_eq!(arc[p], arc_state, "point {p}");
+                        // Points reached with the arc on are arc-on points, except the
+                        // arc-off point that ends a weld.
+                        for p in span.clone() {
+                            if p != *span.end() {
+                                assert_eq!(arc[p], arc_state, "cap {cap}, point {p}");
                             }
                         }
+                        sent.extend(span.clone());
                     }
                     Arc(on) => {
                         assert_ne!(*on, arc_state);
@@ -160,7 +143,8 @@ mod tests {
                     }
                 }
             }
-            assert_eq!(next, arc.len() - 1);
+            assert_eq!(sent, (0..arc.len()).collect::<Vec<_>>(), "cap {cap}");
+            assert_eq!(steps.iter().filter(|s| **s == Arc(true)).count(), 2);
             assert!(!arc_state);
         }
     }
@@ -169,9 +153,10 @@ mod tests {
     fn edge_cases() {
         assert!(plan_steps(&[], 5).is_empty());
         assert_eq!(plan_steps(&[false, false], 5), vec![goal(0, 1, None)]);
+        // A trajectory ending with the arc on still switches it off at its last point.
         assert_eq!(
             plan_steps(&[true, true], 5),
-            vec![goal(0, 0, None), Arc(true), goal(0, 1, Some(0)), Arc(false)]
+            vec![goal(0, 0, None), Arc(true), goal(1, 1, Some(0)), Arc(false)]
         );
     }
 }

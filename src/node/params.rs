@@ -93,6 +93,8 @@ pub struct ExecutionParams {
     pub max_points_per_goal: i64,
     /// Seconds to wait for the action server before giving up on a plan.
     pub server_timeout_s: f64,
+    /// Seconds the first goal gives the robot to reach the trajectory's first point.
+    pub lead_in_s: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -146,6 +148,7 @@ impl Default for ExecutionParams {
             controller_action: "/joint_trajectory_controller/follow_joint_trajectory".into(),
             max_points_per_goal: 200,
             server_timeout_s: 10.0,
+            lead_in_s: 2.0,
         }
     }
 }
@@ -273,9 +276,9 @@ impl NodeParams {
                 self.robot.tcp
             ));
         }
-        if self.execution.max_points_per_goal < 2 {
+        if self.execution.max_points_per_goal < 1 {
             return Err(format!(
-                "execution.max_points_per_goal: expected an integer >= 2, got {}",
+                "execution.max_points_per_goal: expected an integer >= 1, got {}",
                 self.execution.max_points_per_goal
             ));
         }
@@ -283,6 +286,12 @@ impl NodeParams {
             return Err(format!(
                 "execution.server_timeout_s: expected seconds > 0, got {}",
                 self.execution.server_timeout_s
+            ));
+        }
+        if !(self.execution.lead_in_s.is_finite() && self.execution.lead_in_s >= 0.0) {
+            return Err(format!(
+                "execution.lead_in_s: expected seconds >= 0, got {}",
+                self.execution.lead_in_s
             ));
         }
         if !finite_pos(self.dry_run.time_scale) {
@@ -340,7 +349,7 @@ mod tests {
         let err = |text: &str| NodeParams::parse(text).unwrap_err().to_string();
         let e = err("waam_planner:\n  ros__parameters:\n    planer: {timeout_s: 1}\n");
         assert!(e.contains("unknown field `planer`"), "{e}");
-        let e = err("waam_planner:\n  ros__parameters:\n    execution: {max_points_per_goal: 1}\n");
+        let e = err("waam_planner:\n  ros__parameters:\n    execution: {max_points_per_goal: 0}\n");
         assert!(e.contains("execution.max_points_per_goal"), "{e}");
         let e = err("waam_planner:\n  ros__parameters:\n    mesh: {block_mm: [1, 2]}\n");
         assert!(e.contains("mesh.block_mm"), "{e}");

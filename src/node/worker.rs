@@ -156,14 +156,13 @@ impl<P: Pipeline> Worker<P> {
         self.current.is_some()
     }
 
-    /// Cancels the job in progress and waits for every job thread to end.
+    /// Cancels the job in progress. Threads still running are left to end on their own (a
+    /// planner deep in a solver call may take until its time limit), never waited for.
     pub fn shutdown(&mut self) {
         if let Some((_, cancel)) = self.current.take() {
             cancel.cancel();
         }
-        for thread in self.threads.drain(..) {
-            let _ = thread.join();
-        }
+        self.threads.retain(|t| !t.is_finished());
     }
 }
 

@@ -1,0 +1,250 @@
+//! What a planning job does: input → part → plan → check → toolpath → joint trajectory.
+//!
+//! Runs on a worker thread ([`super::worker`]). Every stage reports progress and checks the
+//! cancel flag between stages; any failure is a reason string for an ERROR status, never a
+//! panic, and a plan is handed on only after it passed validation and the thermal check.
+
+use std::sync::Arc;
+
+use nalgebra::Isometry3;
+
+use super::params::NodeParams;
+use super::worker::{JobContext, Pipeline};
+use crate::graph::WeldGraph;
+use crate::mesh::{voxelize_indexed, Units, VoxelizeOptions, WindowRule};
+use crate::motion::plan_motion;
+use crate::msgs::waam_interfaces::PlanStatistics;
+use crate::part::{BlockDisplay, Part, Window};
+use crate::plan::Plan;
+use crate::robot::{xyz_rpy, Robot, TcpChoice};
+use crate::thermal::{self, ThermalModel};
+use crate::toolpath::{ProcessSettings, Toolpath};
+use crate::trajectory::JointTrajectory;
+
+/// The robot the project ships, used when the parameters name no URDF.
+pub const BUNDLED_URDF: &str = include_str!("../../urdf/waam_robot.urdf");
+
+/// A part as it arrives: a part document (`~/part`) or a triangle mesh in metres
+/// (`~/part_mesh`).
+#[derive(Debug, Clone)]
+pub enum PartInput {
+    Document(String),
+    Mesh {
+        name: String,
+        vertices: Vec<[f64; 3]>,
+        triangles: Vec<[u32; 3]>,
+    },
+}
+
+impl PartInput {
+    /// A few words on what arrived, for status and logs.
+    pub fn describe(&self) -> String {
+        match self {
+            PartInput::Document(text) => format!("part document, {} bytes", text.len()),
+            PartInput::Mesh {
+                vertices,
+                triangles,
+                ..
+            } => format!(
+                "mesh, {} vertices, {} triangles",
+                vertices.len(),
+                triangles.len()
+            ),
+        }
+    }
+}
+
+/// What the planner answers for a part.
+#[derive(Debug, Clone)]
+pub struct PlannerOutput {
+    /// Fragments of block indices, in weld order.
+    pub fragments: Vec<Vec<usize>>,
+    pub statistics: PlanStatistics,
+    /// Smallest distance of a t8/5 value to its window bounds, s (+inf without windows).
+    pub worst_margin_s: f64,
+}
+
+/// The planner a pipeline calls: part, time limit (s, 0 = none), job context (cancel flag,
+/// progress). `Err` is the reason there is no plan.
+pub type PlanFn = dyn Fn(&Part, f64, &JobContext) -> Result<PlannerOutput, String> + Send + Sync;
+
+/// A planned part, checked and ready to publish and execute.
+#[derive(Debug, Clone)]
+pub struct Planned {
+    pub part: Part,
+    pub fragments: Vec<Vec<usize>>,
+    pub statistics: PlanStatistics,
+    pub worst_margin_s: f64,
+    pub toolpath: Toolpath,
+    pub trajectory: JointTrajectory,
+    /// The part frame in the robot's base link (m).
+    pub plate: Isometry3<f64>,
+    /// TCP speeds, m/s.
+    pub weld_speed: f64,
+    pub transit_speed: f64,
+}
+
+/// The node's planning pipeline: process settings, robot, mesh options and a planner.
+pub struct PlanningPipeline {
+    pub settings: ProcessSettings,
+    pub robot: Robot,
+    pub mesh_block_mm: [f64; 3],
+    pub mesh_window: Option<Window>,
+    pub default_max_fragments: usize,
+    pub timeout_s: f64,
+    pub planner: Arc<PlanFn>,
+}
+
+impl PlanningPipeline {
+    /// Loads the process settings and the robot the parameters name.
+    pub fn from_params(params: &NodeParams, planner: Arc<PlanFn>) -> Result<Self, String> {
+        let settings = if params.process_file.is_empty() {
+            ProcessSettings::default()
+        } else {
+            let text = std::fs::read_to_string(&params.process_file).map_err(|e| {
+                format!("process_file: cannot read {}: {e}", params.process_file)
+            })?;
+            ProcessSettings::from_yaml(&text)
+                .map_err(|e| format!("process_file {}: {e}", params.process_file))?
+        };
+        let explicit = match params.robot.tcp[..] {
+            [x, y, z, r, p, w] => Some(xyz_rpy(&[x, y, z], &[r, p, w])),
+            _ => None,
+        };
+        let choice = TcpChoice {
+            explicit,
+            default: settings.tcp.isometry(),
+        };
+        let tip = (!params.robot.tip_link.is_empty()).then_some(params.robot.tip_link.as_str());
+        let robot = if params.robot.urdf.is_empty() {
+            Robot::from_urdf(BUNDLED_URDF, tip, choice)
+                .map_err(|e| format!("bundled robot: {e}"))?
+        } else {
+            Robot::from_urdf_file(std::path::Path::new(&params.robot.urdf), tip, choice)
+                .map_err(|e| format!("robot.urdf {}: {e}", params.robot.urdf))?
+        };
+        let [a, b, c] = params.mesh.block_mm[..] else {
+            return Err("mesh.block_mm: expected three lengths".into());
+        };
+        Ok(PlanningPipeline {
+            settings,
+            robot,
+            mesh_block_mm: [a, b, c],
+            mesh_window: match params.mesh.t85_window_s[..] {
+                [min_s, max_s] => Some(Window { min_s, max_s }),
+                _ => None,
+            },
+            default_max_fragments: params.planner.default_max_fragments.max(1) as usize,
+            timeout_s: params.planner.timeout_s,
+            planner,
+        })
+    }
+
+    /// Turns the input into a part (reading the document or voxelizing the mesh).
+    pub fn part_of(&self, input: PartInput) -> Result<Part, String> {
+        match input {
+            PartInput::Document(text) => {
+                let part = Part::parse(&text).map_err(|e| format!("bad part document: {e}"))?;
+                for w in &part.warnings {
+                    tracing::warn!("part {}: {w}", part.name);
+                }
+                Ok(part)
+            }
+            PartInput::Mesh {
+                name,
+                vertices,
+                triangles,
+            } => {
+                let mut options = VoxelizeOptions::new(name, self.mesh_block_mm);
+                options.max_fragments = self.default_max_fragments;
+                options.windows = self
+                    .mesh_window
+                    .map(WindowRule::everywhere)
+                    .into_iter()
+                    .collect();
+                let voxelized = voxelize_indexed(&vertices, &triangles, Units::M, &options)
+                    .map_err(|e| format!("bad part mesh: {e}"))?;
+                for w in &voxelized.warnings {
+                    tracing::warn!("part mesh: {w}");
+                }
+                Ok(voxelized.part)
+            }
+        }
+    }
+
+    /// Plans motion for checked fragments of `part` and assembles the result.
+    pub fn motion(&self, part: Part, found: PlannerOutput) -> Result<Planned, String> {
+        let (toolpath, trajectory) =
+            plan_motion(&part, &found.fragments, &self.settings, &self.robot)
+                .map_err(|e| format!("no robot motion for the plan: {e}"))?;
+        let weld_speed = match self.settings.weld_speed_mm_s {
+            Some(v) => v / 1000.0,
+            None => part.block_mm[0] / 1000.0 / part.thermal.block_time_s,
+        };
+        Ok(Planned {
+            plate: self.settings.plate.isometry(),
+            weld_speed,
+            transit_speed: self.settings.transit_speed_mm_s / 1000.0,
+            part,
+            fragments: found.fragments,
+            statistics: found.statistics,
+            worst_margin_s: found.worst_margin_s,
+            toolpath,
+            trajectory,
+        })
+    }
+}
+
+/// Checks a plan before anything is published: the plan rules, then every t8/5 window.
+pub fn check_plan(part: &Part, fragments: &[Vec<usize>]) -> Result<(), String> {
+    let graph = WeldGraph::new(part);
+    Plan::from_indices(part, fragments)
+        .validate(part, &graph)
+        .map_err(|e| format!("the planner's plan is invalid: {e}"))?;
+    let model = ThermalModel::new(part, &graph);
+    let outcome = thermal::simulate(&model, fragments)
+        .map_err(|e| format!("the planner's plan cannot be simulated: {e}"))?;
+    if let Some(v) = outcome.violation {
+        return Err(format!(
+            "the planner's plan breaks the t8/5 window of block {}",
+            BlockDisplay(part.block(v.block))
+        ));
+    }
+    Ok(())
+}
+
+impl Pipeline for PlanningPipeline {
+    type Input = PartInput;
+    type Output = Planned;
+
+    fn run(&self, input: PartInput, ctx: &JobContext) -> Result<Planned, String> {
+        let cancelled = || ctx.cancel.is_cancelled();
+        ctx.progress("reading part", None, input.describe());
+        let part = self.part_of(input)?;
+        if cancelled() {
+            return Err("cancelled".into());
+        }
+        ctx.progress(
+            "planning",
+            Some(0.0),
+            format!(
+                "{}: {} blocks, k = {}",
+                part.name,
+                part.len(),
+                part.max_fragments
+            ),
+        );
+        let found = (self.planner)(&part, self.timeout_s, ctx)?;
+        if cancelled() {
+            return Err("cancelled".into());
+        }
+        ctx.progress("checking plan", None, "");
+        check_plan(&part, &found.fragments)?;
+        ctx.progress(
+            "robot motion",
+            None,
+            format!("{} fragment(s)", found.fragments.len()),
+        );
+        self.motion(part, found)
+    }
+}
