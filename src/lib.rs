@@ -14,6 +14,8 @@ pub mod node;
 pub mod part;
 pub mod part_writer;
 pub mod plan;
+pub mod planner;
+pub mod plot;
 pub mod robot;
 pub mod thermal;
 pub mod toolpath;

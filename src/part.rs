@@ -529,7 +529,7 @@ mod tests {
             err(&format!("{HEAD}blocks: [[0,0,0]]\nmax_fragment: 2\n")).contains("'max_fragment'")
         );
         assert!(err("name: t\nmax_fragments: 1\nblocks: [[0,0,0]]\n").contains("'block_mm'"));
-        assert!(err(&format!("{HEAD}")).contains("exactly one of 'layers' or 'blocks'"));
+        assert!(err(HEAD).contains("exactly one of 'layers' or 'blocks'"));
         assert!(
             err(&format!("{HEAD}layers: ['#']\nblocks: [[0,0,0]]\n")).contains("exactly one of")
         );

@@ -240,6 +240,28 @@ impl ThermalModel {
     pub fn window(&self, i: usize) -> Option<Window> {
         self.windows[i]
     }
+
+    /// The same model with every window narrowed by `margin` seconds on both sides: a
+    /// plan keeps these windows exactly when every t8/5 value keeps that margin.
+    pub fn narrowed(&self, margin: f64) -> ThermalModel {
+        let mut m = self.clone();
+        for w in m.windows.iter_mut().flatten() {
+            w.min_s += margin;
+            w.max_s -= margin;
+        }
+        m
+    }
+
+    /// The smallest distance of any t8/5 value to its window's bounds (+inf without
+    /// windows): the plan's worst-case margin.
+    pub fn margin(&self, crossings: &[Crossing]) -> f64 {
+        crossings
+            .iter()
+            .filter_map(|c| {
+                self.windows[c.block].map(|w| (c.t85_s - w.min_s).min(w.max_s - c.t85_s))
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
 }
 
 /// A saved simulation state: resume from it with [`Simulation::restore`].
@@ -357,6 +379,26 @@ impl<'m> Simulation<'m> {
         self.run(self.model.params.substeps as u64, Phase::Deposit, false)
     }
 
+    /// The transit steps before a new fragment (the first half of `deposit(b, true)`).
+    pub fn transit(&mut self) -> Result<(), Violation> {
+        if self.fragments > 0 {
+            self.run(self.model.transit_steps, Phase::Transit, false)?;
+        }
+        Ok(())
+    }
+
+    /// Deposits `block` as the first block of a new fragment after [`Simulation::transit`]
+    /// (the second half of `deposit(b, true)`).
+    pub fn deposit_after_transit(&mut self, block: usize) -> Result<(), Violation> {
+        self.place(block, true);
+        self.run(self.model.params.substeps as u64, Phase::Deposit, false)
+    }
+
+    /// Whether `block` is welded.
+    pub fn is_welded(&self, block: usize) -> bool {
+        self.slot_of_block[block] != NONE
+    }
+
     /// Runs the cooldown after the last block: steps until every windowed block is below
     /// 500 °C. `Ok(Ok(()))` is a feasible end, `Ok(Err(v))` a violation while cooling.
     pub fn finish(&mut self) -> Result<Result<(), Violation>, NotCooled> {
@@ -400,6 +442,17 @@ impl<'m> Simulation<'m> {
         self.w_count.copy_from_slice(&snap.counts);
         self.fragments = snap.fragments;
         self.steps = snap.steps;
+    }
+
+    /// Rebuilds the state of a snapshot that was taken after depositing
+    /// `order[..snap.welded()]` (as (block, new fragment) pairs), on any simulation of
+    /// the same model: the way to resume a saved prefix in a new simulation.
+    pub fn restore_from_trail(&mut self, snap: &Snapshot, order: &[(usize, bool)]) {
+        self.truncate(0);
+        for &(b, new_fragment) in &order[..snap.welded] {
+            self.place(b, new_fragment);
+        }
+        self.restore(snap);
     }
 
     /// Undoes deposits until `welded` blocks remain (temperatures are left as they are:
@@ -517,13 +570,16 @@ impl<'m> Simulation<'m> {
         for i in 0..m {
             let ti = temp[i];
             let n = nb[i];
+            // Every neighbour slot is < m (absent ones point at i itself): `place` and
+            // `truncate` keep that invariant, so the unchecked reads stay in bounds.
+            let t = |k: usize| unsafe { *temp.get_unchecked(n[k] as usize) };
             // Absent neighbours point at slot i itself: their term is exactly 0.
-            let mut f = h * (temp[n[0] as usize] - ti);
-            f += h * (temp[n[1] as usize] - ti);
-            f += h * (temp[n[2] as usize] - ti);
-            f += h * (temp[n[3] as usize] - ti);
-            f += h * (temp[n[4] as usize] - ti);
-            f += h * (temp[n[5] as usize] - ti);
+            let mut f = h * (t(0) - ti);
+            f += h * (t(1) - ti);
+            f += h * (t(2) - ti);
+            f += h * (t(3) - ti);
+            f += h * (t(4) - ti);
+            f += h * (t(5) - ti);
             f += hs[i] * (amb - ti);
             let t = ti + 273.15;
             let t2 = t * t;

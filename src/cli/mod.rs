@@ -7,9 +7,12 @@ use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
 use waam::part::Part;
 
+pub mod bench;
 pub mod check;
-pub mod node;
 pub mod motion;
+pub mod plan;
+pub mod plot;
+pub mod node;
 pub mod voxelize;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
@@ -51,18 +54,24 @@ pub struct GlobalArgs {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     Check(check::CheckArgs),
-    Node(node::NodeArgs),
-    Motion(motion::MotionArgs),
+    Plan(plan::PlanArgs),
+    Bench(bench::BenchArgs),
     Voxelize(voxelize::VoxelizeArgs),
+    Motion(motion::MotionArgs),
+    Plot(plot::PlotArgs),
+    Node(node::NodeArgs),
 }
 
 /// Runs the chosen subcommand; its `ExitCode` carries the answer.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Check(args) => check::run(args),
-        Command::Node(args) => node::run(args),
-        Command::Motion(args) => motion::run(args),
+        Command::Plan(args) => plan::run(args, &cli.global),
+        Command::Bench(args) => bench::run(args),
         Command::Voxelize(args) => voxelize::run(args),
+        Command::Motion(args) => motion::run(args),
+        Command::Plot(args) => plot::run(args),
+        Command::Node(args) => node::run(args),
     }
 }
 

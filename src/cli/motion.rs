@@ -88,10 +88,6 @@ pub fn plan_and_write(
     out: &Path,
 ) -> anyhow::Result<bool> {
     let (settings, robot) = args.load()?;
-    let settings = ProcessSettings {
-        ik_solver: settings.ik_solver,
-        ..settings
-    };
     let (tp, traj) = match plan_motion(part, fragments, &settings, &robot) {
         Ok(result) => result,
         Err(e) => {

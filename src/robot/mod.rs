@@ -476,7 +476,9 @@ mod tests {
             (ABB, Some(xyz_rpy(&[0.05, 0.0, 0.3], &[0.0, 1.2, 0.0]))),
         ] {
             let r = load(text, tcp);
-            assert!(r.opw().is_some(), "{:?}", r.opw_reason);
+            let opw = r.opw().unwrap_or_else(|| panic!("{:?}", r.opw_reason));
+            eprintln!("{}: OPW fit error {:?}", r.name, opw.verified_error);
+            assert!(opw.verified_error.0 < 1e-12 && opw.verified_error.1 < 1e-12);
             let q = [0.3, 0.2, -0.4, 0.5, 1.0, -0.7];
             let target = r.tcp_pose(&q);
             let sols = r.inverse(&target, None);

@@ -4,8 +4,9 @@
 //!
 //! 1. Every pose gets all its IK solutions (analytic solver) and one configuration is
 //!    chosen for the whole path by dynamic programming: consecutive solutions must share
-//!    the arm configuration (shoulder, elbow, wrist), and among those the path with the
-//!    least joint motion wins. The numeric solver instead follows the path by
+//!    the arm configuration (shoulder, elbow, wrist) — or cross a singular pose with
+//!    every joint moving less than 0.2 rad — and among those the path with the least
+//!    joint motion wins. The numeric solver instead follows the path by
 //!    continuation from a few starting seeds.
 //! 2. Controllers move joints linearly between points; where that lets the TCP stray from
 //!    the straight line by more than `path_tolerance_mm`, the step is split (new
@@ -20,11 +21,15 @@ use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use crate::robot::ik::max_abs_diff;
 use crate::robot::{pose_error, Robot};
 use crate::toolpath::{list, PoseKind, ProcessSettings, Toolpath};
 
 /// FK of every trajectory point reproduces its toolpath pose to this (m, rad).
 pub const POSE_TOL: f64 = 1e-6;
+/// Largest joint move (rad) between two poses in different arm configurations: the
+/// path crosses a singular pose continuously; anything larger is a branch switch.
+const SINGULAR_CROSSING_RAD: f64 = 0.2;
 /// Rounds of step splitting before a path that strays is an error.
 const MAX_SPLIT_ROUNDS: usize = 8;
 
@@ -171,11 +176,20 @@ fn analytic_path(robot: &Robot, tp: &Toolpath) -> Result<Vec<Vec<f64>>, Trajecto
         let mut bk = vec![usize::MAX; cands[k].len()];
         for (c, sol) in cands[k].iter().enumerate() {
             for (p, prev) in cands[k - 1].iter().enumerate() {
-                if !cost[k - 1][p].is_finite() || prev.configuration != sol.configuration {
+                if !cost[k - 1][p].is_finite() {
                     continue;
                 }
+                // A configuration may change only through a singular pose, where the
+                // joints stay close: a larger change is a jump to another branch.
+                let mut penalty = 0.0;
+                if prev.configuration != sol.configuration {
+                    if max_abs_diff(&prev.q, &sol.q) > SINGULAR_CROSSING_RAD {
+                        continue;
+                    }
+                    penalty = 1.0;
+                }
                 let t = move_time(robot, &prev.q, &sol.q);
-                let total = cost[k - 1][p] + t * t;
+                let total = cost[k - 1][p] + t * t + penalty;
                 if total < ck[c] {
                     ck[c] = total;
                     bk[c] = p;
@@ -529,5 +543,105 @@ impl JointTrajectory {
             );
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::robot::TcpChoice;
+    use crate::toolpath::ToolPose;
+
+    fn robot() -> Robot {
+        let choice = TcpChoice {
+            explicit: None,
+            default: Isometry3::identity(),
+        };
+        Robot::from_urdf(include_str!("../../urdf/waam_robot.urdf"), None, choice).unwrap()
+    }
+
+    fn weld(pose: Isometry3<f64>, time_s: f64, point: usize) -> ToolPose {
+        ToolPose {
+            time_s,
+            pose,
+            arc_on: true,
+            fragment: 0,
+            point,
+            kind: PoseKind::Weld,
+            at_point: true,
+        }
+    }
+
+    #[test]
+    fn a_configuration_change_mid_weld_is_an_error_naming_the_pose() {
+        // Joint ranges narrowed so that each pose has a single arm and wrist
+        // configuration: the second pose needs the wrist flipped.
+        let mut r = robot();
+        for (j, lo, hi) in [
+            (0, -0.5, 0.5),
+            (1, 0.0, 0.6),
+            (2, -0.5, 0.1),
+            (3, -0.5, 0.5),
+            (5, -0.5, 0.5),
+        ] {
+            r.joints[j].lower = lo;
+            r.joints[j].upper = hi;
+        }
+        let a = r.tcp_pose(&[0.0, 0.3, -0.2, 0.2, 0.5, 0.1]);
+        let b = r.tcp_pose(&[0.0, 0.3, -0.2, 0.2, -0.5, 0.1]);
+        let mut tp = Toolpath {
+            frame: "base_link".into(),
+            poses: vec![weld(a, 0.0, 0), weld(b, 1.0, 1)],
+        };
+        let err = plan_trajectory(&r, &mut tp, &ProcessSettings::default()).unwrap_err();
+        assert!(
+            matches!(err, TrajectoryError::BranchSwitch { in_weld: true, .. }),
+            "{err}"
+        );
+        assert!(
+            err.to_string()
+                .starts_with("branch switch mid-weld: pose 1 (weld at point 2, fragment 1"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_path_may_cross_the_wrist_singularity_continuously() {
+        let mut r = robot();
+        for (j, lo, hi) in [
+            (0, -0.5, 0.5),
+            (1, 0.0, 0.6),
+            (2, -0.5, 0.1),
+            (3, -0.5, 0.5),
+            (5, -0.5, 0.5),
+        ] {
+            r.joints[j].lower = lo;
+            r.joints[j].upper = hi;
+        }
+        let poses = (0..5)
+            .map(|i| {
+                let q5 = 0.04 - 0.02 * i as f64;
+                weld(r.tcp_pose(&[0.0, 0.3, -0.2, 0.2, q5, 0.1]), i as f64, i)
+            })
+            .collect();
+        let mut tp = Toolpath {
+            frame: "base_link".into(),
+            poses,
+        };
+        let traj = plan_trajectory(&r, &mut tp, &ProcessSettings::default()).unwrap();
+        let q5: Vec<f64> = traj.points.iter().map(|p| p.positions[4]).collect();
+        assert!(q5.windows(2).all(|w| (w[1] - w[0]).abs() < 0.05), "{q5:?}");
+    }
+
+    #[test]
+    fn interpolation_runs_along_one_axis() {
+        let a = Isometry3::translation(0.1, 0.0, 0.0);
+        let b = Isometry3::from_parts(
+            Translation3::new(0.3, 0.0, 0.0),
+            UnitQuaternion::from_euler_angles(0.0, 0.0, 1.0),
+        );
+        let m = interpolate(&a, &b, 0.5);
+        assert!((m.translation.x - 0.2).abs() < 1e-15);
+        assert!((m.rotation.angle() - 0.5).abs() < 1e-12);
     }
 }

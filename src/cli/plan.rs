@@ -1,0 +1,318 @@
+//! `waam plan [PART]`: the best feasible weld plan of a part, or why there is none.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use anyhow::Context;
+use indicatif::{ProgressBar, ProgressStyle};
+use serde_json::json;
+use waam::part::Part;
+use waam::plan::Plan;
+use waam::planner::{self, Acyclicity, Options, Stats};
+
+use super::{read_part, GlobalArgs, EXIT_NO, EXIT_OK};
+
+/// The sample part planned when no PART is given (bundled into the binary).
+pub const DEFAULT_PART: &str = include_str!("../../config/parts/ex3-h-column.yaml");
+
+/// Plan the weld order of a part: at most k weld paths covering every block, moving
+/// sideways or up, never under what stands, keeping every t8/5 window.
+///
+/// The best plan has the fewest fragments (arc starts), then the largest worst-case margin
+/// of any t8/5 value to its window bounds. Without PART, plans a bundled sample part (an
+/// H-section column of 168 blocks). Exit code 0: a plan was found; 1: there is none (or
+/// none found before the timeout); 2: bad input.
+#[derive(Debug, clap::Args)]
+pub struct PlanArgs {
+    /// The part file (YAML, shared part format). Default: the bundled H-column sample.
+    pub part: Option<PathBuf>,
+    /// Write DIR/plan.yaml (and, with --all, DIR/feasible-plans.yaml).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Return the first feasible plan found, without optimizing.
+    #[arg(long, conflicts_with_all = ["all", "count"])]
+    pub first: bool,
+    /// Enumerate every feasible plan, streamed to DIR/feasible-plans.yaml (or stdout).
+    #[arg(long, conflicts_with = "count")]
+    pub all: bool,
+    /// Print the exact numbers of valid plans and of feasible plans.
+    #[arg(long)]
+    pub count: bool,
+    /// Stop after this many seconds and report the best found so far (not proven).
+    #[arg(long, value_name = "SECONDS")]
+    pub timeout: Option<f64>,
+    /// Override the part's max_fragments (k).
+    #[arg(long, value_name = "K")]
+    pub max_fragments: Option<usize>,
+    /// How cycles are excluded: lazily by cuts between solves, or eagerly by a rank order.
+    #[arg(long, value_enum, default_value_t = Acyclicity::Lazy)]
+    pub acyclicity: Acyclicity,
+    /// Learn the plain violating prefix (as the paper) instead of proven shorter clauses.
+    #[arg(long)]
+    pub no_shortening: bool,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Also turn the plan into torch poses and a joint trajectory for this robot (URDF),
+    /// written to DIR/toolpath.yaml and DIR/trajectory.yaml (needs --out).
+    #[arg(long, value_name = "URDF", requires = "out")]
+    pub robot: Option<PathBuf>,
+    /// With --robot: the TCP in the tip link as "x y z roll pitch yaw" (m, rad).
+    #[arg(
+        long,
+        value_name = "\"x y z roll pitch yaw\"",
+        allow_hyphen_values = true,
+        requires = "robot"
+    )]
+    pub tcp: Option<String>,
+    /// With --robot: the link the TCP is attached to.
+    #[arg(long, value_name = "LINK", requires = "robot")]
+    pub tip: Option<String>,
+    /// With --robot: process settings (YAML, see config/process.yaml).
+    #[arg(long, value_name = "FILE", requires = "robot")]
+    pub process: Option<PathBuf>,
+}
+
+pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
+    let part = match &args.part {
+        Some(path) => read_part(path)?,
+        None => Part::parse(DEFAULT_PART).context("the bundled sample part")?,
+    };
+    let opts = Options {
+        acyclicity: args.acyclicity,
+        lookahead_budget: if args.no_shortening {
+            0
+        } else {
+            Options::default().lookahead_budget
+        },
+        timeout: args
+            .timeout
+            .map(|s| Duration::try_from_secs_f64(s).context("--timeout: expected seconds >= 0"))
+            .transpose()?,
+        max_fragments: args.max_fragments,
+    };
+    if !args.json && !global.quiet {
+        eprintln!(
+            "part {:?}: {} blocks, {} layers, max_fragments {}, {} windowed blocks",
+            part.name,
+            part.len(),
+            part.layers(),
+            opts.max_fragments.unwrap_or(part.max_fragments),
+            part.windows().len()
+        );
+    }
+    if let Some(dir) = &args.out {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    let mut bar = LazyBar::new(global.quiet || args.json);
+    let mut progress = |s: &Stats| bar.update(s);
+    if args.count {
+        let counts = planner::count(&part, &opts, true, &mut progress)?;
+        bar.finish();
+        if args.json {
+            println!(
+                "{}",
+                json!({"part": part.name, "plans": counts.plans, "feasible": counts.feasible,
+                       "complete": counts.complete, "stats": counts.stats})
+            );
+        } else {
+            let note = if counts.complete {
+                ""
+            } else {
+                " (timeout: counts are lower bounds)"
+            };
+            println!("plans: {}{note}", counts.plans.unwrap_or(0));
+            println!("feasible: {}{note}", counts.feasible);
+            print_stats(&counts.stats);
+        }
+        return Ok(ExitCode::from(EXIT_OK));
+    }
+    if args.all {
+        let mut writer: Box<dyn Write> = match &args.out {
+            Some(dir) => {
+                let path = dir.join("feasible-plans.yaml");
+                Box::new(std::io::BufWriter::new(
+                    std::fs::File::create(&path)
+                        .with_context(|| format!("cannot create {}", path.display()))?,
+                ))
+            }
+            None => Box::new(std::io::stdout().lock()),
+        };
+        let mut sink = |fragments: &[Vec<usize>]| {
+            writeln!(writer, "---")?;
+            write!(writer, "{}", Plan::from_indices(&part, fragments).to_yaml())
+        };
+        let counts = planner::enumerate(&part, &opts, &mut progress, &mut sink)?;
+        writer.flush()?;
+        bar.finish();
+        if args.json {
+            println!(
+                "{}",
+                json!({"part": part.name, "feasible": counts.feasible, "complete": counts.complete,
+                       "stats": counts.stats})
+            );
+        } else {
+            let note = if counts.complete {
+                ""
+            } else {
+                " (timeout: not all were found)"
+            };
+            eprintln!("feasible plans: {}{note}", counts.feasible);
+            if !global.quiet {
+                print_stats(&counts.stats);
+            }
+        }
+        return Ok(ExitCode::from(EXIT_OK));
+    }
+    let report = if args.first {
+        planner::first(&part, &opts, &mut progress)?
+    } else {
+        planner::plan(&part, &opts, &mut progress)?
+    };
+    bar.finish();
+    if let (Some(dir), Some(best)) = (&args.out, &report.best) {
+        let path = dir.join("plan.yaml");
+        std::fs::write(&path, best.plan(&part).to_yaml())
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    // The motion is planned only for a feasible plan, and only a validated one is written.
+    let mut motion_ok = true;
+    if let (Some(robot), Some(dir), Some(best)) = (&args.robot, &args.out, &report.best) {
+        let robot_args = super::motion::RobotArgs {
+            robot: robot.clone(),
+            tcp: args.tcp.clone(),
+            tip: args.tip.clone(),
+            process: args.process.clone(),
+        };
+        motion_ok = super::motion::plan_and_write(&part, &best.fragments, &robot_args, dir)?;
+    }
+    let proof = match (&report.best, report.proven, args.first) {
+        (Some(_), true, false) => "optimal (proven)",
+        (Some(_), true, true) => "first found (not optimized)",
+        (Some(_), false, _) => "best found before the timeout (optimality NOT proven)",
+        (None, true, _) => "no feasible plan (proven)",
+        (None, false, _) => "none found before the timeout (infeasibility NOT proven)",
+    };
+    if args.json {
+        let plan = report.best.as_ref().map(|b| {
+            let p = b.plan(&part);
+            json!({"fragments": p.fragments, "margin_s": finite_or_null(b.margin)})
+        });
+        println!(
+            "{}",
+            json!({"part": part.name, "found": report.best.is_some(), "proven": report.proven,
+                   "result": proof, "plan": plan, "no_plan": report.no_plan,
+                   "no_plan_reason": report.no_plan.as_ref().map(|r| r.to_string()),
+                   "stats": report.stats})
+        );
+    } else {
+        match &report.best {
+            Some(best) => {
+                let plan = best.plan(&part);
+                println!(
+                    "plan: {} fragment(s), worst-case t8/5 margin {} — {proof}",
+                    plan.fragments.len(),
+                    if best.margin.is_finite() {
+                        format!("{:.2} s", best.margin)
+                    } else {
+                        "unbounded (no windows)".to_string()
+                    }
+                );
+                print!("{}", plan.to_yaml());
+            }
+            None => match &report.no_plan {
+                Some(reason) => println!("NO PLAN: {reason}"),
+                None => println!("NO PLAN: {proof}"),
+            },
+        }
+        if !global.quiet {
+            print_stats(&report.stats);
+        }
+    }
+    Ok(ExitCode::from(if report.best.is_some() {
+        EXIT_OK
+    } else {
+        EXIT_NO
+    }))
+}
+
+fn finite_or_null(x: f64) -> serde_json::Value {
+    if x.is_finite() {
+        json!(x)
+    } else {
+        serde_json::Value::Null
+    }
+}
+
+fn print_stats(s: &Stats) {
+    let first = s
+        .first_feasible_s
+        .map_or("-".to_string(), |t| format!("{t:.4} s"));
+    eprintln!(
+        "stats: {} candidates, {} feasible, first feasible {first}, total {:.4} s \
+         (encode {:.4} s, SAT {:.4} s, acyclicity {:.4} s [{} cuts], simulator {:.4} s, \
+         clause shortening {:.4} s)",
+        s.candidates,
+        s.feasible,
+        s.total_s,
+        s.encode_s,
+        s.sat_s,
+        s.acyclicity_s,
+        s.cycle_cuts,
+        s.simulator_s,
+        s.lookahead_s
+    );
+    if let (Some(min), Some(max), Some(mean)) =
+        (s.clause_len_min, s.clause_len_max, s.clause_len_mean)
+    {
+        eprintln!(
+            "learned clauses: {} of length {min} / {max} / {mean:.1} (min / max / mean), \
+             {} decisions dropped by proof; encoding {} variables, {} clauses",
+            s.learned_clauses, s.shortened, s.variables, s.clauses
+        );
+    }
+}
+
+/// A progress spinner that appears only once a run has taken more than a second.
+struct LazyBar {
+    quiet: bool,
+    started: Instant,
+    bar: Option<ProgressBar>,
+}
+
+impl LazyBar {
+    fn new(quiet: bool) -> LazyBar {
+        LazyBar {
+            quiet,
+            started: Instant::now(),
+            bar: None,
+        }
+    }
+
+    fn update(&mut self, s: &Stats) {
+        if self.quiet || self.started.elapsed() < Duration::from_secs(1) {
+            return;
+        }
+        let bar = self.bar.get_or_insert_with(|| {
+            let bar = ProgressBar::new_spinner();
+            bar.set_style(
+                ProgressStyle::with_template("{spinner} [{elapsed_precise}] {msg}")
+                    .expect("a valid template"),
+            );
+            bar.enable_steady_tick(Duration::from_millis(120));
+            bar
+        });
+        bar.set_message(format!(
+            "{} candidates, {} feasible, {} learned clauses",
+            s.candidates, s.feasible, s.learned_clauses
+        ));
+    }
+
+    fn finish(&mut self) {
+        if let Some(bar) = self.bar.take() {
+            bar.finish_and_clear();
+        }
+    }
+}

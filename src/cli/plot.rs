@@ -1,0 +1,73 @@
+//! `waam plot DIR`: PNG pictures of a planned build.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{bail, Context};
+use waam::graph::WeldGraph;
+use waam::plan::Plan;
+use waam::plot;
+use waam::toolpath::ToolpathFile;
+
+use super::{read_part, EXIT_NO, EXIT_OK};
+
+/// Draw a planned build as PNG pictures in DIR.
+///
+/// DIR/toolpath.png (from DIR/toolpath.yaml): top and side view of the torch path, weld
+/// moves red, approach/retract/transit blue, arc-on green dots, arc-off black crosses.
+/// DIR/t85.png (with --part): the simulated temperature of every t8/5-windowed block
+/// over time, with the 800 °C and 500 °C lines, for the plan in DIR/plan.yaml or --plan.
+#[derive(Debug, clap::Args)]
+pub struct PlotArgs {
+    /// The output directory of `waam plan` / `waam motion`.
+    pub dir: PathBuf,
+    /// The part file: also draw the temperature curves of its windowed blocks.
+    #[arg(long, value_name = "PART")]
+    pub part: Option<PathBuf>,
+    /// The plan for the temperature curves (default: DIR/plan.yaml).
+    #[arg(long, value_name = "PLAN")]
+    pub plan: Option<PathBuf>,
+}
+
+pub fn run(args: PlotArgs) -> anyhow::Result<ExitCode> {
+    let mut drew = 0;
+    let toolpath = args.dir.join("toolpath.yaml");
+    if toolpath.exists() {
+        let text = std::fs::read_to_string(&toolpath)
+            .with_context(|| format!("cannot read {}", toolpath.display()))?;
+        let tp: ToolpathFile = serde_yaml::from_str(&text)
+            .with_context(|| format!("{} is not a toolpath file", toolpath.display()))?;
+        let out = args.dir.join("toolpath.png");
+        plot::toolpath_png(&tp, &out)?;
+        println!("wrote {}", out.display());
+        drew += 1;
+    }
+    if let Some(part_path) = &args.part {
+        let part = read_part(part_path)?;
+        let plan_path = args
+            .plan
+            .clone()
+            .unwrap_or_else(|| args.dir.join("plan.yaml"));
+        let bytes = std::fs::read(&plan_path)
+            .with_context(|| format!("cannot read plan {}", plan_path.display()))?;
+        let is_json = plan_path.extension().is_some_and(|e| e == "json");
+        let plan = Plan::from_bytes(&bytes, is_json)
+            .with_context(|| format!("in plan {}", plan_path.display()))?;
+        let fragments = match plan.validate(&part, &WeldGraph::new(&part)) {
+            Ok(f) => f,
+            Err(invalid) => {
+                println!("INVALID: {invalid}");
+                return Ok(ExitCode::from(EXIT_NO));
+            }
+        };
+        let curves = plot::temperature_curves(&part, &fragments);
+        let out = args.dir.join("t85.png");
+        plot::t85_png(&part, &curves, &out)?;
+        println!("wrote {}", out.display());
+        drew += 1;
+    }
+    if drew == 0 {
+        bail!("nothing to draw: no {} and no --part", toolpath.display());
+    }
+    Ok(ExitCode::from(EXIT_OK))
+}

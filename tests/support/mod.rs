@@ -1,0 +1,122 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use waam::graph::WeldGraph;
+use waam::part::Part;
+use waam::plan::Plan;
+use waam::thermal::{self, ThermalModel};
+
+/// The repository root (where Cargo.toml is).
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A sample part bundled in config/parts.
+pub fn part_path(name: &str) -> PathBuf {
+    root().join("config/parts").join(format!("{name}.yaml"))
+}
+
+pub fn read_part(name: &str) -> Part {
+    Part::parse(&std::fs::read_to_string(part_path(name)).unwrap()).unwrap()
+}
+
+/// Runs the `waam` binary.
+pub fn waam(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_waam"))
+        .args(args)
+        .env("RUST_LOG", "warn")
+        .output()
+        .expect("the waam binary runs")
+}
+
+pub fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A new empty folder under the target dir, named after the test.
+pub fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Brute force, written independently of the planner: every valid plan of a part, by
+/// trying every block in every position, checked with the plan validator.
+pub fn brute_force_plans(part: &Part, k: usize) -> Vec<Vec<Vec<usize>>> {
+    let graph = WeldGraph::new(part);
+    let n = part.len();
+    let mut out = Vec::new();
+    let mut seq: Vec<Vec<usize>> = Vec::new();
+    let mut used = vec![false; n];
+    fn go(
+        part: &Part,
+        graph: &WeldGraph,
+        k: usize,
+        seq: &mut Vec<Vec<usize>>,
+        used: &mut Vec<bool>,
+        placed: usize,
+        out: &mut Vec<Vec<Vec<usize>>>,
+    ) {
+        let n = part.len();
+        if placed == n {
+            let plan = Plan::from_indices(part, seq);
+            if plan.validate(part, graph).is_ok() {
+                out.push(seq.clone());
+            }
+            return;
+        }
+        for b in 0..n {
+            if used[b] {
+                continue;
+            }
+            // Continue the current fragment, or begin a new one.
+            for new in [false, true] {
+                if !new && seq.is_empty() {
+                    continue;
+                }
+                if new && seq.len() == k {
+                    continue;
+                }
+                if !new {
+                    let last = *seq.last().unwrap().last().unwrap();
+                    if !graph.has_edge(last, b) {
+                        continue;
+                    }
+                }
+                used[b] = true;
+                if new {
+                    seq.push(vec![b]);
+                } else {
+                    seq.last_mut().unwrap().push(b);
+                }
+                go(part, graph, k, seq, used, placed + 1, out);
+                if new {
+                    seq.pop();
+                } else {
+                    seq.last_mut().unwrap().pop();
+                }
+                used[b] = false;
+            }
+        }
+    }
+    go(part, &graph, k, &mut seq, &mut used, 0, &mut out);
+    out
+}
+
+/// Whether a plan keeps every window (full simulation, no shortcuts).
+pub fn is_feasible(part: &Part, fragments: &[Vec<usize>]) -> bool {
+    let graph = WeldGraph::new(part);
+    let model = ThermalModel::new(part, &graph);
+    thermal::simulate(&model, fragments)
+        .unwrap()
+        .violation
+        .is_none()
+}
