@@ -16,6 +16,7 @@ pub mod part_writer;
 pub mod plan;
 pub mod planner;
 pub mod plot;
+pub mod replay;
 pub mod robot;
 pub mod thermal;
 pub mod toolpath;

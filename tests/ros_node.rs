@@ -67,7 +67,9 @@ fn run_script(script: &str, args: &[&str]) -> Option<Output> {
     let script_path = repo().join("tests/ros").join(script);
     let mut command = if have_netns() {
         let mut c = Command::new("unshare");
-        c.arg("-n").arg(repo().join("tests/ros/netns.sh")).arg(&python);
+        c.arg("-n")
+            .arg(repo().join("tests/ros/netns.sh"))
+            .arg(&python);
         c
     } else {
         eprintln!("note: no network namespace (not root?): using loopback-only discovery");

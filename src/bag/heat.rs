@@ -117,3 +117,25 @@ pub fn heat_frames<E>(
     let _ = sim.finish();
     emit(frame(&sim))
 }
+
+/// Records the heat frames of a plan on [`super::topics::HEAT`], each at its simulated time
+/// after `start` (the build's own time line: Foxglove plays it back at any speed). Returns
+/// the number of frames.
+pub fn record_heat(
+    recorder: &super::Recorder,
+    part: &Part,
+    model: &ThermalModel,
+    fragments: &[Vec<usize>],
+    frame_id: &str,
+    start: Time,
+    options: HeatOptions,
+) -> Result<usize, super::BagError> {
+    let mut frames = 0;
+    let qos = super::Qos::reliable(10);
+    heat_frames(part, model, fragments, frame_id, start, options, |frame| {
+        frames += 1;
+        let stamp = frame.cloud.header.stamp;
+        recorder.record_at(super::topics::HEAT, &qos, stamp, &frame.cloud)
+    })?;
+    Ok(frames)
+}

@@ -18,6 +18,7 @@ pub mod metadata;
 pub mod qos;
 pub mod reader;
 pub mod recorder;
+pub mod sample;
 pub mod writer;
 
 pub use qos::Qos;

@@ -318,3 +318,39 @@ fn heat_frames_follow_the_build() {
     // Strides of three blocks (3, 6), the last block (8), and the cooldown.
     assert_eq!(n, 4);
 }
+
+#[test]
+fn recorded_heat_plays_on_the_build_time_line() {
+    let part = Part::parse(crate::bag::sample::PART_TEXT).unwrap();
+    let graph = WeldGraph::new(&part);
+    let model = ThermalModel::new(&part, &graph);
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("heat");
+    let recorder = Recorder::create(&dir).unwrap();
+    let start = Time::from_nanos(T0 as i64);
+    let order: Vec<usize> = (0..part.len()).collect();
+    let n = super::heat::record_heat(
+        &recorder,
+        &part,
+        &model,
+        &[order],
+        "part",
+        start,
+        HeatOptions::default(),
+    )
+    .unwrap();
+    recorder.finish().unwrap();
+    let bag = Bag::open(&dir).unwrap();
+    let clouds = bag
+        .decode_all::<crate::msgs::sensor_msgs::PointCloud2>()
+        .unwrap();
+    assert_eq!(clouds.len(), n);
+    assert!(n > part.len() / 2);
+    for pair in clouds.windows(2) {
+        assert!(pair[0].0 <= pair[1].0);
+        assert_eq!(pair[1].0 as i64, pair[1].2.header.stamp.to_nanos());
+    }
+    // One block time per deposit: the second frame is block_time_s after the first.
+    let gap = clouds[1].0 - clouds[0].0;
+    assert_eq!(gap, (part.thermal.block_time_s * 1e9).round() as u64);
+}

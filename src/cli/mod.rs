@@ -7,12 +7,14 @@ use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
 use waam::part::Part;
 
+pub mod bag;
 pub mod bench;
 pub mod check;
 pub mod motion;
+pub mod node;
 pub mod plan;
 pub mod plot;
-pub mod node;
+pub mod publish;
 pub mod voxelize;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
@@ -53,6 +55,7 @@ pub struct GlobalArgs {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    Bag(bag::BagArgs),
     Check(check::CheckArgs),
     Plan(plan::PlanArgs),
     Bench(bench::BenchArgs),
@@ -60,11 +63,13 @@ pub enum Command {
     Motion(motion::MotionArgs),
     Plot(plot::PlotArgs),
     Node(node::NodeArgs),
+    Publish(publish::PublishArgs),
 }
 
 /// Runs the chosen subcommand; its `ExitCode` carries the answer.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
+        Command::Bag(args) => bag::run(args),
         Command::Check(args) => check::run(args),
         Command::Plan(args) => plan::run(args, &cli.global),
         Command::Bench(args) => bench::run(args),
@@ -72,6 +77,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Motion(args) => motion::run(args),
         Command::Plot(args) => plot::run(args),
         Command::Node(args) => node::run(args),
+        Command::Publish(args) => publish::run(args),
     }
 }
 

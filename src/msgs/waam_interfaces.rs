@@ -16,6 +16,22 @@ pub struct Block {
     pub y: i32,
     pub z: i32,
 }
+impl Block {
+    /// From part grid coordinates; `None` when a coordinate does not fit in int32.
+    pub fn from_part(b: [i64; 3]) -> Option<Block> {
+        Some(Block {
+            x: i32::try_from(b[0]).ok()?,
+            y: i32::try_from(b[1]).ok()?,
+            z: i32::try_from(b[2]).ok()?,
+        })
+    }
+
+    /// As part grid coordinates.
+    pub fn to_part(self) -> [i64; 3] {
+        [self.x.into(), self.y.into(), self.z.into()]
+    }
+}
+
 ros_message!(
     Block,
     "waam_interfaces/msg/Block",
@@ -103,6 +119,16 @@ pub struct WeldPlan {
     pub worst_margin_s: f64,
     pub statistics: PlanStatistics,
 }
+impl WeldPlan {
+    /// The fragments as part grid coordinates.
+    pub fn part_fragments(&self) -> Vec<Vec<[i64; 3]>> {
+        self.fragments
+            .iter()
+            .map(|f| f.blocks.iter().map(|b| b.to_part()).collect())
+            .collect()
+    }
+}
+
 ros_message!(
     WeldPlan,
     "waam_interfaces/msg/WeldPlan",
@@ -134,8 +160,8 @@ ros_message!(
 
 impl PlanCandidate {
     pub const FEASIBLE: u8 = 0;
-    pub const TOO_SHORT: u8 = 1;
-    pub const TOO_LONG: u8 = 2;
-    pub const NOT_COOLED: u8 = 3;
-    pub const CYCLE: u8 = 4;
+    pub const VIOLATED: u8 = 1;
+    pub const TOO_SHORT: u8 = 2;
+    pub const TOO_LONG: u8 = 3;
+    pub const NOT_COOLED: u8 = 4;
 }

@@ -169,10 +169,7 @@ pub fn run_plan(
                 format!("part {job}: execution stopped: {e}"),
                 DiagnosticStatus::ERROR,
             );
-            outputs.log(
-                Level::Error,
-                &format!("part {job}: execution stopped: {e}"),
-            );
+            outputs.log(Level::Error, &format!("part {job}: execution stopped: {e}"));
         }
     }
     result
@@ -270,8 +267,7 @@ impl Controller for SimController {
         let Some(first) = goal.points.first() else {
             return Ok(());
         };
-        if self.joint_names != goal.joint_names || self.position.len() != first.positions.len()
-        {
+        if self.joint_names != goal.joint_names || self.position.len() != first.positions.len() {
             // First goal (or another robot): start at the goal's first point.
             self.joint_names = goal.joint_names.clone();
             self.position = first.positions.clone();
@@ -290,7 +286,10 @@ impl Controller for SimController {
             }
             let t = (started.elapsed().as_secs_f64() * self.time_scale).min(end);
             // The segment holding t: from the previous point (or the start) to point k.
-            let k = times.iter().position(|&tk| tk >= t).unwrap_or(times.len() - 1);
+            let k = times
+                .iter()
+                .position(|&tk| tk >= t)
+                .unwrap_or(times.len() - 1);
             let (t_a, a) = if k == 0 {
                 (0.0, &start_pos)
             } else {

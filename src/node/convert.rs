@@ -121,8 +121,8 @@ pub fn weld_plan(plan: &PlanSummary, header: &Header) -> WeldPlan {
             }
             _ => 0.0,
         };
-        let on_block = p.at_point
-            && matches!(p.kind, PoseKind::ArcOn | PoseKind::Weld | PoseKind::ArcOff);
+        let on_block =
+            p.at_point && matches!(p.kind, PoseKind::ArcOn | PoseKind::Weld | PoseKind::ArcOff);
         points.push(WeldPoint {
             pose: pose_msg(&p.pose),
             time_from_start: Duration::from_secs_f64(p.time_s),

@@ -121,33 +121,6 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> anyhow::Re
         let _ = worker_events.send(Event::Worker(e));
     });
 
-    // Execution: the simulated controller on a dry run, FollowJointTrajectory when enabled.
-    let controller: Option<Box<dyn Controller>> = if options.dry_run {
-        Some(Box::new(SimController::new(
-            Arc::clone(&outputs),
-            params.dry_run.time_scale,
-            params.dry_run.rate_hz,
-        )))
-    } else if params.execution.enabled {
-        Some(Box::new(fjt::FjtController::new(
-            &mut node,
-            &params.execution,
-        )?))
-    } else {
-        None
-    };
-    let executor = controller.map(|c| {
-        let (tx, rx) = channel();
-        spawn_executor(
-            c,
-            Arc::clone(&outputs),
-            params.execution.max_points_per_goal as usize,
-            params.execution.lead_in_s,
-            rx,
-        );
-        tx
-    });
-
     let (once, linger) = match mode {
         Mode::Serve => {
             let inputs = Inputs::new(&mut node, &params.topics)?;
@@ -166,6 +139,36 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> anyhow::Re
             (true, linger)
         }
     };
+    // The node is shared from here on: the FollowJointTrajectory client waits on it.
+    let node = Arc::new(std::sync::Mutex::new(node));
+
+    // Execution: the simulated controller on a dry run, FollowJointTrajectory when enabled.
+    let controller: Option<Box<dyn Controller>> = if options.dry_run {
+        Some(Box::new(SimController::new(
+            Arc::clone(&outputs),
+            params.dry_run.time_scale,
+            params.dry_run.rate_hz,
+        )))
+    } else if params.execution.enabled {
+        Some(Box::new(fjt::FjtController::new(
+            Arc::clone(&node),
+            &params.execution,
+        )?))
+    } else {
+        None
+    };
+    let executor = controller.map(|c| {
+        let (tx, rx) = channel();
+        spawn_executor(
+            c,
+            Arc::clone(&outputs),
+            params.execution.max_points_per_goal as usize,
+            params.execution.lead_in_s,
+            rx,
+        );
+        tx
+    });
+
     drop(events);
 
     let mut state = LoopState {
@@ -220,8 +223,8 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> anyhow::Re
                                     state.success &= result.is_ok();
                                     break;
                                 }
-                                Err(RecvTimeoutError::Timeout)
-                                    if !stop.load(Ordering::Relaxed) => {}
+                                Err(RecvTimeoutError::Timeout) if !stop.load(Ordering::Relaxed) => {
+                                }
                                 _ => {
                                     state.success = false;
                                     break;
@@ -251,7 +254,9 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> anyhow::Re
             Err(e) => tracing::warn!("finishing the recording: {e}"),
         }
     }
-    node.stop_spinner();
+    if let Ok(node) = node.try_lock() {
+        node.stop_spinner();
+    }
     Ok(state.success)
 }
 
@@ -417,13 +422,14 @@ fn spawn_inputs(inputs: Inputs, events: Sender<Event>, outputs: Arc<Outputs>) {
             } = inputs;
             let mut mesh_count = 0u64;
             let recorder = outputs.recorder.clone();
-            let record = |topic: &str, msg: &dyn Fn(&Recorder) -> Result<(), crate::bag::BagError>| {
-                if let Some(r) = &recorder {
-                    if let Err(e) = msg(r) {
-                        tracing::warn!("recording {topic}: {e}");
+            let record =
+                |topic: &str, msg: &dyn Fn(&Recorder) -> Result<(), crate::bag::BagError>| {
+                    if let Some(r) = &recorder {
+                        if let Err(e) = msg(r) {
+                            tracing::warn!("recording {topic}: {e}");
+                        }
                     }
-                }
-            };
+                };
             let parts = part.async_stream().map(|r| r.map(Incoming::Part));
             let meshes = mesh.async_stream().map(|r| r.map(Incoming::Mesh));
             let mut merged = futures::stream::select(Box::pin(parts), Box::pin(meshes));
@@ -449,7 +455,8 @@ fn spawn_inputs(inputs: Inputs, events: Sender<Event>, outputs: Arc<Outputs>) {
                         }
                         Err(e) => {
                             // An undecodable message (wrong type on the topic, bad CDR).
-                            outputs.log(Level::Error, &format!("cannot read an input message: {e}"));
+                            outputs
+                                .log(Level::Error, &format!("cannot read an input message: {e}"));
                             outputs.status.publish(
                                 &Status::Error {
                                     job: None,

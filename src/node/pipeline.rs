@@ -101,9 +101,8 @@ impl PlanningPipeline {
         let settings = if params.process_file.is_empty() {
             ProcessSettings::default()
         } else {
-            let text = std::fs::read_to_string(&params.process_file).map_err(|e| {
-                format!("process_file: cannot read {}: {e}", params.process_file)
-            })?;
+            let text = std::fs::read_to_string(&params.process_file)
+                .map_err(|e| format!("process_file: cannot read {}: {e}", params.process_file))?;
             ProcessSettings::from_yaml(&text)
                 .map_err(|e| format!("process_file {}: {e}", params.process_file))?
         };
@@ -247,4 +246,66 @@ impl Pipeline for PlanningPipeline {
         );
         self.motion(part, found)
     }
+}
+
+/// Unwound out of the SAT planner's progress callback when a job is cancelled: the planner
+/// takes no cancel flag, and its progress callback (after every candidate) is the one place
+/// a job can step in. The worker catches it; nothing of the run is kept.
+pub struct Cancelled;
+
+/// The project's SAT planner ([`crate::planner::plan`]) as the node's planner: best plan by
+/// the documented objective within the time limit.
+pub fn sat_planner() -> Arc<PlanFn> {
+    Arc::new(|part: &Part, timeout_s: f64, ctx: &JobContext| {
+        let options = crate::planner::Options {
+            timeout: (timeout_s > 0.0).then(|| std::time::Duration::from_secs_f64(timeout_s)),
+            ..crate::planner::Options::default()
+        };
+        let mut last = std::time::Instant::now();
+        let mut progress = |s: &crate::planner::Stats| {
+            if ctx.cancel.is_cancelled() {
+                std::panic::resume_unwind(Box::new(Cancelled));
+            }
+            if last.elapsed() >= std::time::Duration::from_millis(200) {
+                last = std::time::Instant::now();
+                let fraction = (timeout_s > 0.0).then(|| (s.total_s / timeout_s).min(1.0));
+                ctx.progress(
+                    "planning",
+                    fraction,
+                    format!("{} candidates, {} feasible", s.candidates, s.feasible),
+                );
+            }
+        };
+        let report = crate::planner::plan(part, &options, &mut progress)
+            .map_err(|e| format!("planning failed: {e}"))?;
+        let s = &report.stats;
+        let statistics = PlanStatistics {
+            candidates: s.candidates,
+            feasible: s.feasible,
+            optimal: report.proven,
+            time_to_first_feasible_s: s.first_feasible_s.unwrap_or(0.0),
+            total_time_s: s.total_s,
+            sat_time_s: s.sat_s,
+            acyclicity_time_s: s.acyclicity_s,
+            simulation_time_s: s.simulator_s,
+            learned_clauses: s.learned_clauses.min(u32::MAX as u64) as u32,
+            learned_clause_min: s.clause_len_min.unwrap_or(0) as u32,
+            learned_clause_max: s.clause_len_max.unwrap_or(0) as u32,
+            learned_clause_mean: s.clause_len_mean.unwrap_or(0.0),
+        };
+        match report.best {
+            Some(found) => Ok(PlannerOutput {
+                fragments: found.fragments,
+                statistics,
+                worst_margin_s: found.margin,
+            }),
+            None => Err(match report.no_plan {
+                Some(reason) => format!("no plan for part {}: {reason}", part.name),
+                None => format!(
+                    "no plan for part {} found within the planner timeout of {timeout_s} s",
+                    part.name
+                ),
+            }),
+        }
+    })
 }

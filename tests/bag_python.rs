@@ -1,0 +1,97 @@
+//! Recordings read by the Python tools cells use: `mcap` + `mcap-ros2-support` decode every
+//! message from the schemas in the file, `rosbags` opens the directory as a rosbag2 bag with
+//! MCAP storage. The venv comes from `scripts/py-venv.sh`; the test script exports its python
+//! as `WAAM_BAG_PYTHON`.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use serde_json::Value;
+
+mod common;
+
+/// The venv's python, or `None` when the caller asked to skip (`WAAM_SKIP_PY=1`).
+fn python() -> Option<PathBuf> {
+    if let Some(p) = std::env::var_os("WAAM_BAG_PYTHON") {
+        return Some(PathBuf::from(p));
+    }
+    if std::env::var("WAAM_SKIP_PY").as_deref() == Ok("1") {
+        eprintln!("WAAM_SKIP_PY=1: skipping the Python reader test");
+        return None;
+    }
+    panic!(
+        "WAAM_BAG_PYTHON is not set. Run the tests through scripts/test.sh, or \
+         `export WAAM_BAG_PYTHON=$(scripts/py-venv.sh | tail -1)` first \
+         (or set WAAM_SKIP_PY=1 to skip the Python reader tests)."
+    );
+}
+
+fn script(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/py")
+        .join(name)
+}
+
+fn run_python(python: &Path, args: &[&std::ffi::OsStr]) -> Value {
+    let out = Command::new(python).args(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{} failed:\n{}\n{}",
+        args[0].to_string_lossy(),
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+#[test]
+fn python_readers_decode_every_message_of_a_session() {
+    let Some(python) = python() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("session");
+    let out = Command::new(env!("CARGO_BIN_EXE_waam"))
+        .args(["bag", "sample", "--rounds", "3"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let expected = tmp.path().join("expected.json");
+    std::fs::write(&expected, &out.stdout).unwrap();
+    let report = run_python(
+        &python,
+        &[
+            script("check_session.py").as_os_str(),
+            dir.as_os_str(),
+            expected.as_os_str(),
+        ],
+    );
+    assert_eq!(report["problems"], Value::Array(vec![]));
+    assert_eq!(report["mcap"]["/waam_planner/plan/weld_plan"], 3);
+    assert_eq!(report["rosbags"]["/waam_planner/planner/heat"], 3 * 4);
+}
+
+#[test]
+fn python_mcap_reads_a_killed_recording_like_we_do() {
+    let Some(python) = python() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("killed");
+    let flushed = common::kill_a_recording(&dir, 300);
+    let file = dir.join("killed_0.mcap");
+    let ours = waam::bag::Bag::open(&file).unwrap();
+    assert!(ours.truncated.is_some());
+    let theirs = run_python(
+        &python,
+        &[script("read_truncated.py").as_os_str(), file.as_os_str()],
+    );
+    let n = theirs["messages"].as_u64().unwrap();
+    assert!(n >= flushed, "python read {n} of {flushed} flushed");
+    assert_eq!(n, ours.messages.len() as u64, "{theirs}");
+    assert_eq!(
+        theirs["last_log_time"].as_u64(),
+        ours.messages.last().map(|m| m.log_time)
+    );
+}
