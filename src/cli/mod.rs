@@ -100,8 +100,9 @@ pub fn init_logging(global: &GlobalArgs) {
         (false, 1) => "debug",
         (false, _) => "trace",
     };
-    // RustDDS logs every discovery event at info and every large datagram at warn.
-    let default = format!("{default},rustdds=error,ros2_client=warn");
+    // RustDDS logs every discovery event at info and every large datagram at warn;
+    // ros2-client echoes each /rosout record the node already logged itself.
+    let default = format!("{default},rustdds=error,ros2_client=warn,ros2_client::rosout=off");
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
     tracing_subscriber::fmt()

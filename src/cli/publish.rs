@@ -41,6 +41,10 @@ pub struct PublishArgs {
     /// (execution.controller_action), even if execution.enabled is false.
     #[arg(long, conflicts_with = "dry_run")]
     pub execute: bool,
+    /// Before planning, wait up to this many seconds for a subscriber on the joint trajectory
+    /// topic (so that a viewer started at the same time sees the whole run).
+    #[arg(long, value_name = "SECONDS", default_value_t = 0.0)]
+    pub wait_for_subscriber: f64,
     /// Seconds to keep serving the latched outputs before exiting.
     #[arg(long, value_name = "SECONDS", default_value_t = 2.0)]
     pub linger: f64,
@@ -60,11 +64,15 @@ pub fn run(args: PublishArgs) -> anyhow::Result<ExitCode> {
         Some(path) => given_plan(&text, path)?,
         None => sat_planner(),
     };
-    anyhow::ensure!(
-        args.linger.is_finite() && args.linger >= 0.0,
-        "--linger: expected seconds >= 0, got {}",
-        args.linger
-    );
+    for (name, v) in [
+        ("--linger", args.linger),
+        ("--wait-for-subscriber", args.wait_for_subscriber),
+    ] {
+        anyhow::ensure!(
+            v.is_finite() && v >= 0.0,
+            "{name}: expected seconds >= 0, got {v}"
+        );
+    }
     let options = RunOptions {
         params,
         dry_run: args.dry_run,
@@ -73,6 +81,7 @@ pub fn run(args: PublishArgs) -> anyhow::Result<ExitCode> {
     };
     let mode = Mode::Once {
         input: PartInput::Document(text),
+        wait_for_subscriber: Duration::from_secs_f64(args.wait_for_subscriber),
         linger: Duration::from_secs_f64(args.linger),
     };
     let ok = waam::node::run(options, mode, stop_on_signal()?)?;

@@ -68,6 +68,11 @@ impl<M: RosMessage + Clone> Output<M> {
         })
     }
 
+    /// How many subscriptions are matched to this topic.
+    pub fn subscribers(&self, node: &Node) -> usize {
+        self.publisher.get_subscription_count(node)
+    }
+
     /// Records (when recording) and publishes `message`; a failure is logged, not fatal.
     pub fn publish(&self, message: &M, recorder: Option<&Recorder>) {
         if let Some(r) = recorder {

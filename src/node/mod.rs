@@ -57,6 +57,8 @@ pub enum Mode {
     Serve,
     Once {
         input: PartInput,
+        /// First wait up to this long for a subscriber on the joint trajectory topic.
+        wait_for_subscriber: Duration,
         /// Keep serving the latched outputs this long before exiting.
         linger: Duration,
     },
@@ -64,7 +66,7 @@ pub enum Mode {
 
 enum Event {
     Input(PartInput),
-    Worker(WorkerEvent<Planned>),
+    Worker(WorkerEvent<Box<Planned>>),
 }
 
 /// Runs the node until `stop` is raised (or, for [`Mode::Once`], the part is done). Returns
@@ -134,7 +136,18 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> anyhow::Re
             spawn_inputs(inputs, events.clone(), Arc::clone(&outputs));
             (false, Duration::ZERO)
         }
-        Mode::Once { input, linger } => {
+        Mode::Once {
+            input,
+            wait_for_subscriber,
+            linger,
+        } => {
+            let until = Instant::now() + wait_for_subscriber;
+            while outputs.joint_trajectory.subscribers(&node) == 0
+                && Instant::now() < until
+                && !stop.load(Ordering::Relaxed)
+            {
+                std::thread::sleep(Duration::from_millis(20));
+            }
             let _ = events.send(Event::Input(input));
             (true, linger)
         }
@@ -254,9 +267,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> anyhow::Re
             Err(e) => tracing::warn!("finishing the recording: {e}"),
         }
     }
-    if let Ok(node) = node.try_lock() {
-        node.stop_spinner();
-    }
+    drop(node); // stops the spinner
     Ok(state.success)
 }
 
@@ -301,7 +312,7 @@ impl LoopState {
     fn finished(
         &mut self,
         job: u64,
-        result: Result<Planned, String>,
+        result: Result<Box<Planned>, String>,
     ) -> Option<std::sync::mpsc::Receiver<Result<(), String>>> {
         self.last_progress = None;
         let planned = match result {
@@ -350,7 +361,7 @@ impl LoopState {
         let (done_tx, done_rx) = channel();
         let _ = executor.send(ExecCommand::Run {
             job,
-            planned: Arc::new(planned),
+            planned: Arc::from(planned),
             cancel,
             done: Some(done_tx),
         });

@@ -214,9 +214,9 @@ pub fn check_plan(part: &Part, fragments: &[Vec<usize>]) -> Result<(), String> {
 
 impl Pipeline for PlanningPipeline {
     type Input = PartInput;
-    type Output = Planned;
+    type Output = Box<Planned>;
 
-    fn run(&self, input: PartInput, ctx: &JobContext) -> Result<Planned, String> {
+    fn run(&self, input: PartInput, ctx: &JobContext) -> Result<Box<Planned>, String> {
         let cancelled = || ctx.cancel.is_cancelled();
         ctx.progress("reading part", None, input.describe());
         let part = self.part_of(input)?;
@@ -244,7 +244,7 @@ impl Pipeline for PlanningPipeline {
             None,
             format!("{} fragment(s)", found.fragments.len()),
         );
-        self.motion(part, found)
+        self.motion(part, found).map(Box::new)
     }
 }
 

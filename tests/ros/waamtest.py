@@ -30,6 +30,11 @@ LATCHED_QOS = QoSProfile(
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
+def level(status):
+    """A DiagnosticStatus level as an int (rclpy gives `byte` fields as bytes)."""
+    return status.level if isinstance(status.level, int) else status.level[0]
+
+
 class Failure(Exception):
     pass
 
@@ -45,7 +50,6 @@ class WaamProcess:
     def __init__(self, *args):
         self.log = tempfile.NamedTemporaryFile(prefix="waam-", suffix=".log", delete=False)
         env = dict(os.environ)
-        env.setdefault("RUST_LOG", "info,rustdds=error,ros2_client=warn")
         self.args = [os.environ["WAAM_BIN"], *args]
         self.proc = subprocess.Popen(
             self.args, stdout=self.log, stderr=subprocess.STDOUT, env=env, cwd=REPO
@@ -98,6 +102,11 @@ class Peer:
             rclpy.spin_once(self.node, timeout_sec=0.1)
         if not condition():
             raise Failure(f"timed out after {timeout} s waiting for {what}")
+
+    def spin_for(self, seconds):
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            rclpy.spin_once(self.node, timeout_sec=0.05)
 
     def wait_for_subscriber(self, publisher, timeout=30):
         self.spin_until(
