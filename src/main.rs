@@ -10,6 +10,7 @@ use std::process::ExitCode;
 use clap::Parser;
 
 fn main() -> ExitCode {
+    restore_sigpipe();
     let args = cli::Cli::parse();
     cli::init_logging(&args.global);
     match cli::run(args) {
@@ -18,5 +19,15 @@ fn main() -> ExitCode {
             eprintln!("error: {err:#}");
             ExitCode::from(cli::EXIT_BAD_INPUT)
         }
+    }
+}
+
+/// `waam check ... | head` should end quietly like any Unix tool, not panic on a closed
+/// pipe: Rust ignores SIGPIPE by default, so put the default action back.
+fn restore_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: called first thing in main, before any thread exists; SIG_DFL is a valid action.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }

@@ -8,6 +8,8 @@
 use std::collections::HashMap;
 use std::fmt;
 
+use rustc_hash::FxHashMap;
+
 use serde_yaml::Value;
 use thiserror::Error;
 
@@ -58,7 +60,8 @@ pub struct Part {
     /// k: the most weld paths (arc starts) a plan may use.
     pub max_fragments: usize,
     blocks: Vec<Block>,
-    index: HashMap<Block, usize>,
+    // Fx, not SipHash: the weld graph looks up six neighbours of every block.
+    index: FxHashMap<Block, usize>,
     /// (block index, window), sorted by block index; one window per block.
     windows: Vec<(usize, Window)>,
     pub thermal: ThermalParams,

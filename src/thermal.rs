@@ -21,6 +21,8 @@ use crate::part::{finite, Block, BlockDisplay, Part, Window};
 pub const HOT_C: f64 = 800.0;
 /// Below this a block has finished its t8/5 cooling, °C.
 pub const WARM_C: f64 = 500.0;
+/// The most Euler steps one phase (a block, a transit, the cooldown) may take.
+pub const MAX_STEPS: u64 = 1_000_000_000;
 /// Tolerance of every t8/5 comparison, seconds.
 pub const TOLERANCE_S: f64 = 1e-9;
 
@@ -112,6 +114,21 @@ impl ThermalParams {
                 return Err(bad("must be >= 0"));
             }
             *slot = x;
+        }
+        // The spec sets no bound, but a step count beyond a billion is a typo, not a
+        // simulation anyone can wait for: name the key rather than run for ever.
+        let dt = p.dt();
+        for (key, seconds) in [
+            ("transit_time_s", p.transit_time_s),
+            ("max_cooldown_s", p.max_cooldown_s),
+            ("block_time_s", p.block_time_s),
+        ] {
+            if seconds / dt > MAX_STEPS as f64 {
+                return Err(format!(
+                    "thermal.{key}: {seconds} s is more than {MAX_STEPS} Euler steps of \
+                     dt = {dt} s (block_time_s / substeps); the simulation would not end"
+                ));
+            }
         }
         Ok(p)
     }
@@ -272,7 +289,7 @@ pub struct Snapshot {
     fragments: usize,
     steps: u64,
     temps: Vec<f64>,
-    counts: Vec<u32>,
+    counts: Vec<u64>,
 }
 
 impl Snapshot {
@@ -303,7 +320,7 @@ pub struct Simulation<'m> {
     w_lo: Vec<f64>,
     w_hi: Vec<f64>,
     w_block: Vec<u32>,
-    w_count: Vec<u32>,
+    w_count: Vec<u64>,
     crossings: Option<Vec<Crossing>>,
 }
 

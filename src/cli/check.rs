@@ -10,7 +10,7 @@ use waam::part::BlockDisplay;
 use waam::plan::Plan;
 use waam::thermal::{self, ThermalModel};
 
-use super::{read_part, EXIT_NO, EXIT_OK};
+use super::{EXIT_NO, EXIT_OK};
 
 /// Check a plan against a part: validity rules first, then the thermal t8/5 windows.
 ///
@@ -19,8 +19,10 @@ use super::{read_part, EXIT_NO, EXIT_OK};
 /// Exit code 0: valid and feasible; 1: invalid or infeasible; 2: bad input.
 #[derive(Debug, clap::Args)]
 pub struct CheckArgs {
-    /// The part file (YAML, shared part format).
+    /// The part file (YAML, shared part format), or an STL mesh with --pitch.
     pub part: PathBuf,
+    #[command(flatten, next_help_heading = "Mesh input (PART is an .stl file)")]
+    pub mesh: super::voxelize::MeshArgs,
     /// The plan file (YAML, or JSON when it ends in .json or starts with `{`).
     pub plan: PathBuf,
     /// Print one JSON object instead of text.
@@ -29,7 +31,7 @@ pub struct CheckArgs {
 }
 
 pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
-    let part = read_part(&args.part)?;
+    let part = args.mesh.read_part_or_mesh(&args.part)?;
     let bytes = std::fs::read(&args.plan)
         .with_context(|| format!("cannot read plan {}", args.plan.display()))?;
     let is_json = args.plan.extension().is_some_and(|e| e == "json");

@@ -12,7 +12,7 @@ use waam::part::Part;
 use waam::plan::Plan;
 use waam::planner::{self, Acyclicity, Options, Stats};
 
-use super::{read_part, GlobalArgs, EXIT_NO, EXIT_OK};
+use super::{GlobalArgs, EXIT_NO, EXIT_OK};
 
 /// The sample part planned when no PART is given (bundled into the binary).
 pub const DEFAULT_PART: &str = include_str!("../../config/parts/ex3-h-column.yaml");
@@ -26,8 +26,11 @@ pub const DEFAULT_PART: &str = include_str!("../../config/parts/ex3-h-column.yam
 /// none found before the timeout); 2: bad input.
 #[derive(Debug, clap::Args)]
 pub struct PlanArgs {
-    /// The part file (YAML, shared part format). Default: the bundled H-column sample.
+    /// The part file (YAML, shared part format), or an STL mesh with --pitch. Default: the
+    /// bundled H-column sample.
     pub part: Option<PathBuf>,
+    #[command(flatten, next_help_heading = "Mesh input (PART is an .stl file)")]
+    pub mesh: super::voxelize::MeshArgs,
     /// Write DIR/plan.yaml (and, with --all, DIR/feasible-plans.yaml).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
@@ -77,7 +80,7 @@ pub struct PlanArgs {
 
 pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     let part = match &args.part {
-        Some(path) => read_part(path)?,
+        Some(path) => args.mesh.read_part_or_mesh(path)?,
         None => Part::parse(DEFAULT_PART).context("the bundled sample part")?,
     };
     let opts = Options {
@@ -231,11 +234,8 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
             print_stats(&report.stats);
         }
     }
-    Ok(ExitCode::from(if report.best.is_some() {
-        EXIT_OK
-    } else {
-        EXIT_NO
-    }))
+    let ok = report.best.is_some() && motion_ok;
+    Ok(ExitCode::from(if ok { EXIT_OK } else { EXIT_NO }))
 }
 
 fn finite_or_null(x: f64) -> serde_json::Value {
@@ -271,6 +271,12 @@ fn print_stats(s: &Stats) {
             "learned clauses: {} of length {min} / {max} / {mean:.1} (min / max / mean), \
              {} decisions dropped by proof; encoding {} variables, {} clauses",
             s.learned_clauses, s.shortened, s.variables, s.clauses
+        );
+    }
+    if s.candidates > 0 {
+        eprintln!(
+            "simulation: {} deposits simulated, {} resumed from saved prefixes, {} cooldown steps",
+            s.deposits_simulated, s.deposits_reused, s.cooldown_steps
         );
     }
 }

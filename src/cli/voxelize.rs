@@ -108,7 +108,6 @@ impl MeshArgs {
 
     /// A part from a part file, or from an STL mesh (by its `.stl` extension): for the
     /// subcommands that take a PART argument (flatten `MeshArgs` into their arguments).
-    #[allow(dead_code)] // Not wired into `check` / `plan` yet: the lead's call.
     pub fn read_part_or_mesh(&self, path: &Path) -> anyhow::Result<Part> {
         let is_stl = path
             .extension()

@@ -71,7 +71,11 @@ pub struct Stats {
     pub lookahead_block_steps: u64,
     /// Decisions dropped from learned clauses by proof.
     pub shortened: u64,
-    pub simulated_steps: u64,
+    /// Deposits simulated for candidates, and deposits resumed from a saved prefix.
+    pub deposits_simulated: u64,
+    pub deposits_reused: u64,
+    /// Euler steps of cooldowns after complete candidates.
+    pub cooldown_steps: u64,
     pub learned_clauses: u64,
     pub clause_len_min: Option<usize>,
     pub clause_len_max: Option<usize>,

@@ -179,7 +179,9 @@ impl<'p> Search<'p> {
             at = snap.welded();
         }
         self.trail.truncate(at);
+        self.stats.deposits_reused += at as u64;
         for &(b, new) in &seq[at..] {
+            self.stats.deposits_simulated += 1;
             if let Err(v) = sim.deposit(b, new) {
                 return Ok(Some(v));
             }
@@ -188,8 +190,10 @@ impl<'p> Search<'p> {
                 self.snaps.push(sim.snapshot());
             }
         }
-        self.stats.simulated_steps += sim.steps();
-        Ok(sim.finish()?.err())
+        let before = sim.steps();
+        let end = sim.finish()?.err();
+        self.stats.cooldown_steps += sim.steps() - before;
+        Ok(end)
     }
 
     /// Learns the clause of the violating prefix, shortened where every alternative

@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# The whole test suite, from a fresh clone on a Debian machine that has Rust.
+# It installs what the tests need itself (Python environments for the cross-tool tests),
+# then checks formatting and lints, then runs every test. `.ci/run` calls this script.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+step() { printf '\n== %s\n' "$*"; }
+
+step "formatting (cargo fmt --check)"
+cargo fmt --all -- --check
+
+step "lints (cargo clippy -D warnings)"
+cargo clippy --all-targets -- -D warnings
+
+# The independent checker lives beside the repo (shared/); the project's own tests do not
+# need it, but where it is present the cross-check against it runs too.
+if [[ -d ../shared/tools/refcheck ]]; then
+    step "reference checker venv (shared/tools/refcheck)"
+    WAAM_REFCHECK_PY="$(scripts/refcheck.sh)"
+    export WAAM_REFCHECK_PY
+fi
+
+step "tests (cargo test)"
+cargo test --all-targets
