@@ -148,6 +148,14 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> anyhow::Re
             {
                 std::thread::sleep(Duration::from_millis(20));
             }
+            // Record the part as if it had arrived on ~/part, so a replay finds it.
+            if let (Some(r), PartInput::Document(text)) = (&recorder, &input) {
+                let topic = ros::resolve_topic(&params.topics.part, "/", NODE_NAME)?;
+                let msg = crate::msgs::std_msgs::String { data: text.clone() };
+                if let Err(e) = r.record(&topic.to_string(), &crate::bag::Qos::reliable(10), &msg) {
+                    tracing::warn!("recording {topic}: {e}");
+                }
+            }
             let _ = events.send(Event::Input(input));
             (true, linger)
         }
@@ -329,6 +337,9 @@ impl LoopState {
             }
         };
         publish_plan(&self.outputs, &planned);
+        if let Some(r) = &self.outputs.recorder {
+            record_heat(r, &planned);
+        }
         self.status(Status::Planned {
             job,
             values: plan_values(&planned),
@@ -395,6 +406,24 @@ pub fn publish_plan(outputs: &Outputs, planned: &Planned) {
     outputs
         .weld_plan
         .publish(&weld_plan(&summary, &header), rec);
+}
+
+/// Records the chosen plan's simulated block temperatures (PointCloud2 frames in the part
+/// frame `waam_part`, metres) so Foxglove can play the build's heat back.
+fn record_heat(recorder: &Recorder, planned: &Planned) {
+    let graph = crate::graph::WeldGraph::new(&planned.part);
+    let model = crate::thermal::ThermalModel::new(&planned.part, &graph);
+    if let Err(e) = crate::bag::heat::record_heat(
+        recorder,
+        &planned.part,
+        &model,
+        &planned.fragments,
+        "waam_part",
+        Time::now(),
+        crate::bag::heat::HeatOptions::default(),
+    ) {
+        tracing::warn!("recording the heat frames: {e}");
+    }
 }
 
 /// The statistics a "planned" status carries.
