@@ -178,17 +178,20 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> anyhow::Re
     } else {
         None
     };
-    let executor = controller.map(|c| {
-        let (tx, rx) = channel();
-        spawn_executor(
-            c,
-            Arc::clone(&outputs),
-            params.execution.max_points_per_goal as usize,
-            params.execution.lead_in_s,
-            rx,
-        );
-        tx
-    });
+    let (executor, executor_thread) = match controller {
+        Some(c) => {
+            let (tx, rx) = channel();
+            let thread = spawn_executor(
+                c,
+                Arc::clone(&outputs),
+                params.execution.max_points_per_goal as usize,
+                params.execution.lead_in_s,
+                rx,
+            );
+            (Some(tx), Some(thread))
+        }
+        None => (None, None),
+    };
 
     drop(events);
 
@@ -258,8 +261,13 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> anyhow::Re
             }
         }
     }
+    // Stop an execution in progress (the arc goes off) before the recording closes.
     if let Some(cancel) = state.execution.take() {
         cancel.cancel();
+    }
+    drop(state.executor.take());
+    if let Some(thread) = executor_thread {
+        let _ = thread.join();
     }
     worker.shutdown();
     if once && !stop.load(Ordering::Relaxed) {
