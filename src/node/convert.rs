@@ -416,3 +416,132 @@ impl Status {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::graph::WeldGraph;
+    use crate::node::controller::goal_msg;
+    use crate::node::pipeline::BUNDLED_URDF;
+    use crate::plan::Plan;
+    use crate::robot::{Robot, TcpChoice};
+    use crate::toolpath::ProcessSettings;
+
+    /// s1-wall with its checked sample plan, through the real toolpath and trajectory.
+    fn planned() -> (
+        Part,
+        Vec<Vec<usize>>,
+        Toolpath,
+        crate::trajectory::JointTrajectory,
+    ) {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let part =
+            Part::from_bytes(&std::fs::read(root.join("config/parts/s1-wall.yaml")).unwrap())
+                .unwrap();
+        let plan = Plan::from_bytes(
+            &std::fs::read(root.join("tests/data/plans/s1-wall.yaml")).unwrap(),
+            false,
+        )
+        .unwrap();
+        let fragments = plan.validate(&part, &WeldGraph::new(&part)).unwrap();
+        let settings = ProcessSettings::default();
+        let robot = Robot::from_urdf(
+            BUNDLED_URDF,
+            None,
+            TcpChoice {
+                explicit: None,
+                default: settings.tcp.isometry(),
+            },
+        )
+        .unwrap();
+        let (toolpath, trajectory) =
+            crate::motion::plan_motion(&part, &fragments, &settings, &robot).unwrap();
+        (part, fragments, toolpath, trajectory)
+    }
+
+    #[test]
+    fn messages_describe_the_plan() {
+        let (part, fragments, toolpath, trajectory) = planned();
+        let summary = PlanSummary {
+            part: &part,
+            fragments: &fragments,
+            toolpath: &toolpath,
+            weld_speed: 0.006,
+            transit_speed: 0.1,
+            worst_margin_s: 1.5,
+            statistics: PlanStatistics::default(),
+        };
+        let header = Header::new(Time::from_nanos(5_000_000_000), "base_link");
+        let plan = weld_plan(&summary, &header);
+        assert_eq!(plan.points.len(), toolpath.poses.len());
+        let blocks: usize = plan.fragments.iter().map(|f| f.blocks.len()).sum();
+        assert_eq!(blocks, part.len());
+        let count = |k: u8| plan.points.iter().filter(|p| p.kind == k).count();
+        assert_eq!(count(WeldPoint::ARC_ON), fragments.len());
+        assert_eq!(count(WeldPoint::ARC_OFF), fragments.len());
+        // Every block is deposited at some point with its index in its fragment.
+        for (f, fragment) in fragments.iter().enumerate() {
+            for b in 0..fragment.len() {
+                assert!(plan
+                    .points
+                    .iter()
+                    .any(|p| p.fragment == f as i32 && p.block == b as i32 && p.arc_on));
+            }
+        }
+
+        let poses = pose_array(&toolpath, &header);
+        let path = path(&toolpath, &header);
+        assert_eq!(poses.poses.len(), toolpath.poses.len());
+        assert_eq!(path.poses.len(), toolpath.poses.len());
+        assert!(path
+            .poses
+            .windows(2)
+            .all(|w| w[1].header.stamp >= w[0].header.stamp));
+        assert_eq!(path.poses[0].header.stamp.sec, 5);
+
+        let plate = ProcessSettings::default().plate.isometry();
+        let markers = markers(&summary, &plate, &header).markers;
+        assert_eq!(markers[0].action, Marker::DELETEALL);
+        let in_ns = |ns: &str| markers.iter().filter(|m| m.ns == ns).count();
+        assert_eq!(in_ns(ns::ARC_ON), fragments.len());
+        assert_eq!(in_ns(ns::ARC_OFF), fragments.len());
+        assert_eq!(in_ns(ns::LABELS), 2 * fragments.len());
+        assert_eq!(in_ns(ns::WELD), fragments.len());
+        let cubes = markers.iter().find(|m| m.ns == ns::BLOCKS).unwrap();
+        assert_eq!(cubes.points.len(), part.len());
+        assert_eq!(cubes.colors.len(), part.len());
+
+        // Goals are re-timed from where the robot stands and end at rest.
+        let first = goal_msg(&trajectory, 0..=3, 2.0);
+        assert!((first.points[0].time_from_start.as_secs_f64() - 2.0).abs() < 1e-6);
+        let next = goal_msg(&trajectory, 4..=6, 2.0);
+        let t3 = trajectory.points[3].time_from_start;
+        let t4 = trajectory.points[4].time_from_start;
+        assert!((next.points[0].time_from_start.as_secs_f64() - (t4 - t3)).abs() < 1e-6);
+        assert!(next.points[2].velocities.iter().all(|v| *v == 0.0));
+    }
+
+    #[test]
+    fn statuses_carry_state_level_and_reason() {
+        let s = Status::Received {
+            job: 3,
+            source: "mesh".into(),
+            cancelled: Some(2),
+        }
+        .to_msg(Time::default(), "");
+        let st = &s.status[0];
+        assert_eq!(st.level, DiagnosticStatus::OK);
+        assert!(st.message.contains("cancelled planning of part 2"));
+        assert!(st.values.contains(&KeyValue::new("cancelled_job", 2)));
+        let e = Status::Error {
+            job: Some(4),
+            reason: "bad part document: x".into(),
+        }
+        .to_msg(Time::default(), "");
+        assert_eq!(e.status[0].level, DiagnosticStatus::ERROR);
+        assert_eq!(e.status[0].message, "bad part document: x");
+        assert!(e.status[0]
+            .values
+            .contains(&KeyValue::new("state", "error")));
+    }
+}

@@ -309,3 +309,87 @@ pub fn sat_planner() -> Arc<PlanFn> {
         }
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pipeline() -> PlanningPipeline {
+        let planner: Arc<PlanFn> =
+            Arc::new(|_: &Part, _: f64, _: &JobContext| Err("no planner in this test".to_string()));
+        PlanningPipeline::from_params(&NodeParams::default(), planner).unwrap()
+    }
+
+    /// A closed box with one corner at the origin, in metres, as shape_msgs/Mesh carries it.
+    fn box_mesh(s: [f64; 3]) -> PartInput {
+        let vertices: Vec<[f64; 3]> = (0..8)
+            .map(|i| {
+                [
+                    (i & 1) as f64 * s[0],
+                    ((i >> 1) & 1) as f64 * s[1],
+                    ((i >> 2) & 1) as f64 * s[2],
+                ]
+            })
+            .collect();
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        let triangles = quads
+            .iter()
+            .flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]])
+            .collect();
+        PartInput::Mesh {
+            name: "box".into(),
+            vertices,
+            triangles,
+        }
+    }
+
+    #[test]
+    fn inputs_become_parts_or_say_what_is_wrong() {
+        let p = pipeline();
+        let part = p.part_of(box_mesh([0.024, 0.012, 0.005])).unwrap();
+        assert_eq!(part.len(), 16, "4 x 2 x 2 blocks of 6 x 6 x 2.5 mm");
+        assert_eq!(part.max_fragments, 2);
+        let err = p
+            .part_of(PartInput::Document("layers: [".into()))
+            .unwrap_err();
+        assert!(err.starts_with("bad part document"), "{err}");
+        let PartInput::Mesh {
+            name,
+            vertices,
+            mut triangles,
+        } = box_mesh([0.024, 0.012, 0.005])
+        else {
+            unreachable!()
+        };
+        triangles.pop(); // an open mesh
+        let err = p
+            .part_of(PartInput::Mesh {
+                name,
+                vertices,
+                triangles,
+            })
+            .unwrap_err();
+        assert!(err.starts_with("bad part mesh"), "{err}");
+    }
+
+    #[test]
+    fn unchecked_plans_are_refused() {
+        let part = Part::parse(
+            "name: w\nblock_mm: [6, 6, 2.5]\nmax_fragments: 2\nlayers:\n  - |\n    ##\n  - |\n    ##\n",
+        )
+        .unwrap();
+        assert!(check_plan(&part, &[vec![0, 1, 3, 2]]).is_ok());
+        // Welding under a block that stands (the top layer before the bottom one).
+        let err = check_plan(&part, &[vec![2, 3], vec![0, 1]]).unwrap_err();
+        assert!(err.contains("invalid"), "{err}");
+        // A block missing.
+        assert!(check_plan(&part, &[vec![0, 1, 3]]).is_err());
+    }
+}
