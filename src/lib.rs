@@ -11,6 +11,7 @@ pub mod layer;
 pub mod mesh;
 pub mod motion;
 pub mod msgs;
+pub mod node;
 pub mod part;
 pub mod part_writer;
 pub mod plan;

@@ -12,8 +12,10 @@ pub mod bench;
 pub mod check;
 pub mod layer;
 pub mod motion;
+pub mod node;
 pub mod plan;
 pub mod plot;
+pub mod publish;
 pub mod replay;
 pub mod voxelize;
 
@@ -65,6 +67,8 @@ pub enum Command {
     Voxelize(voxelize::VoxelizeArgs),
     Motion(motion::MotionArgs),
     Plot(plot::PlotArgs),
+    Node(node::NodeArgs),
+    Publish(publish::PublishArgs),
 }
 
 /// Runs the chosen subcommand; its `ExitCode` carries the answer.
@@ -79,6 +83,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Voxelize(args) => voxelize::run(args),
         Command::Motion(args) => motion::run(args),
         Command::Plot(args) => plot::run(args),
+        Command::Node(args) => node::run(args),
+        Command::Publish(args) => publish::run(args),
     }
 }
 
@@ -101,10 +107,13 @@ pub fn init_logging(global: &GlobalArgs) {
         (false, 1) => "debug",
         (false, _) => "trace",
     };
-    // varisat reports its search progress at info level: keep that to warnings.
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
-        tracing_subscriber::EnvFilter::new(format!("{default},varisat=warn,rustdds=warn"))
-    });
+    // varisat reports its search progress at info level; RustDDS logs every discovery event
+    // at info and every large datagram at warn; ros2-client echoes each /rosout record the
+    // node already logged itself.
+    let default =
+        format!("{default},varisat=warn,rustdds=error,ros2_client=warn,ros2_client::rosout=off");
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
     tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)

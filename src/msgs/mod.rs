@@ -10,6 +10,7 @@ use serde::de::DeserializeOwned;
 use serde::Serialize;
 
 pub mod builtin_interfaces;
+pub mod control_msgs;
 pub mod definition;
 pub mod diagnostic_msgs;
 pub mod dispatch;

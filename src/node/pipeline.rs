@@ -1,0 +1,395 @@
+//! What a planning job does: input → part → plan → check → toolpath → joint trajectory.
+//!
+//! Runs on a worker thread ([`super::worker`]). Every stage reports progress and checks the
+//! cancel flag between stages; any failure is a reason string for an ERROR status, never a
+//! panic, and a plan is handed on only after it passed validation and the thermal check.
+
+use std::sync::Arc;
+
+use nalgebra::Isometry3;
+
+use super::params::NodeParams;
+use super::worker::{JobContext, Pipeline};
+use crate::graph::WeldGraph;
+use crate::mesh::{voxelize_indexed, Units, VoxelizeOptions, WindowRule};
+use crate::motion::plan_motion;
+use crate::msgs::waam_interfaces::PlanStatistics;
+use crate::part::{BlockDisplay, Part, Window};
+use crate::plan::Plan;
+use crate::robot::{xyz_rpy, Robot, TcpChoice};
+use crate::thermal::{self, ThermalModel};
+use crate::toolpath::{ProcessSettings, Toolpath};
+use crate::trajectory::JointTrajectory;
+
+/// The robot the project ships, used when the parameters name no URDF.
+pub const BUNDLED_URDF: &str = include_str!("../../urdf/waam_robot.urdf");
+
+/// A part as it arrives: a part document (`~/part`) or a triangle mesh in metres
+/// (`~/part_mesh`).
+#[derive(Debug, Clone)]
+pub enum PartInput {
+    Document(String),
+    Mesh {
+        name: String,
+        vertices: Vec<[f64; 3]>,
+        triangles: Vec<[u32; 3]>,
+    },
+}
+
+impl PartInput {
+    /// A few words on what arrived, for status and logs.
+    pub fn describe(&self) -> String {
+        match self {
+            PartInput::Document(text) => format!("part document, {} bytes", text.len()),
+            PartInput::Mesh {
+                vertices,
+                triangles,
+                ..
+            } => format!(
+                "mesh, {} vertices, {} triangles",
+                vertices.len(),
+                triangles.len()
+            ),
+        }
+    }
+}
+
+/// What the planner answers for a part.
+#[derive(Debug, Clone)]
+pub struct PlannerOutput {
+    /// Fragments of block indices, in weld order.
+    pub fragments: Vec<Vec<usize>>,
+    pub statistics: PlanStatistics,
+    /// Smallest distance of a t8/5 value to its window bounds, s (+inf without windows).
+    pub worst_margin_s: f64,
+}
+
+/// The planner a pipeline calls: part, time limit (s, 0 = none), job context (cancel flag,
+/// progress). `Err` is the reason there is no plan.
+pub type PlanFn = dyn Fn(&Part, f64, &JobContext) -> Result<PlannerOutput, String> + Send + Sync;
+
+/// A planned part, checked and ready to publish and execute.
+#[derive(Debug, Clone)]
+pub struct Planned {
+    pub part: Part,
+    pub fragments: Vec<Vec<usize>>,
+    pub statistics: PlanStatistics,
+    pub worst_margin_s: f64,
+    pub toolpath: Toolpath,
+    pub trajectory: JointTrajectory,
+    /// The part frame in the robot's base link (m).
+    pub plate: Isometry3<f64>,
+    /// TCP speeds, m/s.
+    pub weld_speed: f64,
+    pub transit_speed: f64,
+}
+
+/// The node's planning pipeline: process settings, robot, mesh options and a planner.
+pub struct PlanningPipeline {
+    pub settings: ProcessSettings,
+    pub robot: Robot,
+    pub mesh_block_mm: [f64; 3],
+    pub mesh_window: Option<Window>,
+    pub default_max_fragments: usize,
+    pub timeout_s: f64,
+    pub planner: Arc<PlanFn>,
+}
+
+impl PlanningPipeline {
+    /// Loads the process settings and the robot the parameters name.
+    pub fn from_params(params: &NodeParams, planner: Arc<PlanFn>) -> Result<Self, String> {
+        let settings = if params.process_file.is_empty() {
+            ProcessSettings::default()
+        } else {
+            let text = std::fs::read_to_string(&params.process_file)
+                .map_err(|e| format!("process_file: cannot read {}: {e}", params.process_file))?;
+            ProcessSettings::from_yaml(&text)
+                .map_err(|e| format!("process_file {}: {e}", params.process_file))?
+        };
+        let explicit = match params.robot.tcp[..] {
+            [x, y, z, r, p, w] => Some(xyz_rpy(&[x, y, z], &[r, p, w])),
+            _ => None,
+        };
+        let choice = TcpChoice {
+            explicit,
+            default: settings.tcp.isometry(),
+        };
+        let tip = (!params.robot.tip_link.is_empty()).then_some(params.robot.tip_link.as_str());
+        let robot = if params.robot.urdf.is_empty() {
+            Robot::from_urdf(BUNDLED_URDF, tip, choice)
+                .map_err(|e| format!("bundled robot: {e}"))?
+        } else {
+            Robot::from_urdf_file(std::path::Path::new(&params.robot.urdf), tip, choice)
+                .map_err(|e| format!("robot.urdf {}: {e}", params.robot.urdf))?
+        };
+        let [a, b, c] = params.mesh.block_mm[..] else {
+            return Err("mesh.block_mm: expected three lengths".into());
+        };
+        Ok(PlanningPipeline {
+            settings,
+            robot,
+            mesh_block_mm: [a, b, c],
+            mesh_window: match params.mesh.t85_window_s[..] {
+                [min_s, max_s] => Some(Window { min_s, max_s }),
+                _ => None,
+            },
+            default_max_fragments: params.planner.default_max_fragments.max(1) as usize,
+            timeout_s: params.planner.timeout_s,
+            planner,
+        })
+    }
+
+    /// Turns the input into a part (reading the document or voxelizing the mesh).
+    pub fn part_of(&self, input: PartInput) -> Result<Part, String> {
+        match input {
+            PartInput::Document(text) => {
+                let part = Part::parse(&text).map_err(|e| format!("bad part document: {e}"))?;
+                for w in &part.warnings {
+                    tracing::warn!("part {}: {w}", part.name);
+                }
+                Ok(part)
+            }
+            PartInput::Mesh {
+                name,
+                vertices,
+                triangles,
+            } => {
+                let mut options = VoxelizeOptions::new(name, self.mesh_block_mm);
+                options.max_fragments = self.default_max_fragments;
+                options.windows = self
+                    .mesh_window
+                    .map(WindowRule::everywhere)
+                    .into_iter()
+                    .collect();
+                let voxelized = voxelize_indexed(&vertices, &triangles, Units::M, &options)
+                    .map_err(|e| format!("bad part mesh: {e}"))?;
+                for w in &voxelized.warnings {
+                    tracing::warn!("part mesh: {w}");
+                }
+                Ok(voxelized.part)
+            }
+        }
+    }
+
+    /// Plans motion for checked fragments of `part` and assembles the result.
+    pub fn motion(&self, part: Part, found: PlannerOutput) -> Result<Planned, String> {
+        let (toolpath, trajectory) =
+            plan_motion(&part, &found.fragments, &self.settings, &self.robot)
+                .map_err(|e| format!("no robot motion for the plan: {e}"))?;
+        let weld_speed = match self.settings.weld_speed_mm_s {
+            Some(v) => v / 1000.0,
+            None => part.block_mm[0] / 1000.0 / part.thermal.block_time_s,
+        };
+        Ok(Planned {
+            plate: self.settings.plate.isometry(),
+            weld_speed,
+            transit_speed: self.settings.transit_speed_mm_s / 1000.0,
+            part,
+            fragments: found.fragments,
+            statistics: found.statistics,
+            worst_margin_s: found.worst_margin_s,
+            toolpath,
+            trajectory,
+        })
+    }
+}
+
+/// Checks a plan before anything is published: the plan rules, then every t8/5 window.
+pub fn check_plan(part: &Part, fragments: &[Vec<usize>]) -> Result<(), String> {
+    let graph = WeldGraph::new(part);
+    Plan::from_indices(part, fragments)
+        .validate(part, &graph)
+        .map_err(|e| format!("the planner's plan is invalid: {e}"))?;
+    let model = ThermalModel::new(part, &graph);
+    let outcome = thermal::simulate(&model, fragments)
+        .map_err(|e| format!("the planner's plan cannot be simulated: {e}"))?;
+    if let Some(v) = outcome.violation {
+        return Err(format!(
+            "the planner's plan breaks the t8/5 window of block {}",
+            BlockDisplay(part.block(v.block))
+        ));
+    }
+    Ok(())
+}
+
+impl Pipeline for PlanningPipeline {
+    type Input = PartInput;
+    type Output = Box<Planned>;
+
+    fn run(&self, input: PartInput, ctx: &JobContext) -> Result<Box<Planned>, String> {
+        let cancelled = || ctx.cancel.is_cancelled();
+        ctx.progress("reading part", None, input.describe());
+        let part = self.part_of(input)?;
+        if cancelled() {
+            return Err("cancelled".into());
+        }
+        ctx.progress(
+            "planning",
+            Some(0.0),
+            format!(
+                "{}: {} blocks, k = {}",
+                part.name,
+                part.len(),
+                part.max_fragments
+            ),
+        );
+        let found = (self.planner)(&part, self.timeout_s, ctx)?;
+        if cancelled() {
+            return Err("cancelled".into());
+        }
+        ctx.progress("checking plan", None, "");
+        check_plan(&part, &found.fragments)?;
+        ctx.progress(
+            "robot motion",
+            None,
+            format!("{} fragment(s)", found.fragments.len()),
+        );
+        self.motion(part, found).map(Box::new)
+    }
+}
+
+/// Unwound out of the SAT planner's progress callback when a job is cancelled: the planner
+/// takes no cancel flag, and its progress callback (after every candidate) is the one place
+/// a job can step in. The worker catches it; nothing of the run is kept.
+pub struct Cancelled;
+
+/// The project's SAT planner ([`crate::planner::plan`]) as the node's planner: best plan by
+/// the documented objective within the time limit.
+pub fn sat_planner() -> Arc<PlanFn> {
+    Arc::new(|part: &Part, timeout_s: f64, ctx: &JobContext| {
+        let options = crate::planner::Options {
+            timeout: (timeout_s > 0.0).then(|| std::time::Duration::from_secs_f64(timeout_s)),
+            ..crate::planner::Options::default()
+        };
+        let mut last = std::time::Instant::now();
+        let mut progress = |s: &crate::planner::Stats| {
+            if ctx.cancel.is_cancelled() {
+                std::panic::resume_unwind(Box::new(Cancelled));
+            }
+            if last.elapsed() >= std::time::Duration::from_millis(200) {
+                last = std::time::Instant::now();
+                let fraction = (timeout_s > 0.0).then(|| (s.total_s / timeout_s).min(1.0));
+                ctx.progress(
+                    "planning",
+                    fraction,
+                    format!("{} candidates, {} feasible", s.candidates, s.feasible),
+                );
+            }
+        };
+        let report = crate::planner::plan(part, &options, &mut progress)
+            .map_err(|e| format!("planning failed: {e}"))?;
+        let s = &report.stats;
+        let statistics = PlanStatistics {
+            candidates: s.candidates,
+            feasible: s.feasible,
+            optimal: report.proven,
+            time_to_first_feasible_s: s.first_feasible_s.unwrap_or(0.0),
+            total_time_s: s.total_s,
+            sat_time_s: s.sat_s,
+            acyclicity_time_s: s.acyclicity_s,
+            simulation_time_s: s.simulator_s,
+            learned_clauses: s.learned_clauses.min(u32::MAX as u64) as u32,
+            learned_clause_min: s.clause_len_min.unwrap_or(0) as u32,
+            learned_clause_max: s.clause_len_max.unwrap_or(0) as u32,
+            learned_clause_mean: s.clause_len_mean.unwrap_or(0.0),
+        };
+        match report.best {
+            Some(found) => Ok(PlannerOutput {
+                fragments: found.fragments,
+                statistics,
+                worst_margin_s: found.margin,
+            }),
+            None => Err(match report.no_plan {
+                Some(reason) => format!("no plan for part {}: {reason}", part.name),
+                None => format!(
+                    "no plan for part {} found within the planner timeout of {timeout_s} s",
+                    part.name
+                ),
+            }),
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pipeline() -> PlanningPipeline {
+        let planner: Arc<PlanFn> =
+            Arc::new(|_: &Part, _: f64, _: &JobContext| Err("no planner in this test".to_string()));
+        PlanningPipeline::from_params(&NodeParams::default(), planner).unwrap()
+    }
+
+    /// A closed box with one corner at the origin, in metres, as shape_msgs/Mesh carries it.
+    fn box_mesh(s: [f64; 3]) -> PartInput {
+        let vertices: Vec<[f64; 3]> = (0..8)
+            .map(|i| {
+                [
+                    (i & 1) as f64 * s[0],
+                    ((i >> 1) & 1) as f64 * s[1],
+                    ((i >> 2) & 1) as f64 * s[2],
+                ]
+            })
+            .collect();
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        let triangles = quads
+            .iter()
+            .flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]])
+            .collect();
+        PartInput::Mesh {
+            name: "box".into(),
+            vertices,
+            triangles,
+        }
+    }
+
+    #[test]
+    fn inputs_become_parts_or_say_what_is_wrong() {
+        let p = pipeline();
+        let part = p.part_of(box_mesh([0.024, 0.012, 0.005])).unwrap();
+        assert_eq!(part.len(), 16, "4 x 2 x 2 blocks of 6 x 6 x 2.5 mm");
+        assert_eq!(part.max_fragments, 2);
+        let err = p
+            .part_of(PartInput::Document("layers: [".into()))
+            .unwrap_err();
+        assert!(err.starts_with("bad part document"), "{err}");
+        let PartInput::Mesh {
+            name,
+            vertices,
+            mut triangles,
+        } = box_mesh([0.024, 0.012, 0.005])
+        else {
+            unreachable!()
+        };
+        triangles.pop(); // an open mesh
+        let err = p
+            .part_of(PartInput::Mesh {
+                name,
+                vertices,
+                triangles,
+            })
+            .unwrap_err();
+        assert!(err.starts_with("bad part mesh"), "{err}");
+    }
+
+    #[test]
+    fn unchecked_plans_are_refused() {
+        let part = Part::parse(
+            "name: w\nblock_mm: [6, 6, 2.5]\nmax_fragments: 2\nlayers:\n  - |\n    ##\n  - |\n    ##\n",
+        )
+        .unwrap();
+        assert!(check_plan(&part, &[vec![0, 1, 3, 2]]).is_ok());
+        // Welding under a block that stands (the top layer before the bottom one).
+        let err = check_plan(&part, &[vec![2, 3], vec![0, 1]]).unwrap_err();
+        assert!(err.contains("invalid"), "{err}");
+        // A block missing.
+        assert!(check_plan(&part, &[vec![0, 1, 3]]).is_err());
+    }
+}

@@ -1,0 +1,283 @@
+//! Planning off the node's executor: one job at a time, the latest part wins.
+//!
+//! Each submitted input runs in its own thread with its own cancel flag. A newer submission
+//! raises the flag of the job in progress and starts at once; the old job stops at its next
+//! cancellation point, and whatever it still reports is tagged with its (stale) job id so the
+//! node can drop it. Events come back on one channel, in the order they happen.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+
+/// A cancellation flag shared between the node and one planning job.
+#[derive(Debug, Clone, Default)]
+pub struct Cancel(Arc<AtomicBool>);
+
+impl Cancel {
+    pub fn new() -> Cancel {
+        Cancel::default()
+    }
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+    /// The flag itself, for planners that poll an `AtomicBool`.
+    pub fn flag(&self) -> Arc<AtomicBool> {
+        Arc::clone(&self.0)
+    }
+}
+
+/// How far a job has come: a stage name, a fraction of it when known, and a remark.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Progress {
+    pub stage: &'static str,
+    pub fraction: Option<f64>,
+    pub detail: String,
+}
+
+/// What a job hands to the pipeline: its cancel flag and a way to report progress.
+pub struct JobContext {
+    pub job: u64,
+    pub cancel: Cancel,
+    report: Box<dyn Fn(Progress) + Send + Sync>,
+}
+
+impl JobContext {
+    pub fn progress(&self, stage: &'static str, fraction: Option<f64>, detail: impl Into<String>) {
+        (self.report)(Progress {
+            stage,
+            fraction,
+            detail: detail.into(),
+        });
+    }
+}
+
+/// The planning work itself: input in, output or a reason out. Runs on a worker thread.
+pub trait Pipeline: Send + Sync + 'static {
+    type Input: Send + 'static;
+    type Output: Send + 'static;
+    fn run(&self, input: Self::Input, ctx: &JobContext) -> Result<Self::Output, String>;
+}
+
+/// What the worker tells the node.
+#[derive(Debug)]
+pub enum WorkerEvent<T> {
+    Progress {
+        job: u64,
+        progress: Progress,
+    },
+    /// `Err(reason)`; a cancelled job finishes with `Err` too, and its id is no longer current.
+    Finished {
+        job: u64,
+        result: Result<T, String>,
+    },
+}
+
+/// Runs one job at a time on its own thread; a newer job cancels the one in progress.
+pub struct Worker<P: Pipeline> {
+    pipeline: Arc<P>,
+    events: Arc<dyn Fn(WorkerEvent<P::Output>) + Send + Sync>,
+    next_id: u64,
+    current: Option<(u64, Cancel)>,
+    threads: Vec<JoinHandle<()>>,
+}
+
+impl<P: Pipeline> Worker<P> {
+    /// A worker that hands every event to `events` (called from the job threads).
+    pub fn new(
+        pipeline: P,
+        events: impl Fn(WorkerEvent<P::Output>) + Send + Sync + 'static,
+    ) -> Worker<P> {
+        Worker {
+            pipeline: Arc::new(pipeline),
+            events: Arc::new(events),
+            next_id: 1,
+            current: None,
+            threads: Vec::new(),
+        }
+    }
+
+    /// Starts a job for `input`; returns its id and the id of the job it cancelled, if any.
+    pub fn submit(&mut self, input: P::Input) -> (u64, Option<u64>) {
+        let superseded = self.current.take().map(|(id, cancel)| {
+            cancel.cancel();
+            id
+        });
+        let job = self.next_id;
+        self.next_id += 1;
+        let cancel = Cancel::new();
+        self.current = Some((job, cancel.clone()));
+        let pipeline = Arc::clone(&self.pipeline);
+        let events = Arc::clone(&self.events);
+        let progress_events = Arc::clone(&self.events);
+        let ctx = JobContext {
+            job,
+            cancel,
+            report: Box::new(move |progress| {
+                progress_events(WorkerEvent::Progress { job, progress });
+            }),
+        };
+        self.threads.retain(|t| !t.is_finished());
+        let thread = std::thread::Builder::new()
+            .name(format!("plan-{job}"))
+            .spawn(move || {
+                let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    pipeline.run(input, &ctx)
+                }))
+                .unwrap_or_else(|panic| {
+                    if panic.is::<super::pipeline::Cancelled>() {
+                        Err("cancelled".to_string())
+                    } else {
+                        Err(format!("internal error: {}", panic_text(&panic)))
+                    }
+                });
+                let result = if ctx.cancel.is_cancelled() {
+                    Err("cancelled: a newer part arrived".to_string())
+                } else {
+                    result
+                };
+                events(WorkerEvent::Finished { job, result });
+            })
+            .expect("cannot start a planning thread");
+        self.threads.push(thread);
+        (job, superseded)
+    }
+
+    /// Whether `job` is the latest one (its results are wanted).
+    pub fn is_current(&self, job: u64) -> bool {
+        self.current.as_ref().is_some_and(|(id, _)| *id == job)
+    }
+
+    /// Marks `job` done once its result has been handled.
+    pub fn finish(&mut self, job: u64) {
+        if self.is_current(job) {
+            self.current = None;
+        }
+    }
+
+    /// Whether a job is running.
+    pub fn busy(&self) -> bool {
+        self.current.is_some()
+    }
+
+    /// Cancels the job in progress. Threads still running are left to end on their own (a
+    /// planner deep in a solver call may take until its time limit), never waited for.
+    pub fn shutdown(&mut self) {
+        if let Some((_, cancel)) = self.current.take() {
+            cancel.cancel();
+        }
+        self.threads.retain(|t| !t.is_finished());
+    }
+}
+
+impl<P: Pipeline> Drop for Worker<P> {
+    fn drop(&mut self) {
+        self.shutdown();
+    }
+}
+
+fn panic_text(panic: &Box<dyn std::any::Any + Send>) -> String {
+    if let Some(s) = panic.downcast_ref::<&str>() {
+        s.to_string()
+    } else if let Some(s) = panic.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "a planning thread panicked".to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::mpsc::channel;
+    use std::time::Duration;
+
+    /// Counts to `n`, stopping when cancelled; "boom" panics, "bad" fails.
+    struct Counter;
+    impl Pipeline for Counter {
+        type Input = (u32, &'static str);
+        type Output = u32;
+        fn run(&self, (n, mode): (u32, &'static str), ctx: &JobContext) -> Result<u32, String> {
+            match mode {
+                "boom" => panic!("boom"),
+                "bad" => return Err("bad input".into()),
+                _ => {}
+            }
+            for i in 0..n {
+                if ctx.cancel.is_cancelled() {
+                    return Err("stopped".into());
+                }
+                ctx.progress("counting", Some(i as f64 / n as f64), "");
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            Ok(n)
+        }
+    }
+
+    fn finished(
+        rx: &std::sync::mpsc::Receiver<WorkerEvent<u32>>,
+    ) -> Vec<(u64, Result<u32, String>)> {
+        let mut out = Vec::new();
+        while let Ok(ev) = rx.recv_timeout(Duration::from_secs(20)) {
+            if let WorkerEvent::Finished { job, result } = ev {
+                out.push((job, result));
+                if out.len() == 2 {
+                    break;
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn latest_part_wins() {
+        let (tx, rx) = channel();
+        let mut worker = Worker::new(Counter, move |e| {
+            let _ = tx.send(e);
+        });
+        let (first, none) = worker.submit((100_000, "count"));
+        assert_eq!(none, None);
+        // Wait until the first job is under way, then supersede it.
+        loop {
+            if let Ok(WorkerEvent::Progress { job, .. }) = rx.recv_timeout(Duration::from_secs(20))
+            {
+                assert_eq!(job, first);
+                break;
+            }
+        }
+        let (second, cancelled) = worker.submit((3, "count"));
+        assert_eq!(cancelled, Some(first));
+        assert!(worker.is_current(second) && !worker.is_current(first));
+        let mut results = finished(&rx);
+        results.sort_by_key(|r| r.0);
+        assert_eq!(results[0].0, first);
+        assert!(results[0].1.as_ref().unwrap_err().contains("cancelled"));
+        assert_eq!(results[1], (second, Ok(3)));
+        worker.finish(second);
+        assert!(!worker.busy());
+    }
+
+    #[test]
+    fn failures_and_panics_become_reasons() {
+        let (tx, rx) = channel();
+        let mut worker = Worker::new(Counter, move |e| {
+            let _ = tx.send(e);
+        });
+        worker.submit((1, "boom"));
+        let mut results = finished_one(&rx);
+        assert!(results.pop().unwrap().contains("internal error: boom"));
+        worker.submit((1, "bad"));
+        assert_eq!(finished_one(&rx), vec!["bad input".to_string()]);
+    }
+
+    fn finished_one(rx: &std::sync::mpsc::Receiver<WorkerEvent<u32>>) -> Vec<String> {
+        loop {
+            match rx.recv_timeout(Duration::from_secs(20)).unwrap() {
+                WorkerEvent::Finished { result, .. } => return vec![result.unwrap_err()],
+                WorkerEvent::Progress { .. } => {}
+            }
+        }
+    }
+}

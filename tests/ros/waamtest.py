@@ -1,0 +1,138 @@
+"""Shared helpers of the ROS 2 interop tests: start `waam node`, wait for messages, fail clearly.
+
+Every test script runs inside its own network namespace (see netns.sh) or, where that is not
+possible, on loopback-only discovery with its own ROS_DOMAIN_ID; the Rust test runner sets
+WAAM_BIN (the binary under test), ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE.
+"""
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import rclpy
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+# Inputs of waam_planner: Reliable, Volatile, depth 10.
+INPUT_QOS = QoSProfile(
+    depth=10, history=HistoryPolicy.KEEP_LAST, reliability=ReliabilityPolicy.RELIABLE
+)
+# Outputs of waam_planner: Reliable, TransientLocal, depth 1 (latched).
+LATCHED_QOS = QoSProfile(
+    depth=1,
+    history=HistoryPolicy.KEEP_LAST,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
+
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def level(status):
+    """A DiagnosticStatus level as an int (rclpy gives `byte` fields as bytes)."""
+    return status.level if isinstance(status.level, int) else status.level[0]
+
+
+class Failure(Exception):
+    pass
+
+
+def check(condition, message):
+    if not condition:
+        raise Failure(message)
+
+
+class WaamProcess:
+    """`waam ARGS` as a child process, its log kept in a file and shown when a test fails."""
+
+    def __init__(self, *args):
+        self.log = tempfile.NamedTemporaryFile(prefix="waam-", suffix=".log", delete=False)
+        env = dict(os.environ)
+        self.args = [os.environ["WAAM_BIN"], *args]
+        self.proc = subprocess.Popen(
+            self.args, stdout=self.log, stderr=subprocess.STDOUT, env=env, cwd=REPO
+        )
+
+    def alive(self):
+        return self.proc.poll() is None
+
+    def wait(self, timeout):
+        return self.proc.wait(timeout=timeout)
+
+    def stop(self):
+        if self.alive():
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+
+    def output(self):
+        self.log.flush()
+        with open(self.log.name, encoding="utf-8", errors="replace") as f:
+            return f.read()
+
+
+class Peer:
+    """An rclpy node that collects what it hears on named topics."""
+
+    def __init__(self, name="waam_test_peer"):
+        rclpy.init()
+        self.node = Node(name)
+        self.received = {}
+
+    def listen(self, topic, msg_type, qos=LATCHED_QOS, raw=False):
+        self.received[topic] = []
+        self.node.create_subscription(
+            msg_type, topic, lambda m: self.received[topic].append(m), qos, raw=raw
+        )
+
+    def publisher(self, topic, msg_type, qos=INPUT_QOS):
+        return self.node.create_publisher(msg_type, topic, qos)
+
+    def spin_until(self, what, condition, timeout):
+        """Spins until condition() is true; fails naming `what` after `timeout` seconds."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if condition():
+                return
+            rclpy.spin_once(self.node, timeout_sec=0.1)
+        if not condition():
+            raise Failure(f"timed out after {timeout} s waiting for {what}")
+
+    def spin_for(self, seconds):
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            rclpy.spin_once(self.node, timeout_sec=0.05)
+
+    def wait_for_subscriber(self, publisher, timeout=30):
+        self.spin_until(
+            f"a subscriber on {publisher.topic_name}",
+            lambda: publisher.get_subscription_count() > 0,
+            timeout,
+        )
+
+    def close(self):
+        self.node.destroy_node()
+        rclpy.shutdown()
+
+
+def run(test, *waam_args):
+    """Runs `test(peer, waam)` with `waam ARGS` started first; exits 0 on success, 1 on
+    failure with the reason and the waam log."""
+    waam = WaamProcess(*waam_args)
+    peer = Peer()
+    try:
+        test(peer, waam)
+    except Failure as e:
+        print(f"FAIL: {e}", file=sys.stderr)
+        print(f"--- log of {' '.join(waam.args)} ---\n{waam.output()}", file=sys.stderr)
+        sys.exit(1)
+    finally:
+        waam.stop()
+        peer.close()
+    print(f"--- log of {' '.join(waam.args)} ---\n{waam.output()}")
+    print("PASS")

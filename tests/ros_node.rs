@@ -1,0 +1,581 @@
+//! ROS 2 interop: `waam node` against rclpy from ROS 2 Jazzy's PyPI wheels.
+//!
+//! Each test runs one script of `tests/ros/` with the venv's Python. The venv comes from
+//! `scripts/ros-venv.sh`, which the project's test script runs and whose path it passes in
+//! `WAAM_ROS_VENV`. Without it these tests fail with a message saying so, unless
+//! `WAAM_SKIP_ROS=1` asks to skip them.
+//!
+//! Isolation: as root, each script runs in a private network namespace (`unshare -n`) where
+//! only loopback exists; otherwise on loopback-only discovery. Either way with a domain id of
+//! its own, so parallel tests and other DDS traffic on the machine never meet.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::atomic::{AtomicU16, Ordering};
+use std::sync::OnceLock;
+
+/// The venv's Python, or `None` when the ROS tests are to be skipped.
+fn ros_python() -> Option<PathBuf> {
+    match std::env::var_os("WAAM_ROS_VENV") {
+        Some(venv) => {
+            let python = Path::new(&venv).join("bin/python");
+            assert!(
+                python.exists(),
+                "WAAM_ROS_VENV={} has no bin/python: run scripts/ros-venv.sh",
+                Path::new(&venv).display()
+            );
+            Some(python)
+        }
+        None if std::env::var("WAAM_SKIP_ROS").as_deref() == Ok("1") => {
+            eprintln!("skipped: WAAM_SKIP_ROS=1");
+            None
+        }
+        None => panic!(
+            "the ROS 2 interop tests need rclpy: run `scripts/ros-venv.sh` and set \
+             WAAM_ROS_VENV to the path it prints (scripts/test.sh does both), or set \
+             WAAM_SKIP_ROS=1 to skip them"
+        ),
+    }
+}
+
+/// Whether `unshare -n` works here (root, and a kernel that allows network namespaces).
+fn have_netns() -> bool {
+    static NETNS: OnceLock<bool> = OnceLock::new();
+    *NETNS.get_or_init(|| {
+        Command::new("unshare")
+            .args(["-n", "ip", "link", "set", "lo", "up"])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    })
+}
+
+/// A domain id no other test of this run uses (and, by the pid, unlikely any other run).
+fn fresh_domain_id() -> u16 {
+    static NEXT: AtomicU16 = AtomicU16::new(0);
+    let n = NEXT.fetch_add(1, Ordering::Relaxed);
+    1 + (std::process::id() as u16 % 40) * 5 + n % 5 + (n / 5) * 200 % 230
+}
+
+fn repo() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Runs `tests/ros/SCRIPT` (Python) isolated, with `WAAM_BIN` set; panics with its output
+/// unless it exits 0. `None` when the ROS tests are skipped.
+fn run_script(script: &str, args: &[&str]) -> Option<Output> {
+    let python = ros_python()?;
+    let script_path = repo().join("tests/ros").join(script);
+    let mut command = if have_netns() {
+        let mut c = Command::new("unshare");
+        c.arg("-n")
+            .arg(repo().join("tests/ros/netns.sh"))
+            .arg(&python);
+        c
+    } else {
+        eprintln!("note: no network namespace (not root?): using loopback-only discovery");
+        Command::new(&python)
+    };
+    let domain = fresh_domain_id();
+    command
+        .arg(&script_path)
+        .args(args)
+        .current_dir(repo())
+        .env("WAAM_BIN", env!("CARGO_BIN_EXE_waam"))
+        .env("ROS_DOMAIN_ID", domain.to_string())
+        .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        .env_remove("ROS_LOCALHOST_ONLY")
+        .env_remove("ROS_STATIC_PEERS");
+    let output = command
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {}: {e}", python.display()));
+    let text = format!(
+        "{script} (domain {domain}) exited with {}\n--- stdout ---\n{}\n--- stderr ---\n{}",
+        output.status,
+        String::from_utf8_lossy(&output.stdout),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(output.status.success(), "{text}");
+    eprintln!("{text}");
+    Some(output)
+}
+
+#[test]
+fn rclpy_part_yields_trajectory_poses_markers_and_errors_on_bad_parts() {
+    run_script("part_to_plan.py", &[]);
+}
+
+#[test]
+fn rclpy_mesh_box_is_planned_and_the_latest_part_wins() {
+    run_script("mesh_and_latest.py", &[]);
+}
+
+#[test]
+fn rclpy_receives_dry_run_joint_states() {
+    run_script("dry_run.py", &[]);
+}
+
+// ---------------------------------------------------------------------------------------
+// Rust peers: the raw weld_plan bytes, and a FollowJointTrajectory action server.
+// These run in this process on loopback-only discovery with a domain id of their own.
+
+mod rust_peer {
+    use std::process::{Child, Command, Stdio};
+    use std::time::{Duration, Instant};
+
+    use ros2_client::dds::rustdds::{
+        self, no_key::DeserializerAdapter, DomainParticipantBuilder, RepresentationIdentifier,
+        TopicKind,
+    };
+    use ros2_client::{Context, NodeName, NodeOptions, QosProfile};
+    use waam::node::ros::{DiscoveryRange, RosEnv};
+
+    /// `waam ARGS` on `domain`, loopback-only, its output captured.
+    pub fn waam(args: &[&str], domain: u16) -> Child {
+        Command::new(env!("CARGO_BIN_EXE_waam"))
+            .args(args)
+            .current_dir(super::repo())
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+            .env_remove("ROS_LOCALHOST_ONLY")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("cannot start waam")
+    }
+
+    /// Waits (bounded) for `child` to exit; its status and output.
+    pub fn finish(mut child: Child, limit: Duration) -> (bool, String) {
+        let start = Instant::now();
+        while child.try_wait().unwrap().is_none() {
+            if start.elapsed() > limit {
+                let _ = child.kill();
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let out = child.wait_with_output().unwrap();
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        (out.status.success(), text)
+    }
+
+    pub fn context(domain: u16) -> Context {
+        RosEnv {
+            domain_id: domain,
+            range: DiscoveryRange::Localhost,
+        }
+        .context()
+        .unwrap()
+    }
+
+    pub fn node(context: &Context, name: &str) -> ros2_client::Node {
+        let mut node = context
+            .new_node(NodeName::new("/", name).unwrap(), NodeOptions::new())
+            .unwrap();
+        let spinner = node.spinner().unwrap();
+        std::thread::spawn(move || futures::executor::block_on(spinner.spin()));
+        node
+    }
+
+    /// A sample's bytes exactly as they came over the wire (with the encapsulation header).
+    pub struct RawCdr(pub Vec<u8>);
+    pub struct RawAdapter;
+    #[derive(Clone)]
+    pub struct RawDecoder;
+
+    #[derive(Debug)]
+    pub struct NoError;
+    impl std::fmt::Display for NoError {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("unsupported encoding")
+        }
+    }
+    impl std::error::Error for NoError {}
+
+    impl DeserializerAdapter<RawCdr> for RawAdapter {
+        type Error = NoError;
+        type Decoded = RawCdr;
+        fn supported_encodings() -> &'static [RepresentationIdentifier] {
+            &[
+                RepresentationIdentifier::CDR_LE,
+                RepresentationIdentifier::CDR_BE,
+            ]
+        }
+        fn transform_decoded(decoded: RawCdr) -> RawCdr {
+            decoded
+        }
+    }
+    impl rustdds::no_key::DefaultDecoder<RawCdr> for RawAdapter {
+        type Decoder = RawDecoder;
+        const DECODER: RawDecoder = RawDecoder;
+    }
+    impl<'de> rustdds::no_key::Decode<'de, RawCdr> for RawDecoder {
+        type Error = NoError;
+        fn decode_bytes(
+            self,
+            input: &'de [u8],
+            encoding: RepresentationIdentifier,
+        ) -> Result<RawCdr, NoError> {
+            let header = if encoding == RepresentationIdentifier::CDR_LE {
+                [0u8, 1, 0, 0]
+            } else if encoding == RepresentationIdentifier::CDR_BE {
+                [0u8, 0, 0, 0]
+            } else {
+                return Err(NoError);
+            };
+            Ok(RawCdr([&header[..], input].concat()))
+        }
+    }
+
+    /// The first sample on a latched (Reliable, TransientLocal) topic, as raw bytes.
+    pub fn take_raw(domain: u16, dds_topic: &str, dds_type: &str, limit: Duration) -> Vec<u8> {
+        let participant = DomainParticipantBuilder::new(domain)
+            .with_only_networks([std::net::IpAddr::V4(std::net::Ipv4Addr::LOCALHOST)])
+            .build()
+            .unwrap();
+        let qos: rustdds::QosPolicies = QosProfile::publisher_default()
+            .durability(ros2_client::qos::Durability::TransientLocal)
+            .history(ros2_client::qos::History::KeepLast { depth: 1 })
+            .into();
+        let topic = participant
+            .create_topic(dds_topic.into(), dds_type.into(), &qos, TopicKind::NoKey)
+            .unwrap();
+        let subscriber = participant.create_subscriber(&qos).unwrap();
+        let reader = subscriber
+            .create_simple_datareader_no_key::<RawCdr, RawAdapter>(&topic, Some(qos))
+            .unwrap();
+        let start = Instant::now();
+        loop {
+            if let Ok(Some(sample)) = reader.try_take_one() {
+                return sample.into_value().0;
+            }
+            assert!(
+                start.elapsed() < limit,
+                "no sample on {dds_topic} within {limit:?}"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+/// The weld_plan's raw CDR bytes, as a peer receives them, decode against the interface
+/// package's `.msg` files with an independent decoder (tests/ros/msgdef.py), and agree with
+/// the PoseArray and the part.
+#[test]
+fn weld_plan_raw_cdr_decodes_against_the_msg_files() {
+    use std::time::Duration;
+    let Some(python) = ros_python() else { return };
+    let domain = fresh_domain_id();
+    let child = rust_peer::waam(
+        &["publish", "config/parts/s1-wall.yaml", "--linger", "20"],
+        domain,
+    );
+    let raw = rust_peer::take_raw(
+        domain,
+        "rt/waam_planner/plan/weld_plan",
+        "waam_interfaces::msg::dds_::WeldPlan_",
+        Duration::from_secs(60),
+    );
+    let context = rust_peer::context(domain);
+    let mut node = rust_peer::node(&context, "weld_plan_check");
+    let topic = node
+        .create_topic(
+            &ros2_client::Name::new("/waam_planner/plan", "poses").unwrap(),
+            ros2_client::MessageTypeName::new("geometry_msgs", "PoseArray"),
+            &waam::node::io::latched_qos(),
+        )
+        .unwrap();
+    let poses = node
+        .create_subscription::<waam::msgs::geometry_msgs::PoseArray>(&topic, None)
+        .unwrap();
+    let pose_array = futures::executor::block_on(poses.async_take()).unwrap().0;
+    let (_, log) = rust_peer::finish(child, Duration::from_secs(60));
+
+    let file = tempfile::NamedTempFile::new().unwrap();
+    std::fs::write(file.path(), &raw).unwrap();
+    let out = Command::new(&python)
+        .arg(repo().join("tests/ros/decode_cdr.py"))
+        .arg(file.path())
+        .arg("waam_interfaces/msg/WeldPlan")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "the weld_plan bytes do not decode against ros/waam_interfaces/msg: {}\nwaam log:\n{log}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let plan: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(plan["part_name"], "s1-wall");
+    assert_eq!(plan["block_pitch"].as_f64(), Some(0.006));
+    let fragments = plan["fragments"].as_array().unwrap();
+    let blocks: usize = fragments
+        .iter()
+        .map(|f| f["blocks"].as_array().unwrap().len())
+        .sum();
+    assert_eq!(blocks, 12, "s1-wall has 12 blocks");
+    let points = plan["points"].as_array().unwrap();
+    assert_eq!(
+        points.len(),
+        pose_array.poses.len(),
+        "one pose per toolpath point"
+    );
+    for (point, pose) in points.iter().zip(&pose_array.poses) {
+        let x = point["pose"]["position"]["x"].as_f64().unwrap();
+        assert!((x - pose.position.x).abs() < 1e-12);
+    }
+    let kind_count = |k: u64| points.iter().filter(|p| p["kind"] == k).count();
+    assert_eq!(
+        kind_count(1),
+        fragments.len(),
+        "one ARC_ON point per fragment"
+    );
+    assert_eq!(
+        kind_count(3),
+        fragments.len(),
+        "one ARC_OFF point per fragment"
+    );
+    let times: Vec<f64> = points
+        .iter()
+        .map(|p| {
+            p["time_from_start"]["sec"].as_f64().unwrap()
+                + p["time_from_start"]["nanosec"].as_f64().unwrap() * 1e-9
+        })
+        .collect();
+    assert!(
+        times.windows(2).all(|w| w[1] >= w[0]),
+        "toolpath times go back"
+    );
+    assert_eq!(plan["header"]["frame_id"], pose_array.header.frame_id);
+}
+
+/// FollowJointTrajectory execution against a small action server in this test: no goal has
+/// more than `max_points_per_goal` points, the goals together are the whole trajectory, each
+/// arc switch happens at a goal boundary, and `~/arc_on` goes true/false once per fragment.
+#[test]
+fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goals() {
+    use std::sync::{Arc, Mutex};
+    use std::time::{Duration, Instant};
+
+    use ros2_client::action::ActionServerQosPolicies;
+    use ros2_client::action::{GetResultResponse, SendGoalResponse};
+    use ros2_client::action_msgs::GoalStatusEnum;
+    use ros2_client::{ActionTypeName, MessageTypeName, Name, QosProfile, ServiceMapping};
+    use waam::msgs::control_msgs::{
+        FollowJointTrajectoryFeedback as Feedback, FollowJointTrajectoryGoal as Goal,
+        FollowJointTrajectoryResult as FjtResult,
+    };
+    use waam::msgs::std_msgs::Bool;
+    use waam::msgs::trajectory_msgs::JointTrajectory;
+
+    if ros_python().is_none() {
+        return;
+    }
+    const CAP: usize = 5;
+    let domain = fresh_domain_id();
+    let context = rust_peer::context(domain);
+    let mut node = rust_peer::node(&context, "test_controller");
+    let service =
+        QosProfile::publisher_default().history(ros2_client::qos::History::KeepLast { depth: 10 });
+    let server = node
+        .create_action_server::<Goal, FjtResult, Feedback>(
+            ServiceMapping::Enhanced,
+            &Name::new("/test_controller", "follow_joint_trajectory").unwrap(),
+            &ActionTypeName::new("control_msgs", "FollowJointTrajectory"),
+            ActionServerQosPolicies {
+                goal_service: service.clone(),
+                result_service: service.clone(),
+                cancel_service: service.clone(),
+                feedback_publisher: service.clone(),
+                status_publisher: service
+                    .clone()
+                    .durability(ros2_client::qos::Durability::TransientLocal)
+                    .history(ros2_client::qos::History::KeepLast { depth: 1 }),
+            },
+        )
+        .unwrap();
+    let arc_topic = node
+        .create_topic(
+            &Name::new("/waam_planner", "arc_on").unwrap(),
+            MessageTypeName::new("std_msgs", "Bool"),
+            &service,
+        )
+        .unwrap();
+    let arc = node.create_subscription::<Bool>(&arc_topic, None).unwrap();
+    let traj_topic = node
+        .create_topic(
+            &Name::new("/waam_planner/plan", "joint_trajectory").unwrap(),
+            MessageTypeName::new("trajectory_msgs", "JointTrajectory"),
+            &waam::node::io::latched_qos(),
+        )
+        .unwrap();
+    let trajectory_sub = node
+        .create_subscription::<JointTrajectory>(&traj_topic, None)
+        .unwrap();
+
+    /// What the server saw, in order: goals (their trajectories) and arc switches (with the
+    /// number of goals received before).
+    #[derive(Debug)]
+    enum Seen {
+        Goal(JointTrajectory),
+        Arc(bool),
+    }
+    let seen = Arc::new(Mutex::new(Vec::<Seen>::new()));
+
+    let child = rust_peer::waam(
+        &[
+            "publish",
+            "config/parts/s1-wall.yaml",
+            "--params",
+            "tests/ros/fjt.params.yaml",
+            "--execute",
+            "--linger",
+            "0",
+        ],
+        domain,
+    );
+    let start = Instant::now();
+    let mut pending_results = Vec::new();
+    let mut goals_done = Vec::new();
+    let mut child = Some(child);
+    let mut log = String::new();
+    let mut exit_ok = false;
+    while start.elapsed() < Duration::from_secs(120) {
+        if let Ok(Some((req, goal))) = server.receive_goal() {
+            seen.lock()
+                .unwrap()
+                .push(Seen::Goal(goal.goal.trajectory.clone()));
+            server
+                .send_goal_response(
+                    req,
+                    SendGoalResponse {
+                        accepted: true,
+                        stamp: ros2_client::builtin_interfaces::Time::now(),
+                    },
+                )
+                .unwrap();
+            goals_done.push(goal.goal_id);
+        }
+        if let Ok(Some((req, request))) = server.receive_result_request() {
+            pending_results.push((req, request.goal_id));
+        }
+        // Answer result requests of goals we have (a goal "executes" instantly).
+        pending_results.retain(|(req, goal_id)| {
+            if goals_done.contains(goal_id) {
+                server
+                    .send_result(
+                        *req,
+                        GetResultResponse {
+                            status: GoalStatusEnum::Succeeded,
+                            result: FjtResult::default(),
+                        },
+                    )
+                    .unwrap();
+                false
+            } else {
+                true
+            }
+        });
+        while let Ok(Some((msg, _))) = arc.take() {
+            seen.lock().unwrap().push(Seen::Arc(msg.data));
+        }
+        if child.as_mut().unwrap().try_wait().unwrap().is_some() {
+            let (ok, text) = rust_peer::finish(child.take().unwrap(), Duration::from_secs(1));
+            exit_ok = ok;
+            log = text;
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    // Late arc messages (the last arc-off) may still be on their way.
+    let settle = Instant::now();
+    while settle.elapsed() < Duration::from_secs(2) {
+        while let Ok(Some((msg, _))) = arc.take() {
+            seen.lock().unwrap().push(Seen::Arc(msg.data));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    if let Some(c) = child {
+        let (_, text) = rust_peer::finish(c, Duration::from_secs(1));
+        panic!("waam publish --execute did not finish in time:\n{text}");
+    }
+    assert!(exit_ok, "waam publish --execute failed:\n{log}");
+    let trajectory = futures::executor::block_on(trajectory_sub.async_take())
+        .unwrap()
+        .0;
+    let seen = seen.lock().unwrap();
+
+    // Goals: at most CAP points, the URDF's joints, increasing times from > 0, and together
+    // exactly the whole trajectory.
+    let goals: Vec<&JointTrajectory> = seen
+        .iter()
+        .filter_map(|s| match s {
+            Seen::Goal(g) => Some(g),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        goals.len() > 1,
+        "expected several goals, got {}",
+        goals.len()
+    );
+    let mut all_points = Vec::new();
+    for (i, g) in goals.iter().enumerate() {
+        assert!(
+            !g.points.is_empty() && g.points.len() <= CAP,
+            "goal {i} has {} points (cap {CAP})",
+            g.points.len()
+        );
+        assert_eq!(g.joint_names, trajectory.joint_names);
+        let t: Vec<f64> = g
+            .points
+            .iter()
+            .map(|p| p.time_from_start.as_secs_f64())
+            .collect();
+        assert!(t[0] > 0.0, "goal {i} starts at time {}", t[0]);
+        assert!(
+            t.windows(2).all(|w| w[1] > w[0]),
+            "goal {i}: times not increasing"
+        );
+        let last = g.points.last().unwrap();
+        assert!(
+            last.velocities.iter().all(|v| *v == 0.0),
+            "goal {i} does not end at rest"
+        );
+        all_points.extend(g.points.iter().map(|p| p.positions.clone()));
+    }
+    let whole: Vec<Vec<f64>> = trajectory
+        .points
+        .iter()
+        .map(|p| p.positions.clone())
+        .collect();
+    assert_eq!(
+        all_points, whole,
+        "the goals are not the trajectory, in order, once"
+    );
+
+    // Arc: true/false alternating, once per fragment (s1-wall plans into 2 fragments or
+    // fewer), each switch after at least one goal, never two switches without a goal between.
+    let arcs: Vec<bool> = seen
+        .iter()
+        .filter_map(|s| match s {
+            Seen::Arc(on) => Some(*on),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        !arcs.is_empty() && arcs.len() % 2 == 0,
+        "arc sequence {arcs:?}"
+    );
+    for (i, on) in arcs.iter().enumerate() {
+        assert_eq!(*on, i % 2 == 0, "arc sequence {arcs:?}");
+    }
+    let first_arc = seen.iter().position(|s| matches!(s, Seen::Arc(_))).unwrap();
+    assert!(first_arc > 0, "the arc came on before any goal");
+    assert!(
+        log.contains("execution finished"),
+        "no end of execution in the log:\n{log}"
+    );
+}
