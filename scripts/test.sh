@@ -11,7 +11,7 @@ step "formatting (cargo fmt --check)"
 cargo fmt --all -- --check
 
 step "lints (cargo clippy -D warnings)"
-cargo clippy --all-targets -- -D warnings
+cargo clippy --all-targets --all-features -- -D warnings
 
 # The independent checker lives beside the repo (shared/); the project's own tests do not
 # need it, but where it is present the cross-check against it runs too.
@@ -25,5 +25,10 @@ step "recording tests venv (scripts/py-venv.sh: mcap, mcap-ros2-support, rosbags
 WAAM_BAG_PYTHON="$(scripts/py-venv.sh | tail -1)"
 export WAAM_BAG_PYTHON
 
+step "ROS 2 Jazzy venv (scripts/ros-venv.sh: rclpy, message packages, Fast DDS wheels)"
+WAAM_ROS_VENV="$(scripts/ros-venv.sh | tail -1)"
+export WAAM_ROS_VENV
+
+# `milp` adds the MILP cross-check of the thick-wall layer search (pure Rust, light).
 step "tests (cargo test)"
-cargo test --all-targets
+cargo test --all-targets --features milp
