@@ -15,16 +15,14 @@ if [[ -x "$VENV/bin/python" && -f "$STAMP" && "$(cat "$STAMP")" == "${PACKAGES[*
 fi
 
 PYTHON="${PYTHON:-python3}"
-if ! command -v "$PYTHON" >/dev/null; then
-    echo "py-venv.sh: $PYTHON not found; install Python 3.10 or newer" >&2
-    exit 1
-fi
-if ! "$PYTHON" -c 'import venv, ensurepip' 2>/dev/null; then
-    # Debian splits venv/ensurepip out of the interpreter package.
+# Debian ships venv/ensurepip apart from the interpreter: install what is missing (as root).
+if ! command -v "$PYTHON" >/dev/null || ! "$PYTHON" -c 'import venv, ensurepip' 2>/dev/null; then
     if command -v apt-get >/dev/null && [[ $(id -u) == 0 ]]; then
-        apt-get update -qq >&2 && apt-get install -y -qq python3-venv >&2
+        apt-get update -qq >&2
+        DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3 python3-venv >&2
+        PYTHON=python3
     else
-        echo "py-venv.sh: $PYTHON lacks the venv module (apt-get install python3-venv)" >&2
+        echo "py-venv.sh: need Python 3.10+ with the venv module (apt-get install python3-venv)" >&2
         exit 1
     fi
 fi

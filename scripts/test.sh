@@ -21,5 +21,9 @@ if [[ -d ../shared/tools/refcheck ]]; then
     export WAAM_REFCHECK_PY
 fi
 
+step "recording tests venv (scripts/py-venv.sh: mcap, mcap-ros2-support, rosbags)"
+WAAM_BAG_PYTHON="$(scripts/py-venv.sh | tail -1)"
+export WAAM_BAG_PYTHON
+
 step "tests (cargo test)"
 cargo test --all-targets

@@ -7,6 +7,7 @@
 
 pub mod bag;
 pub mod graph;
+pub mod layer;
 pub mod mesh;
 pub mod motion;
 pub mod msgs;

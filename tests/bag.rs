@@ -5,8 +5,8 @@ use std::path::Path;
 
 use serde_json::Value;
 
-mod common;
-use common::{kill_a_recording, waam};
+mod recording;
+use recording::{kill_a_recording, waam};
 
 fn info_json(bag: &Path) -> Value {
     let out = waam()

@@ -8,7 +8,7 @@ use std::process::Command;
 
 use serde_json::Value;
 
-mod common;
+mod recording;
 
 /// The venv's python, or `None` when the caller asked to skip (`WAAM_SKIP_PY=1`).
 fn python() -> Option<PathBuf> {
@@ -79,7 +79,7 @@ fn python_mcap_reads_a_killed_recording_like_we_do() {
     let Some(python) = python() else { return };
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("killed");
-    let flushed = common::kill_a_recording(&dir, 300);
+    let flushed = recording::kill_a_recording(&dir, 300);
     let file = dir.join("killed_0.mcap");
     let ours = waam::bag::Bag::open(&file).unwrap();
     assert!(ours.truncated.is_some());

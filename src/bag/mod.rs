@@ -15,6 +15,7 @@ use std::path::{Path, PathBuf};
 
 pub mod heat;
 pub mod metadata;
+pub mod planning;
 pub mod qos;
 pub mod reader;
 pub mod recorder;

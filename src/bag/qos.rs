@@ -242,3 +242,60 @@ mod tests {
         assert!(from_yaml("- history: [").is_err());
     }
 }
+
+impl Qos {
+    /// The profile to offer when publishing again what was recorded (`ros2-client`).
+    /// Unspecified and infinite durations are both "none"; reliable writes wait up to 5 s for
+    /// the send window, as the node's do.
+    pub fn to_profile(&self) -> ros2_client::QosProfile {
+        use ros2_client::qos as q;
+        let duration = |t: QosTime| {
+            (t != QosTime::INFINITE && (t.sec, t.nsec) != (0, 0))
+                .then(|| std::time::Duration::new(t.sec, t.nsec.min(999_999_999) as u32))
+        };
+        let depth = (self.depth as usize).max(1);
+        ros2_client::QosProfile::publisher_default()
+            .history(match self.history {
+                History::KeepAll => q::History::KeepAll,
+                _ => q::History::KeepLast { depth },
+            })
+            .reliability(match self.reliability {
+                Reliability::BestEffort => q::Reliability::BestEffort,
+                _ => q::Reliability::Reliable {
+                    when_full: q::WhenFull::Wait(std::time::Duration::from_secs(5)),
+                },
+            })
+            .durability(match self.durability {
+                Durability::TransientLocal => q::Durability::TransientLocal,
+                _ => q::Durability::Volatile,
+            })
+            .deadline(duration(self.deadline))
+            .lifespan(duration(self.lifespan))
+            .liveliness(match self.liveliness {
+                Liveliness::ManualByTopic => q::Liveliness::ManualByTopic,
+                _ => q::Liveliness::Automatic,
+            })
+            .liveliness_lease(duration(self.liveliness_lease_duration))
+    }
+}
+
+#[cfg(test)]
+mod profile_tests {
+    use super::*;
+    use ros2_client::qos as q;
+
+    #[test]
+    fn recorded_qos_becomes_the_offered_profile() {
+        let p = Qos::latched().to_profile();
+        assert_eq!(p.durability, q::Durability::TransientLocal);
+        assert_eq!(p.history, q::History::KeepLast { depth: 1 });
+        assert!(matches!(p.reliability, q::Reliability::Reliable { .. }));
+        assert_eq!(p.deadline, None);
+        let p = Qos::rosout().to_profile();
+        assert_eq!(p.lifespan, Some(std::time::Duration::from_secs(10)));
+        assert_eq!(p.history, q::History::KeepLast { depth: 1000 });
+        let p = Qos::best_effort(5).to_profile();
+        assert_eq!(p.reliability, q::Reliability::BestEffort);
+        assert_eq!(p.durability, q::Durability::Volatile);
+    }
+}

@@ -103,6 +103,13 @@ impl Bag {
         for record in records {
             let record = match record {
                 Ok(r) => r,
+                // Not a cut: a chunk this build cannot decompress (rosbag2 may write lz4).
+                Err(e @ mcap::McapError::UnsupportedCompression(_)) => {
+                    return Err(BagError::Corrupt {
+                        path: file.to_path_buf(),
+                        reason: format!("{e} (this build reads zstd and uncompressed chunks)"),
+                    })
+                }
                 Err(e) => {
                     bag.truncated = Some(Truncation {
                         file_len: bytes.len() as u64,

@@ -354,3 +354,43 @@ fn recorded_heat_plays_on_the_build_time_line() {
     let gap = clouds[1].0 - clouds[0].0;
     assert_eq!(gap, (part.thermal.block_time_s * 1e9).round() as u64);
 }
+
+#[test]
+fn every_recorded_message_decodes_as_its_type_and_encodes_back_to_the_same_bytes() {
+    use crate::msgs::dispatch::{visit_type, TypeVisitor};
+    struct Reencode<'a>(&'a [u8]);
+    impl TypeVisitor for Reencode<'_> {
+        type Output = Vec<u8>;
+        fn visit<M: RosMessage>(self) -> Vec<u8> {
+            crate::msgs::to_cdr(&crate::msgs::from_cdr::<M>(self.0).unwrap()).unwrap()
+        }
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("all");
+    let recorder = Recorder::create(&dir).unwrap();
+    let mut session = super::sample::SampleSession::new();
+    session.round(&recorder, 0).unwrap();
+    recorder.finish().unwrap();
+    let bag = Bag::open(&dir).unwrap();
+    assert_eq!(bag.topics.len(), 13);
+    for m in &bag.messages {
+        let t = bag.topic_of(m);
+        let again = visit_type(&t.type_name, Reencode(&m.data)).expect("a known type");
+        assert_eq!(again, m.data, "{}", t.name);
+    }
+}
+
+#[test]
+fn a_chunk_compression_we_cannot_read_is_an_error_not_a_truncation() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("c");
+    let mut w = BagWriter::create(&dir, BagOptions::default()).unwrap();
+    w.write(topics::ARC_ON, &Qos::reliable(10), T0, &Bool { data: true })
+        .unwrap();
+    w.finish().unwrap();
+    let mut bytes = std::fs::read(dir.join("c_0.mcap")).unwrap();
+    let at = bytes.windows(4).position(|w| w == b"zstd").unwrap();
+    bytes[at..at + 4].copy_from_slice(b"lz4x");
+    let err = Bag::from_bytes(&dir, &bytes).unwrap_err();
+    assert!(err.to_string().contains("lz4x"), "{err}");
+}

@@ -243,6 +243,7 @@ impl BagWriter {
             None => (log_time, log_time),
             Some((a, b)) => (a.min(log_time), b.max(log_time)),
         });
+        // A message record adds 31 bytes: opcode, length, channel, sequence and two times.
         self.chunk_bytes += cdr.len() as u64 + 31;
         self.chunk_opened.get_or_insert_with(Instant::now);
         self.flush_if_due()?;

@@ -1,12 +1,17 @@
 //! `waam bag`: look into recordings (rosbag2 directories with MCAP storage).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
 
+use anyhow::Context;
 use serde_json::json;
+use waam::bag::planning::PlanningRecorder;
 use waam::bag::sample::SampleSession;
 use waam::bag::{Bag, BagOptions, Recorder};
+use waam::part::Part;
+use waam::part_writer;
+use waam::planner::{Options, Report};
 
 use super::EXIT_OK;
 
@@ -21,9 +26,34 @@ pub struct BagArgs {
 pub enum BagCommand {
     Info(InfoArgs),
     Sample(SampleArgs),
+    Echo(EchoArgs),
 }
 
-/// Topics, types, message counts, duration and QoS of a recording, like `ros2 bag info`.
+/// (For tests.) Print the messages arriving on one ROS 2 topic as JSON lines, like
+/// `ros2 topic echo`, until COUNT arrived or the timeout passed. Exit code 1 when fewer came.
+#[derive(Debug, clap::Args)]
+#[command(hide = true)]
+pub struct EchoArgs {
+    /// The topic, e.g. /waam_planner/plan/weld_plan.
+    pub topic: String,
+    /// Its type, e.g. waam_interfaces/msg/WeldPlan.
+    #[arg(long = "type")]
+    pub type_name: String,
+    #[arg(long, default_value_t = 1)]
+    pub count: u64,
+    /// Seconds to wait at most.
+    #[arg(long, default_value_t = 10.0)]
+    pub timeout: f64,
+    /// Subscribe best effort (for best-effort publishers such as joint states).
+    #[arg(long)]
+    pub best_effort: bool,
+    /// Subscribe transient local (to get the last message a latched publisher sent).
+    #[arg(long)]
+    pub transient_local: bool,
+}
+
+/// Topics, types, message counts and duration of a recording, like `ros2 bag info` (with
+/// --json also each topic's offered QoS and type hash).
 ///
 /// BAG is a bag directory (with metadata.yaml) or an .mcap file. A recording whose process
 /// was killed is read up to its last complete chunk and reported as truncated.
@@ -58,6 +88,7 @@ pub fn run(args: BagArgs) -> anyhow::Result<ExitCode> {
     match args.command {
         BagCommand::Info(a) => info(a),
         BagCommand::Sample(a) => sample(a),
+        BagCommand::Echo(a) => echo(a),
     }
 }
 
@@ -150,6 +181,35 @@ fn info(args: InfoArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::from(EXIT_OK))
 }
 
+fn echo(args: EchoArgs) -> anyhow::Result<ExitCode> {
+    use ros2_client::qos::{Durability, History};
+    let timeout = Duration::try_from_secs_f64(args.timeout)
+        .map_err(|_| anyhow::anyhow!("--timeout: expected seconds >= 0, got {}", args.timeout))?;
+    let mut qos =
+        ros2_client::QosProfile::publisher_default().history(History::KeepLast { depth: 100 });
+    if args.best_effort {
+        qos = qos.reliability_best_effort();
+    }
+    if args.transient_local {
+        qos = qos.durability(Durability::TransientLocal);
+    }
+    let context = waam::replay::publish::context_from_env()?;
+    let got = waam::replay::publish::echo(
+        &context,
+        &args.topic,
+        &args.type_name,
+        qos,
+        args.count,
+        timeout,
+        &mut |message| println!("{message}"),
+    )?;
+    Ok(ExitCode::from(if got >= args.count {
+        EXIT_OK
+    } else {
+        super::EXIT_NO
+    }))
+}
+
 fn sample(args: SampleArgs) -> anyhow::Result<ExitCode> {
     let options = BagOptions {
         chunk_age: Duration::from_millis(args.chunk_age_ms),
@@ -173,6 +233,45 @@ fn sample(args: SampleArgs) -> anyhow::Result<ExitCode> {
         .collect();
     println!("{}", serde_json::Value::Object(counts));
     Ok(ExitCode::from(EXIT_OK))
+}
+
+/// Opens the recording of `waam plan --record DIR` and records the part as a part document:
+/// a part file's own text, the bundled sample's, or, for an STL mesh, the voxelized part that
+/// was planned (so that `waam replay` can plan it again).
+pub fn start_planning(
+    dir: &Path,
+    part_file: Option<&Path>,
+    part: &Part,
+    opts: &Options,
+) -> anyhow::Result<(Recorder, PlanningRecorder)> {
+    let is_stl = |p: &Path| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("stl"));
+    let text = match part_file {
+        Some(path) if is_stl(path) => part_writer::to_yaml(part),
+        Some(path) => std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read part {}", path.display()))?,
+        None => super::plan::DEFAULT_PART.to_string(),
+    };
+    let recorder = Recorder::create(dir)?;
+    let planning = PlanningRecorder::start(&recorder, &text, &part.name, opts)?;
+    Ok((recorder, planning))
+}
+
+/// Records the outcome of a planning run and closes the recording.
+pub fn finish_planning(
+    recorder: Recorder,
+    planning: PlanningRecorder,
+    part: &Part,
+    report: &Report,
+) -> anyhow::Result<()> {
+    planning.finish(part, report)?;
+    let summary = recorder.finish()?;
+    tracing::info!(
+        "recorded {} messages on {} topics to {}",
+        summary.messages,
+        summary.topics,
+        summary.dir.display()
+    );
+    Ok(())
 }
 
 fn human_size(bytes: u64) -> String {

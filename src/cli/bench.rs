@@ -29,6 +29,19 @@ pub enum BenchWhat {
         #[arg(long, default_value_t = 3)]
         repeat: usize,
     },
+    /// Planner on three generated parts of about 10,000 blocks (a thin wall, a ring tower
+    /// and a closed hollow box): time to the first feasible plan.
+    Large {
+        /// Stop each part after this many seconds (checked between SAT calls).
+        #[arg(long, default_value_t = 120.0)]
+        timeout: f64,
+        /// Only the parts whose name contains this.
+        #[arg(long)]
+        only: Option<String>,
+        /// How cycles are excluded.
+        #[arg(long, value_enum, default_value_t = waam::planner::Acyclicity::Lazy)]
+        acyclicity: waam::planner::Acyclicity,
+    },
     /// Planner: first feasible plan and all feasible plans of each part file in DIR.
     Planner {
         /// A folder of part files (e.g. ../shared/parts).
@@ -50,6 +63,11 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
             all_up_to,
             json,
         } => bench_planner(&dir, all_up_to, json),
+        BenchWhat::Large {
+            timeout,
+            only,
+            acyclicity,
+        } => bench_large(timeout, only.as_deref(), acyclicity),
     }
 }
 
@@ -67,6 +85,89 @@ pub fn hollow_tower(side: i64, layers: i64) -> Part {
     }
     Part::from_blocks("hollow-tower".into(), [6.0, 6.0, 2.5], [0.0; 3], 1, blocks)
         .expect("a generated part is valid")
+}
+
+/// The three large benchmark parts, each about 10,000 blocks, with a few t8/5 windows.
+pub fn large_parts() -> Vec<Part> {
+    let wall: Vec<[i64; 3]> = (0..100)
+        .flat_map(|z| (0..100).map(move |x| [x, 0, z]))
+        .collect();
+    let tower = hollow_tower(26, 100);
+    // A closed box: full floor, walls, and a full lid over the hollow (overhanging blocks).
+    let (side, height) = (30i64, 15i64);
+    let mut closed = Vec::new();
+    for z in 0..height {
+        for y in 0..side {
+            for x in 0..side {
+                let wall = x == 0 || y == 0 || x == side - 1 || y == side - 1;
+                if wall || z == 0 || z == height - 1 {
+                    closed.push([x, y, z]);
+                }
+            }
+        }
+    }
+    let make = |name: &str, k: usize, blocks: Vec<[i64; 3]>| {
+        Part::from_blocks(name.into(), [6.0, 6.0, 2.5], [0.0; 3], k, blocks).expect("valid part")
+    };
+    let mut parts = vec![
+        make("wall-100x100", 1, wall),
+        make("ring-tower-26x26x100", 1, tower.blocks().to_vec()),
+        make("hollow-box-30x30x15", 2, closed),
+    ];
+    for part in &mut parts {
+        // Generous windows on a few blocks of the top layer, so the thermal loop runs.
+        let top = part.layers() - 1;
+        let picks: Vec<usize> = (0..part.len())
+            .filter(|&i| part.block(i)[2] == top)
+            .step_by(17)
+            .take(4)
+            .collect();
+        for i in picks {
+            part.set_window(
+                i,
+                waam::part::Window {
+                    min_s: 0.5,
+                    max_s: 120.0,
+                },
+            );
+        }
+    }
+    parts
+}
+
+fn bench_large(
+    timeout: f64,
+    only: Option<&str>,
+    acyclicity: waam::planner::Acyclicity,
+) -> anyhow::Result<ExitCode> {
+    for part in large_parts() {
+        if only.is_some_and(|o| !part.name.contains(o)) {
+            continue;
+        }
+        let opts = Options {
+            acyclicity,
+            timeout: Some(std::time::Duration::from_secs_f64(timeout)),
+            ..Options::default()
+        };
+        let t = Instant::now();
+        let report = planner::first(&part, &opts, &mut |_| {})?;
+        let s = &report.stats;
+        println!(
+            "{:<22} {:>6} blocks k={} first feasible: {} in {:.2} s ({} candidates, {} cycle cuts, SAT {:.2} s, sim {:.2} s, {} vars, {} clauses)",
+            part.name,
+            part.len(),
+            part.max_fragments,
+            if report.best.is_some() { "found" } else if report.proven { "none exists" } else { "not found (timeout)" },
+            t.elapsed().as_secs_f64(),
+            s.candidates,
+            s.cycle_cuts,
+            s.sat_s,
+            s.simulator_s,
+            s.variables,
+            s.clauses
+        );
+    }
+    Ok(ExitCode::from(EXIT_OK))
 }
 
 /// The ring of a hollow tower's layer in walking order.

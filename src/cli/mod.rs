@@ -10,11 +10,13 @@ use waam::part::Part;
 pub mod bag;
 pub mod bench;
 pub mod check;
+pub mod layer;
 pub mod motion;
 pub mod node;
 pub mod plan;
 pub mod plot;
 pub mod publish;
+pub mod replay;
 pub mod voxelize;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
@@ -57,8 +59,11 @@ pub struct GlobalArgs {
 pub enum Command {
     Bag(bag::BagArgs),
     Check(check::CheckArgs),
+    /// Thick-wall layers: plan, plot and benchmark one weld trail per layer.
+    Layer(layer::LayerArgs),
     Plan(plan::PlanArgs),
     Bench(bench::BenchArgs),
+    Replay(replay::ReplayArgs),
     Voxelize(voxelize::VoxelizeArgs),
     Motion(motion::MotionArgs),
     Plot(plot::PlotArgs),
@@ -71,8 +76,10 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Bag(args) => bag::run(args),
         Command::Check(args) => check::run(args),
+        Command::Layer(args) => layer::run(args),
         Command::Plan(args) => plan::run(args, &cli.global),
         Command::Bench(args) => bench::run(args),
+        Command::Replay(args) => replay::run(args),
         Command::Voxelize(args) => voxelize::run(args),
         Command::Motion(args) => motion::run(args),
         Command::Plot(args) => plot::run(args),
@@ -100,9 +107,11 @@ pub fn init_logging(global: &GlobalArgs) {
         (false, 1) => "debug",
         (false, _) => "trace",
     };
-    // RustDDS logs every discovery event at info and every large datagram at warn;
-    // ros2-client echoes each /rosout record the node already logged itself.
-    let default = format!("{default},rustdds=error,ros2_client=warn,ros2_client::rosout=off");
+    // varisat reports its search progress at info level, RustDDS every discovery event at
+    // info and every large datagram at warn, and ros2-client echoes each /rosout record the
+    // node already logged itself: keep those out of the default log.
+    let default =
+        format!("{default},varisat=warn,rustdds=error,ros2_client=warn,ros2_client::rosout=off");
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
     tracing_subscriber::fmt()

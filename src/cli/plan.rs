@@ -55,6 +55,10 @@ pub struct PlanArgs {
     /// Learn the plain violating prefix (as the paper) instead of proven shorter clauses.
     #[arg(long)]
     pub no_shortening: bool,
+    /// Record the run as a rosbag2 bag (MCAP) in the new directory DIR: the part, every
+    /// candidate's verdict, the plan and the simulated heat of the build.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["all", "count"])]
+    pub record: Option<PathBuf>,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -109,8 +113,22 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
+    let mut session = match &args.record {
+        Some(dir) => Some(super::bag::start_planning(
+            dir,
+            args.part.as_deref(),
+            &part,
+            &opts,
+        )?),
+        None => None,
+    };
     let mut bar = LazyBar::new(global.quiet || args.json);
-    let mut progress = |s: &Stats| bar.update(s);
+    let mut progress = |s: &Stats| {
+        bar.update(s);
+        if let Some((_, planning)) = session.as_mut() {
+            planning.progress(s);
+        }
+    };
     if args.count {
         let counts = planner::count(&part, &opts, true, &mut progress)?;
         bar.finish();
@@ -175,6 +193,9 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         planner::plan(&part, &opts, &mut progress)?
     };
     bar.finish();
+    if let Some((recorder, planning)) = session {
+        super::bag::finish_planning(recorder, planning, &part, &report)?;
+    }
     if let (Some(dir), Some(best)) = (&args.out, &report.best) {
         let path = dir.join("plan.yaml");
         std::fs::write(&path, best.plan(&part).to_yaml())

@@ -13,6 +13,7 @@ pub mod builtin_interfaces;
 pub mod control_msgs;
 pub mod definition;
 pub mod diagnostic_msgs;
+pub mod dispatch;
 pub mod geometry_msgs;
 pub mod nav_msgs;
 pub mod rcl_interfaces;

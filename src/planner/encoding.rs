@@ -30,6 +30,8 @@ pub enum Acyclicity {
     Eager,
     /// Solve, find the cycles in the model, add a clause cutting each, solve again.
     Lazy,
+    /// Lazy, but a layer that shows a cycle once gets the eager rank order from then on.
+    Hybrid,
 }
 
 /// The variables of one part's encoding.
@@ -169,13 +171,19 @@ impl Encoding {
             truth,
         };
         if acyclicity == Acyclicity::Eager {
-            enc.encode_ranks(part, solver);
+            enc.encode_ranks(part, solver, |_| true);
         }
         enc
     }
 
-    /// Eager acyclicity: a binary rank per block, increasing along every sideways edge.
-    fn encode_ranks(&self, part: &Part, solver: &mut impl SatSolver) {
+    // Eager acyclicity: a binary rank per block, increasing along every sideways edge.
+    /// Eager acyclicity for the layers `only` admits (all layers: `|_| true`).
+    pub fn encode_ranks(
+        &self,
+        part: &Part,
+        solver: &mut impl SatSolver,
+        only: impl Fn(i64) -> bool,
+    ) {
         let n = part.len();
         let mut layer_size = std::collections::HashMap::<i64, usize>::new();
         for b in part.blocks() {
@@ -187,12 +195,15 @@ impl Encoding {
         };
         let rank: Vec<Vec<Lit>> = (0..n)
             .map(|v| {
-                (0..bits_of(part.block(v)[2]))
-                    .map(|_| solver.new_lit())
-                    .collect()
+                let z = part.block(v)[2];
+                let bits = if only(z) { bits_of(z) } else { 0 };
+                (0..bits).map(|_| solver.new_lit()).collect()
             })
             .collect();
         for u in 0..n {
+            if !only(part.block(u)[2]) {
+                continue;
+            }
             for &(v, e) in &self.out[u] {
                 let v = v as usize;
                 if part.block(v)[2] != part.block(u)[2] {

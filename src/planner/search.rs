@@ -3,7 +3,8 @@
 //!
 //! Two things make it fast:
 //! - candidates share prefixes, so the simulation of a new candidate resumes from the
-//!   snapshot of the longest prefix it shares with the previous one;
+//!   snapshot of the longest prefix it shares with *any* earlier candidate (a cache of
+//!   prefix snapshots keyed by a 128-bit hash of the deposit sequence);
 //! - before a prefix clause is learned, it is shortened where that is *proven*: when every
 //!   possible next step after a shorter prefix also breaks a window within that step, the
 //!   shorter prefix already forces a violation, and its clause is learned instead. Every
@@ -41,8 +42,9 @@ pub struct Search<'p> {
     pub stats: Stats,
     /// Violations per window block (to name the one broken most often).
     pub violations: Vec<usize>,
-    trail: Vec<(usize, bool)>,
-    snaps: Vec<Snapshot>,
+    cache: PrefixCache,
+    /// Layers given the eager rank order (hybrid acyclicity).
+    ranked_layers: Vec<i64>,
     spacing: usize,
 }
 
@@ -73,8 +75,8 @@ impl<'p> Search<'p> {
             lookahead_budget,
             stats,
             violations: vec![0; n],
-            trail: Vec::new(),
-            snaps: Vec::new(),
+            cache: PrefixCache::default(),
+            ranked_layers: Vec::new(),
             // Snapshots of every prefix cost n²/2 temperatures: space them on big parts.
             spacing: (n / 1000).max(1),
         }
@@ -83,8 +85,7 @@ impl<'p> Search<'p> {
     /// Judges later candidates by `model` (e.g. narrowed windows while optimizing).
     pub fn set_thermal(&mut self, model: ThermalModel) {
         self.thermal = model;
-        self.trail.clear();
-        self.snaps.clear();
+        self.cache = PrefixCache::default();
     }
 
     /// The next plan the solver allows, cutting cycles until the model is one;
@@ -107,15 +108,29 @@ impl<'p> Search<'p> {
                     return Some(fragments);
                 }
                 Decoded::Cycles(cycles) => {
-                    debug_assert_eq!(
+                    debug_assert_ne!(
                         self.acyclicity,
-                        Acyclicity::Lazy,
+                        Acyclicity::Eager,
                         "eager encoding left a cycle"
                     );
                     for cycle in &cycles {
                         let cut = self.enc.cycle_cut(cycle);
                         self.solver.add_clause(&cut);
                         self.stats.cycle_cuts += 1;
+                    }
+                    if self.acyclicity == Acyclicity::Hybrid {
+                        // Layers that cycle once tend to cycle again: order them eagerly.
+                        let z = |b: usize| self.part.block(b)[2];
+                        let fresh: Vec<i64> = cycles
+                            .iter()
+                            .map(|c| z(c[0]))
+                            .filter(|l| !self.ranked_layers.contains(l))
+                            .collect();
+                        if !fresh.is_empty() {
+                            self.ranked_layers.extend(&fresh);
+                            self.enc
+                                .encode_ranks(self.part, &mut self.solver, |l| fresh.contains(&l));
+                        }
                     }
                     // A solve that ended in a cycle is work done for acyclicity.
                     self.stats.acyclicity_s += dt + t2.elapsed().as_secs_f64();
@@ -163,31 +178,16 @@ impl<'p> Search<'p> {
 
     /// The simulation of `seq` to its first violation (`None`: feasible).
     fn simulate(&mut self, seq: &[(usize, bool)]) -> Result<Option<Violation>, thermal::NotCooled> {
-        let model = &self.thermal;
-        let common = self
-            .trail
-            .iter()
-            .zip(seq)
-            .take_while(|(a, b)| a == b)
-            .count();
-        let mut sim = Simulation::new(model);
-        let keep = (common / self.spacing).min(self.snaps.len());
-        self.snaps.truncate(keep);
-        let mut at = 0;
-        if let Some(snap) = self.snaps.last() {
-            sim.restore_from_trail(snap, &self.trail);
-            at = snap.welded();
-        }
-        self.trail.truncate(at);
+        let keys = prefix_keys(seq);
+        let (mut sim, at) = resume(&self.thermal, &self.cache, self.spacing, seq, &keys);
         self.stats.deposits_reused += at as u64;
-        for &(b, new) in &seq[at..] {
+        for (j, &(b, new)) in seq.iter().enumerate().skip(at) {
             self.stats.deposits_simulated += 1;
             if let Err(v) = sim.deposit(b, new) {
                 return Ok(Some(v));
             }
-            self.trail.push((b, new));
-            if self.trail.len() % self.spacing == 0 {
-                self.snaps.push(sim.snapshot());
+            if (j + 1) % self.spacing == 0 {
+                self.cache.insert(keys[j], &sim);
             }
         }
         let before = sim.steps();
@@ -222,9 +222,6 @@ impl<'p> Search<'p> {
                     (len - 1, false, Some((b, false)), true, true)
                 }
             };
-            if target_len > 0 && target_len > self.trail.len() {
-                break;
-            }
             let Some(base) = self.state_after(&seq[..target_len]) else {
                 break;
             };
@@ -250,15 +247,10 @@ impl<'p> Search<'p> {
         self.solver.add_clause(&clause);
     }
 
-    /// The simulation state after `prefix` (from the nearest snapshot).
+    /// The simulation state after `prefix` (from the nearest cached snapshot).
     fn state_after(&self, prefix: &[(usize, bool)]) -> Option<Simulation<'_>> {
-        let mut sim = Simulation::new(&self.thermal);
-        let k = (prefix.len() / self.spacing).min(self.snaps.len());
-        let mut at = 0;
-        if k > 0 {
-            sim.restore_from_trail(&self.snaps[k - 1], &self.trail);
-            at = self.snaps[k - 1].welded();
-        }
+        let keys = prefix_keys(prefix);
+        let (mut sim, at) = resume(&self.thermal, &self.cache, self.spacing, prefix, &keys);
         for &(b, new) in &prefix[at..] {
             sim.deposit(b, new).ok()?;
         }
@@ -340,4 +332,77 @@ pub fn fragments_of(seq: &[(usize, bool)]) -> Vec<Vec<usize>> {
         out.last_mut().expect("just pushed").push(b);
     }
     out
+}
+
+/// A simulation at the longest cached prefix of `seq` (of a length that is a multiple of
+/// `spacing`), and that prefix's length.
+fn resume<'m>(
+    model: &'m ThermalModel,
+    cache: &PrefixCache,
+    spacing: usize,
+    seq: &[(usize, bool)],
+    keys: &[Key],
+) -> (Simulation<'m>, usize) {
+    let mut sim = Simulation::new(model);
+    for len in (1..=seq.len()).rev().filter(|len| len % spacing == 0) {
+        if let Some(snap) = cache.get(keys[len - 1], len) {
+            sim.restore_from_trail(snap, seq);
+            return (sim, len);
+        }
+    }
+    (sim, 0)
+}
+
+/// A 128-bit hash of a deposit sequence prefix (two independent 64-bit mixes).
+type Key = (u64, u64);
+
+/// The key of every prefix of `seq`: `keys[j]` is the key of `seq[..=j]`.
+fn prefix_keys(seq: &[(usize, bool)]) -> Vec<Key> {
+    let mut h = (0x9e37_79b9_7f4a_7c15u64, 0xc2b2_ae3d_27d4_eb4fu64);
+    seq.iter()
+        .map(|&(b, new)| {
+            let x = (b as u64) << 1 | new as u64;
+            h = (
+                mix(h.0 ^ x),
+                mix(h.1.wrapping_add(x.wrapping_mul(0xff51_afd7_ed55_8ccd))),
+            );
+            h
+        })
+        .collect()
+}
+
+/// splitmix64's finalizer.
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// Snapshots of simulated prefixes, bounded in memory (cleared when full).
+#[derive(Default)]
+struct PrefixCache {
+    map: rustc_hash::FxHashMap<Key, Snapshot>,
+    temperatures: usize,
+}
+
+impl PrefixCache {
+    /// Temperatures kept at most (8 bytes each): 256 MiB.
+    const CAPACITY: usize = 32 << 20;
+
+    fn get(&self, key: Key, len: usize) -> Option<&Snapshot> {
+        self.map.get(&key).filter(|s| s.welded() == len)
+    }
+
+    fn insert(&mut self, key: Key, sim: &Simulation<'_>) {
+        if self.map.contains_key(&key) {
+            return;
+        }
+        if self.temperatures + sim.welded() > Self::CAPACITY {
+            self.map.clear();
+            self.temperatures = 0;
+        }
+        self.temperatures += sim.welded();
+        self.map.insert(key, sim.snapshot());
+    }
 }

@@ -7,6 +7,8 @@
 
 use std::fmt;
 
+pub mod publish;
+
 use crate::bag::{Bag, BagError};
 use crate::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus};
 use crate::msgs::shape_msgs::Mesh;
@@ -35,6 +37,9 @@ pub struct RecordedCase {
     pub plan: Option<WeldPlan>,
     /// The first ERROR status published after this part and before the next one.
     pub error: Option<String>,
+    /// Key-value pairs of the statuses published after this part and before the next one
+    /// (the planner's settings among them).
+    pub status_values: Vec<(String, String)>,
 }
 
 /// Parts are recognised on `std_msgs/String` topics whose name ends in `/part`, meshes on any
@@ -68,6 +73,7 @@ pub fn recorded_cases(bag: &Bag) -> Result<Vec<RecordedCase>, BagError> {
                 input,
                 plan: None,
                 error: None,
+                status_values: Vec::new(),
             });
             continue;
         }
@@ -76,16 +82,19 @@ pub fn recorded_cases(bag: &Bag) -> Result<Vec<RecordedCase>, BagError> {
         };
         if topic.type_name == WeldPlan::TYPE_NAME && case.plan.is_none() && case.error.is_none() {
             case.plan = Some(from_cdr(&m.data).map_err(decode_error)?);
-        } else if topic.type_name == DiagnosticArray::TYPE_NAME
-            && case.plan.is_none()
-            && case.error.is_none()
-        {
+        } else if topic.type_name == DiagnosticArray::TYPE_NAME {
             let status: DiagnosticArray = from_cdr(&m.data).map_err(decode_error)?;
-            case.error = status
-                .status
-                .iter()
-                .find(|s| s.level == DiagnosticStatus::ERROR)
-                .map(|s| s.message.clone());
+            for s in &status.status {
+                case.status_values
+                    .extend(s.values.iter().map(|kv| (kv.key.clone(), kv.value.clone())));
+            }
+            if case.plan.is_none() && case.error.is_none() {
+                case.error = status
+                    .status
+                    .iter()
+                    .find(|s| s.level == DiagnosticStatus::ERROR)
+                    .map(|s| s.message.clone());
+            }
         }
     }
     Ok(cases)
@@ -272,12 +281,12 @@ pub fn diff_statistics(recorded: &PlanStatistics, new: &PlanStatistics) -> Vec<D
 pub fn replay(
     cases: Vec<RecordedCase>,
     compare_statistics: bool,
-    mut replan: impl FnMut(&CaseInput) -> Replanned,
+    mut replan: impl FnMut(&RecordedCase) -> Replanned,
 ) -> Vec<CaseReport> {
     cases
         .into_iter()
         .map(|case| {
-            let replanned = replan(&case.input);
+            let replanned = replan(&case);
             let verdict = match (&case.plan, &case.error, &replanned) {
                 (_, _, Replanned::Unsupported(why)) => Verdict::Skipped(why.clone()),
                 (None, None, _) => Verdict::Skipped(
@@ -320,6 +329,30 @@ pub fn replay(
                 replanned,
                 verdict,
             }
+        })
+        .collect()
+}
+
+/// When to send each recorded message to play the recording back with its original timing:
+/// (delay from the start, index into `bag.messages`), in receive-time order. `rate` > 1 plays
+/// faster.
+pub fn schedule(bag: &Bag, rate: f64) -> Vec<(std::time::Duration, usize)> {
+    let mut order: Vec<usize> = (0..bag.messages.len()).collect();
+    order.sort_by_key(|&i| bag.messages[i].log_time);
+    let Some(&first) = order.first() else {
+        return Vec::new();
+    };
+    let t0 = bag.messages[first].log_time;
+    let rate = if rate.is_finite() && rate > 0.0 {
+        rate
+    } else {
+        1.0
+    };
+    order
+        .into_iter()
+        .map(|i| {
+            let ns = (bag.messages[i].log_time - t0) as f64 / rate;
+            (std::time::Duration::from_nanos(ns.round() as u64), i)
         })
         .collect()
 }

@@ -91,8 +91,8 @@ fn parts_are_paired_with_their_plans_and_errors() {
 
 /// A planner that plans walls of length given by the part text ("a" = 3, "d" = 4), fails on
 /// "b" and plans "c".
-fn honest(input: &CaseInput) -> Replanned {
-    let n = match text(input) {
+fn honest(case: &RecordedCase) -> Replanned {
+    let n = match text(&case.input) {
         "a" => 3,
         "c" => 2,
         "d" => 4,
@@ -122,7 +122,7 @@ fn a_changed_plan_names_the_first_differing_block() {
     let reports = replay(
         recorded_cases(&session()).unwrap(),
         true,
-        |input| match text(input) {
+        |case| match text(&case.input) {
             "d" => Replanned::Plan {
                 fragments: vec![vec![[0, 0, 0], [1, 0, 0], [2, 0, 1], [3, 0, 0]]],
                 statistics: PlanStatistics {
@@ -134,7 +134,7 @@ fn a_changed_plan_names_the_first_differing_block() {
                 fragments: wall(1),
                 statistics: PlanStatistics::default(),
             },
-            _ => honest(input),
+            _ => honest(case),
         },
     );
     let Verdict::Different(d) = &reports[3].verdict else {
@@ -163,8 +163,8 @@ fn a_changed_plan_names_the_first_differing_block() {
         Verdict::Different(d) if matches!(&d[0], Difference::PlanGained { .. })
     ));
     // Statistics left out: only the plan counts.
-    let reports = replay(recorded_cases(&session()).unwrap(), false, |input| {
-        let mut r = honest(input);
+    let reports = replay(recorded_cases(&session()).unwrap(), false, |case| {
+        let mut r = honest(case);
         if let Replanned::Plan { statistics, .. } = &mut r {
             statistics.candidates += 1;
         }
@@ -202,4 +202,16 @@ fn fragment_differences() {
         &lost[0].verdict,
         Verdict::Different(d) if d[0].to_string().contains("no feasible plan")
     ));
+}
+
+#[test]
+fn playback_keeps_the_recorded_timing() {
+    let bag = session();
+    let plan = schedule(&bag, 1.0);
+    assert_eq!(plan.len(), bag.messages.len());
+    assert_eq!(plan[0].0, std::time::Duration::ZERO);
+    assert_eq!(plan[3].0, std::time::Duration::from_nanos(3));
+    let fast = schedule(&bag, 2.0);
+    assert_eq!(fast.last().unwrap().0, std::time::Duration::from_nanos(4)); // 7 ns / 2
+    assert!(plan.windows(2).all(|w| w[0].0 <= w[1].0));
 }

@@ -1,0 +1,279 @@
+//! `waam replay BAG`: re-plan every part a recording received and compare with the recorded
+//! plans — a regression check for the planner, and offline debugging of a cell's builds.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use serde_json::json;
+use waam::bag::planning::{options_from, statistics, PlanningRecorder};
+use waam::bag::{Bag, Recorder};
+use waam::part::Part;
+use waam::planner::{self, Acyclicity, Options, Stats};
+use waam::replay::{self, CaseInput, Replanned, Verdict};
+
+use super::{EXIT_BAD_INPUT, EXIT_NO, EXIT_OK};
+
+/// Re-plan every part found in a recording and compare each new plan with the recorded one.
+///
+/// The planner runs with the settings recorded with the part (`waam plan --record` records
+/// them), else the defaults; options given here override them. Never with a timeout.
+///
+/// Parts are the part documents received on `.../part` topics; each is paired with the first
+/// plan (waam_interfaces/WeldPlan) or ERROR status recorded after it. Prints IDENTICAL, or
+/// DIFFERENT with the fragments, the first differing block and the statistics that changed
+/// (candidates, feasible plans, learned clauses; never times). A truncated recording (a killed
+/// process) is read up to its last complete chunk and said to be truncated.
+/// Exit code 0: every compared plan is identical; 1: a difference; 2: bad input (unreadable
+/// bag, no parts in it).
+#[derive(Debug, clap::Args)]
+pub struct ReplayArgs {
+    /// The recording: a bag directory (with metadata.yaml) or an .mcap file.
+    pub bag: PathBuf,
+    /// Also write the re-planned session as a new bag in the new directory OUT.
+    #[arg(long, value_name = "OUT")]
+    pub record: Option<PathBuf>,
+    /// Compare only the plans, not the planner's statistics.
+    #[arg(long)]
+    pub plans_only: bool,
+    /// Re-plan with this max_fragments (k) instead of the recorded setting (or the part's own).
+    #[arg(long, value_name = "K")]
+    pub max_fragments: Option<usize>,
+    /// How cycles are excluded (as `waam plan --acyclicity`), instead of the recorded setting.
+    #[arg(long, value_enum)]
+    pub acyclicity: Option<Acyclicity>,
+    /// Learn plain violating prefixes (as `waam plan --no-shortening`), whatever was recorded.
+    #[arg(long)]
+    pub no_shortening: bool,
+    /// Instead of re-planning, play the recorded messages back to ROS 2 topics with their
+    /// original timing and QoS (a dry run of a past session). Honours ROS_DOMAIN_ID and
+    /// ROS_AUTOMATIC_DISCOVERY_RANGE / ROS_LOCALHOST_ONLY.
+    #[arg(long, conflicts_with_all = ["record", "plans_only", "max_fragments"])]
+    pub publish: bool,
+    /// With --publish: play this many times faster than recorded.
+    #[arg(long, default_value_t = 1.0, requires = "publish")]
+    pub rate: f64,
+    /// With --publish: seconds to wait before the first message, for subscribers to be
+    /// discovered (as `ros2 bag play --delay`).
+    #[arg(long, default_value_t = 1.0, requires = "publish")]
+    pub delay: f64,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
+    let bag = Bag::open(&args.bag)?;
+    if let Some(t) = &bag.truncated {
+        eprintln!(
+            "warning: {} is truncated ({} after {} bytes): replaying what was recorded up to \
+             its last complete chunk",
+            bag.mcap_file.display(),
+            t.reason,
+            t.file_len
+        );
+    }
+    if args.publish {
+        return publish(&args, &bag);
+    }
+    let cases = replay::recorded_cases(&bag)?;
+    if cases.is_empty() {
+        eprintln!(
+            "error: {} holds no part (std_msgs/String on a .../part topic) to re-plan",
+            args.bag.display()
+        );
+        return Ok(ExitCode::from(EXIT_BAD_INPUT));
+    }
+    let overrides = |mut opts: Options| {
+        if let Some(a) = args.acyclicity {
+            opts.acyclicity = a;
+        }
+        if args.no_shortening {
+            opts.lookahead_budget = 0;
+        }
+        if args.max_fragments.is_some() {
+            opts.max_fragments = args.max_fragments;
+        }
+        opts.timeout = None;
+        opts
+    };
+    let recorder = args.record.as_deref().map(Recorder::create).transpose()?;
+    let mut record_error = None;
+    let reports = replay::replay(cases, !args.plans_only, |case| {
+        let opts = match options_from(&case.status_values, &Options::default()) {
+            Ok(opts) => overrides(opts),
+            Err(e) => return Replanned::Unsupported(e),
+        };
+        let text = match &case.input {
+            CaseInput::PartText(text) => text,
+            CaseInput::Mesh(_) => {
+                return Replanned::Unsupported(
+                    "a mesh part: re-planning needs the node's voxelizing parameters".into(),
+                )
+            }
+        };
+        let part = match Part::parse(text) {
+            Ok(part) => part,
+            Err(e) => return Replanned::NoPlan(format!("bad part: {e}")),
+        };
+        let mut planning = recorder.as_ref().and_then(|r| {
+            PlanningRecorder::start(r, text, &part.name, &opts)
+                .map_err(|e| record_error.get_or_insert(e))
+                .ok()
+        });
+        let mut progress = |s: &Stats| {
+            if let Some(p) = planning.as_mut() {
+                p.progress(s);
+            }
+        };
+        let report = match planner::plan(&part, &opts, &mut progress) {
+            Ok(report) => report,
+            Err(e) => return Replanned::NoPlan(e.to_string()),
+        };
+        if let Some(p) = planning {
+            if let Err(e) = p.finish(&part, &report) {
+                record_error.get_or_insert(e);
+            }
+        }
+        match &report.best {
+            Some(best) => Replanned::Plan {
+                fragments: best.plan(&part).fragments,
+                statistics: statistics(&report.stats, report.proven),
+            },
+            None => Replanned::NoPlan(
+                report
+                    .no_plan
+                    .as_ref()
+                    .map_or("no feasible plan".into(), |r| r.to_string()),
+            ),
+        }
+    });
+    if let Some(e) = record_error {
+        return Err(e.into());
+    }
+    if let Some(recorder) = recorder {
+        let summary = recorder.finish()?;
+        eprintln!(
+            "recorded the re-planned session ({} messages) to {}",
+            summary.messages,
+            summary.dir.display()
+        );
+    }
+    let different = reports
+        .iter()
+        .filter(|r| matches!(r.verdict, Verdict::Different(_)))
+        .count();
+    let identical = reports
+        .iter()
+        .filter(|r| r.verdict == Verdict::Identical)
+        .count();
+    let skipped = reports.len() - different - identical;
+    if args.json {
+        let cases: Vec<_> = reports
+            .iter()
+            .map(|r| {
+                let (verdict, details) = match &r.verdict {
+                    Verdict::Identical => ("identical", vec![]),
+                    Verdict::Different(d) => {
+                        ("different", d.iter().map(|d| d.to_string()).collect())
+                    }
+                    Verdict::Skipped(why) => ("skipped", vec![why.clone()]),
+                };
+                json!({
+                    "topic": r.case.topic,
+                    "log_time_ns": r.case.log_time,
+                    "part": part_name(&r.case.input),
+                    "verdict": verdict,
+                    "details": details,
+                })
+            })
+            .collect();
+        println!(
+            "{}",
+            json!({
+                "bag": args.bag,
+                "truncated": bag.truncated.as_ref().map(|t| &t.reason),
+                "identical": identical,
+                "different": different,
+                "skipped": skipped,
+                "cases": cases,
+            })
+        );
+    } else {
+        for (i, r) in reports.iter().enumerate() {
+            let what = format!("part {} ({})", i + 1, part_name(&r.case.input));
+            match &r.verdict {
+                Verdict::Identical => match &r.replanned {
+                    Replanned::Plan {
+                        fragments,
+                        statistics,
+                    } => println!(
+                        "{what}: IDENTICAL ({} fragment(s), {} candidates)",
+                        fragments.len(),
+                        statistics.candidates
+                    ),
+                    _ => println!("{what}: IDENTICAL (no plan, as recorded)"),
+                },
+                Verdict::Different(d) => {
+                    println!("{what}: DIFFERENT");
+                    for d in d {
+                        println!("  {d}");
+                    }
+                }
+                Verdict::Skipped(why) => println!("{what}: SKIPPED: {why}"),
+            }
+        }
+        println!(
+            "{} part(s): {identical} identical, {different} different, {skipped} skipped{}",
+            reports.len(),
+            if bag.truncated.is_some() {
+                " (recording truncated)"
+            } else {
+                ""
+            }
+        );
+    }
+    Ok(ExitCode::from(if different > 0 {
+        EXIT_NO
+    } else {
+        EXIT_OK
+    }))
+}
+
+/// `--publish`: plays the recording back to ROS 2.
+fn publish(args: &ReplayArgs, bag: &Bag) -> anyhow::Result<ExitCode> {
+    if !(args.rate.is_finite() && args.rate > 0.0) {
+        anyhow::bail!("--rate: expected a positive number, got {}", args.rate);
+    }
+    let delay = Duration::try_from_secs_f64(args.delay)
+        .map_err(|_| anyhow::anyhow!("--delay: expected seconds >= 0, got {}", args.delay))?;
+    let context = replay::publish::context_from_env()?;
+    let player = replay::publish::Player::new(context, "waam_replay", bag)?;
+    for topic in &player.skipped {
+        eprintln!("warning: not played: {topic}");
+    }
+    let sent = player.play(bag, args.rate, delay)?;
+    if args.json {
+        println!("{}", json!({"bag": args.bag, "published": sent}));
+    } else {
+        for (topic, n) in &sent {
+            println!("published {n} message(s) on {topic}");
+        }
+        println!(
+            "published {} message(s) on {} topic(s)",
+            sent.values().sum::<u64>(),
+            sent.len()
+        );
+    }
+    Ok(ExitCode::from(EXIT_OK))
+}
+
+/// The part's name from its document (for messages), or what it is.
+fn part_name(input: &CaseInput) -> String {
+    match input {
+        CaseInput::PartText(text) => Part::parse(text)
+            .map(|p| p.name)
+            .unwrap_or_else(|_| "unreadable part".into()),
+        CaseInput::Mesh(m) => format!("mesh of {} triangles", m.triangles.len()),
+    }
+}

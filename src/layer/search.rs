@@ -1,0 +1,709 @@
+//! Exhaustive branch and bound over trails, with a proven lower bound.
+//!
+//! The search tree branches on the next directed segment (continuing from the torch, or
+//! after a deadheading move while the minimum count allows one). A child's field is
+//! stepped from its parent's (shared-prefix simulation: every tree edge is simulated
+//! once). A child is dropped when its lower bound reaches the best trail found.
+//!
+//! Lower bound of a child at step n with field u (deviation from ambient), R steps and
+//! W weld steps left, from the exact split |x| = −x + 2·max(0, x) per node and step:
+//! * cold part, linear and so exact up to the torch positions: Σ_j Σ_i (T* − T_i^j) =
+//!   R·N·(T*−T_amb) − Σ_j 1ᵀGʲu − (heat the future welds add to the node sums); the last
+//!   term is at most the W largest "heat sums" a single weld step can add with the steps
+//!   left after it (precomputed by an adjoint recursion for every torch position).
+//! * hot part, only when each step is monotone (A⁻¹ ≥ 0, see `fem`) and T* ≥ T_amb: every
+//!   future field is at least the free decay of u plus, during the weld of each remaining
+//!   segment, the heat of that segment and of the future welds just before it in its run;
+//!   for T* ≥ T_amb overshoots of sums of non-negative parts add up, so 2·(overshoot of
+//!   the free decay + Σ over remaining segments of their least overshoot after a walk of
+//!   as many future predecessors as a trail must give them) is a lower bound.
+//!
+//! Symmetries of the layer and mesh prune children that are not the smallest of their
+//! orbit under the stabilizer of the prefix (sound: some image of every trail passes).
+
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+
+use super::improve::improve;
+use super::model::{trails_needed, Model, Move, Trail};
+use super::symmetry::symmetries;
+
+/// Search settings.
+#[derive(Debug, Clone)]
+pub struct SearchOptions {
+    /// Stop after this long and return the best trail with its proven gap.
+    pub time_limit: Option<Duration>,
+    /// Prune symmetric trails.
+    pub symmetry: bool,
+    /// Free-decay steps used for the hot part of the bound (more: tighter, slower).
+    pub free_decay_steps: usize,
+    /// Prune by the lower bound (off: plain enumeration of every trail, for checking).
+    pub bound: bool,
+}
+
+impl Default for SearchOptions {
+    fn default() -> Self {
+        SearchOptions {
+            time_limit: None,
+            symmetry: true,
+            free_decay_steps: 10,
+            bound: true,
+        }
+    }
+}
+
+/// The answer of a search.
+#[derive(Debug, Clone, Serialize)]
+pub struct SearchResult {
+    #[serde(skip)]
+    pub trail: Trail,
+    /// Objective of the trail (K·steps).
+    pub objective: f64,
+    /// Proven lower bound on the optimum.
+    pub lower_bound: f64,
+    pub proven_optimal: bool,
+    /// objective − lower_bound (0 when proven optimal).
+    pub gap: f64,
+    /// gap / objective.
+    pub relative_gap: f64,
+    /// Search nodes evaluated (each a simulated segment).
+    pub nodes_explored: u64,
+    /// Complete trails reached.
+    pub leaves: u64,
+    pub seconds: f64,
+    /// Size of the symmetry group used.
+    pub symmetries: usize,
+    /// Whether the hot part of the bound was usable (monotone steps, T* ≥ T_amb).
+    pub hot_bound: bool,
+    /// Lower bound at the root.
+    pub root_bound: f64,
+}
+
+/// Precomputed pieces of the lower bound.
+struct Bound {
+    n: usize,
+    /// free_sum[R] = Σ_{j=1..R} (Gᵀ)ʲ 1, flattened (R = 0..=H).
+    free_sum: Vec<f64>,
+    /// heat_prefix[m] = Σ_{k<m} g[k], g[m] = largest node-sum heat one weld step adds
+    /// over the m+1 steps from it on; used for the W largest of g[0..R).
+    gains: Vec<f64>,
+    gains_sorted_by_m: bool,
+    gains_prefix: Vec<f64>,
+    /// history[j][d]: least overshoot while welding directed segment d (index
+    /// 2 s + reversed) from cold right after j other segments welded in one run (any walk
+    /// of j distinct segments ending where d starts); level j falls back to level j − 1
+    /// where no such walk exists.
+    history: Vec<Vec<f64>>,
+    hot: bool,
+    /// Free-decay steps used for the hot part.
+    decay_steps: usize,
+}
+
+impl Bound {
+    fn new(model: &Model, decay_steps: usize) -> Bound {
+        let n = model.heat.len();
+        let h = model.horizon;
+        let mut a = vec![1.0; n];
+        let mut free_sum = vec![0.0; (h + 1) * n];
+        let mut gains = vec![0.0f64; h];
+        let mut cum = vec![0.0; model.positions.len()];
+        for k in 0..h {
+            // c_k = A⁻¹ a_k; node-sum response at lag k of a weld at q is dt c_kᵀ F_q.
+            let mut c = a.clone();
+            model.heat.solve(&mut c);
+            let mut best = 0.0f64;
+            for (q, load) in model.loads.iter().enumerate() {
+                let s: f64 = load.iter().map(|&(i, f)| c[i] * f).sum::<f64>() * model.heat.dt;
+                cum[q] += s;
+                best = best.max(cum[q]);
+            }
+            gains[k] = best;
+            for (ai, (ci, m)) in a.iter_mut().zip(c.iter().zip(&model.heat.lumped_mass)) {
+                *ai = ci * m;
+            }
+            // a is now a_{k+1}; free_sum[k+1] = free_sum[k] + a_{k+1}.
+            let (lo, hi) = free_sum.split_at_mut((k + 1) * n);
+            let prev = &lo[k * n..];
+            for ((dst, p), ai) in hi[..n].iter_mut().zip(prev).zip(&a) {
+                *dst = p + ai;
+            }
+        }
+        let gains_sorted_by_m = gains.windows(2).all(|w| w[0] <= w[1]);
+        let mut gains_prefix = vec![0.0; h + 1];
+        for m in 0..h {
+            gains_prefix[m + 1] = gains_prefix[m] + gains[m];
+        }
+        let hot = model.heat.monotone && model.target >= 0.0 && model.initial >= 0.0;
+        let history = if hot {
+            history_overshoots(model, HISTORY_DEPTH)
+        } else {
+            vec![vec![0.0; 2 * model.layer.segments.len()]]
+        };
+        Bound {
+            n,
+            free_sum,
+            gains,
+            gains_sorted_by_m,
+            gains_prefix,
+            history,
+            hot,
+            decay_steps,
+        }
+    }
+
+    /// Largest total node-sum heat W weld steps can add within the last R steps.
+    fn max_heat(&self, r: usize, w: usize) -> f64 {
+        let w = w.min(r);
+        if self.gains_sorted_by_m {
+            self.gains_prefix[r] - self.gains_prefix[r - w]
+        } else {
+            let mut g = self.gains[..r].to_vec();
+            g.sort_by(|a, b| b.total_cmp(a));
+            g[..w].iter().sum()
+        }
+    }
+
+    /// Lower bound on the cost still to come from field u with what is left to do.
+    fn remaining(&self, model: &Model, u: &[f64], rest: &Rest, scratch: &mut Vec<f64>) -> f64 {
+        let (r, w, left) = (rest.steps, rest.weld_steps, rest.segments);
+        if r == 0 {
+            return 0.0;
+        }
+        let fs = &self.free_sum[r * self.n..(r + 1) * self.n];
+        let free: f64 = fs.iter().zip(u).map(|(a, b)| a * b).sum();
+        let cold = r as f64 * self.n as f64 * model.target - free - self.max_heat(r, w);
+        if !self.hot {
+            return cold;
+        }
+        // In a trail, at most `run_starts` remaining segments begin a run and at most
+        // `run_starts + 1` are the j-th of theirs (j ≥ 1, the current run may add one), so
+        // at most A_j = (j + 1)·run_starts + j have fewer than j + 1 predecessors: charge
+        // everything the deepest level and give back the A_{j−1} largest level differences.
+        let levels = self.history.len();
+        let best = |j: usize, s: usize| self.history[j][2 * s].min(self.history[j][2 * s + 1]);
+        let mut hot: f64 = left.iter().map(|&s| best(levels - 1, s)).sum();
+        let mut diffs = Vec::with_capacity(left.len());
+        for j in 1..levels {
+            let allowed = j * rest.run_starts + (j - 1);
+            if allowed == 0 {
+                continue;
+            }
+            diffs.clear();
+            diffs.extend(left.iter().map(|&s| best(j, s) - best(j - 1, s)));
+            if allowed < diffs.len() {
+                diffs.select_nth_unstable_by(allowed, |a, b| b.total_cmp(a));
+            }
+            hot -= diffs.iter().take(allowed).sum::<f64>();
+        }
+        scratch.clear();
+        scratch.extend_from_slice(u);
+        for _ in 0..r.min(self.decay_steps) {
+            model.heat.step(scratch, &[]);
+            let o = overshoot(scratch, model.target);
+            if o <= 0.0 {
+                break;
+            }
+            hot += o;
+        }
+        cold + 2.0 * hot
+    }
+}
+
+/// Predecessors considered in the hot part of the bound.
+const HISTORY_DEPTH: usize = 3;
+
+/// history[j][d] for j = 0..=depth (see [`Bound`]).
+fn history_overshoots(model: &Model, depth: usize) -> Vec<Vec<f64>> {
+    let dirs = 2 * model.layer.segments.len();
+    let directed = |d: usize| Move {
+        segment: d / 2,
+        reversed: d % 2 == 1,
+        deadhead_before: false,
+    };
+    // Directed segments ending at each node.
+    let mut ending: Vec<Vec<usize>> = vec![Vec::new(); model.layer.nodes.len()];
+    for d in 0..dirs {
+        ending[model.ends(&directed(d)).1].push(d);
+    }
+    let weld = |u: &mut Vec<f64>, d: usize| {
+        let mv = directed(d);
+        let mut o = 0.0;
+        for k in 0..model.steps[mv.segment] {
+            model.heat.step(u, &model.loads[model.position(&mv, k)]);
+            o += overshoot(u, model.target);
+        }
+        o
+    };
+    // For each directed segment, its least overshoot after walks of 0..=depth segments.
+    let per_segment = (0..dirs).map(|d| {
+        let mut best = vec![f64::INFINITY; depth + 1];
+        // Walks ending where d starts, as directed moves in weld order.
+        let mut walks: Vec<Vec<usize>> = vec![Vec::new()];
+        for (level, slot) in best.iter_mut().enumerate() {
+            for walk in &walks {
+                let mut u = vec![0.0; model.heat.len()];
+                for &p in walk {
+                    weld(&mut u, p);
+                }
+                *slot = slot.min(weld(&mut u, d));
+            }
+            if level == depth {
+                break;
+            }
+            let mut longer = Vec::new();
+            for walk in &walks {
+                let first = walk.first().copied().unwrap_or(d);
+                let start = model.ends(&directed(first)).0;
+                for &p in &ending[start] {
+                    if p / 2 == d / 2 || walk.iter().any(|&q| q / 2 == p / 2) {
+                        continue;
+                    }
+                    let mut w = vec![p];
+                    w.extend_from_slice(walk);
+                    longer.push(w);
+                }
+            }
+            walks = longer;
+        }
+        for level in 1..=depth {
+            if best[level].is_infinite() {
+                best[level] = best[level - 1];
+            }
+        }
+        best
+    });
+    let mut history = vec![vec![0.0; dirs]; depth + 1];
+    for (d, best) in per_segment.enumerate() {
+        for (row, value) in history.iter_mut().zip(best) {
+            row[d] = value;
+        }
+    }
+    history
+}
+
+/// What is left to do after a search node.
+struct Rest<'a> {
+    /// Time steps to the horizon.
+    steps: usize,
+    /// Of them, weld steps.
+    weld_steps: usize,
+    /// Segments not yet welded.
+    segments: &'a [usize],
+    /// How many of them may have no *future* predecessor in their run: one per
+    /// deadheading move left, plus the first (which continues the current run, whose
+    /// past is already in the field, or starts the trail).
+    run_starts: usize,
+}
+
+fn overshoot(u: &[f64], target: f64) -> f64 {
+    u.iter().map(|&x| (x - target).max(0.0)).sum()
+}
+
+struct Child {
+    mv: Move,
+    u: Vec<f64>,
+    cost: f64,
+    steps_done: usize,
+    lb: f64,
+}
+
+struct Frame {
+    children: Vec<Child>,
+    next: usize,
+    /// Group elements that fix the prefix up to this frame's parent.
+    stabilizer: Vec<usize>,
+    /// The parent's lower bound: valid for every child too.
+    parent_lb: f64,
+}
+
+/// Finds the trail of least objective (or the best within the time limit, with its gap).
+pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
+    let start = Instant::now();
+    let bound = Bound::new(model, options.free_decay_steps);
+    let group = if options.symmetry {
+        symmetries(model)
+    } else {
+        Vec::new()
+    };
+    let segs = model.layer.segments.len();
+    let total_weld: usize = model.steps.iter().sum();
+    let mut used = vec![false; segs];
+    let mut path: Vec<Move> = Vec::new();
+    let mut best: Option<(f64, Trail)> = None;
+    let mut nodes: u64 = 0;
+    let mut leaves: u64 = 0;
+    let mut scratch = Vec::new();
+    let mut timed_out = false;
+
+    // State of the node being expanded: its field and cost; root = initial field.
+    let root_u = vec![model.initial; model.heat.len()];
+    let all: Vec<usize> = (0..segs).collect();
+    let root_bound = bound.remaining(
+        model,
+        &root_u,
+        &Rest {
+            steps: model.horizon,
+            weld_steps: total_weld,
+            segments: &all,
+            run_starts: model.deadheads + 1,
+        },
+        &mut scratch,
+    );
+    let mut expand = |u: &[f64],
+                      cost: f64,
+                      steps_done: usize,
+                      at: Option<usize>,
+                      deadheads_left: usize,
+                      used: &[bool],
+                      stabilizer: &[usize],
+                      incumbent: f64,
+                      nodes: &mut u64,
+                      leaves: &mut u64,
+                      best: &mut Option<(f64, Trail)>,
+                      path: &[Move]|
+     -> Vec<Child> {
+        let mut children = Vec::new();
+        let left: Vec<usize> = (0..segs).filter(|&s| !used[s]).collect();
+        let weld_done: usize = (0..segs).filter(|&s| used[s]).map(|s| model.steps[s]).sum();
+        let mut incumbent = incumbent;
+        for &s in &left {
+            for reversed in [false, true] {
+                let d = 2 * s + reversed as usize;
+                if stabilizer.iter().any(|&g| group[g][d] < d) {
+                    continue;
+                }
+                let probe = Move {
+                    segment: s,
+                    reversed,
+                    deadhead_before: false,
+                };
+                let (from, to) = model.ends(&probe);
+                let rest: Vec<usize> = left.iter().copied().filter(|&t| t != s).collect();
+                for deadhead in [false, true] {
+                    let (needs_deadhead, dl) = match at {
+                        None if deadhead => continue,
+                        None => (false, deadheads_left),
+                        Some(v) if !deadhead && v != from => continue,
+                        Some(_) if deadhead && deadheads_left == 0 => continue,
+                        Some(_) if deadhead => (true, deadheads_left - 1),
+                        Some(_) => (false, deadheads_left),
+                    };
+                    if trails_needed(&model.layer, &rest, Some(to)) > dl {
+                        continue;
+                    }
+                    let mv = Move {
+                        segment: s,
+                        reversed,
+                        deadhead_before: needs_deadhead,
+                    };
+                    let mut v = u.to_vec();
+                    let mut c = cost;
+                    let mut steps = steps_done;
+                    if let (true, Some(prev)) = (needs_deadhead, at) {
+                        for _ in 0..model.layer.transit_steps(prev, from) {
+                            model.heat.step(&mut v, &[]);
+                            c += model.deviation(&v);
+                            steps += 1;
+                        }
+                    }
+                    for k in 0..model.steps[s] {
+                        model
+                            .heat
+                            .step(&mut v, &model.loads[model.position(&mv, k)]);
+                        c += model.deviation(&v);
+                        steps += 1;
+                    }
+                    *nodes += 1;
+                    if rest.is_empty() {
+                        // A complete trail: cool to the horizon for its exact objective.
+                        while steps < model.horizon {
+                            model.heat.step(&mut v, &[]);
+                            c += model.deviation(&v);
+                            steps += 1;
+                        }
+                        *leaves += 1;
+                        if c < incumbent {
+                            incumbent = c;
+                            let mut moves = path.to_vec();
+                            moves.push(mv);
+                            *best = Some((c, Trail { moves }));
+                        }
+                        continue;
+                    }
+                    let w = total_weld - weld_done - model.steps[s];
+                    let lb = if !options.bound {
+                        f64::NEG_INFINITY
+                    } else {
+                        c + bound.remaining(
+                            model,
+                            &v,
+                            &Rest {
+                                steps: model.horizon - steps,
+                                weld_steps: w,
+                                segments: &rest,
+                                run_starts: dl + 1,
+                            },
+                            &mut scratch,
+                        )
+                    };
+                    if lb < incumbent {
+                        children.push(Child {
+                            mv,
+                            u: v,
+                            cost: c,
+                            steps_done: steps,
+                            lb,
+                        });
+                    }
+                }
+            }
+        }
+        children.sort_by(|a, b| a.lb.total_cmp(&b.lb));
+        children
+    };
+
+    let identity: Vec<usize> = (0..group.len()).collect();
+    let root_children = expand(
+        &root_u,
+        0.0,
+        0,
+        None,
+        model.deadheads,
+        &used,
+        &identity,
+        f64::INFINITY,
+        &mut nodes,
+        &mut leaves,
+        &mut best,
+        &path,
+    );
+    let mut stack = vec![Frame {
+        children: root_children,
+        next: 0,
+        stabilizer: identity,
+        parent_lb: root_bound,
+    }];
+    let mut deadheads_used_stack: Vec<usize> = Vec::new();
+    let mut improved = false;
+    while let Some(frame) = stack.last_mut() {
+        // Under a time limit, polish the first trail by local search for a quarter of it:
+        // a better incumbent prunes more and shrinks the gap (it proves nothing itself).
+        if let (Some(limit), false, Some((value, trail))) =
+            (options.time_limit, improved, best.clone())
+        {
+            improved = true;
+            let (t, v) = improve(model, &trail, value, start + limit / 4);
+            tracing::debug!(
+                "local search: {value:.6e} -> {v:.6e} at {:.1} s",
+                start.elapsed().as_secs_f64()
+            );
+            if v < value {
+                best = Some((v, t));
+            }
+            continue;
+        }
+        // The time limit applies once a first complete trail is known.
+        if let (Some(limit), true) = (options.time_limit, best.is_some()) {
+            if start.elapsed() >= limit {
+                timed_out = true;
+                break;
+            }
+        }
+        let incumbent = best.as_ref().map_or(f64::INFINITY, |b| b.0);
+        if frame.next >= frame.children.len() || frame.children[frame.next].lb >= incumbent {
+            // Exhausted (children are sorted by bound, so the rest cannot win either).
+            frame.next = frame.children.len();
+            stack.pop();
+            if let Some(mv) = path.pop() {
+                used[mv.segment] = false;
+                deadheads_used_stack.pop();
+            }
+            continue;
+        }
+        let idx = frame.next;
+        frame.next += 1;
+        let child = &frame.children[idx];
+        let mv = child.mv;
+        let d = 2 * mv.segment + mv.reversed as usize;
+        let stabilizer: Vec<usize> = frame
+            .stabilizer
+            .iter()
+            .copied()
+            .filter(|&g| group[g][d] == d)
+            .collect();
+        let (u, cost, steps_done, child_lb) =
+            (child.u.clone(), child.cost, child.steps_done, child.lb);
+        used[mv.segment] = true;
+        path.push(mv);
+        let used_dh =
+            deadheads_used_stack.last().copied().unwrap_or(0) + mv.deadhead_before as usize;
+        deadheads_used_stack.push(used_dh);
+        let at = model.ends(&mv).1;
+        let children = expand(
+            &u,
+            cost,
+            steps_done,
+            Some(at),
+            model.deadheads - used_dh,
+            &used,
+            &stabilizer,
+            incumbent,
+            &mut nodes,
+            &mut leaves,
+            &mut best,
+            &path,
+        );
+        stack.push(Frame {
+            children,
+            next: 0,
+            stabilizer,
+            parent_lb: child_lb,
+        });
+    }
+    let (objective, trail) = best.unwrap_or((f64::INFINITY, Trail::default()));
+    let mut lower = objective;
+    if timed_out {
+        // Unexplored children (sorted, so the next is the least) bound what is left.
+        // Every ancestor's bound holds for the whole subtree below it too.
+        let mut inherited = f64::NEG_INFINITY;
+        for frame in &stack {
+            inherited = inherited.max(frame.parent_lb);
+            if let Some(c) = frame.children.get(frame.next) {
+                lower = lower.min(c.lb.max(inherited));
+            }
+        }
+    }
+    let gap = (objective - lower).max(0.0);
+    SearchResult {
+        trail,
+        objective,
+        lower_bound: lower,
+        proven_optimal: !timed_out || gap == 0.0,
+        gap,
+        relative_gap: if objective > 0.0 {
+            gap / objective
+        } else {
+            0.0
+        },
+        nodes_explored: nodes,
+        leaves,
+        seconds: start.elapsed().as_secs_f64(),
+        symmetries: group.len().max(1),
+        hot_bound: bound.hot,
+        root_bound,
+    }
+}
+
+/// Checks the lower bound against brute force on a small layer: for every prefix of every
+/// trail, the bound must not exceed the best objective of the prefix's completions.
+/// Returns the number of prefixes checked, or the first violation. For tests; the number
+/// of trails grows exponentially with the segments.
+pub fn check_bound(model: &Model) -> Result<usize, String> {
+    struct Walk<'a> {
+        model: &'a Model,
+        bound: Bound,
+        used: Vec<bool>,
+        checked: usize,
+        scratch: Vec<f64>,
+    }
+    impl Walk<'_> {
+        /// Best objective over completions of the state; checks every child's bound.
+        fn best(
+            &mut self,
+            u: &[f64],
+            cost: f64,
+            steps: usize,
+            at: Option<usize>,
+            deadheads_left: usize,
+        ) -> Result<f64, String> {
+            let model = self.model;
+            let segs = model.layer.segments.len();
+            let left: Vec<usize> = (0..segs).filter(|&s| !self.used[s]).collect();
+            let mut best = f64::INFINITY;
+            for &s in &left {
+                for reversed in [false, true] {
+                    for deadhead in [false, true] {
+                        let probe = Move {
+                            segment: s,
+                            reversed,
+                            deadhead_before: deadhead,
+                        };
+                        let (from, to) = model.ends(&probe);
+                        let dl = match at {
+                            None if deadhead => continue,
+                            None => deadheads_left,
+                            Some(v) if !deadhead && v != from => continue,
+                            Some(_) if deadhead && deadheads_left == 0 => continue,
+                            Some(_) => deadheads_left - deadhead as usize,
+                        };
+                        let rest: Vec<usize> = left.iter().copied().filter(|&t| t != s).collect();
+                        if trails_needed(&model.layer, &rest, Some(to)) > dl {
+                            continue;
+                        }
+                        let mut v = u.to_vec();
+                        let (mut c, mut n) = (cost, steps);
+                        if let (true, Some(prev)) = (deadhead, at) {
+                            for _ in 0..model.layer.transit_steps(prev, from) {
+                                model.heat.step(&mut v, &[]);
+                                c += model.deviation(&v);
+                                n += 1;
+                            }
+                        }
+                        for k in 0..model.steps[s] {
+                            model
+                                .heat
+                                .step(&mut v, &model.loads[model.position(&probe, k)]);
+                            c += model.deviation(&v);
+                            n += 1;
+                        }
+                        let weld: usize = rest.iter().map(|&t| model.steps[t]).sum();
+                        let lb = c + self.bound.remaining(
+                            model,
+                            &v,
+                            &Rest {
+                                steps: model.horizon - n,
+                                weld_steps: weld,
+                                segments: &rest,
+                                run_starts: dl + 1,
+                            },
+                            &mut self.scratch,
+                        );
+                        let exact = if rest.is_empty() {
+                            while n < model.horizon {
+                                model.heat.step(&mut v, &[]);
+                                c += model.deviation(&v);
+                                n += 1;
+                            }
+                            c
+                        } else {
+                            self.used[s] = true;
+                            let b = self.best(&v, c, n, Some(to), dl);
+                            self.used[s] = false;
+                            b?
+                        };
+                        self.checked += 1;
+                        if lb > exact * (1.0 + 1e-12) + 1e-9 {
+                            return Err(format!(
+                                "bound {lb} above the best completion {exact} after welding {} at step {n}",
+                                model.layer.segment_name(s)
+                            ));
+                        }
+                        best = best.min(exact);
+                    }
+                }
+            }
+            Ok(best)
+        }
+    }
+    let mut walk = Walk {
+        model,
+        bound: Bound::new(model, SearchOptions::default().free_decay_steps),
+        used: vec![false; model.layer.segments.len()],
+        checked: 0,
+        scratch: Vec::new(),
+    };
+    let u = vec![model.initial; model.heat.len()];
+    walk.best(&u, 0.0, 0, None, model.deadheads)?;
+    Ok(walk.checked)
+}

@@ -1,0 +1,55 @@
+//! Helpers shared by the recording tests (bag, bag_python, replay).
+#![allow(dead_code)] // each test crate uses a different subset
+
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+pub fn waam() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_waam"))
+}
+
+/// Messages `metadata.yaml` says were on disk at its last refresh.
+pub fn flushed_messages(dir: &Path) -> u64 {
+    std::fs::read_to_string(dir.join("metadata.yaml"))
+        .ok()
+        .and_then(|t| serde_yaml::from_str::<serde_yaml::Value>(&t).ok())
+        .and_then(|v| v["rosbag2_bagfile_information"]["message_count"].as_u64())
+        .unwrap_or(0)
+}
+
+/// Starts a recording that runs until killed, waits (bounded) until at least `at_least`
+/// messages are flushed, then kills it with SIGKILL. Returns the count flushed before the kill.
+pub fn kill_a_recording(dir: &Path, at_least: u64) -> u64 {
+    let mut child: Child = waam()
+        .args([
+            "bag",
+            "sample",
+            "--rounds",
+            "0",
+            "--period-ms",
+            "2",
+            "--chunk-age-ms",
+            "50",
+        ])
+        .arg(dir)
+        .stdout(Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while flushed_messages(dir) < at_least {
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "recording never flushed"
+        );
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!("recording exited early: {status}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // Let a few more chunks close, then kill mid-chunk.
+    std::thread::sleep(Duration::from_millis(150));
+    child.kill().unwrap(); // SIGKILL on Unix
+    child.wait().unwrap();
+    flushed_messages(dir)
+}
