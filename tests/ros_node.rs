@@ -180,6 +180,22 @@ mod rust_peer {
         node
     }
 
+    /// The first message on `sub` within `limit` (polling; never blocks for good).
+    pub fn take_within<M: 'static + serde::de::DeserializeOwned>(
+        sub: &ros2_client::Subscription<M>,
+        limit: Duration,
+        what: &str,
+    ) -> M {
+        let start = Instant::now();
+        loop {
+            if let Ok(Some((msg, _))) = sub.take() {
+                return msg;
+            }
+            assert!(start.elapsed() < limit, "no {what} within {limit:?}");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
     /// A sample's bytes exactly as they came over the wire (with the encapsulation header).
     pub struct RawCdr(pub Vec<u8>);
     pub struct RawAdapter;
@@ -291,7 +307,7 @@ fn weld_plan_raw_cdr_decodes_against_the_msg_files() {
     let poses = node
         .create_subscription::<waam::msgs::geometry_msgs::PoseArray>(&topic, None)
         .unwrap();
-    let pose_array = futures::executor::block_on(poses.async_take()).unwrap().0;
+    let pose_array = rust_peer::take_within(&poses, Duration::from_secs(60), "PoseArray");
     let (_, log) = rust_peer::finish(child, Duration::from_secs(60));
 
     let file = tempfile::NamedTempFile::new().unwrap();
@@ -431,6 +447,8 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
             "--params",
             "tests/ros/fjt.params.yaml",
             "--execute",
+            "--wait-for-subscriber",
+            "60",
             "--linger",
             "0",
         ],
@@ -442,7 +460,11 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
     let mut child = Some(child);
     let mut log = String::new();
     let mut exit_ok = false;
-    while start.elapsed() < Duration::from_secs(120) {
+    let mut trajectory = None;
+    while start.elapsed() < Duration::from_secs(180) {
+        if let Ok(Some((t, _))) = trajectory_sub.take() {
+            trajectory = Some(t);
+        }
         if let Ok(Some((req, goal))) = server.receive_goal() {
             seen.lock()
                 .unwrap()
@@ -502,9 +524,14 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
         panic!("waam publish --execute did not finish in time:\n{text}");
     }
     assert!(exit_ok, "waam publish --execute failed:\n{log}");
-    let trajectory = futures::executor::block_on(trajectory_sub.async_take())
-        .unwrap()
-        .0;
+    if trajectory.is_none() {
+        trajectory = Some(rust_peer::take_within(
+            &trajectory_sub,
+            Duration::from_secs(5),
+            "joint trajectory",
+        ));
+    }
+    let trajectory = trajectory.unwrap();
     let seen = seen.lock().unwrap();
 
     // Goals: at most CAP points, the URDF's joints, increasing times from > 0, and together
