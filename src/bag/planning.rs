@@ -283,6 +283,7 @@ mod tests {
             lookahead_budget: 7,
             timeout: Some(std::time::Duration::from_secs(3)),
             max_fragments: Some(4),
+            cancel: None,
         };
         let values: Vec<(String, String)> = settings(&opts)
             .into_iter()

@@ -99,6 +99,7 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
             .map(|s| Duration::try_from_secs_f64(s).context("--timeout: expected seconds >= 0"))
             .transpose()?,
         max_fragments: args.max_fragments,
+        cancel: None,
     };
     if !args.json && !global.quiet {
         eprintln!(

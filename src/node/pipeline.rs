@@ -248,24 +248,18 @@ impl Pipeline for PlanningPipeline {
     }
 }
 
-/// Unwound out of the SAT planner's progress callback when a job is cancelled: the planner
-/// takes no cancel flag, and its progress callback (after every candidate) is the one place
-/// a job can step in. The worker catches it; nothing of the run is kept.
-pub struct Cancelled;
-
 /// The project's SAT planner ([`crate::planner::plan`]) as the node's planner: best plan by
 /// the documented objective within the time limit.
 pub fn sat_planner() -> Arc<PlanFn> {
     Arc::new(|part: &Part, timeout_s: f64, ctx: &JobContext| {
         let options = crate::planner::Options {
             timeout: (timeout_s > 0.0).then(|| std::time::Duration::from_secs_f64(timeout_s)),
+            // A newer part stops this run between two candidates; the worker then drops it.
+            cancel: Some(ctx.cancel.flag()),
             ..crate::planner::Options::default()
         };
         let mut last = std::time::Instant::now();
         let mut progress = |s: &crate::planner::Stats| {
-            if ctx.cancel.is_cancelled() {
-                std::panic::resume_unwind(Box::new(Cancelled));
-            }
             if last.elapsed() >= std::time::Duration::from_millis(200) {
                 last = std::time::Instant::now();
                 let fraction = (timeout_s > 0.0).then(|| (s.total_s / timeout_s).min(1.0));

@@ -126,13 +126,7 @@ impl<P: Pipeline> Worker<P> {
                 let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                     pipeline.run(input, &ctx)
                 }))
-                .unwrap_or_else(|panic| {
-                    if panic.is::<super::pipeline::Cancelled>() {
-                        Err("cancelled".to_string())
-                    } else {
-                        Err(format!("internal error: {}", panic_text(&panic)))
-                    }
-                });
+                .unwrap_or_else(|panic| Err(format!("internal error: {}", panic_text(&panic))));
                 let result = if ctx.cancel.is_cancelled() {
                     Err("cancelled: a newer part arrived".to_string())
                 } else {

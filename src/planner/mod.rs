@@ -12,6 +12,8 @@ pub mod encoding;
 pub mod sat;
 mod search;
 
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use serde::Serialize;
@@ -36,6 +38,9 @@ pub struct Options {
     pub timeout: Option<Duration>,
     /// Override the part's max_fragments.
     pub max_fragments: Option<usize>,
+    /// Set from another thread to stop the run between two candidates (as a timeout does):
+    /// the node cancels a plan when a newer part arrives.
+    pub cancel: Option<Arc<AtomicBool>>,
 }
 
 impl Default for Options {
@@ -45,6 +50,7 @@ impl Default for Options {
             lookahead_budget: 2_000_000,
             timeout: None,
             max_fragments: None,
+            cancel: None,
         }
     }
 }
@@ -204,8 +210,13 @@ fn max_fragments(part: &Part, opts: &Options) -> usize {
         .clamp(1, part.len())
 }
 
+/// Whether the run must stop now: its time is up or it was cancelled.
 fn timed_out(opts: &Options, started: Instant) -> bool {
     opts.timeout.is_some_and(|t| started.elapsed() >= t)
+        || opts
+            .cancel
+            .as_ref()
+            .is_some_and(|c| c.load(Ordering::Relaxed))
 }
 
 /// The best feasible plan: fewest fragments, then the largest worst-case t8/5 margin.
