@@ -129,8 +129,11 @@ fn neighbours(model: &Model, runs: &[Run]) -> Vec<Vec<Run>> {
     out
 }
 
-/// Iterated first-improvement hill climbing from `trail` until the deadline. Returns the
-/// best trail found and its objective.
+/// Kicks in a row without a better trail after which the local search gives up.
+pub const STALL_KICKS: usize = 30;
+
+/// Iterated first-improvement hill climbing from `trail` until the deadline or
+/// [`STALL_KICKS`] fruitless kicks. Returns the best trail found and its objective.
 pub fn improve(model: &Model, trail: &Trail, objective: f64, deadline: Instant) -> (Trail, f64) {
     let mut best_runs = runs_of(trail);
     let mut best = objective;
@@ -144,7 +147,8 @@ pub fn improve(model: &Model, trail: &Trail, objective: f64, deadline: Instant) 
         seed ^= seed >> 27;
         (seed.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 33) as usize % n.max(1)
     };
-    while Instant::now() < deadline {
+    let mut stalled = 0;
+    while Instant::now() < deadline && stalled < STALL_KICKS {
         // Climb to a local optimum.
         'climb: loop {
             for candidate in neighbours(model, &runs) {
@@ -163,6 +167,9 @@ pub fn improve(model: &Model, trail: &Trail, objective: f64, deadline: Instant) 
         if value < best {
             best = value;
             best_runs = runs.clone();
+            stalled = 0;
+        } else {
+            stalled += 1;
         }
         // Kick: three random neighbour steps from the best trail, then climb again.
         runs = best_runs.clone();
