@@ -340,24 +340,11 @@ pub fn count(
     } else {
         None
     };
-    let mut feasible_stats = Stats::default();
-    let feasible = enumerate_into(
-        part,
-        &graph,
-        k,
-        opts,
-        started,
-        &mut complete,
-        progress,
-        &mut |_| Ok(()),
-        &mut feasible_stats,
-    )?;
-    Ok(Counts {
-        plans,
-        feasible,
-        complete,
-        stats: feasible_stats,
-    })
+    // The feasible plans share the deadline of the whole count.
+    let mut counts = enumerate_from(part, &graph, k, opts, started, progress, &mut |_| Ok(()))?;
+    counts.plans = plans;
+    counts.complete &= complete;
+    Ok(counts)
 }
 
 /// Enumerates every feasible plan, handing each to `sink` as it is found.
@@ -367,44 +354,24 @@ pub fn enumerate(
     progress: Progress,
     sink: &mut dyn FnMut(&[Vec<usize>]) -> std::io::Result<()>,
 ) -> Result<Counts, PlanError> {
-    let started = Instant::now();
     let graph = WeldGraph::new(part);
     let k = max_fragments(part, opts);
-    let mut complete = true;
-    let mut stats = Stats::default();
-    let feasible = enumerate_into(
-        part,
-        &graph,
-        k,
-        opts,
-        started,
-        &mut complete,
-        progress,
-        sink,
-        &mut stats,
-    )?;
-    Ok(Counts {
-        plans: None,
-        feasible,
-        complete,
-        stats,
-    })
+    enumerate_from(part, &graph, k, opts, Instant::now(), progress, sink)
 }
 
-#[allow(clippy::too_many_arguments)]
-fn enumerate_into(
+/// The thermal loop to exhaustion, blocking each feasible plan after handing it to `sink`;
+/// timeouts count from `started`.
+fn enumerate_from(
     part: &Part,
     graph: &WeldGraph,
     k: usize,
     opts: &Options,
     started: Instant,
-    complete: &mut bool,
     progress: Progress,
     sink: &mut dyn FnMut(&[Vec<usize>]) -> std::io::Result<()>,
-    stats: &mut Stats,
-) -> Result<u64, PlanError> {
+) -> Result<Counts, PlanError> {
     let mut search = Search::new(part, graph, k, opts.acyclicity, opts.lookahead_budget);
-    let mut feasible = 0u64;
+    let (mut feasible, mut complete) = (0u64, true);
     while let Some(candidate) = search.next_candidate(&[]) {
         if let Verdict::Feasible = search.judge(&candidate)? {
             feasible += 1;
@@ -417,13 +384,17 @@ fn enumerate_into(
         }
         progress(&search.stats);
         if timed_out(opts, started) {
-            *complete = false;
+            complete = false;
             break;
         }
     }
     search.stats.total_s = started.elapsed().as_secs_f64();
-    *stats = search.stats;
-    Ok(feasible)
+    Ok(Counts {
+        plans: None,
+        feasible,
+        complete,
+        stats: search.stats,
+    })
 }
 
 /// Explains a part with no valid plan: the fewest fragments it needs, and a layer that
