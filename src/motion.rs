@@ -50,6 +50,15 @@ pub fn plan_motion(
     })
 }
 
+/// The torch speed while welding a block plan, m/s: the process settings' weld speed, else
+/// one block length per block time.
+pub fn weld_speed(part: &Part, settings: &ProcessSettings) -> f64 {
+    match settings.weld_speed_mm_s {
+        Some(v) => v / 1000.0,
+        None => part.block_mm[0] / 1000.0 / part.thermal.block_time_s,
+    }
+}
+
 /// Toolpath and joint trajectory for any weld passes (block plans, layer trails).
 pub fn plan_passes(
     passes: &[WeldPass],

@@ -47,7 +47,7 @@ fn motion_then_plot_writes_yaml_and_pictures() {
         String::from_utf8_lossy(&run.stderr)
     );
     assert!(
-        stdout.contains("MOTION:") && stdout.contains("113 weld poses at blocks"),
+        stdout.contains("MOTION:") && stdout.contains("113 weld poses at points"),
         "{stdout}"
     );
     assert!(

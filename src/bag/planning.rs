@@ -9,9 +9,10 @@ use crate::msgs::builtin_interfaces::Time;
 use crate::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
 use crate::msgs::std_msgs::{Header, String as RosString};
 use crate::msgs::waam_interfaces::{Block, PlanCandidate, PlanStatistics, WeldFragment, WeldPlan};
+use crate::node::convert::PlanMessages;
 use crate::part::Part;
-use crate::planner::{Options, Report, Stats};
-use crate::thermal::ThermalModel;
+use crate::planner::{CandidateVerdict, Options, Report, Stats};
+use crate::thermal::{ThermalModel, ViolationKind};
 
 /// The frame of part coordinates (block centres in metres from the part origin).
 pub const PART_FRAME: &str = "part";
@@ -139,13 +140,86 @@ pub fn status(level: u8, message: &str, values: Vec<KeyValue>) -> DiagnosticArra
     }
 }
 
-/// Records one planning run. Feed it the planner's progress; errors while recording
-/// candidates are kept and returned by [`PlanningRecorder::finish`].
-pub struct PlanningRecorder {
+/// Records the planner's verdict on every candidate as `PlanCandidate` messages. Feed it
+/// the planner's progress; a recording error stops it and is returned by
+/// [`CandidateRecorder::finish`].
+pub struct CandidateRecorder {
     recorder: Recorder,
     seen: Stats,
     index: u64,
     error: Option<BagError>,
+}
+
+impl CandidateRecorder {
+    pub fn new(recorder: &Recorder) -> Self {
+        CandidateRecorder {
+            recorder: recorder.clone(),
+            seen: Stats::default(),
+            index: 0,
+            error: None,
+        }
+    }
+
+    /// Call with the planner's statistics after every candidate: records one
+    /// `PlanCandidate` per new candidate with the planner's verdict on it (the broken
+    /// window's block, kind, time and prefix, and the learned clause's length). Candidates
+    /// the planner reported only in bulk (plain counting) are recorded as counted.
+    pub fn progress(&mut self, stats: &Stats) {
+        if self.error.is_some() || stats.candidates <= self.seen.candidates {
+            return;
+        }
+        let new = stats.candidates - self.seen.candidates;
+        for k in 0..new {
+            self.index += 1;
+            let mut candidate = PlanCandidate {
+                header: Header::new(Time::now(), ""),
+                index: self.index,
+                verdict: PlanCandidate::VIOLATED,
+                ..Default::default()
+            };
+            // The details belong to the latest candidate only.
+            match stats.last_candidate.filter(|_| k + 1 == new) {
+                Some(CandidateVerdict::Feasible) => candidate.verdict = PlanCandidate::FEASIBLE,
+                Some(CandidateVerdict::Violated {
+                    block,
+                    kind,
+                    time_s,
+                    prefix_len,
+                    clause_len,
+                }) => {
+                    candidate.verdict = match kind {
+                        ViolationKind::Min => PlanCandidate::TOO_SHORT,
+                        ViolationKind::Max => PlanCandidate::TOO_LONG,
+                    };
+                    candidate.block = Block::from_part(block).unwrap_or_default();
+                    candidate.time_s = time_s;
+                    candidate.prefix_len = u32::try_from(prefix_len).unwrap_or(u32::MAX);
+                    candidate.learned_clause_len = u32::try_from(clause_len).unwrap_or(u32::MAX);
+                }
+                None => {}
+            }
+            if let Err(e) =
+                self.recorder
+                    .record(topics::CANDIDATES, &Qos::reliable(100), &candidate)
+            {
+                self.error = Some(e);
+                return;
+            }
+        }
+        self.seen = stats.clone();
+    }
+
+    /// The first error met while recording, if any.
+    pub fn finish(self) -> Result<(), BagError> {
+        self.error.map_or(Ok(()), Err)
+    }
+}
+
+/// Records one planning run: the part, every candidate, and the outcome. Errors while
+/// recording candidates are kept and returned by [`PlanningRecorder::finish`].
+pub struct PlanningRecorder {
+    recorder: Recorder,
+    candidates: CandidateRecorder,
 }
 
 impl PlanningRecorder {
@@ -171,54 +245,25 @@ impl PlanningRecorder {
         )?;
         Ok(PlanningRecorder {
             recorder: recorder.clone(),
-            seen: Stats::default(),
-            index: 0,
-            error: None,
+            candidates: CandidateRecorder::new(recorder),
         })
     }
 
-    /// Call with the planner's statistics after every candidate: records one
-    /// `PlanCandidate` per new candidate (feasible, or violated with its learned clause).
+    /// Call with the planner's statistics after every candidate (see [`CandidateRecorder`]).
     pub fn progress(&mut self, stats: &Stats) {
-        if self.error.is_some() || stats.candidates <= self.seen.candidates {
-            return;
-        }
-        let sum = |s: &Stats| s.clause_len_mean.unwrap_or(0.0) * s.learned_clauses as f64;
-        let new = stats.candidates - self.seen.candidates;
-        let feasible = stats.feasible > self.seen.feasible;
-        let clause = (stats.learned_clauses > self.seen.learned_clauses)
-            .then(|| (sum(stats) - sum(&self.seen)).round() as u32);
-        for k in 0..new {
-            self.index += 1;
-            let last = k + 1 == new;
-            let candidate = PlanCandidate {
-                header: Header::new(Time::now(), ""),
-                index: self.index,
-                verdict: if last && feasible {
-                    PlanCandidate::FEASIBLE
-                } else {
-                    PlanCandidate::VIOLATED
-                },
-                learned_clause_len: if last { clause.unwrap_or(0) } else { 0 },
-                ..Default::default()
-            };
-            if let Err(e) =
-                self.recorder
-                    .record(topics::CANDIDATES, &Qos::reliable(100), &candidate)
-            {
-                self.error = Some(e);
-                return;
-            }
-        }
-        self.seen = stats.clone();
+        self.candidates.progress(stats);
     }
 
-    /// Records the outcome: the plan, a "planned" status and the heat frames of the plan, or
-    /// an ERROR status with the reason there is none.
-    pub fn finish(mut self, part: &Part, report: &Report) -> Result<(), BagError> {
-        if let Some(e) = self.error.take() {
-            return Err(e);
-        }
+    /// Records the outcome: the plan (with its motion's trajectory, poses, path and markers
+    /// when there is one), a "planned" status and the heat frames of the plan, or an ERROR
+    /// status with the reason there is none.
+    pub fn finish(
+        self,
+        part: &Part,
+        report: &Report,
+        motion: Option<&PlanMessages>,
+    ) -> Result<(), BagError> {
+        self.candidates.finish()?;
         let stats = statistics(&report.stats, report.proven);
         let Some(best) = &report.best else {
             let reason = match &report.no_plan {
@@ -232,16 +277,25 @@ impl PlanningRecorder {
             )?;
             return Ok(());
         };
-        let now = Time::now();
-        let plan = weld_plan(
-            part,
-            &best.fragments,
-            best.margin,
-            stats,
-            Header::new(now, PART_FRAME),
-        )?;
-        self.recorder
-            .record_at(topics::WELD_PLAN, &Qos::latched(), now, &plan)?;
+        let now = match motion {
+            Some(messages) => {
+                messages.record(&self.recorder)?;
+                messages.weld_plan.header.stamp
+            }
+            None => {
+                let now = Time::now();
+                let plan = weld_plan(
+                    part,
+                    &best.fragments,
+                    best.margin,
+                    stats,
+                    Header::new(now, PART_FRAME),
+                )?;
+                self.recorder
+                    .record_at(topics::WELD_PLAN, &Qos::latched(), now, &plan)?;
+                now
+            }
+        };
         let values = vec![
             KeyValue::new("fragments", best.fragments.len()),
             KeyValue::new("worst_margin_s", best.margin),

@@ -6,13 +6,18 @@ use std::time::Duration;
 
 use anyhow::Context;
 use serde_json::json;
-use waam::bag::planning::PlanningRecorder;
+use waam::bag::planning::{statistics, PlanningRecorder};
 use waam::bag::sample::SampleSession;
 use waam::bag::{Bag, BagOptions, Recorder};
+use waam::motion::weld_speed;
+use waam::msgs::builtin_interfaces::Time;
+use waam::msgs::std_msgs::Header;
+use waam::node::convert::{PlanMessages, PlanSummary};
 use waam::part::Part;
 use waam::part_writer;
-use waam::planner::{Options, Report};
+use waam::planner::{Found, Options, Report};
 
+use super::motion::Motion;
 use super::EXIT_OK;
 
 /// Recordings: `waam bag info BAG` summarises one like `ros2 bag info`.
@@ -256,14 +261,36 @@ pub fn start_planning(
     Ok((recorder, planning))
 }
 
-/// Records the outcome of a planning run and closes the recording.
+/// The messages of a planned part with its motion, as the node publishes them.
+pub fn plan_messages(part: &Part, best: &Found, report: &Report, motion: &Motion) -> PlanMessages {
+    let summary = PlanSummary {
+        part,
+        fragments: &best.fragments,
+        toolpath: &motion.toolpath,
+        weld_speed: weld_speed(part, &motion.settings),
+        transit_speed: motion.settings.transit_speed_mm_s / 1000.0,
+        worst_margin_s: best.margin,
+        statistics: statistics(&report.stats, report.proven),
+    };
+    let header = Header::new(Time::now(), motion.toolpath.frame.clone());
+    PlanMessages::of_plan(
+        &summary,
+        &motion.trajectory,
+        &motion.settings.plate.isometry(),
+        &header,
+    )
+}
+
+/// Records the outcome of a planning run (with the motion's messages when there is one)
+/// and closes the recording.
 pub fn finish_planning(
     recorder: Recorder,
     planning: PlanningRecorder,
     part: &Part,
     report: &Report,
+    motion: Option<&PlanMessages>,
 ) -> anyhow::Result<()> {
-    planning.finish(part, report)?;
+    planning.finish(part, report, motion)?;
     let summary = recorder.finish()?;
     tracing::info!(
         "recorded {} messages on {} topics to {}",

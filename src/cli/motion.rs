@@ -1,5 +1,6 @@
 //! `waam motion PART PLAN --robot URDF --out DIR`: toolpath and joint trajectory for an
-//! existing plan. [`RobotArgs`] and [`plan_and_write`] serve `waam plan --robot` too.
+//! existing plan. [`RobotArgs`], [`plan_robot_motion`] and [`report_motion`] serve
+//! `waam plan --robot` too.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -10,7 +11,8 @@ use waam::motion::{plan_motion, write_outputs};
 use waam::part::Part;
 use waam::plan::Plan;
 use waam::robot::{parse_xyz_rpy, Robot, TcpChoice};
-use waam::toolpath::{PoseKind, ProcessSettings};
+use waam::toolpath::{PoseKind, ProcessSettings, Toolpath};
+use waam::trajectory::JointTrajectory;
 
 use super::{read_part, EXIT_NO, EXIT_OK};
 
@@ -79,24 +81,41 @@ impl RobotArgs {
     }
 }
 
-/// Plans the motion of a valid plan and writes `DIR/toolpath.yaml` and
-/// `DIR/trajectory.yaml`. `Ok(false)`: no motion is possible (the reason is printed).
-pub fn plan_and_write(
+/// A plan's robot motion: the torch poses and the validated joint trajectory.
+pub struct Motion {
+    pub settings: ProcessSettings,
+    pub toolpath: Toolpath,
+    pub trajectory: JointTrajectory,
+}
+
+/// Plans the motion of a valid plan. `Ok(None)`: no motion is possible (the reason is
+/// printed).
+pub fn plan_robot_motion(
     part: &Part,
     fragments: &[Vec<usize>],
     args: &RobotArgs,
-    out: &Path,
-) -> anyhow::Result<bool> {
+) -> anyhow::Result<Option<Motion>> {
     let (settings, robot) = args.load()?;
-    let (tp, traj) = match plan_motion(part, fragments, &settings, &robot) {
-        Ok(result) => result,
+    match plan_motion(part, fragments, &settings, &robot) {
+        Ok((toolpath, trajectory)) => Ok(Some(Motion {
+            settings,
+            toolpath,
+            trajectory,
+        })),
         Err(e) => {
             println!("NO MOTION: {e}");
-            return Ok(false);
+            Ok(None)
         }
-    };
-    write_outputs(out, &tp, &traj)
-        .with_context(|| format!("cannot write motion files in {}", out.display()))?;
+    }
+}
+
+/// Prints a summary of the motion and, with `out`, writes `toolpath.yaml` and
+/// `trajectory.yaml` there.
+pub fn report_motion(
+    tp: &Toolpath,
+    traj: &JointTrajectory,
+    out: Option<&Path>,
+) -> anyhow::Result<()> {
     let weld_s: f64 = tp
         .poses
         .windows(2)
@@ -104,23 +123,31 @@ pub fn plan_and_write(
         .map(|w| w[1].time_s - w[0].time_s)
         .sum();
     let duration = tp.poses.last().map_or(0.0, |p| p.time_s);
+    let passes = tp
+        .poses
+        .iter()
+        .filter(|p| p.kind == PoseKind::ArcOn)
+        .count();
     println!(
-        "MOTION: {} poses ({} weld poses at blocks), {} fragment(s), {:.1} s total, {:.1} s arc on",
+        "MOTION: {} poses ({} weld poses at points), {passes} weld pass(es), {:.1} s total, {:.1} s arc on",
         tp.poses.len(),
         tp.poses
             .iter()
             .filter(|p| p.kind == PoseKind::Weld && p.at_point)
             .count(),
-        fragments.len(),
         duration,
         weld_s
     );
-    println!(
-        "wrote {} and {}",
-        out.join("toolpath.yaml").display(),
-        out.join("trajectory.yaml").display()
-    );
-    Ok(true)
+    if let Some(out) = out {
+        write_outputs(out, tp, traj)
+            .with_context(|| format!("cannot write motion files in {}", out.display()))?;
+        println!(
+            "wrote {} and {}",
+            out.join("toolpath.yaml").display(),
+            out.join("trajectory.yaml").display()
+        );
+    }
+    Ok(())
 }
 
 /// Turn an existing plan into torch poses and a joint trajectory for a robot.
@@ -157,6 +184,9 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
             return Ok(ExitCode::from(EXIT_NO));
         }
     };
-    let ok = plan_and_write(&part, &fragments, &args.robot, &args.out)?;
-    Ok(ExitCode::from(if ok { EXIT_OK } else { EXIT_NO }))
+    let Some(motion) = plan_robot_motion(&part, &fragments, &args.robot)? else {
+        return Ok(ExitCode::from(EXIT_NO));
+    };
+    report_motion(&motion.toolpath, &motion.trajectory, Some(&args.out))?;
+    Ok(ExitCode::from(EXIT_OK))
 }

@@ -194,24 +194,36 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         planner::plan(&part, &opts, &mut progress)?
     };
     bar.finish();
-    if let Some((recorder, planning)) = session {
-        super::bag::finish_planning(recorder, planning, &part, &report)?;
-    }
     if let (Some(dir), Some(best)) = (&args.out, &report.best) {
         let path = dir.join("plan.yaml");
         std::fs::write(&path, best.plan(&part).to_yaml())
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
-    // The motion is planned only for a feasible plan, and only a validated one is written.
+    // The motion is planned only for a feasible plan, and only a validated one is written
+    // or recorded.
     let mut motion_ok = true;
-    if let (Some(robot), Some(dir), Some(best)) = (&args.robot, &args.out, &report.best) {
+    let mut motion = None;
+    if let (Some(robot), Some(best)) = (&args.robot, &report.best) {
         let robot_args = super::motion::RobotArgs {
             robot: robot.clone(),
             tcp: args.tcp.clone(),
             tip: args.tip.clone(),
             process: args.process.clone(),
         };
-        motion_ok = super::motion::plan_and_write(&part, &best.fragments, &robot_args, dir)?;
+        motion = super::motion::plan_robot_motion(&part, &best.fragments, &robot_args)?;
+        match &motion {
+            Some(m) => {
+                super::motion::report_motion(&m.toolpath, &m.trajectory, args.out.as_deref())?
+            }
+            None => motion_ok = false,
+        }
+    }
+    if let Some((recorder, planning)) = session {
+        let messages = match (&motion, &report.best) {
+            (Some(m), Some(best)) => Some(super::bag::plan_messages(&part, best, &report, m)),
+            _ => None,
+        };
+        super::bag::finish_planning(recorder, planning, &part, &report, messages.as_ref())?;
     }
     let proof = match (&report.best, report.proven, args.first) {
         (Some(_), true, false) => "optimal (proven)",

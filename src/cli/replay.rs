@@ -131,7 +131,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
             Err(e) => return Replanned::NoPlan(e.to_string()),
         };
         if let Some(p) = planning {
-            if let Err(e) = p.finish(&part, &report) {
+            if let Err(e) = p.finish(&part, &report, None) {
                 record_error.get_or_insert(e);
             }
         }

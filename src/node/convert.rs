@@ -5,15 +5,20 @@
 
 use nalgebra::{Isometry3, Point3};
 
+use super::controller::trajectory_msg;
+
+use crate::bag::{topics, BagError, Qos, Recorder};
 use crate::msgs::builtin_interfaces::{Duration, Time};
 use crate::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
 use crate::msgs::geometry_msgs::{Point, Pose, PoseArray, PoseStamped, Quaternion, Vector3};
 use crate::msgs::nav_msgs::Path;
 use crate::msgs::std_msgs::{ColorRGBA, Header};
+use crate::msgs::trajectory_msgs::JointTrajectory as TrajectoryMsg;
 use crate::msgs::visualization_msgs::{Marker, MarkerArray};
 use crate::msgs::waam_interfaces::{Block, PlanStatistics, WeldFragment, WeldPlan, WeldPoint};
 use crate::part::Part;
 use crate::toolpath::{PoseKind, Toolpath};
+use crate::trajectory::JointTrajectory;
 
 /// A geometry_msgs/Pose from an isometry (metres).
 pub fn pose_msg(pose: &Isometry3<f64>) -> Pose {
@@ -92,6 +97,52 @@ pub struct PlanSummary<'a> {
     pub statistics: PlanStatistics,
 }
 
+/// Every message a plan goes out as (published by the node, recorded by `--record`), all
+/// with the same header so a viewer can line them up.
+#[derive(Debug, Clone)]
+pub struct PlanMessages {
+    pub joint_trajectory: TrajectoryMsg,
+    pub poses: PoseArray,
+    pub path: Path,
+    pub markers: MarkerArray,
+    pub weld_plan: WeldPlan,
+}
+
+impl PlanMessages {
+    /// The messages of a block plan with its motion; `plate` places the part frame in the
+    /// robot's base link.
+    pub fn of_plan(
+        plan: &PlanSummary,
+        trajectory: &JointTrajectory,
+        plate: &Isometry3<f64>,
+        header: &Header,
+    ) -> Self {
+        PlanMessages {
+            joint_trajectory: trajectory_msg(trajectory, header),
+            poses: pose_array(plan.toolpath, header),
+            path: path(plan.toolpath, header),
+            markers: markers(plan, plate, header),
+            weld_plan: weld_plan(plan, header),
+        }
+    }
+
+    /// Records them on the node's default topics with the QoS the node offers (latched).
+    pub fn record(&self, recorder: &Recorder) -> Result<(), BagError> {
+        let stamp = self.weld_plan.header.stamp;
+        let qos = Qos::latched();
+        recorder.record_at(
+            topics::JOINT_TRAJECTORY,
+            &qos,
+            stamp,
+            &self.joint_trajectory,
+        )?;
+        recorder.record_at(topics::POSES, &qos, stamp, &self.poses)?;
+        recorder.record_at(topics::PATH, &qos, stamp, &self.path)?;
+        recorder.record_at(topics::MARKERS, &qos, stamp, &self.markers)?;
+        recorder.record_at(topics::WELD_PLAN, &qos, stamp, &self.weld_plan)
+    }
+}
+
 /// Our waam_interfaces/WeldPlan: the fragments, and every toolpath point with its arc
 /// state, kind, time and commanded speed.
 pub fn weld_plan(plan: &PlanSummary, header: &Header) -> WeldPlan {
@@ -111,9 +162,24 @@ pub fn weld_plan(plan: &PlanSummary, header: &Header) -> WeldPlan {
             blocks: f.iter().map(|&i| block_msg(i)).collect(),
         })
         .collect();
-    let mut points = Vec::with_capacity(plan.toolpath.poses.len());
+    WeldPlan {
+        header: header.clone(),
+        part_name: part.name.clone(),
+        block_pitch: part.block_mm[0] / 1000.0,
+        fragments,
+        points: weld_points(plan.toolpath),
+        weld_speed: plan.weld_speed,
+        transit_speed: plan.transit_speed,
+        worst_margin_s: plan.worst_margin_s,
+        statistics: plan.statistics.clone(),
+    }
+}
+
+/// Every toolpath point with its arc state, kind, time, fragment, block and speed.
+pub fn weld_points(toolpath: &Toolpath) -> Vec<WeldPoint> {
+    let mut points = Vec::with_capacity(toolpath.poses.len());
     let mut previous: Option<&crate::toolpath::ToolPose> = None;
-    for p in &plan.toolpath.poses {
+    for p in &toolpath.poses {
         let speed = match previous {
             Some(q) if p.time_s > q.time_s => {
                 (p.pose.translation.vector - q.pose.translation.vector).norm()
@@ -138,17 +204,7 @@ pub fn weld_plan(plan: &PlanSummary, header: &Header) -> WeldPlan {
         });
         previous = Some(p);
     }
-    WeldPlan {
-        header: header.clone(),
-        part_name: part.name.clone(),
-        block_pitch: part.block_mm[0] / 1000.0,
-        fragments,
-        points,
-        weld_speed: plan.weld_speed,
-        transit_speed: plan.transit_speed,
-        worst_margin_s: plan.worst_margin_s,
-        statistics: plan.statistics.clone(),
-    }
+    points
 }
 
 /// A colour per fragment, well apart on the hue circle (golden-angle steps).
@@ -208,12 +264,9 @@ pub mod ns {
     pub const LABELS: &str = "labels";
 }
 
-/// The plan for RViz / Foxglove: blocks as cubes coloured by fragment, a weld line per
-/// fragment, the transit moves, and an arc-on and an arc-off marker per fragment with
-/// labels. The first marker deletes whatever an earlier plan drew.
-pub fn markers(plan: &PlanSummary, plate: &Isometry3<f64>, header: &Header) -> MarkerArray {
-    let part = plan.part;
-    let base = |ns: &str, id: i32, type_: i32| Marker {
+/// A marker to ADD, in `header`'s frame, of `type_`.
+fn new_marker(header: &Header, ns: &str, id: i32, type_: i32) -> Marker {
+    Marker {
         header: header.clone(),
         ns: ns.to_string(),
         id,
@@ -221,7 +274,15 @@ pub fn markers(plan: &PlanSummary, plate: &Isometry3<f64>, header: &Header) -> M
         action: Marker::ADD,
         pose: Pose::default(),
         ..Marker::default()
-    };
+    }
+}
+
+/// The plan for RViz / Foxglove: blocks as cubes coloured by fragment, a weld line per
+/// fragment, the transit moves, and an arc-on and an arc-off marker per fragment with
+/// labels. The first marker deletes whatever an earlier plan drew.
+pub fn markers(plan: &PlanSummary, plate: &Isometry3<f64>, header: &Header) -> MarkerArray {
+    let part = plan.part;
+    let base = |ns: &str, id: i32, type_: i32| new_marker(header, ns, id, type_);
     let mut out = vec![Marker {
         header: header.clone(),
         action: Marker::DELETEALL,
@@ -248,13 +309,24 @@ pub fn markers(plan: &PlanSummary, plate: &Isometry3<f64>, header: &Header) -> M
     }
     out.push(cubes);
 
-    // Weld lines (arc on) per fragment and transit lines (arc off) between.
     let width = 0.25 * bx.min(by);
-    let poses = &plan.toolpath.poses;
+    out.extend(toolpath_markers(plan.toolpath, width, header));
+    MarkerArray { markers: out }
+}
+
+/// The toolpath for RViz / Foxglove: a weld line per fragment (in its colour), the transit
+/// moves, and an arc-on and an arc-off marker per fragment with labels; `width` is the weld
+/// line's width in metres.
+pub fn toolpath_markers(toolpath: &Toolpath, width: f64, header: &Header) -> Vec<Marker> {
+    let base = |ns: &str, id: i32, type_: i32| new_marker(header, ns, id, type_);
+    let mut out = Vec::new();
+    let poses = &toolpath.poses;
+    let fragments = poses.iter().map(|p| p.fragment + 1).max().unwrap_or(0);
+    // Weld lines (arc on) per fragment and transit lines (arc off) between.
     let mut transit = base(ns::TRANSIT, 0, Marker::LINE_LIST);
     transit.scale.x = 0.4 * width;
     transit.color = GREY;
-    for (f, _) in plan.fragments.iter().enumerate() {
+    for f in 0..fragments {
         let mut weld = base(ns::WELD, f as i32, Marker::LINE_STRIP);
         weld.scale.x = width;
         weld.color = fragment_colour(f);
@@ -307,7 +379,7 @@ pub fn markers(plan: &PlanSummary, plate: &Isometry3<f64>, header: &Header) -> M
             out.push(label);
         }
     }
-    MarkerArray { markers: out }
+    out
 }
 
 /// The statuses the node reports on `~/status`, one DiagnosticStatus each.

@@ -30,8 +30,8 @@ use crate::bag::Recorder;
 use crate::msgs::builtin_interfaces::Time;
 use crate::msgs::diagnostic_msgs::KeyValue;
 use crate::msgs::std_msgs::Header;
-use controller::{spawn_executor, trajectory_msg, Controller, ExecCommand, SimController};
-use convert::{markers, path, pose_array, weld_plan, PlanSummary, Status};
+use controller::{spawn_executor, Controller, ExecCommand, SimController};
+use convert::{PlanMessages, Status};
 use io::{Inputs, Level, Outputs};
 use params::NodeParams;
 use pipeline::{PartInput, PlanFn, Planned, PlanningPipeline};
@@ -388,32 +388,21 @@ impl LoopState {
     }
 }
 
-/// Publishes every output of a plan, all with the same header.
+/// Publishes every output of a plan, all with the same header (recording them too).
 pub fn publish_plan(outputs: &Outputs, planned: &Planned) {
     let header = Header::new(Time::now(), planned.toolpath.frame.clone());
-    let summary = PlanSummary {
-        part: &planned.part,
-        fragments: &planned.fragments,
-        toolpath: &planned.toolpath,
-        weld_speed: planned.weld_speed,
-        transit_speed: planned.transit_speed,
-        worst_margin_s: planned.worst_margin_s,
-        statistics: planned.statistics.clone(),
-    };
+    let m = PlanMessages::of_plan(
+        &planned.summary(),
+        &planned.trajectory,
+        &planned.plate,
+        &header,
+    );
     let rec = outputs.recorder.as_ref();
-    outputs
-        .joint_trajectory
-        .publish(&trajectory_msg(&planned.trajectory, &header), rec);
-    outputs
-        .poses
-        .publish(&pose_array(&planned.toolpath, &header), rec);
-    outputs.path.publish(&path(&planned.toolpath, &header), rec);
-    outputs
-        .markers
-        .publish(&markers(&summary, &planned.plate, &header), rec);
-    outputs
-        .weld_plan
-        .publish(&weld_plan(&summary, &header), rec);
+    outputs.joint_trajectory.publish(&m.joint_trajectory, rec);
+    outputs.poses.publish(&m.poses, rec);
+    outputs.path.publish(&m.path, rec);
+    outputs.markers.publish(&m.markers, rec);
+    outputs.weld_plan.publish(&m.weld_plan, rec);
 }
 
 /// Records the chosen plan's simulated block temperatures (PointCloud2 frames in the part

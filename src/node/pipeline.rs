@@ -8,11 +8,12 @@ use std::sync::Arc;
 
 use nalgebra::Isometry3;
 
+use super::convert::PlanSummary;
 use super::params::NodeParams;
 use super::worker::{JobContext, Pipeline};
 use crate::graph::WeldGraph;
 use crate::mesh::{voxelize_indexed, Units, VoxelizeOptions, WindowRule};
-use crate::motion::plan_motion;
+use crate::motion::{plan_motion, weld_speed};
 use crate::msgs::waam_interfaces::PlanStatistics;
 use crate::part::{BlockDisplay, Part, Window};
 use crate::plan::Plan;
@@ -82,6 +83,21 @@ pub struct Planned {
     /// TCP speeds, m/s.
     pub weld_speed: f64,
     pub transit_speed: f64,
+}
+
+impl Planned {
+    /// Everything about the plan but the joint trajectory, for the message converters.
+    pub fn summary(&self) -> PlanSummary<'_> {
+        PlanSummary {
+            part: &self.part,
+            fragments: &self.fragments,
+            toolpath: &self.toolpath,
+            weld_speed: self.weld_speed,
+            transit_speed: self.transit_speed,
+            worst_margin_s: self.worst_margin_s,
+            statistics: self.statistics.clone(),
+        }
+    }
 }
 
 /// The node's planning pipeline: process settings, robot, mesh options and a planner.
@@ -176,10 +192,7 @@ impl PlanningPipeline {
         let (toolpath, trajectory) =
             plan_motion(&part, &found.fragments, &self.settings, &self.robot)
                 .map_err(|e| format!("no robot motion for the plan: {e}"))?;
-        let weld_speed = match self.settings.weld_speed_mm_s {
-            Some(v) => v / 1000.0,
-            None => part.block_mm[0] / 1000.0 / part.thermal.block_time_s,
-        };
+        let weld_speed = weld_speed(&part, &self.settings);
         Ok(Planned {
             plate: self.settings.plate.isometry(),
             weld_speed,

@@ -88,6 +88,27 @@ pub struct Stats {
     pub clause_len_mean: Option<f64>,
     #[serde(skip)]
     clause_len_sum: u64,
+    /// The verdict on the latest candidate (progress callbacks come after every candidate,
+    /// so a recorder can log each one).
+    #[serde(skip)]
+    pub last_candidate: Option<CandidateVerdict>,
+}
+
+/// What the thermal check said about one candidate plan.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CandidateVerdict {
+    Feasible,
+    Violated {
+        /// The block whose window broke, and how.
+        block: Block,
+        kind: thermal::ViolationKind,
+        /// Simulated time of the violation, s.
+        time_s: f64,
+        /// Blocks deposited up to the violation.
+        prefix_len: usize,
+        /// Literals in the clause learned from it.
+        clause_len: usize,
+    },
 }
 
 impl Stats {

@@ -19,7 +19,7 @@ use crate::thermal::{self, Phase, Simulation, Snapshot, ThermalModel, Violation}
 
 use super::encoding::{Acyclicity, Decoded, Encoding};
 use super::sat::{Lit, SatSolver, Varisat};
-use super::Stats;
+use super::{CandidateVerdict, Stats};
 
 /// What the thermal model says of a candidate.
 pub enum Verdict {
@@ -164,13 +164,21 @@ impl<'p> Search<'p> {
         match result? {
             None => {
                 self.stats.feasible += 1;
+                self.stats.last_candidate = Some(CandidateVerdict::Feasible);
                 Ok(Verdict::Feasible)
             }
             Some(v) => {
                 self.violations[v.block] += 1;
                 let t = Instant::now();
-                self.learn(&seq, &v);
+                let clause_len = self.learn(&seq, &v);
                 self.stats.lookahead_s += t.elapsed().as_secs_f64();
+                self.stats.last_candidate = Some(CandidateVerdict::Violated {
+                    block: self.part.block(v.block),
+                    kind: v.kind,
+                    time_s: v.time_s,
+                    prefix_len: v.prefix_len,
+                    clause_len,
+                });
                 Ok(Verdict::Violated)
             }
         }
@@ -197,8 +205,8 @@ impl<'p> Search<'p> {
     }
 
     /// Learns the clause of the violating prefix, shortened where every alternative
-    /// next step is proven to violate too.
-    fn learn(&mut self, seq: &[(usize, bool)], v: &Violation) {
+    /// next step is proven to violate too. Returns the clause's length.
+    fn learn(&mut self, seq: &[(usize, bool)], v: &Violation) -> usize {
         let n = self.part.len();
         // The doomed prefix: `len` blocks, its last fragment closed or still open.
         let mut len = v.prefix_len;
@@ -245,6 +253,7 @@ impl<'p> Search<'p> {
             .collect();
         self.stats.record_clause(clause.len());
         self.solver.add_clause(&clause);
+        clause.len()
     }
 
     /// The simulation state after `prefix` (from the nearest cached snapshot).
