@@ -95,3 +95,119 @@ fn info_names_a_file_that_is_not_a_bag() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// `waam plan --robot --record`: the bag holds the motion as the node publishes it
+/// (trajectory, poses, path, markers, a weld plan with its toolpath points) and one
+/// PlanCandidate per candidate with the planner's verdict: the broken window's block, the
+/// violating prefix and the learned clause.
+#[test]
+fn plan_with_a_robot_records_the_motion_and_every_candidates_verdict() {
+    use waam::bag::{topics, Bag};
+    use waam::msgs::from_cdr;
+    use waam::msgs::geometry_msgs::PoseArray;
+    use waam::msgs::trajectory_msgs::JointTrajectory;
+    use waam::msgs::visualization_msgs::MarkerArray;
+    use waam::msgs::waam_interfaces::{PlanCandidate, WeldPlan};
+    use waam::part::Part;
+
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let part_path = root.join("config/parts/s1-wall.yaml");
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("session");
+    let out = waam()
+        .args(["-q", "plan", "--json", "--robot"])
+        .arg(root.join("urdf/waam_robot.urdf"))
+        .arg("--record")
+        .arg(&dir)
+        .arg(&part_path)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The JSON report is the last line (the motion summary comes before it).
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let report: Value = serde_json::from_str(stdout.lines().last().unwrap()).unwrap();
+    let stats = &report["stats"];
+
+    let bag = Bag::open(&dir).unwrap();
+    let on = |topic: &str| -> Vec<&waam::bag::RecordedMessage> {
+        bag.messages
+            .iter()
+            .filter(|m| bag.topic_of(m).name == topic)
+            .collect()
+    };
+    for topic in [
+        topics::JOINT_TRAJECTORY,
+        topics::POSES,
+        topics::PATH,
+        topics::MARKERS,
+        topics::WELD_PLAN,
+    ] {
+        assert_eq!(on(topic).len(), 1, "{topic} recorded once");
+    }
+    assert!(!on(topics::HEAT).is_empty(), "heat frames recorded");
+    let trajectory: JointTrajectory = from_cdr(&on(topics::JOINT_TRAJECTORY)[0].data).unwrap();
+    let poses: PoseArray = from_cdr(&on(topics::POSES)[0].data).unwrap();
+    let markers: MarkerArray = from_cdr(&on(topics::MARKERS)[0].data).unwrap();
+    let plan: WeldPlan = from_cdr(&on(topics::WELD_PLAN)[0].data).unwrap();
+    assert_eq!(trajectory.joint_names.len(), 6);
+    assert!(trajectory.points.len() >= poses.poses.len() && !poses.poses.is_empty());
+    assert_eq!(
+        plan.points.len(),
+        poses.poses.len(),
+        "one weld point per pose"
+    );
+    assert_eq!(
+        plan.fragments.len(),
+        report["plan"]["fragments"].as_array().unwrap().len()
+    );
+    assert!(markers.markers.len() > 3, "blocks, weld lines, arc markers");
+    assert_eq!(
+        trajectory.header, poses.header,
+        "one header for all outputs"
+    );
+
+    let part = Part::parse(&std::fs::read_to_string(&part_path).unwrap()).unwrap();
+    let windowed: Vec<[i64; 3]> = part.windows().iter().map(|&(i, _)| part.block(i)).collect();
+    let candidates: Vec<PlanCandidate> = on(topics::CANDIDATES)
+        .iter()
+        .map(|m| from_cdr(&m.data).unwrap())
+        .collect();
+    assert_eq!(
+        candidates.len() as u64,
+        stats["candidates"].as_u64().unwrap()
+    );
+    let indices: Vec<u64> = candidates.iter().map(|c| c.index).collect();
+    assert_eq!(indices, (1..=candidates.len() as u64).collect::<Vec<_>>());
+    let feasible = candidates
+        .iter()
+        .filter(|c| c.verdict == PlanCandidate::FEASIBLE)
+        .count();
+    assert_eq!(feasible as u64, stats["feasible"].as_u64().unwrap());
+    let violated: Vec<_> = candidates
+        .iter()
+        .filter(|c| c.verdict != PlanCandidate::FEASIBLE)
+        .collect();
+    assert!(!violated.is_empty(), "s1-wall has infeasible plans");
+    let mut clause_sum = 0u64;
+    for c in &violated {
+        assert!(
+            [PlanCandidate::TOO_SHORT, PlanCandidate::TOO_LONG].contains(&c.verdict),
+            "{c:?}"
+        );
+        assert!(
+            windowed.contains(&c.block.to_part()),
+            "{c:?}: not a windowed block"
+        );
+        assert!((1..=part.len() as u32).contains(&c.prefix_len), "{c:?}");
+        assert!(c.time_s > 0.0 && c.learned_clause_len > 0, "{c:?}");
+        clause_sum += u64::from(c.learned_clause_len);
+    }
+    let mean = stats["clause_len_mean"].as_f64().unwrap();
+    let learned = stats["learned_clauses"].as_u64().unwrap();
+    assert_eq!(learned, violated.len() as u64);
+    assert!((clause_sum as f64 - mean * learned as f64).abs() < 1e-6);
+}

@@ -95,3 +95,66 @@ fn python_mcap_reads_a_killed_recording_like_we_do() {
         ours.messages.last().map(|m| m.log_time)
     );
 }
+
+/// A real planning session (`waam plan --robot --record`): the part, statuses, every
+/// candidate's verdict, the motion and the heat frames decode with both Python readers, in
+/// the counts the planner reported.
+#[test]
+fn python_readers_decode_a_planning_session_with_motion() {
+    let Some(python) = python() else { return };
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("session");
+    let out = Command::new(env!("CARGO_BIN_EXE_waam"))
+        .args(["-q", "plan", "--json", "--robot"])
+        .arg(root.join("urdf/waam_robot.urdf"))
+        .arg("--record")
+        .arg(&dir)
+        .arg(root.join("config/parts/s3-ring.yaml"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let report: Value = serde_json::from_str(stdout.lines().last().unwrap()).unwrap();
+    let candidates = report["stats"]["candidates"].as_u64().unwrap();
+    // The heat frames are as many as the simulation makes; everything else is known.
+    let heat = waam::bag::Bag::open(&dir)
+        .unwrap()
+        .topics
+        .iter()
+        .find(|t| t.name == "/waam_planner/planner/heat")
+        .map_or(0, |t| t.count);
+    assert!(heat > 0, "no heat frames recorded");
+    let expected = serde_json::json!({
+        "/waam_planner/part": {"type": "std_msgs/msg/String", "count": 1},
+        "/waam_planner/status": {"type": "diagnostic_msgs/msg/DiagnosticArray", "count": 2},
+        "/waam_planner/planner/candidates":
+            {"type": "waam_interfaces/msg/PlanCandidate", "count": candidates},
+        "/waam_planner/plan/joint_trajectory":
+            {"type": "trajectory_msgs/msg/JointTrajectory", "count": 1},
+        "/waam_planner/plan/poses": {"type": "geometry_msgs/msg/PoseArray", "count": 1},
+        "/waam_planner/plan/path": {"type": "nav_msgs/msg/Path", "count": 1},
+        "/waam_planner/plan/markers": {"type": "visualization_msgs/msg/MarkerArray", "count": 1},
+        "/waam_planner/plan/weld_plan": {"type": "waam_interfaces/msg/WeldPlan", "count": 1},
+        "/waam_planner/planner/heat": {"type": "sensor_msgs/msg/PointCloud2", "count": heat},
+    });
+    let expected_file = tmp.path().join("expected.json");
+    std::fs::write(&expected_file, expected.to_string()).unwrap();
+    let report = run_python(
+        &python,
+        &[
+            script("check_session.py").as_os_str(),
+            dir.as_os_str(),
+            expected_file.as_os_str(),
+        ],
+    );
+    assert_eq!(report["problems"], Value::Array(vec![]));
+    assert_eq!(
+        report["rosbags"]["/waam_planner/planner/candidates"],
+        candidates
+    );
+}

@@ -49,11 +49,12 @@ fn have_netns() -> bool {
     })
 }
 
-/// A domain id no other test of this run uses (and, by the pid, unlikely any other run).
+/// A domain id no other test of this run uses (and, by the pid, unlikely any other run),
+/// within ROS 2's safe range 1..=101 (RTPS ports overflow above 232).
 fn fresh_domain_id() -> u16 {
     static NEXT: AtomicU16 = AtomicU16::new(0);
     let n = NEXT.fetch_add(1, Ordering::Relaxed);
-    1 + (std::process::id() as u16 % 40) * 5 + n % 5 + (n / 5) * 200 % 230
+    1 + ((std::process::id() % 20) as u16 * 5 + n) % 101
 }
 
 fn repo() -> &'static Path {
@@ -605,4 +606,170 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
         log.contains("execution finished"),
         "no end of execution in the log:\n{log}"
     );
+}
+
+/// A box mesh sent to `waam node --record` is voxelized, planned and recorded with the
+/// node's voxelizing settings; `waam replay` voxelizes it again and finds the same plan,
+/// while a doctored recording (the mesh stretched) is reported as a difference. The
+/// recording also holds the planner's verdict on every candidate and the motion.
+#[test]
+fn a_mesh_the_node_recorded_replays_identically() {
+    use std::time::{Duration, Instant};
+
+    use waam::bag::{topics, Bag, Recorder};
+    use waam::msgs::geometry_msgs::Point;
+    use waam::msgs::shape_msgs::{Mesh, MeshTriangle};
+    use waam::msgs::waam_interfaces::{PlanCandidate, WeldPlan};
+    use waam::msgs::{from_cdr, to_cdr};
+
+    if ros_python().is_none() {
+        return;
+    }
+    // A closed 24 x 12 x 5 mm box (metres), outward-facing: 16 blocks at 6 x 6 x 2.5 mm.
+    let corner = |i: usize| Point {
+        x: (i & 1) as f64 * 0.024,
+        y: ((i >> 1) & 1) as f64 * 0.012,
+        z: ((i >> 2) & 1) as f64 * 0.005,
+    };
+    let faces = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    let mesh = Mesh {
+        vertices: (0..8).map(corner).collect(),
+        triangles: faces
+            .iter()
+            .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
+            .map(|vertex_indices| MeshTriangle { vertex_indices })
+            .collect(),
+    };
+
+    let dir = tempfile::tempdir().unwrap();
+    let bag_dir = dir.path().join("session");
+    let domain = fresh_domain_id();
+    let child = rust_peer::waam(&["node", "--record", bag_dir.to_str().unwrap()], domain);
+    let context = rust_peer::context(domain);
+    let mut node = rust_peer::node(&context, "mesh_sender");
+    let mesh_topic = node
+        .create_topic(
+            &ros2_client::Name::new("/waam_planner", "part_mesh").unwrap(),
+            ros2_client::MessageTypeName::new("shape_msgs", "Mesh"),
+            &waam::node::io::input_qos(),
+        )
+        .unwrap();
+    let sender = node.create_publisher::<Mesh>(&mesh_topic, None).unwrap();
+    let plan_topic = node
+        .create_topic(
+            &ros2_client::Name::new("/waam_planner/plan", "weld_plan").unwrap(),
+            ros2_client::MessageTypeName::new("waam_interfaces", "WeldPlan"),
+            &waam::node::io::latched_qos(),
+        )
+        .unwrap();
+    let plans = node
+        .create_subscription::<WeldPlan>(&plan_topic, None)
+        .unwrap();
+    let start = Instant::now();
+    while sender.get_subscription_count(&node) == 0 {
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "the node never subscribed to ~/part_mesh"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    sender.publish(mesh.clone()).unwrap();
+    let plan = rust_peer::take_within(&plans, Duration::from_secs(120), "WeldPlan");
+    let blocks: usize = plan.fragments.iter().map(|f| f.blocks.len()).sum();
+    assert_eq!(blocks, 16, "the box voxelizes to 16 blocks");
+    // Stop the node as Ctrl-C would, so it closes the recording.
+    let _ = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status();
+    let (ok, log) = rust_peer::finish(child, Duration::from_secs(30));
+    assert!(ok, "the node did not stop cleanly on SIGINT:\n{log}");
+
+    let bag = Bag::open(&bag_dir).unwrap();
+    let count = |name: &str| {
+        bag.topics
+            .iter()
+            .find(|t| t.name == name)
+            .map_or(0, |t| t.count)
+    };
+    for topic in [
+        topics::PART_MESH,
+        topics::JOINT_TRAJECTORY,
+        topics::POSES,
+        topics::PATH,
+        topics::MARKERS,
+        topics::WELD_PLAN,
+    ] {
+        assert_eq!(count(topic), 1, "{topic} recorded once\n{log}");
+    }
+    let candidates: Vec<PlanCandidate> = bag
+        .messages
+        .iter()
+        .filter(|m| bag.topic_of(m).name == topics::CANDIDATES)
+        .map(|m| from_cdr(&m.data).unwrap())
+        .collect();
+    assert_eq!(
+        candidates.len() as u64,
+        plan.statistics.candidates,
+        "one PlanCandidate per candidate the planner judged"
+    );
+    assert_eq!(
+        candidates
+            .iter()
+            .filter(|c| c.verdict == PlanCandidate::FEASIBLE)
+            .count() as u64,
+        plan.statistics.feasible
+    );
+
+    let replay = |bag: &Path| {
+        let out = Command::new(env!("CARGO_BIN_EXE_waam"))
+            .args(["replay", "--json"])
+            .arg(bag)
+            .output()
+            .unwrap();
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout)
+            .unwrap_or_else(|_| panic!("no JSON: {}", String::from_utf8_lossy(&out.stderr)));
+        (out.status.code(), json)
+    };
+    let (code, json) = replay(&bag_dir);
+    assert_eq!(code, Some(0), "{json}");
+    assert_eq!(json["identical"], 1, "{json}");
+    assert_eq!(json["skipped"], 0, "{json}");
+
+    // The same session with the mesh half again as long: 24 blocks, not the recorded 16.
+    let doctored = dir.path().join("doctored");
+    let recorder = Recorder::create(&doctored).unwrap();
+    for m in &bag.messages {
+        let t = bag.topic_of(m);
+        let data = if t.name == topics::PART_MESH {
+            let mut mesh: Mesh = from_cdr(&m.data).unwrap();
+            for v in &mut mesh.vertices {
+                v.x *= 1.5;
+            }
+            to_cdr(&mesh).unwrap()
+        } else {
+            m.data.clone()
+        };
+        recorder
+            .record_raw(
+                &t.name,
+                &t.type_name,
+                &t.definition,
+                &t.type_hash,
+                &t.offered_qos,
+                m.log_time,
+                &data,
+            )
+            .unwrap();
+    }
+    recorder.finish().unwrap();
+    let (code, json) = replay(&doctored);
+    assert_eq!(code, Some(1), "{json}");
+    assert_eq!(json["different"], 1, "{json}");
 }

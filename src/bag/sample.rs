@@ -118,6 +118,7 @@ impl SampleSession {
                 time_from_start: Duration::from_secs_f64(i as f64),
                 kind: match i {
                     0 => WeldPoint::ARC_ON,
+                    _ if i + 1 == poses.len() => WeldPoint::ARC_OFF,
                     _ => WeldPoint::WELD,
                 },
                 arc_on: true,

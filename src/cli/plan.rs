@@ -56,15 +56,17 @@ pub struct PlanArgs {
     #[arg(long)]
     pub no_shortening: bool,
     /// Record the run as a rosbag2 bag (MCAP) in the new directory DIR: the part, every
-    /// candidate's verdict, the plan and the simulated heat of the build.
+    /// candidate's verdict (broken window, prefix, learned clause), the plan, the simulated
+    /// heat of the build and, with --robot, the motion as the node publishes it.
     #[arg(long, value_name = "DIR", conflicts_with_all = ["all", "count"])]
     pub record: Option<PathBuf>,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
-    /// Also turn the plan into torch poses and a joint trajectory for this robot (URDF),
-    /// written to DIR/toolpath.yaml and DIR/trajectory.yaml (needs --out).
-    #[arg(long, value_name = "URDF", requires = "out")]
+    /// Also turn the plan into torch poses and a validated joint trajectory for this robot
+    /// (URDF): written to DIR/toolpath.yaml and DIR/trajectory.yaml with --out, recorded
+    /// (trajectory, poses, path, markers, weld plan) with --record.
+    #[arg(long, value_name = "URDF")]
     pub robot: Option<PathBuf>,
     /// With --robot: the TCP in the tip link as "x y z roll pitch yaw" (m, rad).
     #[arg(

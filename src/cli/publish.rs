@@ -9,7 +9,7 @@ use anyhow::Context;
 use clap::Args;
 use waam::graph::WeldGraph;
 use waam::msgs::waam_interfaces::PlanStatistics;
-use waam::node::pipeline::{sat_planner, PartInput, PlanFn, PlannerOutput};
+use waam::node::pipeline::{sat_planner, PartInput, PlanFn, PlanRequest, PlannerOutput};
 use waam::node::{Mode, RunOptions};
 use waam::part::Part;
 use waam::plan::Plan;
@@ -99,7 +99,7 @@ fn given_plan(part_text: &str, path: &std::path::Path) -> anyhow::Result<Arc<Pla
     let fragments = plan
         .validate(&part, &WeldGraph::new(&part))
         .map_err(|e| anyhow::anyhow!("plan {} is invalid: {e}", path.display()))?;
-    Ok(Arc::new(move |_: &Part, _: f64, _: &_| {
+    Ok(Arc::new(move |_: &PlanRequest| {
         Ok(PlannerOutput {
             fragments: fragments.clone(),
             statistics: PlanStatistics::default(),

@@ -8,7 +8,9 @@ use std::time::Duration;
 use serde_json::json;
 use waam::bag::planning::{options_from, statistics, PlanningRecorder};
 use waam::bag::{Bag, Recorder};
+use waam::node::pipeline::MeshSettings;
 use waam::part::Part;
+use waam::part_writer;
 use waam::planner::{self, Acyclicity, Options, Stats};
 use waam::replay::{self, CaseInput, Replanned, Verdict};
 
@@ -19,8 +21,9 @@ use super::{EXIT_BAD_INPUT, EXIT_NO, EXIT_OK};
 /// The planner runs with the settings recorded with the part (`waam plan --record` records
 /// them), else the defaults; options given here override them. Never with a timeout.
 ///
-/// Parts are the part documents received on `.../part` topics; each is paired with the first
-/// plan (waam_interfaces/WeldPlan) or ERROR status recorded after it. Prints IDENTICAL, or
+/// Parts are the part documents received on `.../part` topics and the meshes received on
+/// `.../part_mesh` (voxelized again with the settings the node recorded with them); each is
+/// paired with the first plan (waam_interfaces/WeldPlan) or ERROR status recorded after it. Prints IDENTICAL, or
 /// DIFFERENT with the fragments, the first differing block and the statistics that changed
 /// (candidates, feasible plans, learned clauses; never times). A truncated recording (a killed
 /// process) is read up to its last complete chunk and said to be truncated.
@@ -104,20 +107,35 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
             Ok(opts) => overrides(opts),
             Err(e) => return Replanned::Unsupported(e),
         };
-        let text = match &case.input {
-            CaseInput::PartText(text) => text,
-            CaseInput::Mesh(_) => {
-                return Replanned::Unsupported(
-                    "a mesh part: re-planning needs the node's voxelizing parameters".into(),
-                )
+        // A mesh is voxelized with the settings the node recorded when it received it.
+        let (part, text) = match &case.input {
+            CaseInput::PartText(text) => match Part::parse(text) {
+                Ok(part) => (part, text.clone()),
+                Err(e) => return Replanned::NoPlan(format!("bad part: {e}")),
+            },
+            CaseInput::Mesh(mesh) => {
+                let (settings, name) = match MeshSettings::from_values(&case.status_values) {
+                    Ok(Some(found)) => found,
+                    Ok(None) => {
+                        return Replanned::Unsupported(
+                            "a mesh recorded without the node's voxelizing settings \
+                             (mesh.block_mm ...)"
+                                .into(),
+                        )
+                    }
+                    Err(e) => return Replanned::Unsupported(e),
+                };
+                match settings.voxelize_message(name, mesh) {
+                    Ok(part) => {
+                        let text = part_writer::to_yaml(&part);
+                        (part, text)
+                    }
+                    Err(e) => return Replanned::NoPlan(e),
+                }
             }
         };
-        let part = match Part::parse(text) {
-            Ok(part) => part,
-            Err(e) => return Replanned::NoPlan(format!("bad part: {e}")),
-        };
         let mut planning = recorder.as_ref().and_then(|r| {
-            PlanningRecorder::start(r, text, &part.name, &opts)
+            PlanningRecorder::start(r, &text, &part.name, &opts)
                 .map_err(|e| record_error.get_or_insert(e))
                 .ok()
         });

@@ -385,11 +385,13 @@ pub fn toolpath_markers(toolpath: &Toolpath, width: f64, header: &Header) -> Vec
 /// The statuses the node reports on `~/status`, one DiagnosticStatus each.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Status {
-    /// An input arrived; `cancelled` names the job it superseded.
+    /// An input arrived; `cancelled` names the job it superseded; `settings` are how it
+    /// will be turned into a part (for a mesh: the voxelizing settings), for replays.
     Received {
         job: u64,
         source: String,
         cancelled: Option<u64>,
+        settings: Vec<KeyValue>,
     },
     Planning {
         job: u64,
@@ -427,6 +429,7 @@ impl Status {
                 job,
                 source,
                 cancelled,
+                settings,
             } => {
                 let mut message = format!("received part {job} ({source})");
                 let mut values = vec![kv("state", "received"), kv("job", job)];
@@ -434,6 +437,7 @@ impl Status {
                     message.push_str(&format!("; cancelled planning of part {old}"));
                     values.push(kv("cancelled_job", old));
                 }
+                values.extend(settings.iter().cloned());
                 (DiagnosticStatus::OK, message, values)
             }
             Status::Planning {
@@ -599,12 +603,14 @@ mod tests {
             job: 3,
             source: "mesh".into(),
             cancelled: Some(2),
+            settings: vec![KeyValue::new("mesh.name", "mesh-1")],
         }
         .to_msg(Time::default(), "");
         let st = &s.status[0];
         assert_eq!(st.level, DiagnosticStatus::OK);
         assert!(st.message.contains("cancelled planning of part 2"));
         assert!(st.values.contains(&KeyValue::new("cancelled_job", 2)));
+        assert!(st.values.contains(&KeyValue::new("mesh.name", "mesh-1")));
         let e = Status::Error {
             job: Some(4),
             reason: "bad part document: x".into(),

@@ -114,8 +114,10 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> anyhow::Re
             }
         ),
     );
-    let pipeline = PlanningPipeline::from_params(params, Arc::clone(&options.planner))
+    let mut pipeline = PlanningPipeline::from_params(params, Arc::clone(&options.planner))
         .map_err(|e| anyhow::anyhow!("{e}"))?;
+    pipeline.recorder = recorder.clone();
+    let mesh_settings = pipeline.mesh.clone();
 
     let (events, event_rx) = channel::<Event>();
     let worker_events = events.clone();
@@ -212,11 +214,16 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> anyhow::Re
         match event {
             Event::Input(input) => {
                 let source = input.describe();
+                let settings = match &input {
+                    PartInput::Mesh { name, .. } => mesh_settings.to_values(name),
+                    PartInput::Document(_) => Vec::new(),
+                };
                 let (job, cancelled) = worker.submit(input);
                 state.status(Status::Received {
                     job,
                     source: source.clone(),
                     cancelled,
+                    settings,
                 });
                 let mut line = format!("part {job} received ({source})");
                 if let Some(old) = cancelled {
@@ -484,11 +491,7 @@ fn spawn_inputs(inputs: Inputs, events: Sender<Event>, outputs: Arc<Outputs>) {
                                 r.record(&mesh_topic, &crate::bag::qos::Qos::reliable(10), &msg)
                             });
                             mesh_count += 1;
-                            PartInput::Mesh {
-                                name: format!("mesh-{mesh_count}"),
-                                vertices: msg.vertices.iter().map(|p| [p.x, p.y, p.z]).collect(),
-                                triangles: msg.triangles.iter().map(|t| t.vertex_indices).collect(),
-                            }
+                            PartInput::from_mesh(format!("mesh-{mesh_count}"), &msg)
                         }
                         Err(e) => {
                             // An undecodable message (wrong type on the topic, bad CDR).

@@ -11,9 +11,13 @@ use nalgebra::Isometry3;
 use super::convert::PlanSummary;
 use super::params::NodeParams;
 use super::worker::{JobContext, Pipeline};
+use crate::bag::planning::CandidateRecorder;
+use crate::bag::Recorder;
 use crate::graph::WeldGraph;
 use crate::mesh::{voxelize_indexed, Units, VoxelizeOptions, WindowRule};
 use crate::motion::{plan_motion, weld_speed};
+use crate::msgs::diagnostic_msgs::KeyValue;
+use crate::msgs::shape_msgs::Mesh;
 use crate::msgs::waam_interfaces::PlanStatistics;
 use crate::part::{BlockDisplay, Part, Window};
 use crate::plan::Plan;
@@ -55,6 +59,153 @@ impl PartInput {
     }
 }
 
+impl PartInput {
+    /// A `~/part_mesh` message as an input named `name`.
+    pub fn from_mesh(name: String, mesh: &Mesh) -> PartInput {
+        let (vertices, triangles) = mesh_arrays(mesh);
+        PartInput::Mesh {
+            name,
+            vertices,
+            triangles,
+        }
+    }
+}
+
+/// A shape_msgs/Mesh's vertices (m) and triangles as plain arrays.
+fn mesh_arrays(mesh: &Mesh) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    (
+        mesh.vertices.iter().map(|p| [p.x, p.y, p.z]).collect(),
+        mesh.triangles.iter().map(|t| t.vertex_indices).collect(),
+    )
+}
+
+/// How the node turns a mesh into a part: the block pitch, the t8/5 window every block
+/// gets, and the part's max_fragments. Recorded with every mesh received (as status values
+/// `mesh.*`), so that a replay voxelizes it the same way.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshSettings {
+    pub block_mm: [f64; 3],
+    pub window: Option<Window>,
+    pub max_fragments: usize,
+}
+
+/// Status keys of [`MeshSettings`] and of the mesh part's name.
+pub mod mesh_keys {
+    pub const NAME: &str = "mesh.name";
+    pub const BLOCK_MM: &str = "mesh.block_mm";
+    pub const T85_WINDOW_S: &str = "mesh.t85_window_s";
+    pub const MAX_FRAGMENTS: &str = "mesh.max_fragments";
+}
+
+impl MeshSettings {
+    pub fn from_params(params: &NodeParams) -> Result<Self, String> {
+        let [a, b, c] = params.mesh.block_mm[..] else {
+            return Err("mesh.block_mm: expected three lengths".into());
+        };
+        Ok(MeshSettings {
+            block_mm: [a, b, c],
+            window: match params.mesh.t85_window_s[..] {
+                [min_s, max_s] => Some(Window { min_s, max_s }),
+                _ => None,
+            },
+            max_fragments: params.planner.default_max_fragments.max(1) as usize,
+        })
+    }
+
+    /// Voxelizes a mesh in metres into the part `name`.
+    pub fn voxelize(
+        &self,
+        name: String,
+        vertices: &[[f64; 3]],
+        triangles: &[[u32; 3]],
+    ) -> Result<Part, String> {
+        let mut options = VoxelizeOptions::new(name, self.block_mm);
+        options.max_fragments = self.max_fragments;
+        options.windows = self
+            .window
+            .map(WindowRule::everywhere)
+            .into_iter()
+            .collect();
+        let voxelized = voxelize_indexed(vertices, triangles, Units::M, &options)
+            .map_err(|e| format!("bad part mesh: {e}"))?;
+        for w in &voxelized.warnings {
+            tracing::warn!("part mesh: {w}");
+        }
+        Ok(voxelized.part)
+    }
+
+    /// Voxelizes a `~/part_mesh` message into the part `name`.
+    pub fn voxelize_message(&self, name: String, mesh: &Mesh) -> Result<Part, String> {
+        let (vertices, triangles) = mesh_arrays(mesh);
+        self.voxelize(name, &vertices, &triangles)
+    }
+
+    /// The settings and the part's name as status values.
+    pub fn to_values(&self, name: &str) -> Vec<KeyValue> {
+        let [a, b, c] = self.block_mm;
+        let mut values = vec![
+            KeyValue::new(mesh_keys::NAME, name),
+            KeyValue::new(mesh_keys::BLOCK_MM, format!("{a} {b} {c}")),
+            KeyValue::new(mesh_keys::MAX_FRAGMENTS, self.max_fragments),
+        ];
+        if let Some(w) = self.window {
+            values.push(KeyValue::new(
+                mesh_keys::T85_WINDOW_S,
+                format!("{} {}", w.min_s, w.max_s),
+            ));
+        }
+        values
+    }
+
+    /// Settings and name from recorded status values (the last value of a key wins);
+    /// `None` when no `mesh.block_mm` was recorded.
+    pub fn from_values(values: &[(String, String)]) -> Result<Option<(Self, String)>, String> {
+        let get = |key: &str| values.iter().rev().find(|(k, _)| k == key).map(|(_, v)| v);
+        let numbers = |key: &str, n: usize| -> Result<Option<Vec<f64>>, String> {
+            let Some(v) = get(key) else { return Ok(None) };
+            let xs: Vec<f64> = v
+                .split_whitespace()
+                .map(str::parse)
+                .collect::<Result<_, _>>()
+                .map_err(|_| format!("recorded {key}={v:?}: not numbers"))?;
+            if xs.len() != n || xs.iter().any(|x| !x.is_finite()) {
+                return Err(format!("recorded {key}={v:?}: expected {n} finite numbers"));
+            }
+            Ok(Some(xs))
+        };
+        let Some(block) = numbers(mesh_keys::BLOCK_MM, 3)? else {
+            return Ok(None);
+        };
+        let window = numbers(mesh_keys::T85_WINDOW_S, 2)?.map(|w| Window {
+            min_s: w[0],
+            max_s: w[1],
+        });
+        let max_fragments = match get(mesh_keys::MAX_FRAGMENTS) {
+            Some(v) => v
+                .parse()
+                .map_err(|_| format!("recorded {}={v:?}: not a count", mesh_keys::MAX_FRAGMENTS))?,
+            None => {
+                return Err(format!(
+                    "{} recorded without {}",
+                    mesh_keys::BLOCK_MM,
+                    mesh_keys::MAX_FRAGMENTS
+                ))
+            }
+        };
+        let name = get(mesh_keys::NAME)
+            .cloned()
+            .unwrap_or_else(|| "mesh".into());
+        Ok(Some((
+            MeshSettings {
+                block_mm: [block[0], block[1], block[2]],
+                window,
+                max_fragments,
+            },
+            name,
+        )))
+    }
+}
+
 /// What the planner answers for a part.
 #[derive(Debug, Clone)]
 pub struct PlannerOutput {
@@ -65,9 +216,19 @@ pub struct PlannerOutput {
     pub worst_margin_s: f64,
 }
 
-/// The planner a pipeline calls: part, time limit (s, 0 = none), job context (cancel flag,
-/// progress). `Err` is the reason there is no plan.
-pub type PlanFn = dyn Fn(&Part, f64, &JobContext) -> Result<PlannerOutput, String> + Send + Sync;
+/// What a pipeline asks its planner.
+pub struct PlanRequest<'a> {
+    pub part: &'a Part,
+    /// Time limit, s (0 = none).
+    pub timeout_s: f64,
+    /// The job: cancel flag and progress.
+    pub ctx: &'a JobContext,
+    /// When recording: where the planner's verdict on every candidate goes.
+    pub recorder: Option<&'a Recorder>,
+}
+
+/// The planner a pipeline calls. `Err` is the reason there is no plan.
+pub type PlanFn = dyn Fn(&PlanRequest) -> Result<PlannerOutput, String> + Send + Sync;
 
 /// A planned part, checked and ready to publish and execute.
 #[derive(Debug, Clone)]
@@ -104,11 +265,11 @@ impl Planned {
 pub struct PlanningPipeline {
     pub settings: ProcessSettings,
     pub robot: Robot,
-    pub mesh_block_mm: [f64; 3],
-    pub mesh_window: Option<Window>,
-    pub default_max_fragments: usize,
+    pub mesh: MeshSettings,
     pub timeout_s: f64,
     pub planner: Arc<PlanFn>,
+    /// The session's recording, if any.
+    pub recorder: Option<Recorder>,
 }
 
 impl PlanningPipeline {
@@ -138,20 +299,13 @@ impl PlanningPipeline {
             Robot::from_urdf_file(std::path::Path::new(&params.robot.urdf), tip, choice)
                 .map_err(|e| format!("robot.urdf {}: {e}", params.robot.urdf))?
         };
-        let [a, b, c] = params.mesh.block_mm[..] else {
-            return Err("mesh.block_mm: expected three lengths".into());
-        };
         Ok(PlanningPipeline {
             settings,
             robot,
-            mesh_block_mm: [a, b, c],
-            mesh_window: match params.mesh.t85_window_s[..] {
-                [min_s, max_s] => Some(Window { min_s, max_s }),
-                _ => None,
-            },
-            default_max_fragments: params.planner.default_max_fragments.max(1) as usize,
+            mesh: MeshSettings::from_params(params)?,
             timeout_s: params.planner.timeout_s,
             planner,
+            recorder: None,
         })
     }
 
@@ -169,21 +323,7 @@ impl PlanningPipeline {
                 name,
                 vertices,
                 triangles,
-            } => {
-                let mut options = VoxelizeOptions::new(name, self.mesh_block_mm);
-                options.max_fragments = self.default_max_fragments;
-                options.windows = self
-                    .mesh_window
-                    .map(WindowRule::everywhere)
-                    .into_iter()
-                    .collect();
-                let voxelized = voxelize_indexed(&vertices, &triangles, Units::M, &options)
-                    .map_err(|e| format!("bad part mesh: {e}"))?;
-                for w in &voxelized.warnings {
-                    tracing::warn!("part mesh: {w}");
-                }
-                Ok(voxelized.part)
-            }
+            } => self.mesh.voxelize(name, &vertices, &triangles),
         }
     }
 
@@ -246,7 +386,12 @@ impl Pipeline for PlanningPipeline {
                 part.max_fragments
             ),
         );
-        let found = (self.planner)(&part, self.timeout_s, ctx)?;
+        let found = (self.planner)(&PlanRequest {
+            part: &part,
+            timeout_s: self.timeout_s,
+            ctx,
+            recorder: self.recorder.as_ref(),
+        })?;
         if cancelled() {
             return Err("cancelled".into());
         }
@@ -264,15 +409,20 @@ impl Pipeline for PlanningPipeline {
 /// The project's SAT planner ([`crate::planner::plan`]) as the node's planner: best plan by
 /// the documented objective within the time limit.
 pub fn sat_planner() -> Arc<PlanFn> {
-    Arc::new(|part: &Part, timeout_s: f64, ctx: &JobContext| {
+    Arc::new(|request: &PlanRequest| {
+        let (part, timeout_s, ctx) = (request.part, request.timeout_s, request.ctx);
         let options = crate::planner::Options {
             timeout: (timeout_s > 0.0).then(|| std::time::Duration::from_secs_f64(timeout_s)),
             // A newer part stops this run between two candidates; the worker then drops it.
             cancel: Some(ctx.cancel.flag()),
             ..crate::planner::Options::default()
         };
+        let mut candidates = request.recorder.map(CandidateRecorder::new);
         let mut last = std::time::Instant::now();
         let mut progress = |s: &crate::planner::Stats| {
+            if let Some(c) = candidates.as_mut() {
+                c.progress(s);
+            }
             if last.elapsed() >= std::time::Duration::from_millis(200) {
                 last = std::time::Instant::now();
                 let fraction = (timeout_s > 0.0).then(|| (s.total_s / timeout_s).min(1.0));
@@ -285,21 +435,10 @@ pub fn sat_planner() -> Arc<PlanFn> {
         };
         let report = crate::planner::plan(part, &options, &mut progress)
             .map_err(|e| format!("planning failed: {e}"))?;
-        let s = &report.stats;
-        let statistics = PlanStatistics {
-            candidates: s.candidates,
-            feasible: s.feasible,
-            optimal: report.proven,
-            time_to_first_feasible_s: s.first_feasible_s.unwrap_or(0.0),
-            total_time_s: s.total_s,
-            sat_time_s: s.sat_s,
-            acyclicity_time_s: s.acyclicity_s,
-            simulation_time_s: s.simulator_s,
-            learned_clauses: s.learned_clauses.min(u32::MAX as u64) as u32,
-            learned_clause_min: s.clause_len_min.unwrap_or(0) as u32,
-            learned_clause_max: s.clause_len_max.unwrap_or(0) as u32,
-            learned_clause_mean: s.clause_len_mean.unwrap_or(0.0),
-        };
+        if let Some(Err(e)) = candidates.map(CandidateRecorder::finish) {
+            tracing::warn!("recording the planner's candidates: {e}");
+        }
+        let statistics = crate::bag::planning::statistics(&report.stats, report.proven);
         match report.best {
             Some(found) => Ok(PlannerOutput {
                 fragments: found.fragments,
@@ -323,7 +462,7 @@ mod tests {
 
     fn pipeline() -> PlanningPipeline {
         let planner: Arc<PlanFn> =
-            Arc::new(|_: &Part, _: f64, _: &JobContext| Err("no planner in this test".to_string()));
+            Arc::new(|_: &PlanRequest| Err("no planner in this test".to_string()));
         PlanningPipeline::from_params(&NodeParams::default(), planner).unwrap()
     }
 

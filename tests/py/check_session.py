@@ -56,12 +56,16 @@ def check_content(type_name, msg, topic):
         check(len(msg.poses) > 0, f"{where}: empty path")
     elif type_name == "visualization_msgs/msg/MarkerArray":
         texts = [m.text for m in msg.markers]
-        check("arc on" in texts and "arc off" in texts, f"{where}: no arc on/off labels")
+        check(any(t.startswith("arc on") for t in texts) and any(t.startswith("arc off") for t in texts),
+              f"{where}: no arc on/off labels")
     elif type_name == "waam_interfaces/msg/WeldPlan":
         blocks = [(b.x, b.y, b.z) for f in msg.fragments for b in f.blocks]
         check(len(blocks) == len(set(blocks)) > 0, f"{where}: blocks repeated or none")
         check(len(msg.points) > 0, f"{where}: no toolpath")
-        check(msg.points[0].arc_on and msg.points[0].kind == 1, f"{where}: first point not ARC_ON")
+        welding = [p for p in msg.points if p.arc_on]
+        check(welding and welding[0].kind == 1, f"{where}: the arc does not start with ARC_ON")
+        kinds = [int(p.kind) for p in msg.points]
+        check(kinds.count(1) == kinds.count(3) > 0, f"{where}: ARC_ON and ARC_OFF do not pair")
     elif type_name == "diagnostic_msgs/msg/DiagnosticArray":
         for s in msg.status:
             check(int(s.level) in (0, 1, 2, 3), f"{where}: level {s.level}")
