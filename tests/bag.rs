@@ -6,7 +6,7 @@ use std::path::Path;
 use serde_json::Value;
 
 mod recording;
-use recording::{kill_a_recording, waam};
+use recording::{kill_a_recording, last_json, run_ok, waam};
 
 fn info_json(bag: &Path) -> Value {
     let out = waam()
@@ -103,7 +103,6 @@ fn info_names_a_file_that_is_not_a_bag() {
 #[test]
 fn plan_with_a_robot_records_the_motion_and_every_candidates_verdict() {
     use waam::bag::{topics, Bag};
-    use waam::msgs::from_cdr;
     use waam::msgs::geometry_msgs::PoseArray;
     use waam::msgs::trajectory_msgs::JointTrajectory;
     use waam::msgs::visualization_msgs::MarkerArray;
@@ -114,31 +113,18 @@ fn plan_with_a_robot_records_the_motion_and_every_candidates_verdict() {
     let part_path = root.join("config/parts/s1-wall.yaml");
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("session");
-    let out = waam()
-        .args(["-q", "plan", "--json", "--robot"])
-        .arg(root.join("urdf/waam_robot.urdf"))
-        .arg("--record")
-        .arg(&dir)
-        .arg(&part_path)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let stdout = run_ok(
+        waam()
+            .args(["-q", "plan", "--json", "--robot"])
+            .arg(root.join("urdf/waam_robot.urdf"))
+            .arg("--record")
+            .arg(&dir)
+            .arg(&part_path),
     );
-    // The JSON report is the last line (the motion summary comes before it).
-    let stdout = String::from_utf8(out.stdout).unwrap();
-    let report: Value = serde_json::from_str(stdout.lines().last().unwrap()).unwrap();
+    let report = last_json(&stdout);
     let stats = &report["stats"];
 
     let bag = Bag::open(&dir).unwrap();
-    let on = |topic: &str| -> Vec<&waam::bag::RecordedMessage> {
-        bag.messages
-            .iter()
-            .filter(|m| bag.topic_of(m).name == topic)
-            .collect()
-    };
     for topic in [
         topics::JOINT_TRAJECTORY,
         topics::POSES,
@@ -146,13 +132,16 @@ fn plan_with_a_robot_records_the_motion_and_every_candidates_verdict() {
         topics::MARKERS,
         topics::WELD_PLAN,
     ] {
-        assert_eq!(on(topic).len(), 1, "{topic} recorded once");
+        assert_eq!(bag.count(topic), 1, "{topic} recorded once");
     }
-    assert!(!on(topics::HEAT).is_empty(), "heat frames recorded");
-    let trajectory: JointTrajectory = from_cdr(&on(topics::JOINT_TRAJECTORY)[0].data).unwrap();
-    let poses: PoseArray = from_cdr(&on(topics::POSES)[0].data).unwrap();
-    let markers: MarkerArray = from_cdr(&on(topics::MARKERS)[0].data).unwrap();
-    let plan: WeldPlan = from_cdr(&on(topics::WELD_PLAN)[0].data).unwrap();
+    assert!(bag.count(topics::HEAT) > 0, "heat frames recorded");
+    fn only<M: waam::msgs::RosMessage>(bag: &Bag) -> M {
+        bag.decode_all::<M>().unwrap().remove(0).2
+    }
+    let trajectory: JointTrajectory = only(&bag);
+    let poses: PoseArray = only(&bag);
+    let markers: MarkerArray = only(&bag);
+    let plan: WeldPlan = only(&bag);
     assert_eq!(trajectory.joint_names.len(), 6);
     assert!(trajectory.points.len() >= poses.poses.len() && !poses.poses.is_empty());
     assert_eq!(
@@ -172,9 +161,11 @@ fn plan_with_a_robot_records_the_motion_and_every_candidates_verdict() {
 
     let part = Part::parse(&std::fs::read_to_string(&part_path).unwrap()).unwrap();
     let windowed: Vec<[i64; 3]> = part.windows().iter().map(|&(i, _)| part.block(i)).collect();
-    let candidates: Vec<PlanCandidate> = on(topics::CANDIDATES)
-        .iter()
-        .map(|m| from_cdr(&m.data).unwrap())
+    let candidates: Vec<PlanCandidate> = bag
+        .decode_all::<PlanCandidate>()
+        .unwrap()
+        .into_iter()
+        .map(|(_, _, c)| c)
         .collect();
     assert_eq!(
         candidates.len() as u64,

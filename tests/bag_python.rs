@@ -105,21 +105,15 @@ fn python_readers_decode_a_planning_session_with_motion() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("session");
-    let out = Command::new(env!("CARGO_BIN_EXE_waam"))
-        .args(["-q", "plan", "--json", "--robot"])
-        .arg(root.join("urdf/waam_robot.urdf"))
-        .arg("--record")
-        .arg(&dir)
-        .arg(root.join("config/parts/s3-ring.yaml"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let stdout = recording::run_ok(
+        recording::waam()
+            .args(["-q", "plan", "--json", "--robot"])
+            .arg(root.join("urdf/waam_robot.urdf"))
+            .arg("--record")
+            .arg(&dir)
+            .arg(root.join("config/parts/s3-ring.yaml")),
     );
-    let stdout = String::from_utf8(out.stdout).unwrap();
-    let report: Value = serde_json::from_str(stdout.lines().last().unwrap()).unwrap();
+    let report = recording::last_json(&stdout);
     let candidates = report["stats"]["candidates"].as_u64().unwrap();
     // The heat frames are as many as the simulation makes; everything else is known.
     let heat = waam::bag::Bag::open(&dir)

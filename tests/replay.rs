@@ -9,7 +9,7 @@ use waam::msgs::std_msgs::String as RosString;
 use waam::msgs::to_cdr;
 
 mod recording;
-use recording::waam;
+use recording::{copy_bag, waam};
 
 const PART: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/config/parts/s1-wall.yaml");
 
@@ -43,31 +43,16 @@ fn replay(bag: &Path, extra: &[&str]) -> (i32, Value) {
     (out.status.code().unwrap(), json)
 }
 
-/// Copies a recording message by message, passing each part document through `doctor`.
+/// Copies a recording, passing each part document through `doctor`.
 fn copy_doctored(from: &Path, to: &Path, doctor: impl Fn(&str) -> String) {
-    let bag = Bag::open(from).unwrap();
-    let recorder = Recorder::create(to).unwrap();
-    for m in &bag.messages {
-        let t = bag.topic_of(m);
-        let data = if t.name == topics::PART {
-            let part: RosString = waam::msgs::from_cdr(&m.data).unwrap();
+    copy_bag(from, to, |topic, data| {
+        if topic == topics::PART {
+            let part: RosString = waam::msgs::from_cdr(data).unwrap();
             to_cdr(&RosString::from(doctor(&part.data).as_str())).unwrap()
         } else {
-            m.data.clone()
-        };
-        recorder
-            .record_raw(
-                &t.name,
-                &t.type_name,
-                &t.definition,
-                &t.type_hash,
-                &t.offered_qos,
-                m.log_time,
-                &data,
-            )
-            .unwrap();
-    }
-    recorder.finish().unwrap();
+            data.to_vec()
+        }
+    });
 }
 
 #[test]

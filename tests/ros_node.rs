@@ -14,6 +14,8 @@ use std::process::{Command, Output};
 use std::sync::atomic::{AtomicU16, Ordering};
 use std::sync::OnceLock;
 
+mod recording;
+
 /// The venv's Python, or `None` when the ROS tests are to be skipped.
 fn ros_python() -> Option<PathBuf> {
     match std::env::var_os("WAAM_ROS_VENV") {
@@ -616,7 +618,7 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
 fn a_mesh_the_node_recorded_replays_identically() {
     use std::time::{Duration, Instant};
 
-    use waam::bag::{topics, Bag, Recorder};
+    use waam::bag::{topics, Bag};
     use waam::msgs::geometry_msgs::Point;
     use waam::msgs::shape_msgs::{Mesh, MeshTriangle};
     use waam::msgs::waam_interfaces::{PlanCandidate, WeldPlan};
@@ -692,12 +694,6 @@ fn a_mesh_the_node_recorded_replays_identically() {
     assert!(ok, "the node did not stop cleanly on SIGINT:\n{log}");
 
     let bag = Bag::open(&bag_dir).unwrap();
-    let count = |name: &str| {
-        bag.topics
-            .iter()
-            .find(|t| t.name == name)
-            .map_or(0, |t| t.count)
-    };
     for topic in [
         topics::PART_MESH,
         topics::JOINT_TRAJECTORY,
@@ -706,13 +702,13 @@ fn a_mesh_the_node_recorded_replays_identically() {
         topics::MARKERS,
         topics::WELD_PLAN,
     ] {
-        assert_eq!(count(topic), 1, "{topic} recorded once\n{log}");
+        assert_eq!(bag.count(topic), 1, "{topic} recorded once\n{log}");
     }
     let candidates: Vec<PlanCandidate> = bag
-        .messages
-        .iter()
-        .filter(|m| bag.topic_of(m).name == topics::CANDIDATES)
-        .map(|m| from_cdr(&m.data).unwrap())
+        .decode_all::<PlanCandidate>()
+        .unwrap()
+        .into_iter()
+        .map(|(_, _, c)| c)
         .collect();
     assert_eq!(
         candidates.len() as u64,
@@ -744,31 +740,16 @@ fn a_mesh_the_node_recorded_replays_identically() {
 
     // The same session with the mesh half again as long: 24 blocks, not the recorded 16.
     let doctored = dir.path().join("doctored");
-    let recorder = Recorder::create(&doctored).unwrap();
-    for m in &bag.messages {
-        let t = bag.topic_of(m);
-        let data = if t.name == topics::PART_MESH {
-            let mut mesh: Mesh = from_cdr(&m.data).unwrap();
-            for v in &mut mesh.vertices {
-                v.x *= 1.5;
-            }
-            to_cdr(&mesh).unwrap()
-        } else {
-            m.data.clone()
-        };
-        recorder
-            .record_raw(
-                &t.name,
-                &t.type_name,
-                &t.definition,
-                &t.type_hash,
-                &t.offered_qos,
-                m.log_time,
-                &data,
-            )
-            .unwrap();
-    }
-    recorder.finish().unwrap();
+    recording::copy_bag(&bag_dir, &doctored, |topic, data| {
+        if topic != topics::PART_MESH {
+            return data.to_vec();
+        }
+        let mut mesh: Mesh = from_cdr(data).unwrap();
+        for v in &mut mesh.vertices {
+            v.x *= 1.5;
+        }
+        to_cdr(&mesh).unwrap()
+    });
     let (code, json) = replay(&doctored);
     assert_eq!(code, Some(1), "{json}");
     assert_eq!(json["different"], 1, "{json}");

@@ -218,6 +218,14 @@ impl Bag {
         &self.topics[message.topic]
     }
 
+    /// Messages read on `topic` (0 for a topic not in the bag).
+    pub fn count(&self, topic: &str) -> u64 {
+        self.topics
+            .iter()
+            .find(|t| t.name == topic)
+            .map_or(0, |t| t.count)
+    }
+
     /// Messages on topics of type `M`, decoded, with their receive times.
     pub fn decode_all<M: RosMessage>(&self) -> Result<Vec<(u64, &str, M)>, BagError> {
         self.messages

@@ -9,6 +9,46 @@ pub fn waam() -> Command {
     Command::new(env!("CARGO_BIN_EXE_waam"))
 }
 
+/// Runs `command`, panicking with its stderr unless it succeeds; its stdout.
+pub fn run_ok(command: &mut Command) -> String {
+    let out = command.output().unwrap();
+    assert!(
+        out.status.success(),
+        "{:?} failed: {}",
+        command,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// The JSON object a `--json` run prints on its last line (a summary may come before it).
+pub fn last_json(stdout: &str) -> serde_json::Value {
+    let line = stdout.lines().last().unwrap_or_default();
+    serde_json::from_str(line).unwrap_or_else(|_| panic!("no JSON at the end of: {stdout}"))
+}
+
+/// Copies a recording message by message, passing each message's CDR bytes through
+/// `doctor(topic, bytes)`.
+pub fn copy_bag(from: &Path, to: &Path, doctor: impl Fn(&str, &[u8]) -> Vec<u8>) {
+    let bag = waam::bag::Bag::open(from).unwrap();
+    let recorder = waam::bag::Recorder::create(to).unwrap();
+    for m in &bag.messages {
+        let t = bag.topic_of(m);
+        recorder
+            .record_raw(
+                &t.name,
+                &t.type_name,
+                &t.definition,
+                &t.type_hash,
+                &t.offered_qos,
+                m.log_time,
+                &doctor(&t.name, &m.data),
+            )
+            .unwrap();
+    }
+    recorder.finish().unwrap();
+}
+
 /// Messages `metadata.yaml` says were on disk at its last refresh.
 pub fn flushed_messages(dir: &Path) -> u64 {
     std::fs::read_to_string(dir.join("metadata.yaml"))
