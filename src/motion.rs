@@ -1,14 +1,15 @@
 //! From a plan to robot motion: the one entry point the CLI and the ROS node call.
 //!
-//! [`plan_motion`] turns a plan's fragments into weld passes, the passes into a toolpath
-//! (torch poses, arc-on/off markers, transits) and the toolpath into a validated joint
-//! trajectory for the robot; [`write_outputs`] writes `toolpath.yaml` and
-//! `trajectory.yaml`.
+//! [`plan_motion`] turns a plan's fragments (and [`plan_layer_motion`] a layer's trail) into
+//! weld passes, the passes into a toolpath (torch poses, arc-on/off markers, transits) and
+//! the toolpath into a validated joint trajectory for the robot; [`write_outputs`] writes
+//! `toolpath.yaml` and `trajectory.yaml`.
 
 use std::path::Path;
 
 use thiserror::Error;
 
+use crate::layer::{Model, Trail};
 use crate::part::{BlockDisplay, Part};
 use crate::robot::Robot;
 use crate::toolpath::{self, ProcessSettings, Toolpath, ToolpathError, WeldPass, WeldTiming};
@@ -42,8 +43,32 @@ pub fn plan_motion(
                 let block = fragments
                     .get(at.fragment)
                     .and_then(|f| f.get(at.point))
-                    .map(|&b| BlockDisplay(part.block(b)).to_string());
+                    .map(|&b| format!("block {}", BlockDisplay(part.block(b))));
                 at.block = block;
+            }
+        }
+        e
+    })
+}
+
+/// Toolpath and joint trajectory for a layer trail: one pass per run between deadheading
+/// moves (the arc is off on each of them), welded at the layer's own weld speed so the torch
+/// moves as the finite-element model assumed. Errors name the wall.
+pub fn plan_layer_motion(
+    model: &Model,
+    trail: &Trail,
+    settings: &ProcessSettings,
+    robot: &Robot,
+) -> Result<(Toolpath, JointTrajectory), MotionError> {
+    let (passes, segments) = model.passes_with_segments(trail);
+    let timing = WeldTiming::Speed(model.layer.process.weld_speed_mm_s);
+    plan_passes(&passes, timing, settings, robot).map_err(|mut e| {
+        if let MotionError::Trajectory(t) = &mut e {
+            if let Some(at) = t.at_mut() {
+                at.block = segments
+                    .get(at.fragment)
+                    .and_then(|f| f.get(at.point))
+                    .map(|&s| model.layer.segment_name(s));
             }
         }
         e

@@ -142,3 +142,66 @@ fn motion_errors_are_answers_not_crashes() {
     assert_eq!(run.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&run.stderr).contains("nowhere.urdf"));
 }
+
+#[test]
+fn plot_draws_a_planned_layer_as_layer_plot_does() {
+    use waam::layer::plot::{TEMPERATURE_SIZE, TRAIL_SIZE};
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let layer = "config/layers/paper-16mm.yaml";
+    let run = waam(&[
+        "-q",
+        "layer",
+        "plan",
+        layer,
+        "--robot",
+        "urdf/waam_robot.urdf",
+        "--out",
+        out,
+    ]);
+    assert_eq!(
+        run.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let run = waam(&["plot", out, "--node", "E"]);
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert_eq!(
+        run.status.code(),
+        Some(0),
+        "{stdout}{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let read = |file: &str| std::fs::read(dir.path().join(file)).unwrap();
+    for (file, size) in [
+        ("toolpath.png", waam::plot::TOOLPATH_SIZE),
+        ("trail.png", TRAIL_SIZE),
+        ("temperature.png", TEMPERATURE_SIZE),
+    ] {
+        assert!(stdout.contains(file), "{stdout}");
+        let (w, h, pixels, bpp) = decode(&dir.path().join(file));
+        assert_eq!((w, h), size, "{file}");
+        let n = (w * h) as usize;
+        let drawn = (0..n)
+            .filter(|&i| pixels[i * bpp..i * bpp + 3] != [255, 255, 255])
+            .count();
+        assert!(drawn > n / 100, "{file}: only {drawn} of {n} pixels drawn");
+    }
+    // The same pictures as `waam layer plot`, and --node chooses the curve.
+    let (trail, temperature) = (read("trail.png"), read("temperature.png"));
+    let run = waam(&["layer", "plot", out, "--node", "E"]);
+    assert_eq!(run.status.code(), Some(0));
+    assert!(read("trail.png") == trail && read("temperature.png") == temperature);
+    let run = waam(&["plot", out, "--node", "A"]);
+    assert_eq!(run.status.code(), Some(0));
+    assert!(read("trail.png") == trail && read("temperature.png") != temperature);
+    // --node needs a layer; a bad node is named.
+    let run = waam(&["plot", out, "--node", "Z"]);
+    assert_eq!(run.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&run.stderr).contains("--node Z"));
+    let empty = tempfile::tempdir().unwrap();
+    let run = waam(&["plot", empty.path().to_str().unwrap(), "--node", "E"]);
+    assert_eq!(run.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&run.stderr).contains("trail.yaml does not exist"));
+}

@@ -6,51 +6,12 @@
 //! only loopback exists; otherwise on loopback-only discovery. Either way on a domain id of
 //! its own, so no other DDS traffic on the machine is reached.
 
-use std::path::Path;
-use std::process::Command;
-
 use serde_json::Value;
 use waam::bag::Bag;
 use waam::msgs::waam_interfaces::WeldPlan;
 
 mod recording;
-use recording::waam;
-
-fn have_netns() -> bool {
-    Command::new("unshare")
-        .args(["-n", "ip", "link", "set", "lo", "up"])
-        .output()
-        .is_ok_and(|o| o.status.success())
-}
-
-/// Runs `script` (bash) with `$W` = the waam binary, isolated as described above.
-fn run_isolated(dir: &Path, script: &str) -> std::process::Output {
-    let setup = "ip link set lo up; ip link set lo multicast on; \
-                 ip route add 224.0.0.0/4 dev lo 2>/dev/null || true\n";
-    let path = dir.join("run.sh");
-    let domain = 100 + std::process::id() % 100;
-    if have_netns() {
-        std::fs::write(&path, format!("set -e\n{setup}{script}")).unwrap();
-        Command::new("unshare")
-            .args(["-n", "bash"])
-            .arg(&path)
-            .env("W", env!("CARGO_BIN_EXE_waam"))
-            .env("ROS_DOMAIN_ID", domain.to_string())
-            .env("RUST_LOG", "warn")
-            .output()
-            .unwrap()
-    } else {
-        std::fs::write(&path, format!("set -e\n{script}")).unwrap();
-        Command::new("bash")
-            .arg(&path)
-            .env("W", env!("CARGO_BIN_EXE_waam"))
-            .env("ROS_DOMAIN_ID", domain.to_string())
-            .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-            .env("RUST_LOG", "warn")
-            .output()
-            .unwrap()
-    }
-}
+use recording::{run_isolated, waam};
 
 #[test]
 fn a_recording_plays_back_to_subscribers_as_recorded() {

@@ -54,11 +54,21 @@ pub fn cloud(
     temperatures: impl Iterator<Item = (usize, f64)>,
     header: Header,
 ) -> PointCloud2 {
+    point_cloud(
+        temperatures.map(|(block, celsius)| {
+            let c = part.centre_mm(part.block(block));
+            ([c[0] / 1000.0, c[1] / 1000.0, c[2] / 1000.0], celsius)
+        }),
+        header,
+    )
+}
+
+/// A cloud of points (position in metres, °C), in the layout of [`fields`].
+pub fn point_cloud(points: impl Iterator<Item = ([f64; 3], f64)>, header: Header) -> PointCloud2 {
     let mut data = Vec::new();
     let mut n = 0u32;
-    for (block, celsius) in temperatures {
-        let c = part.centre_mm(part.block(block));
-        for v in [c[0] / 1000.0, c[1] / 1000.0, c[2] / 1000.0, celsius] {
+    for ([x, y, z], celsius) in points {
+        for v in [x, y, z, celsius] {
             data.extend_from_slice(&(v as f32).to_le_bytes());
         }
         n += 1;

@@ -34,6 +34,9 @@ use crate::msgs::CdrError;
 pub mod topics {
     /// `std_msgs/msg/String`: a part document.
     pub const PART: &str = "/waam_planner/part";
+    /// `std_msgs/msg/String`: a layer document (`waam layer plan --record`,
+    /// docs/layer-format.md).
+    pub const LAYER: &str = "/waam_planner/layer";
     /// `shape_msgs/msg/Mesh`: a part mesh (metres).
     pub const PART_MESH: &str = "/waam_planner/part_mesh";
     /// `trajectory_msgs/msg/JointTrajectory`.
@@ -56,7 +59,8 @@ pub mod topics {
     pub const ROSOUT: &str = "/rosout";
     /// `waam_interfaces/msg/PlanCandidate`: the planner's verdict per candidate plan.
     pub const CANDIDATES: &str = "/waam_planner/planner/candidates";
-    /// `sensor_msgs/msg/PointCloud2`: simulated block temperatures of the chosen plan.
+    /// `sensor_msgs/msg/PointCloud2`: simulated temperatures of the chosen plan (its blocks,
+    /// or a layer's mesh nodes).
     pub const HEAT: &str = "/waam_planner/planner/heat";
 }
 

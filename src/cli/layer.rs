@@ -7,10 +7,20 @@ use std::time::Duration;
 use anyhow::Context;
 use clap::{Args, Subcommand};
 use serde_json::json;
+use waam::bag::Recorder;
+use waam::layer::messages::{
+    no_motion_status, plan_messages, planned_status, LayerRecording, MotionOutcome,
+};
 use waam::layer::output::TrailFile;
-use waam::layer::plot::{plot_temperature, plot_trail};
+use waam::layer::plot::{plot_temperature, plot_trail, TEMPERATURE_SIZE, TRAIL_SIZE};
 use waam::layer::{search, Layer, Model, SearchOptions, SearchResult};
+use waam::motion::plan_layer_motion;
+use waam::msgs::builtin_interfaces::Time;
+use waam::msgs::std_msgs::Header;
+use waam::node::once::publish_once;
+use waam::node::params::TopicParams;
 
+use super::motion::{report_motion, write_motion, MotionSummary};
 use super::{EXIT_NO, EXIT_OK};
 
 /// Plan, draw and benchmark weld trails for layers of walls (see docs/layer-format.md).
@@ -30,14 +40,23 @@ pub enum LayerCommand {
 /// Find the weld trail (segment order, directions, the fewest deadheading moves) that keeps
 /// the layer's temperature field closest to its target, and prove it optimal.
 ///
-/// Exit code 0: proven optimal; 1: time limit reached (best trail and its gap reported);
-/// 2: bad input.
+/// With --robot, the trail then becomes torch poses and a validated joint trajectory, as a
+/// block plan does: one weld pass per run, the arc off on every deadheading move, welded at
+/// the layer's own process.weld_speed_mm_s (the speed its heat model assumed; the process
+/// settings' weld_speed_mm_s is not used). The layer (mm, z = 0) lies on the plate where the
+/// process settings put it. --record writes a rosbag2 bag of the run, --publish sends the
+/// motion once on ROS 2 as node waam_planner.
+///
+/// Exit code 0: proven optimal (and, with --robot, a motion planned); 1: time limit reached
+/// (best trail and its gap reported) or NO MOTION (the robot cannot weld the trail: the
+/// message names the pose and the wall); 2: bad input.
 #[derive(Debug, Args)]
 pub struct PlanArgs {
     /// The layer file (YAML, docs/layer-format.md).
     pub layer: PathBuf,
     /// Write DIR/trail.yaml (moves, deadheading, torch position per step) and a copy of
-    /// the layer as DIR/layer.yaml, for `waam layer plot DIR`.
+    /// the layer as DIR/layer.yaml, for `waam layer plot DIR` or `waam plot DIR`; with
+    /// --robot also DIR/toolpath.yaml and DIR/trajectory.yaml.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Print one JSON object instead of text.
@@ -49,10 +68,28 @@ pub struct PlanArgs {
     /// Do not prune symmetric trails (slower; for checking).
     #[arg(long)]
     pub no_symmetry: bool,
+    #[command(flatten, next_help_heading = "Robot motion")]
+    pub robot: super::motion::OptionalRobotArgs,
+    /// Record the run as a rosbag2 bag (MCAP) in the new directory DIR: the layer document,
+    /// the statuses (objective, proof, gap), the motion's trajectory, poses, path, markers
+    /// and weld plan (with --robot) and the temperature field over time.
+    #[arg(long, value_name = "DIR", help_heading = "Recording and ROS 2")]
+    pub record: Option<PathBuf>,
+    /// With --robot: publish the motion once on ROS 2 as node waam_planner, on the node's
+    /// topics (Reliable, TransientLocal), like `waam publish`; only a validated motion is
+    /// sent (else an ERROR status). Honours ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE.
+    #[arg(long, requires = "robot", help_heading = "Recording and ROS 2")]
+    pub publish: bool,
+    /// With --publish: seconds to keep serving the messages to late subscribers.
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 2.0,
+        help_heading = "Recording and ROS 2"
+    )]
+    pub linger: f64,
 }
 
-/// Draw a planned layer: DIR/trail.png (trail over the walls: weld order numbers, dashed
-/// deadheading, start marked) and DIR/temperature.png (one node's temperature over time).
 #[derive(Debug, Args)]
 pub struct PlotArgs {
     /// A directory written by `waam layer plan --out DIR`.
@@ -82,9 +119,17 @@ pub fn run(args: LayerArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn read_layer(path: &Path) -> anyhow::Result<Layer> {
+    Ok(read_layer_text(path)?.1)
+}
+
+/// The layer and its document text (recorded as received).
+fn read_layer_text(path: &Path) -> anyhow::Result<(String, Layer)> {
     let bytes =
         std::fs::read(path).with_context(|| format!("cannot read layer {}", path.display()))?;
-    Layer::from_bytes(&bytes).with_context(|| format!("in layer {}", path.display()))
+    let layer =
+        Layer::from_bytes(&bytes).with_context(|| format!("in layer {}", path.display()))?;
+    // from_bytes accepts only UTF-8.
+    Ok((String::from_utf8_lossy(&bytes).into_owned(), layer))
 }
 
 fn build_model(layer: &Layer) -> anyhow::Result<Model> {
@@ -131,12 +176,40 @@ fn result_json(model: &Model, r: &SearchResult) -> serde_json::Value {
 }
 
 fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
-    let layer = read_layer(&args.layer)?;
+    let (text, layer) = read_layer_text(&args.layer)?;
     let model = build_model(&layer)?;
     let options = SearchOptions {
         time_limit: time_limit(args.time_limit)?,
         symmetry: !args.no_symmetry,
         ..SearchOptions::default()
+    };
+    anyhow::ensure!(
+        args.linger.is_finite() && args.linger >= 0.0,
+        "--linger: expected seconds >= 0, got {}",
+        args.linger
+    );
+    // The robot and the recording before the search: bad input fails at once, not after
+    // minutes of searching.
+    let robot = args.robot.robot_args().map(|a| a.load()).transpose()?;
+    if let Some(v) = robot.as_ref().and_then(|(s, _)| s.weld_speed_mm_s) {
+        if v != layer.process.weld_speed_mm_s {
+            tracing::warn!(
+                "process settings weld_speed_mm_s = {v} is not used: the layer is welded at its \
+                 own weld speed, {} mm/s, as its heat model assumed",
+                layer.process.weld_speed_mm_s
+            );
+        }
+    }
+    let recorder = match &args.record {
+        Some(dir) => Some(
+            Recorder::create(dir)
+                .with_context(|| format!("cannot record into {}", dir.display()))?,
+        ),
+        None => None,
+    };
+    let recording = match &recorder {
+        Some(r) => Some(LayerRecording::start(r, &text, &layer.name)?),
+        None => None,
     };
     tracing::info!(
         "layer {}: {} segments, {} mesh nodes, {} time steps, {} deadheading moves",
@@ -162,47 +235,120 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
         std::fs::copy(&args.layer, dir.join("layer.yaml"))
             .with_context(|| format!("cannot write {}", dir.join("layer.yaml").display()))?;
     }
+    // Only a motion that plan_layer_motion validated is written, recorded or published.
+    let motion = robot.as_ref().map(|(settings, robot)| {
+        plan_layer_motion(&model, &r.trail, settings, robot).map_err(|e| e.to_string())
+    });
+    let messages = match (&motion, &robot) {
+        (Some(Ok((tp, traj))), Some((settings, _))) => {
+            let header = Header::new(Time::now(), tp.frame.clone());
+            Some(plan_messages(&model, &r, tp, traj, settings, &header))
+        }
+        _ => None,
+    };
+    let motion_failed = matches!(motion, Some(Err(_)));
     if args.json {
-        println!("{}", result_json(&model, &r));
+        let mut v = result_json(&model, &r);
+        v["motion"] = match &motion {
+            None => serde_json::Value::Null,
+            Some(Ok((tp, traj))) => {
+                if let Some(dir) = &args.out {
+                    write_motion(tp, traj, dir)?;
+                }
+                json!(MotionSummary::of(tp))
+            }
+            Some(Err(e)) => json!({ "error": e }),
+        };
+        println!("{v}");
     } else {
-        println!(
-            "{}: objective {:.6e} K·steps, {} (lower bound {:.6e}, gap {:.3}%)",
-            layer.name,
-            r.objective,
-            if r.proven_optimal {
-                "PROVEN OPTIMAL"
-            } else {
-                "NOT PROVEN (time limit)"
-            },
-            r.lower_bound,
-            100.0 * r.relative_gap
-        );
-        println!(
-            "{} search nodes, {} complete trails, {:.3} s, {} symmetries",
-            r.nodes_explored, r.leaves, r.seconds, r.symmetries
-        );
-        for (k, m) in r.trail.moves.iter().enumerate() {
-            let (a, b) = model.ends(m);
-            println!(
-                "{:>3}. {}{} -> {}",
-                k + 1,
-                if m.deadhead_before { "(deadhead) " } else { "" },
-                layer.nodes[a].id,
-                layer.nodes[b].id
-            );
+        print_result(&model, &r);
+        match &motion {
+            None => {}
+            Some(Ok((tp, traj))) => report_motion(tp, traj, args.out.as_deref())?,
+            Some(Err(e)) => println!("NO MOTION: {e}"),
         }
     }
-    Ok(ExitCode::from(if r.proven_optimal {
+    if let (Some(recording), Some(recorder)) = (recording, &recorder) {
+        let outcome = match (&motion, &messages) {
+            (Some(Err(e)), _) => MotionOutcome::Failed(e),
+            (_, Some(m)) => MotionOutcome::Planned(m),
+            _ => MotionOutcome::NotPlanned,
+        };
+        let frames = recording.finish(&model, &r, outcome)?;
+        let summary = recorder.finish()?;
+        tracing::info!(
+            "recorded {} messages on {} topics ({frames} heat frames) to {}",
+            summary.messages,
+            summary.topics,
+            summary.dir.display()
+        );
+    }
+    if args.publish {
+        // Only now: Ctrl-C during the search still ends the process at once.
+        let stop = super::node::stop_on_signal()?;
+        let status = match &motion {
+            Some(Err(e)) => no_motion_status(e),
+            _ => planned_status(&model, &r),
+        };
+        publish_once(
+            &layer.name,
+            messages.as_ref(),
+            &status,
+            &TopicParams::default(),
+            Duration::from_secs_f64(args.linger),
+            &stop,
+        )?;
+    }
+    Ok(ExitCode::from(if r.proven_optimal && !motion_failed {
         EXIT_OK
     } else {
         EXIT_NO
     }))
 }
 
+/// The search's result and the trail as text.
+fn print_result(model: &Model, r: &SearchResult) {
+    let layer = &model.layer;
+    println!(
+        "{}: objective {:.6e} K·steps, {} (lower bound {:.6e}, gap {:.3}%)",
+        layer.name,
+        r.objective,
+        if r.proven_optimal {
+            "PROVEN OPTIMAL"
+        } else {
+            "NOT PROVEN (time limit)"
+        },
+        r.lower_bound,
+        100.0 * r.relative_gap
+    );
+    println!(
+        "{} search nodes, {} complete trails, {:.3} s, {} symmetries",
+        r.nodes_explored, r.leaves, r.seconds, r.symmetries
+    );
+    for (k, m) in r.trail.moves.iter().enumerate() {
+        let (a, b) = model.ends(m);
+        println!(
+            "{:>3}. {}{} -> {}",
+            k + 1,
+            if m.deadhead_before { "(deadhead) " } else { "" },
+            layer.nodes[a].id,
+            layer.nodes[b].id
+        );
+    }
+}
+
 fn plot(args: PlotArgs) -> anyhow::Result<ExitCode> {
-    let layer = read_layer(&args.dir.join("layer.yaml"))?;
+    let [trail_png, temp_png] = plot_dir(&args.dir, args.node.as_deref())?;
+    println!("wrote {} and {}", trail_png.display(), temp_png.display());
+    Ok(ExitCode::from(EXIT_OK))
+}
+
+/// Draws DIR/trail.png and DIR/temperature.png of a directory written by `waam layer plan
+/// --out DIR` (for `waam layer plot` and `waam plot`); `node` as `--node` takes it.
+pub fn plot_dir(dir: &Path, node: Option<&str>) -> anyhow::Result<[PathBuf; 2]> {
+    let layer = read_layer(&dir.join("layer.yaml"))?;
     let model = build_model(&layer)?;
-    let path = args.dir.join("trail.yaml");
+    let path = dir.join("trail.yaml");
     let text = std::fs::read_to_string(&path)
         .with_context(|| format!("cannot read {}", path.display()))?;
     let file: TrailFile =
@@ -210,7 +356,7 @@ fn plot(args: PlotArgs) -> anyhow::Result<ExitCode> {
     let trail = file
         .trail(&model)
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    let node = match args.node.as_deref() {
+    let node = match node {
         None => model.mesh.nearest(layer.point(0)),
         Some(s) => match s.parse::<usize>() {
             Ok(i) => i,
@@ -226,12 +372,11 @@ fn plot(args: PlotArgs) -> anyhow::Result<ExitCode> {
             }
         },
     };
-    let trail_png = args.dir.join("trail.png");
-    let temp_png = args.dir.join("temperature.png");
-    plot_trail(&model, &trail, &trail_png, (900, 900))?;
-    plot_temperature(&model, &trail, node, &temp_png, (1000, 600))?;
-    println!("wrote {} and {}", trail_png.display(), temp_png.display());
-    Ok(ExitCode::from(EXIT_OK))
+    let trail_png = dir.join("trail.png");
+    let temp_png = dir.join("temperature.png");
+    plot_trail(&model, &trail, &trail_png, TRAIL_SIZE)?;
+    plot_temperature(&model, &trail, node, &temp_png, TEMPERATURE_SIZE)?;
+    Ok([trail_png, temp_png])
 }
 
 fn bench(args: BenchArgs) -> anyhow::Result<ExitCode> {

@@ -40,6 +40,44 @@ pub struct RobotArgs {
     pub process: Option<PathBuf>,
 }
 
+/// [`RobotArgs`] where the robot is optional (`waam layer plan`): each option but --robot
+/// requires --robot.
+#[derive(Debug, Clone, clap::Args)]
+pub struct OptionalRobotArgs {
+    /// Also plan the robot motion: torch poses and a validated joint trajectory for this
+    /// robot (URDF; meshes need not exist), written to DIR/toolpath.yaml and
+    /// DIR/trajectory.yaml with --out.
+    #[arg(long, value_name = "URDF")]
+    pub robot: Option<PathBuf>,
+    /// With --robot: the TCP in the tip link as "x y z roll pitch yaw" (m, rad).
+    #[arg(
+        long,
+        value_name = "\"x y z roll pitch yaw\"",
+        allow_hyphen_values = true,
+        requires = "robot"
+    )]
+    pub tcp: Option<String>,
+    /// With --robot: the link the TCP is attached to.
+    #[arg(long, value_name = "LINK", requires = "robot")]
+    pub tip: Option<String>,
+    /// With --robot: process settings (YAML, see config/process.yaml): plate pose, torch
+    /// angles, speeds, dwells.
+    #[arg(long, value_name = "FILE", requires = "robot")]
+    pub process: Option<PathBuf>,
+}
+
+impl OptionalRobotArgs {
+    /// The options as [`RobotArgs`], when a robot is given.
+    pub fn robot_args(&self) -> Option<RobotArgs> {
+        self.robot.as_ref().map(|robot| RobotArgs {
+            robot: robot.clone(),
+            tcp: self.tcp.clone(),
+            tip: self.tip.clone(),
+            process: self.process.clone(),
+        })
+    }
+}
+
 impl RobotArgs {
     /// Reads the process settings and the robot.
     pub fn load(&self) -> anyhow::Result<(ProcessSettings, Robot)> {
@@ -109,6 +147,49 @@ pub fn plan_robot_motion(
     }
 }
 
+/// The figures `report_motion` prints (and `waam layer plan --json` reports).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct MotionSummary {
+    pub poses: usize,
+    /// Weld poses at pass points (blocks, layer steps).
+    pub weld_points: usize,
+    /// Arc-on markers: one per weld pass.
+    pub passes: usize,
+    pub duration_s: f64,
+    pub arc_on_s: f64,
+}
+
+impl MotionSummary {
+    pub fn of(tp: &Toolpath) -> MotionSummary {
+        MotionSummary {
+            poses: tp.poses.len(),
+            weld_points: tp
+                .poses
+                .iter()
+                .filter(|p| p.kind == PoseKind::Weld && p.at_point)
+                .count(),
+            passes: tp
+                .poses
+                .iter()
+                .filter(|p| p.kind == PoseKind::ArcOn)
+                .count(),
+            duration_s: tp.poses.last().map_or(0.0, |p| p.time_s),
+            arc_on_s: tp
+                .poses
+                .windows(2)
+                .filter(|w| w[0].arc_on)
+                .map(|w| w[1].time_s - w[0].time_s)
+                .sum(),
+        }
+    }
+}
+
+/// Writes `toolpath.yaml` and `trajectory.yaml` into `out`.
+pub fn write_motion(tp: &Toolpath, traj: &JointTrajectory, out: &Path) -> anyhow::Result<()> {
+    write_outputs(out, tp, traj)
+        .with_context(|| format!("cannot write motion files in {}", out.display()))
+}
+
 /// Prints a summary of the motion and, with `out`, writes `toolpath.yaml` and
 /// `trajectory.yaml` there.
 pub fn report_motion(
@@ -116,31 +197,13 @@ pub fn report_motion(
     traj: &JointTrajectory,
     out: Option<&Path>,
 ) -> anyhow::Result<()> {
-    let weld_s: f64 = tp
-        .poses
-        .windows(2)
-        .filter(|w| w[0].arc_on)
-        .map(|w| w[1].time_s - w[0].time_s)
-        .sum();
-    let duration = tp.poses.last().map_or(0.0, |p| p.time_s);
-    let passes = tp
-        .poses
-        .iter()
-        .filter(|p| p.kind == PoseKind::ArcOn)
-        .count();
+    let s = MotionSummary::of(tp);
     println!(
-        "MOTION: {} poses ({} weld poses at points), {passes} weld pass(es), {:.1} s total, {:.1} s arc on",
-        tp.poses.len(),
-        tp.poses
-            .iter()
-            .filter(|p| p.kind == PoseKind::Weld && p.at_point)
-            .count(),
-        duration,
-        weld_s
+        "MOTION: {} poses ({} weld poses at points), {} weld pass(es), {:.1} s total, {:.1} s arc on",
+        s.poses, s.weld_points, s.passes, s.duration_s, s.arc_on_s
     );
     if let Some(out) = out {
-        write_outputs(out, tp, traj)
-            .with_context(|| format!("cannot write motion files in {}", out.display()))?;
+        write_motion(tp, traj, out)?;
         println!(
             "wrote {} and {}",
             out.join("toolpath.yaml").display(),

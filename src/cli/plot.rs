@@ -11,16 +11,24 @@ use waam::toolpath::ToolpathFile;
 
 use super::{read_part, EXIT_NO, EXIT_OK};
 
-/// Draw a planned build as PNG pictures in DIR.
+/// Draw a planned build or layer as PNG pictures in DIR.
 ///
 /// DIR/toolpath.png (from DIR/toolpath.yaml): top and side view of the torch path, weld
 /// moves red, approach/retract/transit blue, arc-on green dots, arc-off black crosses.
 /// DIR/t85.png (with --part): the simulated temperature of every t8/5-windowed block
 /// over time, with the 800 °C and 500 °C lines, for the plan in DIR/plan.yaml or --plan.
+/// DIR/trail.png and DIR/temperature.png (from DIR/trail.yaml of `waam layer plan --out
+/// DIR`, as `waam layer plot DIR` draws them): the layer's trail over its walls (weld order
+/// numbers on the segments, deadheading dashed, start marked) and the temperature of one
+/// node (--node) over time against the target.
 #[derive(Debug, clap::Args)]
 pub struct PlotArgs {
-    /// The output directory of `waam plan` / `waam motion`.
+    /// The output directory of `waam plan` / `waam motion` / `waam layer plan`.
     pub dir: PathBuf,
+    /// With DIR/trail.yaml: the node whose temperature is drawn, a mesh node index or a
+    /// layer node id (its nearest mesh node). Default: the layer's first node.
+    #[arg(long, value_name = "N")]
+    pub node: Option<String>,
     /// The part file: also draw the temperature curves of its windowed blocks.
     #[arg(long, value_name = "PART")]
     pub part: Option<PathBuf>,
@@ -41,6 +49,18 @@ pub fn run(args: PlotArgs) -> anyhow::Result<ExitCode> {
         plot::toolpath_png(&tp, &out)?;
         println!("wrote {}", out.display());
         drew += 1;
+    }
+    let trail = args.dir.join("trail.yaml");
+    if trail.exists() {
+        for png in super::layer::plot_dir(&args.dir, args.node.as_deref())? {
+            println!("wrote {}", png.display());
+            drew += 1;
+        }
+    } else if args.node.is_some() {
+        bail!(
+            "--node: {} does not exist (it draws a layer's temperature)",
+            trail.display()
+        );
     }
     if let Some(part_path) = &args.part {
         let part = read_part(part_path)?;
@@ -67,7 +87,11 @@ pub fn run(args: PlotArgs) -> anyhow::Result<ExitCode> {
         drew += 1;
     }
     if drew == 0 {
-        bail!("nothing to draw: no {} and no --part", toolpath.display());
+        bail!(
+            "nothing to draw: no {}, no {} and no --part",
+            toolpath.display(),
+            trail.display()
+        );
     }
     Ok(ExitCode::from(EXIT_OK))
 }

@@ -7,12 +7,14 @@
 //! Data flows: [`format::Layer`] (the layer file) → [`mesh::Mesh`] → [`fem`] matrices and
 //! the implicit-Euler [`fem::Heat`] stepper → [`model::Model`] (torch positions, loads,
 //! schedule, objective) → [`search::search`] → a [`model::Trail`], written by
-//! [`output`] and drawn by [`plot`]; [`model::Model::passes`] hands it to the toolpath.
+//! [`output`] and drawn by [`plot`]; [`model::Model::passes`] hands it to the toolpath
+//! (`crate::motion::plan_layer_motion`) and [`messages`] to recordings and ROS 2.
 
 pub mod fem;
 pub mod format;
 pub mod improve;
 pub mod mesh;
+pub mod messages;
 #[cfg(feature = "milp")]
 pub mod milp;
 pub mod model;

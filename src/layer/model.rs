@@ -238,7 +238,14 @@ impl Model {
     /// (so every layer node on the way is a point); deadheading lies between passes, where
     /// the toolpath turns the arc off.
     pub fn passes(&self, trail: &Trail) -> Vec<WeldPass> {
+        self.passes_with_segments(trail).0
+    }
+
+    /// [`Model::passes`], and for every point of every pass the segment welded to reach it
+    /// (a pass's first point: the segment it starts), to name walls in motion errors.
+    pub fn passes_with_segments(&self, trail: &Trail) -> (Vec<WeldPass>, Vec<Vec<usize>>) {
         let mut passes: Vec<WeldPass> = Vec::new();
+        let mut segments: Vec<Vec<usize>> = Vec::new();
         for m in &trail.moves {
             let (a, b) = self.ends(m);
             let (pa, pb) = (self.layer.point(a), self.layer.point(b));
@@ -246,10 +253,13 @@ impl Model {
                 passes.push(WeldPass {
                     points_mm: vec![Point3::new(pa[0], pa[1], 0.0)],
                 });
+                segments.push(vec![m.segment]);
             }
             let pass = passes.last_mut().expect("a pass was just started");
+            let owners = segments.last_mut().expect("a pass was just started");
             let n = self.steps[m.segment];
             for k in 1..=n {
+                owners.push(m.segment);
                 let t = k as f64 / n as f64;
                 pass.points_mm.push(Point3::new(
                     pa[0] + t * (pb[0] - pa[0]),
@@ -258,7 +268,7 @@ impl Model {
                 ));
             }
         }
-        passes
+        (passes, segments)
     }
 }
 

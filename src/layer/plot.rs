@@ -14,6 +14,10 @@ use thiserror::Error;
 
 use super::model::{Model, Trail};
 
+/// Sizes of `waam layer plot`'s trail.png and temperature.png, pixels.
+pub const TRAIL_SIZE: (u32, u32) = (900, 900);
+pub const TEMPERATURE_SIZE: (u32, u32) = (1000, 600);
+
 #[derive(Debug, Error)]
 pub enum PlotError {
     #[error("drawing {path}: {reason}")]

@@ -257,6 +257,8 @@ const WHITE: ColorRGBA = ColorRGBA {
 /// Marker namespaces, one per kind of thing drawn.
 pub mod ns {
     pub const BLOCKS: &str = "blocks";
+    /// A layer's walls (`waam layer plan`), in place of blocks.
+    pub const WALLS: &str = "walls";
     pub const WELD: &str = "weld";
     pub const TRANSIT: &str = "transit";
     pub const ARC_ON: &str = "arc_on";

@@ -11,6 +11,7 @@ pub mod convert;
 pub mod execute;
 pub mod fjt;
 pub mod io;
+pub mod once;
 pub mod params;
 pub mod pipeline;
 pub mod ros;
@@ -73,17 +74,7 @@ enum Event {
 /// whether the last part was planned (and executed, when a controller is attached).
 pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> anyhow::Result<bool> {
     let env = RosEnv::from_env()?;
-    let context = env.context()?;
-    let mut node = context
-        .new_node(
-            NodeName::new("/", NODE_NAME).expect("a valid node name"),
-            NodeOptions::new().enable_rosout(true),
-        )
-        .context("cannot create the ROS 2 node")?;
-    let spinner = node.spinner().context("cannot start the ROS 2 spinner")?;
-    std::thread::Builder::new()
-        .name("ros-spin".into())
-        .spawn(move || futures::executor::block_on(spinner.spin()))?;
+    let mut node = start_node(&env)?;
 
     let recorder = match &options.record {
         Some(dir) => Some(
@@ -294,6 +285,23 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> anyhow::Re
     Ok(state.success)
 }
 
+/// Node `waam_planner` (with `/rosout`) on the environment's domain and discovery range,
+/// its spinner running on a thread of its own until the node is dropped.
+pub fn start_node(env: &RosEnv) -> anyhow::Result<ros2_client::Node> {
+    let mut node = env
+        .context()?
+        .new_node(
+            NodeName::new("/", NODE_NAME).expect("a valid node name"),
+            NodeOptions::new().enable_rosout(true),
+        )
+        .context("cannot create the ROS 2 node")?;
+    let spinner = node.spinner().context("cannot start the ROS 2 spinner")?;
+    std::thread::Builder::new()
+        .name("ros-spin".into())
+        .spawn(move || futures::executor::block_on(spinner.spin()))?;
+    Ok(node)
+}
+
 /// The event loop's memory between events.
 struct LoopState {
     outputs: Arc<Outputs>,
@@ -404,6 +412,11 @@ pub fn publish_plan(outputs: &Outputs, planned: &Planned) {
         &planned.plate,
         &header,
     );
+    publish_messages(outputs, &m);
+}
+
+/// Publishes a plan's messages on the outputs (recording them when the outputs record).
+pub fn publish_messages(outputs: &Outputs, m: &PlanMessages) {
     let rec = outputs.recorder.as_ref();
     outputs.joint_trajectory.publish(&m.joint_trajectory, rec);
     outputs.poses.publish(&m.poses, rec);

@@ -62,7 +62,8 @@ pub struct At {
     /// Pass (fragment) index, from 0, and point index within it.
     pub fragment: usize,
     pub point: usize,
-    /// The block at that point, when the passes come from a block plan ("[x,y,z]").
+    /// What is welded at that point, when the caller knows ("block [x,y,z]" of a block
+    /// plan, "segments[3] (A -> B)" of a layer trail).
     pub block: Option<String>,
     /// The TCP position in the base link, m.
     pub position_m: [f64; 3],
@@ -81,7 +82,7 @@ impl fmt::Display for At {
         let p = self.position_m;
         write!(f, "pose {} ({what} ", self.pose)?;
         match &self.block {
-            Some(b) => write!(f, "block {b}, ")?,
+            Some(b) => write!(f, "{b}, ")?,
             None => write!(f, "point {}, ", self.point + 1)?,
         }
         write!(

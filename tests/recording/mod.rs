@@ -1,4 +1,5 @@
-//! Helpers shared by the recording tests (bag, bag_python, replay).
+//! Helpers shared by the recording tests (bag, bag_python, replay, replay_publish,
+//! layer_motion).
 #![allow(dead_code)] // each test crate uses a different subset
 
 use std::path::Path;
@@ -92,4 +93,43 @@ pub fn kill_a_recording(dir: &Path, at_least: u64) -> u64 {
     child.kill().unwrap(); // SIGKILL on Unix
     child.wait().unwrap();
     flushed_messages(dir)
+}
+
+/// Whether `unshare -n` works here (root, and a kernel that allows network namespaces).
+pub fn have_netns() -> bool {
+    Command::new("unshare")
+        .args(["-n", "ip", "link", "set", "lo", "up"])
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// Runs `script` (bash) with `$W` = the waam binary, isolated from other DDS traffic: as
+/// root in a private network namespace (`unshare -n`) where only loopback exists, otherwise
+/// on loopback-only discovery; either way on a domain id of its own (from the pid).
+pub fn run_isolated(dir: &Path, script: &str) -> std::process::Output {
+    let setup = "ip link set lo up; ip link set lo multicast on; \
+                 ip route add 224.0.0.0/4 dev lo 2>/dev/null || true\n";
+    let path = dir.join("run.sh");
+    let domain = 100 + std::process::id() % 100;
+    if have_netns() {
+        std::fs::write(&path, format!("set -e\n{setup}{script}")).unwrap();
+        Command::new("unshare")
+            .args(["-n", "bash"])
+            .arg(&path)
+            .env("W", env!("CARGO_BIN_EXE_waam"))
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .env("RUST_LOG", "warn")
+            .output()
+            .unwrap()
+    } else {
+        std::fs::write(&path, format!("set -e\n{script}")).unwrap();
+        Command::new("bash")
+            .arg(&path)
+            .env("W", env!("CARGO_BIN_EXE_waam"))
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+            .env("RUST_LOG", "warn")
+            .output()
+            .unwrap()
+    }
 }
