@@ -46,7 +46,8 @@ pub struct RobotArgs {
 pub struct OptionalRobotArgs {
     /// Also plan the robot motion: torch poses and a validated joint trajectory for this
     /// robot (URDF; meshes need not exist), written to DIR/toolpath.yaml and
-    /// DIR/trajectory.yaml with --out.
+    /// DIR/trajectory.yaml with --out, recorded (trajectory, poses, path, markers, weld
+    /// plan) with --record.
     #[arg(long, value_name = "URDF")]
     pub robot: Option<PathBuf>,
     /// With --robot: the TCP in the tip link as "x y z roll pitch yaw" (m, rad).
@@ -131,18 +132,17 @@ pub struct Motion {
 pub fn plan_robot_motion(
     part: &Part,
     fragments: &[Vec<usize>],
-    args: &RobotArgs,
-) -> anyhow::Result<Option<Motion>> {
-    let (settings, robot) = args.load()?;
-    match plan_motion(part, fragments, &settings, &robot) {
-        Ok((toolpath, trajectory)) => Ok(Some(Motion {
-            settings,
+    (settings, robot): &(ProcessSettings, Robot),
+) -> Option<Motion> {
+    match plan_motion(part, fragments, settings, robot) {
+        Ok((toolpath, trajectory)) => Some(Motion {
+            settings: settings.clone(),
             toolpath,
             trajectory,
-        })),
+        }),
         Err(e) => {
             println!("NO MOTION: {e}");
-            Ok(None)
+            None
         }
     }
 }
@@ -247,7 +247,7 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
             return Ok(ExitCode::from(EXIT_NO));
         }
     };
-    let Some(motion) = plan_robot_motion(&part, &fragments, &args.robot)? else {
+    let Some(motion) = plan_robot_motion(&part, &fragments, &args.robot.load()?) else {
         return Ok(ExitCode::from(EXIT_NO));
     };
     report_motion(&motion.toolpath, &motion.trajectory, Some(&args.out))?;

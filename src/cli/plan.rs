@@ -63,25 +63,9 @@ pub struct PlanArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
-    /// Also turn the plan into torch poses and a validated joint trajectory for this robot
-    /// (URDF): written to DIR/toolpath.yaml and DIR/trajectory.yaml with --out, recorded
-    /// (trajectory, poses, path, markers, weld plan) with --record.
-    #[arg(long, value_name = "URDF")]
-    pub robot: Option<PathBuf>,
-    /// With --robot: the TCP in the tip link as "x y z roll pitch yaw" (m, rad).
-    #[arg(
-        long,
-        value_name = "\"x y z roll pitch yaw\"",
-        allow_hyphen_values = true,
-        requires = "robot"
-    )]
-    pub tcp: Option<String>,
-    /// With --robot: the link the TCP is attached to.
-    #[arg(long, value_name = "LINK", requires = "robot")]
-    pub tip: Option<String>,
-    /// With --robot: process settings (YAML, see config/process.yaml).
-    #[arg(long, value_name = "FILE", requires = "robot")]
-    pub process: Option<PathBuf>,
+    /// --robot and the options of its motion (also recorded with --record).
+    #[command(flatten)]
+    pub robot: super::motion::OptionalRobotArgs,
 }
 
 pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
@@ -116,6 +100,8 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
+    // The robot before planning: a bad URDF fails at once, not after the search.
+    let robot = args.robot.robot_args().map(|a| a.load()).transpose()?;
     let mut session = match &args.record {
         Some(dir) => Some(super::bag::start_planning(
             dir,
@@ -205,14 +191,8 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     // or recorded.
     let mut motion_ok = true;
     let mut motion = None;
-    if let (Some(robot), Some(best)) = (&args.robot, &report.best) {
-        let robot_args = super::motion::RobotArgs {
-            robot: robot.clone(),
-            tcp: args.tcp.clone(),
-            tip: args.tip.clone(),
-            process: args.process.clone(),
-        };
-        motion = super::motion::plan_robot_motion(&part, &best.fragments, &robot_args)?;
+    if let (Some(robot), Some(best)) = (&robot, &report.best) {
+        motion = super::motion::plan_robot_motion(&part, &best.fragments, robot);
         match &motion {
             Some(m) => {
                 super::motion::report_motion(&m.toolpath, &m.trajectory, args.out.as_deref())?
