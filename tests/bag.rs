@@ -161,12 +161,7 @@ fn plan_with_a_robot_records_the_motion_and_every_candidates_verdict() {
 
     let part = Part::parse(&std::fs::read_to_string(&part_path).unwrap()).unwrap();
     let windowed: Vec<[i64; 3]> = part.windows().iter().map(|&(i, _)| part.block(i)).collect();
-    let candidates: Vec<PlanCandidate> = bag
-        .decode_all::<PlanCandidate>()
-        .unwrap()
-        .into_iter()
-        .map(|(_, _, c)| c)
-        .collect();
+    let candidates: Vec<PlanCandidate> = bag.decode::<PlanCandidate>().unwrap();
     assert_eq!(
         candidates.len() as u64,
         stats["candidates"].as_u64().unwrap()

@@ -315,12 +315,7 @@ fn a_recording_holds_the_layer_its_status_motion_and_heat() {
 
     // Heat: the FEM field at every time step, every mesh node, heated past the target by
     // the torch and cooling after the trail ends.
-    let clouds: Vec<PointCloud2> = bag
-        .decode_all::<PointCloud2>()
-        .unwrap()
-        .into_iter()
-        .map(|(_, _, c)| c)
-        .collect();
+    let clouds: Vec<PointCloud2> = bag.decode::<PointCloud2>().unwrap();
     let stamps: Vec<i64> = clouds.iter().map(|c| c.header.stamp.to_nanos()).collect();
     assert!(stamps.windows(2).all(|w| w[1] > w[0]));
     let mut fields = Vec::new();

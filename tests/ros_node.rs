@@ -704,12 +704,7 @@ fn a_mesh_the_node_recorded_replays_identically() {
     ] {
         assert_eq!(bag.count(topic), 1, "{topic} recorded once\n{log}");
     }
-    let candidates: Vec<PlanCandidate> = bag
-        .decode_all::<PlanCandidate>()
-        .unwrap()
-        .into_iter()
-        .map(|(_, _, c)| c)
-        .collect();
+    let candidates: Vec<PlanCandidate> = bag.decode::<PlanCandidate>().unwrap();
     assert_eq!(
         candidates.len() as u64,
         plan.statistics.candidates,

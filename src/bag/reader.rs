@@ -244,6 +244,11 @@ impl Bag {
             .collect()
     }
 
+    /// Messages on topics of type `M`, decoded, in file order.
+    pub fn decode<M: RosMessage>(&self) -> Result<Vec<M>, BagError> {
+        Ok(self.decode_all()?.into_iter().map(|(_, _, m)| m).collect())
+    }
+
     /// First and last receive time of the messages read, ns since the epoch.
     pub fn time_range(&self) -> Option<(u64, u64)> {
         let mut times = self.messages.iter().map(|m| m.log_time);
