@@ -81,8 +81,15 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     }
     let cases = replay::recorded_cases(&bag)?;
     if cases.is_empty() {
+        let layer_note = if bag.count(waam::bag::topics::LAYER) > 0 {
+            "; it is a layer recording (`waam layer plan --record`), which replay does not \
+             re-plan: `waam bag info` and `waam replay --publish` read it"
+        } else {
+            ""
+        };
         eprintln!(
-            "error: {} holds no part (std_msgs/String on a .../part topic) to re-plan",
+            "error: {} holds no part (std_msgs/String on a .../part topic, shape_msgs/Mesh) \
+             to re-plan{layer_note}",
             args.bag.display()
         );
         return Ok(ExitCode::from(EXIT_BAD_INPUT));
