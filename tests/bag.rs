@@ -9,34 +9,16 @@ mod recording;
 use recording::{kill_a_recording, last_json, run_ok, waam};
 
 fn info_json(bag: &Path) -> Value {
-    let out = waam()
-        .args(["bag", "info", "--json"])
-        .arg(bag)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).unwrap()
+    let stdout = run_ok(waam().args(["bag", "info", "--json"]).arg(bag));
+    serde_json::from_str(&stdout).unwrap()
 }
 
 #[test]
 fn info_reports_a_finished_session() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("session");
-    let out = waam()
-        .args(["bag", "sample", "--rounds", "2"])
-        .arg(&dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let written: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let stdout = run_ok(waam().args(["bag", "sample", "--rounds", "2"]).arg(&dir));
+    let written: Value = serde_json::from_str(&stdout).unwrap();
     let info = info_json(&dir);
     assert_eq!(info["truncated"], Value::Null);
     assert_eq!(info["ros_distro"], "jazzy");

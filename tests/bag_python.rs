@@ -49,18 +49,13 @@ fn python_readers_decode_every_message_of_a_session() {
     let Some(python) = python() else { return };
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("session");
-    let out = Command::new(env!("CARGO_BIN_EXE_waam"))
-        .args(["bag", "sample", "--rounds", "3"])
-        .arg(&dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let stdout = recording::run_ok(
+        recording::waam()
+            .args(["bag", "sample", "--rounds", "3"])
+            .arg(&dir),
     );
     let expected = tmp.path().join("expected.json");
-    std::fs::write(&expected, &out.stdout).unwrap();
+    std::fs::write(&expected, &stdout).unwrap();
     let report = run_python(
         &python,
         &[

@@ -4,26 +4,17 @@
 use std::path::Path;
 
 use serde_json::Value;
-use waam::bag::{topics, Bag, Recorder};
+use waam::bag::{topics, Bag};
 use waam::msgs::std_msgs::String as RosString;
 use waam::msgs::to_cdr;
 
 mod recording;
-use recording::{copy_bag, waam};
+use recording::{copy_bag, run_ok, waam};
 
 const PART: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/config/parts/s1-wall.yaml");
 
 fn record_plan(dir: &Path) {
-    let out = waam()
-        .args(["-q", "plan", PART, "--record"])
-        .arg(dir)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    run_ok(waam().args(["-q", "plan", PART, "--record"]).arg(dir));
 }
 
 fn replay(bag: &Path, extra: &[&str]) -> (i32, Value) {
@@ -48,9 +39,9 @@ fn copy_doctored(from: &Path, to: &Path, doctor: impl Fn(&str) -> String) {
     copy_bag(from, to, |topic, data| {
         if topic == topics::PART {
             let part: RosString = waam::msgs::from_cdr(data).unwrap();
-            to_cdr(&RosString::from(doctor(&part.data).as_str())).unwrap()
+            Some(to_cdr(&RosString::from(doctor(&part.data).as_str())).unwrap())
         } else {
-            data.to_vec()
+            Some(data.to_vec())
         }
     });
 }
@@ -163,25 +154,9 @@ fn a_bag_without_parts_is_bad_input() {
     assert!(out.status.success());
     // The sample has parts; strip them.
     let stripped = tmp.path().join("stripped");
-    let bag = Bag::open(&dir).unwrap();
-    let recorder = Recorder::create(&stripped).unwrap();
-    for m in &bag.messages {
-        let t = bag.topic_of(m);
-        if t.name != topics::PART && t.name != topics::PART_MESH {
-            recorder
-                .record_raw(
-                    &t.name,
-                    &t.type_name,
-                    &t.definition,
-                    &t.type_hash,
-                    &t.offered_qos,
-                    m.log_time,
-                    &m.data,
-                )
-                .unwrap();
-        }
-    }
-    recorder.finish().unwrap();
+    copy_bag(&dir, &stripped, |topic, data| {
+        (topic != topics::PART && topic != topics::PART_MESH).then(|| data.to_vec())
+    });
     let out = waam().arg("replay").arg(&stripped).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("holds no part"));
@@ -192,17 +167,12 @@ fn a_part_planned_from_an_stl_mesh_replays_from_its_voxelized_document() {
     let tmp = tempfile::tempdir().unwrap();
     let recorded = tmp.path().join("mesh");
     let stl = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/box_binary.stl");
-    let out = waam()
-        .args([
-            "-q", "plan", stl, "--pitch", "6 6 2.5", "-k", "4", "--record",
-        ])
-        .arg(&recorded)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    run_ok(
+        waam()
+            .args([
+                "-q", "plan", stl, "--pitch", "6 6 2.5", "-k", "4", "--record",
+            ])
+            .arg(&recorded),
     );
     let bag = Bag::open(&recorded).unwrap();
     let part: RosString = bag.decode_all::<RosString>().unwrap().remove(0).2;
@@ -216,24 +186,19 @@ fn a_part_planned_from_an_stl_mesh_replays_from_its_voxelized_document() {
 fn replay_plans_with_the_recorded_settings() {
     let tmp = tempfile::tempdir().unwrap();
     let recorded = tmp.path().join("eager");
-    let out = waam()
-        .args([
-            "-q",
-            "plan",
-            PART,
-            "--acyclicity",
-            "eager",
-            "--max-fragments",
-            "3",
-            "--record",
-        ])
-        .arg(&recorded)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    run_ok(
+        waam()
+            .args([
+                "-q",
+                "plan",
+                PART,
+                "--acyclicity",
+                "eager",
+                "--max-fragments",
+                "3",
+                "--record",
+            ])
+            .arg(&recorded),
     );
     let (code, report) = replay(&recorded, &[]);
     assert_eq!(code, 0, "{report}");

@@ -737,13 +737,13 @@ fn a_mesh_the_node_recorded_replays_identically() {
     let doctored = dir.path().join("doctored");
     recording::copy_bag(&bag_dir, &doctored, |topic, data| {
         if topic != topics::PART_MESH {
-            return data.to_vec();
+            return Some(data.to_vec());
         }
         let mut mesh: Mesh = from_cdr(data).unwrap();
         for v in &mut mesh.vertices {
             v.x *= 1.5;
         }
-        to_cdr(&mesh).unwrap()
+        Some(to_cdr(&mesh).unwrap())
     });
     let (code, json) = replay(&doctored);
     assert_eq!(code, Some(1), "{json}");

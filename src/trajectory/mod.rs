@@ -573,10 +573,9 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_configuration_change_mid_weld_is_an_error_naming_the_pose() {
-        // Joint ranges narrowed so that each pose has a single arm and wrist
-        // configuration: the second pose needs the wrist flipped.
+    /// The test robot with joint ranges narrowed so that each pose has a single arm and
+    /// wrist configuration.
+    fn narrowed_robot() -> Robot {
         let mut r = robot();
         for (j, lo, hi) in [
             (0, -0.5, 0.5),
@@ -588,6 +587,13 @@ mod tests {
             r.joints[j].lower = lo;
             r.joints[j].upper = hi;
         }
+        r
+    }
+
+    #[test]
+    fn a_configuration_change_mid_weld_is_an_error_naming_the_pose() {
+        // The second pose needs the wrist flipped.
+        let r = narrowed_robot();
         let a = r.tcp_pose(&[0.0, 0.3, -0.2, 0.2, 0.5, 0.1]);
         let b = r.tcp_pose(&[0.0, 0.3, -0.2, 0.2, -0.5, 0.1]);
         let mut tp = Toolpath {
@@ -608,17 +614,7 @@ mod tests {
 
     #[test]
     fn a_path_may_cross_the_wrist_singularity_continuously() {
-        let mut r = robot();
-        for (j, lo, hi) in [
-            (0, -0.5, 0.5),
-            (1, 0.0, 0.6),
-            (2, -0.5, 0.1),
-            (3, -0.5, 0.5),
-            (5, -0.5, 0.5),
-        ] {
-            r.joints[j].lower = lo;
-            r.joints[j].upper = hi;
-        }
+        let r = narrowed_robot();
         let poses = (0..5)
             .map(|i| {
                 let q5 = 0.04 - 0.02 * i as f64;
