@@ -460,6 +460,36 @@ pub fn sat_planner() -> Arc<PlanFn> {
 mod tests {
     use super::*;
 
+    #[test]
+    fn mesh_settings_round_trip_through_status_values_and_bad_ones_are_named() {
+        let settings = MeshSettings {
+            block_mm: [6.0, 5.5, 2.5],
+            window: Some(Window {
+                min_s: 3.0,
+                max_s: 9.5,
+            }),
+            max_fragments: 3,
+        };
+        let values: Vec<(String, String)> = settings
+            .to_values("mesh-2")
+            .into_iter()
+            .map(|kv| (kv.key, kv.value))
+            .collect();
+        assert_eq!(
+            MeshSettings::from_values(&values).unwrap(),
+            Some((settings, "mesh-2".to_string()))
+        );
+        assert_eq!(MeshSettings::from_values(&[]).unwrap(), None);
+        let bad = [(mesh_keys::BLOCK_MM.to_string(), "6 x 2.5".to_string())];
+        let err = MeshSettings::from_values(&bad).unwrap_err();
+        assert!(
+            err.contains("mesh.block_mm") && err.contains("6 x 2.5"),
+            "{err}"
+        );
+        let short = [(mesh_keys::BLOCK_MM.to_string(), "6 6".to_string())];
+        assert!(MeshSettings::from_values(&short).is_err());
+    }
+
     fn pipeline() -> PlanningPipeline {
         let planner: Arc<PlanFn> =
             Arc::new(|_: &PlanRequest| Err("no planner in this test".to_string()));
