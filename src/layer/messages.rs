@@ -12,13 +12,14 @@ use crate::bag::planning::{status, PART_FRAME};
 use crate::bag::{topics, BagError, Qos, Recorder};
 use crate::msgs::builtin_interfaces::Time;
 use crate::msgs::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
-use crate::msgs::geometry_msgs::Point;
 use crate::msgs::sensor_msgs::PointCloud2;
 use crate::msgs::std_msgs::{ColorRGBA, Header, String as RosString};
 use crate::msgs::visualization_msgs::{Marker, MarkerArray};
 use crate::msgs::waam_interfaces::{PlanStatistics, WeldPlan};
 use crate::node::controller::trajectory_msg;
-use crate::node::convert::{ns, path, pose_array, toolpath_markers, weld_points, PlanMessages};
+use crate::node::convert::{
+    delete_all, ns, path, point_msg, pose_array, toolpath_markers, weld_points, PlanMessages,
+};
 use crate::toolpath::{ProcessSettings, Toolpath};
 use crate::trajectory::JointTrajectory;
 
@@ -81,11 +82,7 @@ pub fn plan_messages(
 ) -> PlanMessages {
     let width = model.layer.wall_width_mm / 1000.0;
     let mut markers = vec![
-        Marker {
-            header: header.clone(),
-            action: Marker::DELETEALL,
-            ..Marker::default()
-        },
+        delete_all(header),
         walls_marker(model, &settings.plate.isometry(), header),
     ];
     markers.extend(toolpath_markers(toolpath, 0.25 * width, header));
@@ -114,12 +111,7 @@ fn walls_marker(model: &Model, plate: &Isometry3<f64>, header: &Header) -> Marke
     let layer = &model.layer;
     let point = |v: usize| {
         let [x, y] = layer.point(v);
-        let p = plate * Point3::new(x / 1000.0, y / 1000.0, 0.0);
-        Point {
-            x: p.x,
-            y: p.y,
-            z: p.z,
-        }
+        point_msg(&(plate * Point3::new(x / 1000.0, y / 1000.0, 0.0)))
     };
     let mut marker = Marker {
         header: header.clone(),

@@ -39,7 +39,8 @@ pub fn pose_msg(pose: &Isometry3<f64>) -> Pose {
     }
 }
 
-fn point_msg(p: &Point3<f64>) -> Point {
+/// A geometry_msgs/Point (metres).
+pub fn point_msg(p: &Point3<f64>) -> Point {
     Point {
         x: p.x,
         y: p.y,
@@ -266,6 +267,15 @@ pub mod ns {
     pub const LABELS: &str = "labels";
 }
 
+/// The marker that clears whatever an earlier plan drew (first in every plan's array).
+pub fn delete_all(header: &Header) -> Marker {
+    Marker {
+        header: header.clone(),
+        action: Marker::DELETEALL,
+        ..Marker::default()
+    }
+}
+
 /// A marker to ADD, in `header`'s frame, of `type_`.
 fn new_marker(header: &Header, ns: &str, id: i32, type_: i32) -> Marker {
     Marker {
@@ -285,11 +295,7 @@ fn new_marker(header: &Header, ns: &str, id: i32, type_: i32) -> Marker {
 pub fn markers(plan: &PlanSummary, plate: &Isometry3<f64>, header: &Header) -> MarkerArray {
     let part = plan.part;
     let base = |ns: &str, id: i32, type_: i32| new_marker(header, ns, id, type_);
-    let mut out = vec![Marker {
-        header: header.clone(),
-        action: Marker::DELETEALL,
-        ..Marker::default()
-    }];
+    let mut out = vec![delete_all(header)];
 
     // Blocks: one CUBE_LIST, each cube at its block centre, coloured by its fragment.
     let mut cubes = base(ns::BLOCKS, 0, Marker::CUBE_LIST);
