@@ -9,6 +9,9 @@
 //! schedule, objective) → [`search::search`] → a [`model::Trail`], written by
 //! [`output`] and drawn by [`plot`]; [`model::Model::passes`] hands it to the toolpath
 //! (`waam_motion::plan_layer_motion`) and [`messages`] to recordings and ROS 2.
+//!
+//! Parts: [`slice`] cuts a mesh into layers (one layer graph per section) and [`part`]
+//! plans them bottom up, each layer starting from the heat the layer below left.
 
 pub mod fem;
 pub mod format;
@@ -18,8 +21,9 @@ pub mod mesh;
 pub mod milp;
 pub mod model;
 pub mod output;
-
+pub mod part;
 pub mod search;
+pub mod slice;
 pub mod symmetry;
 
 pub use format::{Layer, LayerError};
@@ -40,7 +44,24 @@ pub fn plan_layer_motion(
     settings: &ProcessSettings,
     robot: &Robot,
 ) -> Result<(Toolpath, JointTrajectory), MotionError> {
-    let (passes, segments) = model.passes_with_segments(trail);
+    plan_layer_motion_at(model, trail, 0.0, settings, robot)
+}
+
+/// [`plan_layer_motion`] for a layer of a part: the torch welds at height `z_mm` above the
+/// plate (the layer's cutting height).
+pub fn plan_layer_motion_at(
+    model: &Model,
+    trail: &Trail,
+    z_mm: f64,
+    settings: &ProcessSettings,
+    robot: &Robot,
+) -> Result<(Toolpath, JointTrajectory), MotionError> {
+    let (mut passes, segments) = model.passes_with_segments(trail);
+    for pass in &mut passes {
+        for p in &mut pass.points_mm {
+            p.z = z_mm;
+        }
+    }
     let timing = WeldTiming::Speed(model.layer.process.weld_speed_mm_s);
     plan_passes(&passes, timing, settings, robot).map_err(|mut e| {
         if let MotionError::Trajectory(t) = &mut e {

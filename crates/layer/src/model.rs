@@ -60,8 +60,11 @@ pub struct Model {
     pub deadheads: usize,
     /// Time steps every trail is scored over.
     pub horizon: usize,
-    /// Initial deviation from ambient (K).
+    /// Initial deviation from ambient (K): the smallest over the mesh nodes.
     pub initial: f64,
+    /// Initial deviation from ambient (K) at every mesh node: the layer's `initial_c`
+    /// everywhere, or the heat a part's layer below left ([`Model::set_initial_field`]).
+    pub initial_field: Vec<f64>,
     /// Target minus ambient (K).
     pub target: f64,
 }
@@ -116,6 +119,7 @@ impl Model {
         let diag = dist(lo, hi);
         let transit_step = layer.process.transit_speed_mm_s * layer.process.time_step_s;
         let longest_transit = ((diag / transit_step).ceil() as usize).max(1);
+        let mesh_len = mesh.points.len();
         Ok(Model {
             layer: layer.clone(),
             mesh,
@@ -127,8 +131,21 @@ impl Model {
             deadheads,
             horizon: weld + deadheads * longest_transit,
             initial: layer.temperatures.initial_c - layer.temperatures.ambient_c,
+            initial_field: vec![
+                layer.temperatures.initial_c - layer.temperatures.ambient_c;
+                mesh_len
+            ],
             target: layer.temperatures.target_c - layer.temperatures.ambient_c,
         })
+    }
+
+    /// Starts the layer from a given field (deviation from ambient, K, one value per mesh
+    /// node), e.g. the heat the layer below left. The search's bound stays valid: it
+    /// needs only the smallest initial value to be ≥ 0 for its overshoot part.
+    pub fn set_initial_field(&mut self, u: Vec<f64>) {
+        assert_eq!(u.len(), self.heat.len(), "one initial value per mesh node");
+        self.initial = u.iter().copied().fold(f64::INFINITY, f64::min);
+        self.initial_field = u;
     }
 
     /// Node a move starts from and the node it ends at.
@@ -180,7 +197,7 @@ impl Model {
 
     /// Scores a trail: the objective, and, when `record` is given, every step's field.
     pub fn simulate(&self, trail: &Trail, mut record: Option<&mut Vec<Vec<f64>>>) -> f64 {
-        let mut u = vec![self.initial; self.heat.len()];
+        let mut u = self.initial_field.clone();
         let mut total = 0.0;
         for kind in self.schedule(trail) {
             let load: &[(usize, f64)] = match kind {

@@ -40,6 +40,42 @@ pub struct SearchOptions {
     pub free_decay_steps: usize,
     /// Prune by the lower bound (off: plain enumeration of every trail, for checking).
     pub bound: bool,
+    /// Layer nodes the trail may not start at (a part's layer below started there).
+    pub forbidden_starts: Vec<usize>,
+    /// Deadheading moves the trail may not make, as node pairs in either direction (a
+    /// part's layer below deadheaded between them).
+    pub forbidden_deadheads: Vec<[usize; 2]>,
+}
+
+impl SearchOptions {
+    /// True when the options forbid no start and no deadheading move.
+    pub fn unconstrained(&self) -> bool {
+        self.forbidden_starts.is_empty() && self.forbidden_deadheads.is_empty()
+    }
+
+    /// Whether a deadheading move between nodes a and b (either way) is forbidden.
+    pub fn forbids_deadhead(&self, a: usize, b: usize) -> bool {
+        self.forbidden_deadheads
+            .iter()
+            .any(|&[x, y]| (x == a && y == b) || (x == b && y == a))
+    }
+
+    /// Whether a trail keeps the forbidden starts and deadheading moves.
+    pub fn allows(&self, model: &Model, trail: &Trail) -> bool {
+        let mut at: Option<usize> = None;
+        for m in &trail.moves {
+            let (from, to) = model.ends(m);
+            match at {
+                None if self.forbidden_starts.contains(&from) => return false,
+                Some(prev) if m.deadhead_before && self.forbids_deadhead(prev, from) => {
+                    return false
+                }
+                _ => {}
+            }
+            at = Some(to);
+        }
+        true
+    }
 }
 
 impl Default for SearchOptions {
@@ -49,6 +85,8 @@ impl Default for SearchOptions {
             symmetry: true,
             free_decay_steps: 10,
             bound: true,
+            forbidden_starts: Vec::new(),
+            forbidden_deadheads: Vec::new(),
         }
     }
 }
@@ -321,7 +359,8 @@ struct Frame {
 pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
     let start = Instant::now();
     let bound = Bound::new(model, options.free_decay_steps);
-    let group = if options.symmetry {
+    // Forbidden starts and deadheading moves are not symmetric: no symmetry pruning then.
+    let group = if options.symmetry && options.unconstrained() {
         symmetries(model)
     } else {
         Vec::new()
@@ -337,7 +376,7 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
     let mut timed_out = false;
 
     // State of the node being expanded: its field and cost; root = initial field.
-    let root_u = vec![model.initial; model.heat.len()];
+    let root_u = model.initial_field.clone();
     let all: Vec<usize> = (0..segs).collect();
     let root_bound = bound.remaining(
         model,
@@ -383,7 +422,9 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
                 for deadhead in [false, true] {
                     let (needs_deadhead, dl) = match at {
                         None if deadhead => continue,
+                        None if options.forbidden_starts.contains(&from) => continue,
                         None => (false, deadheads_left),
+                        Some(v) if deadhead && options.forbids_deadhead(v, from) => continue,
                         Some(v) if !deadhead && v != from => continue,
                         Some(_) if deadhead && deadheads_left == 0 => continue,
                         Some(_) if deadhead => (true, deadheads_left - 1),
@@ -498,7 +539,7 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
                 "local search: {value:.6e} -> {v:.6e} at {:.1} s",
                 start.elapsed().as_secs_f64()
             );
-            if v < value {
+            if v < value && options.allows(model, &t) {
                 best = Some((v, t));
             }
             continue;
@@ -703,7 +744,7 @@ pub fn check_bound(model: &Model) -> Result<usize, String> {
         checked: 0,
         scratch: Vec::new(),
     };
-    let u = vec![model.initial; model.heat.len()];
+    let u = model.initial_field.clone();
     walk.best(&u, 0.0, 0, None, model.deadheads)?;
     Ok(walk.checked)
 }
