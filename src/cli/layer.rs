@@ -8,8 +8,11 @@ use anyhow::Context;
 use clap::{Args, Subcommand};
 use serde_json::json;
 use waam_layer::output::TrailFile;
-use waam_layer::plan_layer_motion;
+use waam_layer::part::{ManifestLayer, PartManifest, PartOptions};
+use waam_layer::slice::{slice_mesh, stl_text, LayerDoc, LayerParams, SliceOptions, SlicedLayer};
+use waam_layer::{plan_layer_motion, plan_layer_motion_at};
 use waam_layer::{search, Layer, Model, SearchOptions, SearchResult};
+use waam_mesh::{read_stl, TriangleMesh, Units};
 use waam_plot::layer::{plot_temperature, plot_trail, TEMPERATURE_SIZE, TRAIL_SIZE};
 use waam_ros::layer::{
     no_motion_status, plan_messages, planned_status, LayerRecording, MotionOutcome,
@@ -33,8 +36,99 @@ pub struct LayerArgs {
 #[derive(Debug, Subcommand)]
 pub enum LayerCommand {
     Plan(PlanArgs),
+    Slice(SliceArgs),
+    PlanPart(PlanPartArgs),
+    Extrude(ExtrudeArgs),
     Plot(PlotArgs),
     Bench(BenchArgs),
+}
+
+/// Cut a part (an STL mesh of thick walls) into horizontal layers and write each layer's
+/// walls as a layer graph: nodes at wall crossings and dead ends, segments along the wall
+/// centre lines, the wall width measured from the section.
+///
+/// Layer k is cut at z_min + (k + 1/2) x --layer-height and written as DIR/layer-KKK.yaml,
+/// with DIR/part.yaml listing the layers and their heights (the input of `waam layer
+/// plan-part DIR`). A section that is not a wall structure (an open outline, a region wider
+/// than 1.5 wall widths, walls of different widths, walls the layer format refuses) stops
+/// the run with an error naming its height and place (exit 2). See docs/layer-format.md.
+#[derive(Debug, Args)]
+pub struct SliceArgs {
+    /// The part: an STL file (binary or ASCII), millimetres.
+    pub mesh: PathBuf,
+    /// Layer height (mm).
+    #[arg(long, value_name = "MM")]
+    pub layer_height: f64,
+    /// The wall width the part was designed with (mm); default: measured (the
+    /// length-weighted median distance between facing sides of the outline).
+    #[arg(long, value_name = "MM")]
+    pub wall_width: Option<f64>,
+    /// Take process, material, temperature and torch parameters from this layer file
+    /// (default: those of config/layers/paper-16mm.yaml).
+    #[arg(long, value_name = "LAYER")]
+    pub params: Option<PathBuf>,
+    /// The directory to write the layer files and part.yaml into (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+}
+
+/// Plan every layer of a part, bottom up, each starting from the heat the layer below
+/// left: the field at the end of a layer cools for --interlayer seconds and becomes the
+/// initial field of the layer above. Consecutive layers do not start at the same place and
+/// do not deadhead between the same two places.
+///
+/// PART is a directory written by `waam layer slice` (with part.yaml) or an STL mesh (then
+/// sliced first, with --layer-height and --wall-width). Writes OUT/part-plan.yaml (every
+/// layer's objective, gap, start, deadheading and carried heat) and OUT/layer-KKK/ with
+/// layer.yaml and trail.yaml (for `waam layer plot`), and with --robot toolpath.yaml and
+/// trajectory.yaml: every layer through the same motion pipeline as `waam layer plan`,
+/// welded at the layer's height, the arc off on every deadheading move.
+///
+/// Exit code 0: every layer has a trail (and, with --robot, a validated motion); 1: NO
+/// MOTION for some layer; 2: bad input.
+#[derive(Debug, Args)]
+pub struct PlanPartArgs {
+    /// A sliced part directory (part.yaml) or an STL mesh.
+    pub part: PathBuf,
+    /// The directory for the results (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// With an STL PART: the layer height (mm).
+    #[arg(long, value_name = "MM")]
+    pub layer_height: Option<f64>,
+    /// With an STL PART: the wall width (mm); default measured.
+    #[arg(long, value_name = "MM")]
+    pub wall_width: Option<f64>,
+    /// Seconds with the arc off between the end of a layer's horizon and the next layer
+    /// (in the heat model's time; its Robin loss stands for conduction into the part).
+    #[arg(long, value_name = "S", default_value_t = 2.0)]
+    pub interlayer: f64,
+    /// Search time limit per layer (s): the best trail found and its proven gap.
+    #[arg(long, value_name = "S", default_value_t = 10.0)]
+    pub time_limit: f64,
+    /// Allow a layer to start, and deadhead, where the layer below did.
+    #[arg(long)]
+    pub no_vary: bool,
+    #[command(flatten, next_help_heading = "Robot motion")]
+    pub robot: super::motion::OptionalRobotArgs,
+    /// Record the run as one rosbag2 bag (MCAP) in the new directory DIR: per layer, as
+    /// `waam layer plan --record` does (document, statuses, motion, temperature field).
+    #[arg(long, value_name = "DIR", help_heading = "Recording and ROS 2")]
+    pub record: Option<PathBuf>,
+}
+
+/// Write a layer's walls extruded to a given height as an ASCII STL: a test part whose
+/// sections are the layer (used to make config/rib-web-3x3.stl and config/honeycomb-12.stl).
+#[derive(Debug, Args)]
+pub struct ExtrudeArgs {
+    /// The layer file.
+    pub layer: PathBuf,
+    /// Height of the part (mm).
+    #[arg(long, value_name = "MM")]
+    pub height: f64,
+    /// The STL file to write.
+    #[arg(long, value_name = "FILE")]
+    pub out: PathBuf,
 }
 
 /// Find the weld trail (segment order, directions, the fewest deadheading moves) that keeps
@@ -113,6 +207,9 @@ pub struct BenchArgs {
 pub fn run(args: LayerArgs) -> anyhow::Result<ExitCode> {
     match args.command {
         LayerCommand::Plan(a) => plan(a),
+        LayerCommand::Slice(a) => slice(a),
+        LayerCommand::PlanPart(a) => plan_part(a),
+        LayerCommand::Extrude(a) => extrude(a),
         LayerCommand::Plot(a) => plot(a),
         LayerCommand::Bench(a) => bench(a),
     }
@@ -420,4 +517,307 @@ fn bench(args: BenchArgs) -> anyhow::Result<ExitCode> {
         );
     }
     Ok(ExitCode::from(EXIT_OK))
+}
+
+fn read_mesh(path: &Path) -> anyhow::Result<TriangleMesh> {
+    let bytes =
+        std::fs::read(path).with_context(|| format!("cannot read mesh {}", path.display()))?;
+    read_stl(&bytes, Units::Mm).with_context(|| format!("in mesh {}", path.display()))
+}
+
+fn slice_to_dir(
+    mesh_path: &Path,
+    layer_height: f64,
+    wall_width: Option<f64>,
+    params: LayerParams,
+    out: &Path,
+) -> anyhow::Result<(PartManifest, Vec<SlicedLayer>)> {
+    let mesh = read_mesh(mesh_path)?;
+    let name = mesh_path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "part".into());
+    let options = SliceOptions {
+        name: name.clone(),
+        layer_height_mm: layer_height,
+        wall_width_mm: wall_width,
+        params,
+    };
+    let layers =
+        slice_mesh(&mesh, &options).with_context(|| format!("in mesh {}", mesh_path.display()))?;
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let mut manifest = PartManifest {
+        name,
+        source: mesh_path.display().to_string(),
+        layer_height_mm: layer_height,
+        layers: Vec::new(),
+    };
+    for (k, l) in layers.iter().enumerate() {
+        let file = format!("layer-{k:03}.yaml");
+        let path = out.join(&file);
+        std::fs::write(&path, LayerDoc::of(&l.layer).to_yaml())
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        manifest.layers.push(ManifestLayer { file, z_mm: l.z_mm });
+    }
+    let path = out.join("part.yaml");
+    std::fs::write(&path, serde_yaml::to_string(&manifest)?)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok((manifest, layers))
+}
+
+fn slice(args: SliceArgs) -> anyhow::Result<ExitCode> {
+    let params = match &args.params {
+        Some(p) => LayerParams::of(&read_layer(p)?),
+        None => LayerParams::default(),
+    };
+    let (_, layers) = slice_to_dir(
+        &args.mesh,
+        args.layer_height,
+        args.wall_width,
+        params,
+        &args.out,
+    )?;
+    for (k, l) in layers.iter().enumerate() {
+        println!(
+            "layer {k:>3}  z {:>8.3} mm  {:>3} nodes  {:>3} segments  wall {:.3} mm",
+            l.z_mm,
+            l.layer.nodes.len(),
+            l.layer.segments.len(),
+            l.layer.wall_width_mm
+        );
+    }
+    println!(
+        "wrote {} layers and part.yaml to {}",
+        layers.len(),
+        args.out.display()
+    );
+    Ok(ExitCode::from(EXIT_OK))
+}
+
+fn extrude(args: ExtrudeArgs) -> anyhow::Result<ExitCode> {
+    anyhow::ensure!(
+        args.height.is_finite() && args.height > 0.0,
+        "--height: expected a number of mm > 0, got {}",
+        args.height
+    );
+    let layer = read_layer(&args.layer)?;
+    let mesh = waam_layer::slice::extrude(&layer, args.height);
+    std::fs::write(&args.out, stl_text(&mesh, &layer.name))
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    println!(
+        "wrote {} ({} triangles)",
+        args.out.display(),
+        mesh.triangles.len()
+    );
+    Ok(ExitCode::from(EXIT_OK))
+}
+
+/// One layer's line in OUT/part-plan.yaml.
+#[derive(Debug, serde::Serialize)]
+struct PartPlanLayer {
+    layer: String,
+    dir: String,
+    z_mm: f64,
+    objective: f64,
+    lower_bound: f64,
+    proven_optimal: bool,
+    relative_gap: f64,
+    start: String,
+    end: String,
+    deadheading: Vec<[String; 2]>,
+    forbidden_starts: Vec<String>,
+    forbidden_deadheads: Vec<[String; 2]>,
+    varied: bool,
+    initial_max_c: f64,
+    initial_mean_c: f64,
+    end_max_c: f64,
+    seconds: f64,
+    motion: Option<serde_json::Value>,
+}
+
+fn plan_part(args: PlanPartArgs) -> anyhow::Result<ExitCode> {
+    let limit = time_limit(Some(args.time_limit))?;
+    anyhow::ensure!(
+        args.interlayer.is_finite() && args.interlayer >= 0.0,
+        "--interlayer: expected seconds >= 0, got {}",
+        args.interlayer
+    );
+    let layers: Vec<(f64, Layer)> = if args.part.is_dir() {
+        anyhow::ensure!(
+            args.layer_height.is_none() && args.wall_width.is_none(),
+            "--layer-height and --wall-width are for an STL part; {} is a sliced part directory",
+            args.part.display()
+        );
+        PartManifest::read_dir(&args.part)?.1
+    } else {
+        let h = args.layer_height.with_context(|| {
+            format!(
+                "{} is a mesh: give --layer-height to slice it (or slice it first with `waam layer slice`)",
+                args.part.display()
+            )
+        })?;
+        let (_, sliced) = slice_to_dir(
+            &args.part,
+            h,
+            args.wall_width,
+            LayerParams::default(),
+            &args.out.join("sliced"),
+        )?;
+        sliced.into_iter().map(|l| (l.z_mm, l.layer)).collect()
+    };
+    let robot = args.robot.robot_args().map(|a| a.load()).transpose()?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let recorder = match &args.record {
+        Some(dir) => Some(
+            Recorder::create(dir)
+                .with_context(|| format!("cannot record into {}", dir.display()))?,
+        ),
+        None => None,
+    };
+    let options = PartOptions {
+        interlayer_s: args.interlayer,
+        search: SearchOptions {
+            time_limit: limit,
+            ..SearchOptions::default()
+        },
+        vary: !args.no_vary,
+    };
+    let total = layers.len();
+    let ambient = |l: &Layer| l.temperatures.ambient_c;
+    let mut summary: Vec<PartPlanLayer> = Vec::new();
+    let mut failed = false;
+    let mut error: Option<anyhow::Error> = None;
+    let planned = waam_layer::part::plan_part(&layers, &options, |k, p| {
+        if error.is_some() {
+            return;
+        }
+        let mut step = || -> anyhow::Result<()> {
+            let layer = &p.model.layer;
+            let r = &p.result;
+            let id = |v: usize| layer.nodes[v].id.clone();
+            let dir = args.out.join(format!("layer-{k:03}"));
+            std::fs::create_dir_all(&dir)
+                .with_context(|| format!("cannot create {}", dir.display()))?;
+            let file = TrailFile::new(
+                &p.model,
+                &r.trail,
+                r.objective,
+                r.lower_bound,
+                r.proven_optimal,
+            );
+            std::fs::write(dir.join("trail.yaml"), serde_yaml::to_string(&file)?)
+                .with_context(|| format!("cannot write {}", dir.join("trail.yaml").display()))?;
+            std::fs::write(dir.join("layer.yaml"), LayerDoc::of(layer).to_yaml())
+                .with_context(|| format!("cannot write {}", dir.join("layer.yaml").display()))?;
+            let motion = robot.as_ref().map(|(settings, robot)| {
+                plan_layer_motion_at(&p.model, &r.trail, p.z_mm, settings, robot)
+                    .map_err(|e| e.to_string())
+            });
+            let motion_json = match &motion {
+                None => None,
+                Some(Ok((tp, traj))) => {
+                    write_motion(tp, traj, &dir)?;
+                    Some(json!(MotionSummary::of(tp)))
+                }
+                Some(Err(e)) => {
+                    failed = true;
+                    Some(json!({ "error": e }))
+                }
+            };
+            if let Some(recorder) = &recorder {
+                let text = LayerDoc::of(layer).to_yaml();
+                let recording = LayerRecording::start(recorder, &text, &layer.name)?;
+                let messages = match (&motion, &robot) {
+                    (Some(Ok((tp, traj))), Some((settings, _))) => {
+                        let header = Header::new(Time::now(), tp.frame.clone());
+                        Some(plan_messages(&p.model, r, tp, traj, settings, &header))
+                    }
+                    _ => None,
+                };
+                let outcome = match (&motion, &messages) {
+                    (Some(Err(e)), _) => MotionOutcome::Failed(e),
+                    (_, Some(m)) => MotionOutcome::Planned(m),
+                    _ => MotionOutcome::NotPlanned,
+                };
+                recording.finish(&p.model, r, outcome)?;
+            }
+            let amb = ambient(layer);
+            let max = |u: &[f64]| u.iter().copied().fold(f64::NEG_INFINITY, f64::max) + amb;
+            let mean = p.model.initial_field.iter().sum::<f64>()
+                / p.model.initial_field.len().max(1) as f64
+                + amb;
+            let line = PartPlanLayer {
+                layer: layer.name.clone(),
+                dir: format!("layer-{k:03}"),
+                z_mm: p.z_mm,
+                objective: r.objective,
+                lower_bound: r.lower_bound,
+                proven_optimal: r.proven_optimal,
+                relative_gap: r.relative_gap,
+                start: p.start_node().map(id).unwrap_or_default(),
+                end: p.end_node().map(id).unwrap_or_default(),
+                deadheading: p.deadheads().iter().map(|&[a, b]| [id(a), id(b)]).collect(),
+                forbidden_starts: p.forbidden_starts.iter().map(|&v| id(v)).collect(),
+                forbidden_deadheads: p
+                    .forbidden_deadheads
+                    .iter()
+                    .map(|&[a, b]| [id(a), id(b)])
+                    .collect(),
+                varied: p.varied,
+                initial_max_c: max(&p.model.initial_field),
+                initial_mean_c: mean,
+                end_max_c: max(&p.end_field),
+                seconds: r.seconds,
+                motion: motion_json,
+            };
+            println!(
+                "layer {:>3}/{total}  z {:>7.3} mm  objective {:.6e}  {}  start {}  {} deadheads  initial max {:.0} °C mean {:.0} °C{}",
+                k + 1,
+                p.z_mm,
+                r.objective,
+                if r.proven_optimal {
+                    "proven optimal".to_string()
+                } else {
+                    format!("gap {:.2}%", 100.0 * r.relative_gap)
+                },
+                line.start,
+                line.deadheading.len(),
+                line.initial_max_c,
+                line.initial_mean_c,
+                match &motion {
+                    None => String::new(),
+                    Some(Ok((tp, _))) => format!("  motion {:.1} s", MotionSummary::of(tp).duration_s),
+                    Some(Err(e)) => format!("  NO MOTION: {e}"),
+                }
+            );
+            summary.push(line);
+            Ok(())
+        };
+        if let Err(e) = step() {
+            error = Some(e);
+        }
+    })?;
+    if let Some(e) = error {
+        return Err(e);
+    }
+    let path = args.out.join("part-plan.yaml");
+    std::fs::write(&path, serde_yaml::to_string(&summary)?)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    if let Some(recorder) = recorder {
+        let s = recorder.finish()?;
+        tracing::info!(
+            "recorded {} messages on {} topics to {}",
+            s.messages,
+            s.topics,
+            s.dir.display()
+        );
+    }
+    let proven = planned.iter().filter(|p| p.result.proven_optimal).count();
+    println!(
+        "planned {} layers ({proven} proven optimal), wrote {}",
+        planned.len(),
+        path.display()
+    );
+    Ok(ExitCode::from(if failed { EXIT_NO } else { EXIT_OK }))
 }

@@ -690,12 +690,12 @@ impl LayerDoc {
     /// The YAML text (flow style for nodes and segments, as the bundled layers).
     pub fn to_yaml(&self) -> String {
         let mut s = format!(
-            "name: {}\nwall_width_mm: {}\nnodes:\n",
+            "name: {}\nwall_width_mm: {:?}\nnodes:\n",
             serde_yaml::to_string(&self.name).unwrap_or_default().trim(),
             self.wall_width_mm
         );
         for n in &self.nodes {
-            s += &format!("  - {{id: {}, x: {}, y: {}}}\n", n.id, n.x, n.y);
+            s += &format!("  - {{id: {}, x: {:?}, y: {:?}}}\n", n.id, n.x, n.y);
         }
         s += "segments:\n";
         for [a, b] in &self.segments {
