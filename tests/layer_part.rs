@@ -302,5 +302,5 @@ fn a_twenty_layer_sliced_part_is_planned_moved_and_recorded() {
     );
     let bag = Bag::open(&bag).unwrap();
     assert_eq!(bag.count(topics::LAYER), 20);
-    assert_eq!(bag.count(&topics::JOINT_TRAJECTORY), 20);
+    assert_eq!(bag.count(topics::JOINT_TRAJECTORY), 20);
 }
