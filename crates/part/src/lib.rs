@@ -28,6 +28,7 @@ use thiserror::Error;
 pub type Block = [i64; 3];
 
 /// Formats a block as `[x,y,z]`, the way every message of the project names one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct BlockDisplay(pub Block);
 
 impl fmt::Display for BlockDisplay {

@@ -5,10 +5,10 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use super::convert::Status;
 use super::execute::{plan_steps, Step};
 use super::io::{Level, Outputs};
 use super::pipeline::Planned;
+use super::status::Status;
 use super::worker::Cancel;
 use waam_motion::trajectory::JointTrajectory;
 use waam_rosmsg::builtin_interfaces::{Duration as RosDuration, Time};
@@ -16,24 +16,6 @@ use waam_rosmsg::diagnostic_msgs::DiagnosticStatus;
 use waam_rosmsg::sensor_msgs::JointState;
 use waam_rosmsg::std_msgs::{Bool, Header};
 use waam_rosmsg::trajectory_msgs::{JointTrajectory as TrajectoryMsg, JointTrajectoryPoint};
-
-/// The whole trajectory as a trajectory_msgs/JointTrajectory.
-pub fn trajectory_msg(trajectory: &JointTrajectory, header: &Header) -> TrajectoryMsg {
-    TrajectoryMsg {
-        header: header.clone(),
-        joint_names: trajectory.joint_names.clone(),
-        points: trajectory
-            .points
-            .iter()
-            .map(|p| JointTrajectoryPoint {
-                positions: p.positions.clone(),
-                velocities: p.velocities.clone(),
-                time_from_start: RosDuration::from_secs_f64(p.time_from_start),
-                ..JointTrajectoryPoint::default()
-            })
-            .collect(),
-    }
-}
 
 /// The goal trajectory for points `span`: times count from the point before the span (where
 /// the robot stands), or from `lead_in_s` before the first point for the very first goal;
@@ -119,7 +101,7 @@ pub fn run_plan(
         Level::Info,
         &format!(
             "executing part {job}: {} fragment(s) in {goals} goal(s) of at most {max_points} points",
-            planned.fragments.len()
+            planned.found.fragments.len()
         ),
     );
     let mut arc_is_on = false;
