@@ -14,7 +14,7 @@ mod params;
 pub mod plan;
 pub mod writer;
 
-pub use params::{ThermalParams, MAX_STEPS};
+pub use params::{ThermalParams, ThermalParamsError, MAX_STEPS};
 
 use std::collections::HashMap;
 use std::fmt;
@@ -167,7 +167,7 @@ impl Part {
         if let Some(t85) = fields.get("t85") {
             part.parse_windows(t85)?;
         }
-        part.thermal = ThermalParams::from_yaml(fields.get("thermal")).map_err(rule)?;
+        part.thermal = ThermalParams::from_yaml(fields.get("thermal")).map_err(|e| rule(e.0))?;
         Ok(part)
     }
 

@@ -52,10 +52,27 @@ pub fn goal_msg(
     }
 }
 
+/// Why an execution stopped: the controller's answer, a timeout, or a cancel.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct ExecError(pub String);
+
+impl From<String> for ExecError {
+    fn from(message: String) -> Self {
+        ExecError(message)
+    }
+}
+
+impl From<&str> for ExecError {
+    fn from(message: &str) -> Self {
+        ExecError(message.to_string())
+    }
+}
+
 /// Something that moves the robot through one goal at a time.
 pub trait Controller: Send {
     /// Runs one goal to its end; `Err` with the reason when it fails or is cancelled.
-    fn execute(&mut self, goal: TrajectoryMsg, cancel: &Cancel) -> Result<(), String>;
+    fn execute(&mut self, goal: TrajectoryMsg, cancel: &Cancel) -> Result<(), ExecError>;
     /// Called while no goal runs, about every `idle_period()`.
     fn idle(&mut self) {}
     fn idle_period(&self) -> Duration {
@@ -74,7 +91,7 @@ pub fn run_plan(
     max_points: usize,
     lead_in_s: f64,
     cancel: &Cancel,
-) -> Result<(), String> {
+) -> Result<(), ExecError> {
     let arc: Vec<bool> = planned.trajectory.points.iter().map(|p| p.arc_on).collect();
     let steps = plan_steps(&arc, max_points);
     let goals = steps
@@ -109,7 +126,7 @@ pub fn run_plan(
     let result = (|| {
         for step in &steps {
             if cancel.is_cancelled() {
-                return Err("cancelled".to_string());
+                return Err(ExecError("cancelled".to_string()));
             }
             match step {
                 Step::Arc(on) => {
@@ -164,7 +181,7 @@ pub enum ExecCommand {
         planned: Arc<Planned>,
         cancel: Cancel,
         /// Told when the run ends (for `waam publish`).
-        done: Option<Sender<Result<(), String>>>,
+        done: Option<Sender<Result<(), ExecError>>>,
     },
 }
 
@@ -245,7 +262,7 @@ impl SimController {
 }
 
 impl Controller for SimController {
-    fn execute(&mut self, goal: TrajectoryMsg, cancel: &Cancel) -> Result<(), String> {
+    fn execute(&mut self, goal: TrajectoryMsg, cancel: &Cancel) -> Result<(), ExecError> {
         let Some(first) = goal.points.first() else {
             return Ok(());
         };
@@ -264,7 +281,7 @@ impl Controller for SimController {
         let started = Instant::now();
         loop {
             if cancel.is_cancelled() {
-                return Err("cancelled".into());
+                return Err(ExecError("cancelled".into()));
             }
             let t = (started.elapsed().as_secs_f64() * self.time_scale).min(end);
             // The segment holding t: from the previous point (or the start) to point k.

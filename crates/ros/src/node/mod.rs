@@ -367,7 +367,7 @@ impl LoopState {
         &mut self,
         job: u64,
         result: Result<Box<Planned>, JobFailure<pipeline::JobError>>,
-    ) -> Option<std::sync::mpsc::Receiver<Result<(), String>>> {
+    ) -> Option<std::sync::mpsc::Receiver<Result<(), controller::ExecError>>> {
         self.last_progress = None;
         let planned = match result {
             Ok(planned) => planned,
