@@ -13,8 +13,7 @@ use waam_ros::topics;
 use waam_rosbag::Bag;
 
 mod common;
-mod recording;
-use recording::{run_ok, waam};
+use common::run::{run_ok, waam};
 
 fn slice_bundled(stl: &str, h: f64, w: Option<f64>) -> Vec<(f64, Layer)> {
     let bytes = std::fs::read(common::root().join(stl)).unwrap();

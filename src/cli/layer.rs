@@ -720,8 +720,8 @@ fn plan_part(args: PlanPartArgs) -> anyhow::Result<ExitCode> {
                 .with_context(|| format!("cannot write {}", dir.join("trail.yaml").display()))?;
             std::fs::write(dir.join("layer.yaml"), LayerDoc::of(layer).to_yaml())
                 .with_context(|| format!("cannot write {}", dir.join("layer.yaml").display()))?;
-            let motion = robot.as_ref().map(|(settings, robot)| {
-                plan_layer_motion_at(&p.model, &r.trail, p.z_mm, settings, robot)
+            let motion = robot.as_ref().map(|cell| {
+                plan_layer_motion_at(&p.model, &r.trail, p.z_mm, &cell.settings, &cell.robot)
                     .map_err(|e| e.to_string())
             });
             let motion_json = match &motion {
@@ -739,9 +739,16 @@ fn plan_part(args: PlanPartArgs) -> anyhow::Result<ExitCode> {
                 let text = LayerDoc::of(layer).to_yaml();
                 let recording = LayerRecording::start(recorder, &text, &layer.name)?;
                 let messages = match (&motion, &robot) {
-                    (Some(Ok((tp, traj))), Some((settings, _))) => {
+                    (Some(Ok((tp, traj))), Some(cell)) => {
                         let header = Header::new(Time::now(), tp.frame.clone());
-                        Some(plan_messages(&p.model, r, tp, traj, settings, &header))
+                        Some(plan_messages(
+                            &p.model,
+                            r,
+                            tp,
+                            traj,
+                            &cell.settings,
+                            &header,
+                        )?)
                     }
                     _ => None,
                 };

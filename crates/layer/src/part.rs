@@ -218,10 +218,10 @@ pub fn plan_part(
     }
     let mut out: Vec<PlannedLayer> = Vec::with_capacity(layers.len());
     for (index, (z, layer)) in layers.iter().enumerate() {
-        let mut model = Model::new(layer).map_err(|message| PartError::Model {
+        let mut model = Model::new(layer).map_err(|e| PartError::Model {
             index,
             name: layer.name.clone(),
-            message,
+            message: e.to_string(),
         })?;
         let (mut starts, mut pairs) = (Vec::new(), Vec::new());
         if let Some(below) = out.last() {
