@@ -303,3 +303,62 @@ fn a_twenty_layer_sliced_part_is_planned_moved_and_recorded() {
     assert_eq!(bag.count(topics::LAYER), 20);
     assert_eq!(bag.count(topics::JOINT_TRAJECTORY), 20);
 }
+
+const PAPER: &str = include_str!("../config/layers/paper-16mm.yaml");
+
+/// The paper's parameters on a 2 x 1 domino of cells (7 walls, 1 deadheading move).
+fn domino() -> Layer {
+    let text = PAPER.split("nodes:").next().unwrap().to_string()
+        + "nodes:
+  - {id: A, x: 1.0, y: 1.0}
+  - {id: B, x: 8.0, y: 1.0}
+  - {id: C, x: 15.0, y: 1.0}
+  - {id: D, x: 1.0, y: 8.0}
+  - {id: E, x: 8.0, y: 8.0}
+  - {id: F, x: 15.0, y: 8.0}
+segments:
+  - [A, B]
+  - [B, C]
+  - [D, E]
+  - [E, F]
+  - [A, D]
+  - [B, E]
+  - [C, F]
+" + &PAPER[PAPER.find("process:").unwrap()..];
+    Layer::parse(&text.replace("name: paper-16mm", "name: domino")).unwrap()
+}
+
+#[test]
+fn from_a_carried_field_with_forbidden_moves_the_bound_holds_and_matches_enumeration() {
+    let layer = domino();
+    let below = waam_layer::Model::new(&layer).unwrap();
+    let first = waam_layer::search(&below, &SearchOptions::default());
+    let mut model = waam_layer::Model::new(&layer).unwrap();
+    let u = waam_layer::part::carry(
+        &below,
+        &waam_layer::part::end_field(&below, &first.trail),
+        0.5,
+        &model,
+    );
+    assert!(u.iter().any(|&x| x > 50.0) && u.iter().all(|&x| x >= 0.0));
+    model.set_initial_field(u);
+    // The bound stays below every completion from the warm, uneven field.
+    assert!(waam_layer::search::check_bound(&model).unwrap() > 20);
+    let start = below.ends(&first.trail.moves[0]).0;
+    let pairs = waam_layer::part::deadhead_pairs(&below, &first.trail);
+    let constrained = |bound: bool| SearchOptions {
+        bound,
+        forbidden_starts: vec![start],
+        forbidden_deadheads: pairs.clone(),
+        ..SearchOptions::default()
+    };
+    let bb = waam_layer::search(&model, &constrained(true));
+    let all = waam_layer::search(&model, &constrained(false));
+    assert!(bb.proven_optimal);
+    assert!((bb.objective - all.objective).abs() <= 1e-9 * all.objective);
+    assert!(constrained(true).allows(&model, &bb.trail));
+    assert_ne!(model.ends(&bb.trail.moves[0]).0, start);
+    // Unconstrained from the same field, the optimum is at least as good.
+    let free = waam_layer::search(&model, &SearchOptions::default());
+    assert!(free.objective <= bb.objective * (1.0 + 1e-12));
+}

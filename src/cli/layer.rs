@@ -652,6 +652,11 @@ fn plan_part(args: PlanPartArgs) -> anyhow::Result<ExitCode> {
         "--interlayer: expected seconds >= 0, got {}",
         args.interlayer
     );
+    anyhow::ensure!(
+        args.part.exists(),
+        "cannot read part {}: no such file or directory",
+        args.part.display()
+    );
     let layers: Vec<(f64, Layer)> = if args.part.is_dir() {
         anyhow::ensure!(
             args.layer_height.is_none() && args.wall_width.is_none(),
