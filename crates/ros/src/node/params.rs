@@ -163,7 +163,7 @@ impl Default for DryRunParams {
 }
 
 /// The node names a parameters file may address this node by.
-const NODE_KEYS: [&str; 3] = ["waam_planner", "/waam_planner", "/**"];
+const NODE_KEYS: [&str; 3] = [crate::convert::NODE_NAME, "/waam_planner", "/**"];
 
 /// A parameter out of its range (the message names it and its value).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
