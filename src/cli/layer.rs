@@ -184,6 +184,9 @@ pub struct PlanArgs {
     pub linger: f64,
 }
 
+/// Draw DIR/trail.png (the trail over the meshed walls) and DIR/temperature.png (one node's
+/// temperature over time) of a directory written by `waam layer plan --out DIR` or of one
+/// layer directory of `waam layer plan-part --out OUT` (OUT/layer-KKK).
 #[derive(Debug, Args)]
 pub struct PlotArgs {
     /// A directory written by `waam layer plan --out DIR`.
