@@ -28,6 +28,10 @@ pub enum BenchWhat {
         /// Repeat the run this many times and report the best.
         #[arg(long, default_value_t = 3)]
         repeat: usize,
+        /// Threads of the multi-threaded run [default: the available cores]; the
+        /// 1-thread figure is printed beside it.
+        #[arg(long)]
+        threads: Option<usize>,
     },
     /// Planner on three generated parts of about 10,000 blocks (a thin wall, a ring tower
     /// and a closed hollow box): time to the first feasible plan.
@@ -57,7 +61,7 @@ pub enum BenchWhat {
 
 pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
     match args.what {
-        BenchWhat::Thermal { repeat } => bench_thermal(repeat),
+        BenchWhat::Thermal { repeat, threads } => bench_thermal(repeat, threads),
         BenchWhat::Planner {
             dir,
             all_up_to,
@@ -183,7 +187,7 @@ fn ring_order(part: &Part, side: i64, z: i64) -> Vec<usize> {
         .collect()
 }
 
-fn bench_thermal(repeat: usize) -> anyhow::Result<ExitCode> {
+fn bench_thermal(repeat: usize, threads: Option<usize>) -> anyhow::Result<ExitCode> {
     let (side, layers) = (26, 100);
     let part = hollow_tower(side, layers);
     let graph = WeldGraph::new(&part);
@@ -191,29 +195,41 @@ fn bench_thermal(repeat: usize) -> anyhow::Result<ExitCode> {
     let order: Vec<usize> = (0..layers)
         .flat_map(|z| ring_order(&part, side, z))
         .collect();
-    let mut best = f64::INFINITY;
-    let mut block_steps = 0u64;
-    for _ in 0..repeat.max(1) {
-        let mut sim = Simulation::new(&model);
-        let t = Instant::now();
-        block_steps = 0;
-        for (p, &b) in order.iter().enumerate() {
-            let before = sim.steps();
-            sim.deposit(b, p == 0)
-                .map_err(|v| anyhow::anyhow!("unexpected violation {v:?}"))?;
-            block_steps += (sim.steps() - before) * sim.welded() as u64;
-        }
-        best = best.min(t.elapsed().as_secs_f64());
+    let threads = threads
+        .unwrap_or_else(waam::thermal::default_threads)
+        .max(1);
+    let mut counts = vec![1];
+    if threads > 1 {
+        counts.push(threads);
     }
-    println!(
-        "thermal: {} blocks, {} steps, {:.3e} block-steps in {:.3} s: {:.3e} block-steps/s (best of {})",
-        part.len(),
-        order.len() as u64 * model.params.substeps as u64,
-        block_steps as f64,
-        best,
-        block_steps as f64 / best,
-        repeat.max(1)
-    );
+    for threads in counts {
+        let mut best = f64::INFINITY;
+        let mut block_steps = 0u64;
+        for _ in 0..repeat.max(1) {
+            let mut sim = Simulation::new(&model).with_threads(threads);
+            let t = Instant::now();
+            block_steps = 0;
+            for (p, &b) in order.iter().enumerate() {
+                let before = sim.steps();
+                sim.deposit(b, p == 0)
+                    .map_err(|v| anyhow::anyhow!("unexpected violation {v:?}"))?;
+                block_steps += (sim.steps() - before) * sim.welded() as u64;
+            }
+            best = best.min(t.elapsed().as_secs_f64());
+        }
+        println!(
+            "thermal: {} blocks, {} steps, {:.3e} block-steps in {:.3} s: {:.3e} block-steps/s on {} thread{} ({:?} kernel, best of {})",
+            part.len(),
+            order.len() as u64 * model.params.substeps as u64,
+            block_steps as f64,
+            best,
+            block_steps as f64 / best,
+            threads,
+            if threads == 1 { "" } else { "s" },
+            model.simd(),
+            repeat.max(1)
+        );
+    }
     Ok(ExitCode::from(EXIT_OK))
 }
 
