@@ -261,7 +261,7 @@ impl ThermalModel {
 
     /// The same model stepped by `simd` (the scalar kernel if the CPU lacks it).
     pub fn with_simd(mut self, simd: Simd) -> ThermalModel {
-        self.simd = if simd == Simd::detect() {
+        self.simd = if simd <= Simd::detect() {
             simd
         } else {
             Simd::Scalar
@@ -818,22 +818,52 @@ impl<'m> Simulation<'m> {
 }
 
 /// Which step kernel the CPU runs (chosen once per model by runtime detection).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Simd {
     /// Plain scalar code (any CPU).
     Scalar,
     /// 4 blocks at a time with AVX2 (x86_64 only).
     Avx2,
+    /// 8 blocks at a time with AVX-512F (x86_64, built with rustc >= 1.89).
+    Avx512,
 }
 
 impl Simd {
     /// The best kernel this CPU supports.
     pub fn detect() -> Simd {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            return Simd::Avx2;
+        {
+            if Self::avx512() {
+                return Simd::Avx512;
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                return Simd::Avx2;
+            }
         }
         Simd::Scalar
+    }
+
+    /// Whether the AVX-512 kernel is built (rustc >= 1.89) and the CPU has AVX-512F.
+    #[rustversion::since(1.89)]
+    fn avx512() -> bool {
+        #[cfg(target_arch = "x86_64")]
+        return std::arch::is_x86_feature_detected!("avx512f");
+        #[allow(unreachable_code)]
+        false
+    }
+
+    #[rustversion::before(1.89)]
+    fn avx512() -> bool {
+        false
+    }
+
+    /// The kernels this CPU can run, best last.
+    pub fn available() -> Vec<Simd> {
+        let best = Simd::detect();
+        [Simd::Scalar, Simd::Avx2, Simd::Avx512]
+            .into_iter()
+            .filter(|&s| s <= best)
+            .collect()
     }
 }
 
@@ -883,6 +913,8 @@ impl Kernel {
         match self.simd {
             #[cfg(target_arch = "x86_64")]
             Simd::Avx2 => self.segment_avx2(a, b, hs),
+            #[cfg(target_arch = "x86_64")]
+            Simd::Avx512 => self.segment_avx512(a, b, hs),
             _ => self.segment_scalar(a, b, hs),
         }
     }
@@ -975,6 +1007,59 @@ impl Kernel {
         }
         self.segment_scalar(i, b, hs);
     }
+
+    /// Eight slots at a time, as [`Kernel::segment_avx2`] (masked loads for ±x).
+    #[cfg(target_arch = "x86_64")]
+    #[rustversion::since(1.89)]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn segment_avx512(&self, a: usize, b: usize, hs: f64) {
+        use std::arch::x86_64::*;
+        let t = self.t;
+        let h = _mm512_set1_pd(self.h);
+        let hs_v = _mm512_set1_pd(hs);
+        let amb = _mm512_set1_pd(self.amb);
+        let q = _mm512_set1_pd(self.q);
+        let dt = _mm512_set1_pd(self.dt);
+        let kelvin = _mm512_set1_pd(273.15);
+        let bit_mx = _mm512_set1_epi64(MINUS_X as i64);
+        let bit_px = _mm512_set1_epi64(PLUS_X as i64);
+        let mut i = a;
+        while i + 8 <= b {
+            let ti = _mm512_loadu_pd(t.add(i));
+            let xf = _mm512_cvtepu8_epi64(_mm_loadl_epi64(self.xflags.add(i) as *const __m128i));
+            let tmx = _mm512_mask_loadu_pd(ti, _mm512_test_epi64_mask(xf, bit_mx), t.sub(1).add(i));
+            let tpx = _mm512_mask_loadu_pd(ti, _mm512_test_epi64_mask(xf, bit_px), t.add(i + 1));
+            let idx = |p: *const u32| _mm256_loadu_si256(p.add(i) as *const __m256i);
+            let tmy = _mm512_i32gather_pd::<8>(idx(self.ny0), t);
+            let tpy = _mm512_i32gather_pd::<8>(idx(self.ny1), t);
+            let tmz = _mm512_i32gather_pd::<8>(idx(self.nz0), t);
+            let tpz = _mm512_i32gather_pd::<8>(idx(self.nz1), t);
+            let mut f = _mm512_mul_pd(h, _mm512_sub_pd(tmx, ti));
+            f = _mm512_add_pd(f, _mm512_mul_pd(h, _mm512_sub_pd(tpx, ti)));
+            f = _mm512_add_pd(f, _mm512_mul_pd(h, _mm512_sub_pd(tmy, ti)));
+            f = _mm512_add_pd(f, _mm512_mul_pd(h, _mm512_sub_pd(tpy, ti)));
+            f = _mm512_add_pd(f, _mm512_mul_pd(h, _mm512_sub_pd(tmz, ti)));
+            f = _mm512_add_pd(f, _mm512_mul_pd(h, _mm512_sub_pd(tpz, ti)));
+            f = _mm512_add_pd(f, _mm512_mul_pd(hs_v, _mm512_sub_pd(amb, ti)));
+            let tk = _mm512_add_pd(ti, kelvin);
+            let t2 = _mm512_mul_pd(tk, tk);
+            let re = _mm512_loadu_pd(self.radiation.add(i));
+            f = _mm512_sub_pd(
+                f,
+                _mm512_mul_pd(re, _mm512_sub_pd(_mm512_mul_pd(t2, t2), q)),
+            );
+            _mm512_storeu_pd(self.out.add(i), _mm512_add_pd(ti, _mm512_mul_pd(dt, f)));
+            i += 8;
+        }
+        self.segment_avx2(i, b, hs);
+    }
+
+    /// Before rustc 1.89 there is no AVX-512 kernel ([`Simd::detect`] never picks it).
+    #[cfg(target_arch = "x86_64")]
+    #[rustversion::before(1.89)]
+    unsafe fn segment_avx512(&self, a: usize, b: usize, hs: f64) {
+        self.segment_avx2(a, b, hs)
+    }
 }
 
 /// A fixed pool of worker threads for the step, created once per process (on the first
@@ -984,7 +1069,7 @@ impl Kernel {
 /// until none is left, and the caller waits until every chunk is done: one barrier per
 /// step. Chunks are claimed, not assigned, so a worker the OS has not scheduled (other
 /// processes on the cores) delays nothing: the caller steps its chunks. Idle workers spin
-/// ~0.2 ms, then sleep on a condition variable.
+/// ~50 µs, then sleep on a condition variable.
 mod pool {
     use std::cell::UnsafeCell;
     use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -1158,14 +1243,10 @@ mod pool {
                 shared.wake.notify_all();
             }
             shared.work(epoch, true);
-            let mut spins = 0u32;
+            // Spin, never yield: the chunks left are being stepped right now, and a yield
+            // on a busy machine hands the core to another process for a whole time slice.
             while shared.finished.load(Ordering::Acquire) < chunks {
-                spins += 1;
-                if spins < 1 << 10 {
-                    std::hint::spin_loop();
-                } else {
-                    std::thread::yield_now();
-                }
+                std::hint::spin_loop();
             }
         }
     }
@@ -1182,7 +1263,7 @@ mod pool {
                     break;
                 }
                 spins += 1;
-                if spins % 256 == 0 && started.elapsed() > Duration::from_micros(200) {
+                if spins % 256 == 0 && started.elapsed() > Duration::from_micros(50) {
                     let mut g = shared.lock.lock().unwrap_or_else(|e| e.into_inner());
                     shared.sleepers.fetch_add(1, Ordering::SeqCst);
                     while shared.claim.load(Ordering::SeqCst) >> 32 == seen {
@@ -1451,13 +1532,14 @@ mod identity {
         fn fast_step_is_bit_identical_to_the_reference((part, seq) in case()) {
             let graph = WeldGraph::new(&part);
             let model = ThermalModel::new(&part, &graph);
-            let scalar = model.clone().with_simd(Simd::Scalar);
+            let kernels: Vec<ThermalModel> =
+                Simd::available().into_iter().map(|s| model.clone().with_simd(s)).collect();
             let mut reference = Reference::new(&model);
-            let mut sims = vec![
-                Simulation::new(&model).with_threads(1),
-                Simulation::new(&scalar).with_threads(1),
-                Simulation::new(&model).with_threads(2).with_parallel_min(0),
-            ];
+            let mut sims: Vec<Simulation<'_>> = kernels
+                .iter()
+                .map(|m| Simulation::new(m).with_threads(1))
+                .collect();
+            sims.push(Simulation::new(&model).with_threads(2).with_parallel_min(0));
             let mut snaps = Vec::new();
             for &(b, new) in &seq {
                 reference.deposit(b, new);
