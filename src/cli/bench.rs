@@ -7,10 +7,10 @@ use std::time::Instant;
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
-use waam::graph::WeldGraph;
-use waam::part::Part;
-use waam::planner::{self, Options};
-use waam::thermal::{Simulation, ThermalModel};
+use waam_part::graph::WeldGraph;
+use waam_part::Part;
+use waam_planner::{self as planner, Options};
+use waam_thermal::{Simulation, ThermalModel};
 
 use super::{read_part, EXIT_OK};
 
@@ -57,8 +57,8 @@ pub enum BenchWhat {
         #[arg(long)]
         only: Option<String>,
         /// How cycles are excluded.
-        #[arg(long, value_enum, default_value_t = waam::planner::Acyclicity::Lazy)]
-        acyclicity: waam::planner::Acyclicity,
+        #[arg(long, value_parser = super::acyclicity_parser(), default_value = "lazy")]
+        acyclicity: waam_planner::Acyclicity,
     },
     /// Planner: first feasible plan and all feasible plans of each part file in DIR.
     Planner {
@@ -152,7 +152,7 @@ pub fn large_parts() -> Vec<Part> {
         for i in picks {
             part.set_window(
                 i,
-                waam::part::Window {
+                waam_part::Window {
                     min_s: 0.5,
                     max_s: 120.0,
                 },
@@ -165,7 +165,7 @@ pub fn large_parts() -> Vec<Part> {
 fn bench_large(
     timeout: f64,
     only: Option<&str>,
-    acyclicity: waam::planner::Acyclicity,
+    acyclicity: waam_planner::Acyclicity,
 ) -> anyhow::Result<ExitCode> {
     for part in large_parts() {
         if only.is_some_and(|o| !part.name.contains(o)) {
@@ -218,9 +218,7 @@ fn bench_thermal(repeat: usize, threads: Option<usize>) -> anyhow::Result<ExitCo
     let order: Vec<usize> = (0..layers)
         .flat_map(|z| ring_order(&part, side, z))
         .collect();
-    let threads = threads
-        .unwrap_or_else(waam::thermal::default_threads)
-        .max(1);
+    let threads = threads.unwrap_or_else(waam_thermal::default_threads).max(1);
     let mut counts = vec![1];
     if threads > 1 {
         counts.push(threads);
@@ -312,7 +310,7 @@ fn bench_part(
             let bytes = std::fs::read(plan)
                 .with_context(|| format!("cannot read plan {}", plan.display()))?;
             let is_json = plan.extension().is_some_and(|e| e == "json");
-            waam::plan::Plan::from_bytes(&bytes, is_json)
+            waam_part::plan::Plan::from_bytes(&bytes, is_json)
                 .with_context(|| format!("in plan {}", plan.display()))?
                 .validate(&part, &graph)
                 .map_err(|e| anyhow::anyhow!("plan {}: {e}", plan.display()))?
@@ -320,9 +318,7 @@ fn bench_part(
         None => constructive_order(&part),
     };
     let model = ThermalModel::new(&part, &graph);
-    let threads = threads
-        .unwrap_or_else(waam::thermal::default_threads)
-        .max(1);
+    let threads = threads.unwrap_or_else(waam_thermal::default_threads).max(1);
     let stop = super::node::stop_on_signal()?;
     let n = part.len();
     let steps_estimate = model.params.substeps as f64 * (n as f64) * (n as f64 + 1.0) / 2.0;
