@@ -953,7 +953,9 @@ impl Kernel {
 /// kernel and cuts the slot range into chunks; the caller and the workers claim chunks
 /// until none is left, and the caller waits until every chunk is done: one barrier per
 /// step. Chunks are claimed, not assigned, so a worker the OS has not scheduled (other
-/// processes on the cores) delays nothing: the caller steps its chunks. Idle workers spin
+/// processes on the cores) delays nothing: the caller steps its chunks. A worker preempted
+/// while it holds a chunk does delay the step; after such a stall (> 0.3 ms) steps run on
+/// the caller's thread alone for 0.5 s, so an oversubscribed machine costs little. Idle workers spin
 /// ~50 µs, then sleep on a condition variable.
 mod pool {
     use std::cell::UnsafeCell;
@@ -1048,6 +1050,19 @@ mod pool {
         workers: usize,
         busy: AtomicBool,
         epoch: AtomicU64,
+        /// Steps run on the caller's thread alone until this time ([`clock_ns`]).
+        backoff_until: AtomicU64,
+    }
+
+    /// A wait this long for the workers' chunks means a worker was preempted mid-chunk.
+    const STALL: Duration = Duration::from_micros(300);
+    /// After a stall, steps run single-threaded this long.
+    const BACKOFF: Duration = Duration::from_millis(500);
+
+    /// Nanoseconds since the pool's first use.
+    fn clock_ns() -> u64 {
+        static START: OnceLock<Instant> = OnceLock::new();
+        START.get_or_init(Instant::now).elapsed().as_nanos() as u64
     }
 
     static POOL: OnceLock<Pool> = OnceLock::new();
@@ -1068,7 +1083,9 @@ mod pool {
                 let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
                 Pool::spawn(cores.saturating_sub(1).max(1))
             });
-            if pool.busy.swap(true, Ordering::Acquire) {
+            if pool.backoff_until.load(Ordering::Relaxed) > clock_ns()
+                || pool.busy.swap(true, Ordering::Acquire)
+            {
                 return None;
             }
             Some(Guard(pool, threads.min(pool.workers + 1)))
@@ -1099,6 +1116,7 @@ mod pool {
                 workers,
                 busy: AtomicBool::new(false),
                 epoch: AtomicU64::new(0),
+                backoff_until: AtomicU64::new(0),
             }
         }
     }
@@ -1130,8 +1148,20 @@ mod pool {
             shared.work(epoch, true);
             // Spin, never yield: the chunks left are being stepped right now, and a yield
             // on a busy machine hands the core to another process for a whole time slice.
+            let mut spins = 0u32;
+            let mut waiting: Option<Instant> = None;
             while shared.finished.load(Ordering::Acquire) < chunks {
                 std::hint::spin_loop();
+                spins += 1;
+                if spins % 1024 == 0 {
+                    let since = *waiting.get_or_insert_with(Instant::now);
+                    if since.elapsed() > STALL {
+                        // A worker holding a chunk lost its core (other processes want the
+                        // cores too): stepping alone is faster for a while.
+                        pool.backoff_until
+                            .store(clock_ns() + BACKOFF.as_nanos() as u64, Ordering::Relaxed);
+                    }
+                }
             }
         }
     }
