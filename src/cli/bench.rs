@@ -35,6 +35,9 @@ pub enum BenchWhat {
         /// 1-thread figure is printed beside it.
         #[arg(long)]
         threads: Option<usize>,
+        /// Step kernel: scalar, avx2 or avx512 [default: the best the CPU runs].
+        #[arg(long, value_parser = ["scalar", "avx2", "avx512"])]
+        kernel: Option<String>,
         /// Check this part instead (a part file, or an STL mesh with --pitch). Without
         /// --plan the deposit order is constructive, for timing only: layer by layer, rows
         /// in y order walked boustrophedon along x, one fragment per layer (not
@@ -78,13 +81,24 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
         BenchWhat::Thermal {
             repeat,
             threads,
+            kernel,
             part: Some(path),
             mesh,
             plan,
-        } => bench_part(&path, &mesh, plan.as_deref(), threads, repeat.unwrap_or(1)),
+        } => bench_part(
+            &path,
+            &mesh,
+            plan.as_deref(),
+            threads,
+            kernel.as_deref(),
+            repeat.unwrap_or(1),
+        ),
         BenchWhat::Thermal {
-            repeat, threads, ..
-        } => bench_thermal(repeat.unwrap_or(3), threads),
+            repeat,
+            threads,
+            kernel,
+            ..
+        } => bench_thermal(repeat.unwrap_or(3), threads, kernel.as_deref()),
         BenchWhat::Planner {
             dir,
             all_up_to,
@@ -210,11 +224,26 @@ fn ring_order(part: &Part, side: i64, z: i64) -> Vec<usize> {
         .collect()
 }
 
-fn bench_thermal(repeat: usize, threads: Option<usize>) -> anyhow::Result<ExitCode> {
+/// The model stepped by the named kernel (the scalar one if the CPU lacks it).
+fn with_kernel(model: ThermalModel, kernel: Option<&str>) -> ThermalModel {
+    use waam_thermal::Simd;
+    match kernel {
+        Some("scalar") => model.with_simd(Simd::Scalar),
+        Some("avx2") => model.with_simd(Simd::Avx2),
+        Some("avx512") => model.with_simd(Simd::Avx512),
+        _ => model,
+    }
+}
+
+fn bench_thermal(
+    repeat: usize,
+    threads: Option<usize>,
+    kernel: Option<&str>,
+) -> anyhow::Result<ExitCode> {
     let (side, layers) = (26, 100);
     let part = hollow_tower(side, layers);
     let graph = WeldGraph::new(&part);
-    let model = ThermalModel::new(&part, &graph);
+    let model = with_kernel(ThermalModel::new(&part, &graph), kernel);
     let order: Vec<usize> = (0..layers)
         .flat_map(|z| ring_order(&part, side, z))
         .collect();
@@ -301,6 +330,7 @@ fn bench_part(
     mesh: &super::voxelize::MeshArgs,
     plan: Option<&std::path::Path>,
     threads: Option<usize>,
+    kernel: Option<&str>,
     repeat: usize,
 ) -> anyhow::Result<ExitCode> {
     let part = mesh.read_part_or_mesh(path)?;
@@ -317,7 +347,7 @@ fn bench_part(
         }
         None => constructive_order(&part),
     };
-    let model = ThermalModel::new(&part, &graph);
+    let model = with_kernel(ThermalModel::new(&part, &graph), kernel);
     let threads = threads.unwrap_or_else(waam_thermal::default_threads).max(1);
     let stop = super::node::stop_on_signal()?;
     let n = part.len();
