@@ -955,7 +955,8 @@ impl Kernel {
 /// step. Chunks are claimed, not assigned, so a worker the OS has not scheduled (other
 /// processes on the cores) delays nothing: the caller steps its chunks. A worker preempted
 /// while it holds a chunk does delay the step; after such a stall (> 0.3 ms) steps run on
-/// the caller's thread alone for 0.5 s, so an oversubscribed machine costs little. Idle workers spin
+/// the caller's thread alone for 0.5 s, doubling (up to 16 s) while stalls keep coming
+/// within 30 s of each other, so an oversubscribed machine costs little. Idle workers spin
 /// ~50 µs, then sleep on a condition variable.
 mod pool {
     use std::cell::UnsafeCell;
@@ -1052,12 +1053,19 @@ mod pool {
         epoch: AtomicU64,
         /// Steps run on the caller's thread alone until this time ([`clock_ns`]).
         backoff_until: AtomicU64,
+        /// Length of the last back-off, ns.
+        backoff: AtomicU64,
+        /// Time of the last stall ([`clock_ns`]).
+        last_stall: AtomicU64,
     }
 
     /// A wait this long for the workers' chunks means a worker was preempted mid-chunk.
     const STALL: Duration = Duration::from_micros(300);
-    /// After a stall, steps run single-threaded this long.
+    /// After a stall, steps run single-threaded this long; twice as long after each stall
+    /// that follows the last one within [`QUIET`], up to [`MAX_BACKOFF`].
     const BACKOFF: Duration = Duration::from_millis(500);
+    const MAX_BACKOFF: Duration = Duration::from_secs(16);
+    const QUIET: Duration = Duration::from_secs(30);
 
     /// Nanoseconds since the pool's first use.
     fn clock_ns() -> u64 {
@@ -1117,6 +1125,8 @@ mod pool {
                 busy: AtomicBool::new(false),
                 epoch: AtomicU64::new(0),
                 backoff_until: AtomicU64::new(0),
+                backoff: AtomicU64::new(0),
+                last_stall: AtomicU64::new(0),
             }
         }
     }
@@ -1150,16 +1160,28 @@ mod pool {
             // on a busy machine hands the core to another process for a whole time slice.
             let mut spins = 0u32;
             let mut waiting: Option<Instant> = None;
+            let mut stalled = false;
             while shared.finished.load(Ordering::Acquire) < chunks {
                 std::hint::spin_loop();
                 spins += 1;
-                if spins % 1024 == 0 {
+                if !stalled && spins % 1024 == 0 {
                     let since = *waiting.get_or_insert_with(Instant::now);
                     if since.elapsed() > STALL {
                         // A worker holding a chunk lost its core (other processes want the
-                        // cores too): stepping alone is faster for a while.
-                        pool.backoff_until
-                            .store(clock_ns() + BACKOFF.as_nanos() as u64, Ordering::Relaxed);
+                        // cores too): stepping alone is faster for a while, the longer the
+                        // more often it happens.
+                        stalled = true;
+                        let now = clock_ns();
+                        let quiet =
+                            now.saturating_sub(pool.last_stall.swap(now, Ordering::Relaxed));
+                        let len = if quiet > QUIET.as_nanos() as u64 {
+                            BACKOFF.as_nanos() as u64
+                        } else {
+                            (pool.backoff.load(Ordering::Relaxed) * 2)
+                                .clamp(BACKOFF.as_nanos() as u64, MAX_BACKOFF.as_nanos() as u64)
+                        };
+                        pool.backoff.store(len, Ordering::Relaxed);
+                        pool.backoff_until.store(now + len, Ordering::Relaxed);
                     }
                 }
             }
