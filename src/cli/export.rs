@@ -8,6 +8,7 @@ use anyhow::Context;
 use waam_export::{arm_configs, export, read_motion_dir, CellSettings, Format, Program};
 use waam_motion::robot::Robot;
 use waam_motion::toolpath::ProcessSettings;
+use waam_pipeline::Cell;
 
 use super::motion::RobotArgs;
 use super::EXIT_OK;
@@ -76,14 +77,14 @@ pub fn run(args: ExportArgs) -> anyhow::Result<ExitCode> {
     let cell = read_cell(args.cell.as_deref())?;
     let (settings, robot) = match &args.robot {
         Some(urdf) => {
-            let (s, r) = RobotArgs {
+            let cell = RobotArgs {
                 robot: urdf.clone(),
                 tcp: args.tcp.clone(),
                 tip: args.tip.clone(),
                 process: args.process.clone(),
             }
             .load()?;
-            (s, Some(r))
+            (cell.settings, Some(cell.robot))
         }
         None => {
             let s = match &args.process {
@@ -184,16 +185,12 @@ pub fn export_dir(
 
 /// `--export FORMAT` of `waam plan` / `waam layer plan`: the motion just written to `dir`
 /// as a program named WAAM in `dir`, with the default cell settings.
-pub fn export_default(
-    dir: &Path,
-    format: Format,
-    (settings, robot): &(ProcessSettings, Robot),
-) -> anyhow::Result<()> {
+pub fn export_default(dir: &Path, format: Format, cell: &Cell) -> anyhow::Result<()> {
     export_dir(
         dir,
         format,
-        Some(robot),
-        settings,
+        Some(&cell.robot),
+        &cell.settings,
         &CellSettings::default(),
         "WAAM",
         dir,
