@@ -798,3 +798,64 @@ fn plan_with_export_writes_the_program_beside_the_motion() {
         .count();
     assert_eq!(moves, tp.poses.len());
 }
+
+#[test]
+fn layer_plan_with_export_writes_an_inform_job_at_the_layer_weld_speed() {
+    let dir = tempfile::tempdir().unwrap();
+    let stdout = ok(&waam(&[
+        "-q",
+        "layer",
+        "plan",
+        "config/layers/paper-16mm.yaml",
+        "--robot",
+        "urdf/waam_robot.urdf",
+        "--out",
+        dir.path().to_str().unwrap(),
+        "--export",
+        "inform",
+    ]));
+    assert!(stdout.contains("EXPORT: inform"), "{stdout}");
+    let tp: ToolpathFile = serde_yaml::from_str(&read(dir.path(), "toolpath.yaml")).unwrap();
+    let job = read(dir.path(), "WAAM_1.JBI");
+    let positions = job
+        .lines()
+        .filter(|l| l.starts_with('C') && l.contains('='))
+        .count();
+    assert_eq!(positions, tp.poses.len());
+    // One ARCON/ARCOF pair per arc-on stretch of the trail (deadheading moves are arc off).
+    let stretches = tp
+        .poses
+        .windows(2)
+        .filter(|w| !w[0].arc_on && w[1].arc_on)
+        .count()
+        + tp.poses[0].arc_on as usize;
+    assert!(stretches >= 1);
+    assert_eq!(job.matches("\nARCON ").count(), stretches);
+    assert_eq!(job.matches("\nARCOF ").count(), stretches);
+    // The layer is welded at its own weld speed (10 mm/s in the paper's instance).
+    let layer =
+        std::fs::read_to_string(common::root().join("config/layers/paper-16mm.yaml")).unwrap();
+    let speed: f64 = layer
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("weld_speed_mm_s:"))
+        .and_then(|v| v.split('#').next().unwrap().trim().parse().ok())
+        .expect("the layer's weld speed");
+    let (mut arc, mut after_wait) = (false, false);
+    let mut weld_moves = 0;
+    for line in job.split("//INST").nth(1).unwrap().lines() {
+        if line.starts_with("ARCON") {
+            arc = true;
+        } else if line.starts_with("ARCOF") {
+            arc = false;
+        } else if line.starts_with("TIMER") {
+            after_wait = true;
+        } else if line.starts_with("MOVL") && std::mem::take(&mut after_wait) {
+            // The zero-length move after a dwell.
+        } else if arc && line.starts_with("MOVL") {
+            let v: f64 = line.split("V=").nth(1).unwrap().parse().unwrap();
+            assert!((v - speed).abs() < 0.06, "{line}: layer speed {speed}");
+            weld_moves += 1;
+        }
+    }
+    assert!(weld_moves > 10, "{weld_moves} weld moves");
+}

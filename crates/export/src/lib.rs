@@ -658,3 +658,171 @@ pub(crate) fn num(x: f64, d: usize) -> String {
         s
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use waam_motion::toolpath::ToolpathFilePose;
+    use waam_motion::trajectory::{TcpOffsetFile, TrajectoryFilePoint};
+
+    /// A straight motion along x: (x mm, time s, arc) per pose, fragment by arc stretch.
+    fn motion(poses: &[(f64, f64, bool)]) -> (ToolpathFile, TrajectoryFile) {
+        let tp = ToolpathFile {
+            frame: "base_link".into(),
+            poses: poses
+                .iter()
+                .map(|&(x, t, arc_on)| ToolpathFilePose {
+                    time: t,
+                    position: [x / 1000.0, 0.0, 0.0],
+                    orientation: [1.0, 0.0, 0.0, 0.0],
+                    arc_on,
+                    fragment: 0,
+                })
+                .collect(),
+        };
+        let traj = TrajectoryFile {
+            base_link: "base_link".into(),
+            tip_link: "tcp".into(),
+            tcp_offset: TcpOffsetFile {
+                position: [0.0; 3],
+                orientation: [0.0, 0.0, 0.0, 1.0],
+            },
+            joint_names: vec![],
+            points: poses
+                .iter()
+                .map(|&(_, t, arc_on)| TrajectoryFilePoint {
+                    positions: vec![],
+                    velocities: vec![],
+                    time_from_start: t,
+                    arc_on,
+                })
+                .collect(),
+        };
+        (tp, traj)
+    }
+
+    fn program(poses: &[(f64, f64, bool)]) -> Program {
+        let (tp, traj) = motion(poses);
+        Program::new(
+            "T",
+            &tp,
+            &traj,
+            Isometry3::identity(),
+            Isometry3::identity(),
+            None,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn moves_waits_and_arc_events_come_from_the_timeline() {
+        let p = program(&[
+            (0.0, 0.0, false),
+            (10.0, 0.1, true),
+            (10.0, 0.4, true),
+            (16.0, 1.4, true),
+            (16.0, 1.9, false),
+            (30.0, 2.04, false),
+        ]);
+        let how: Vec<Move> = p.targets.iter().map(|t| t.how).collect();
+        assert_eq!(how[0], Move::First);
+        assert!(matches!(how[1], Move::Linear { speed_mm_s } if (speed_mm_s - 100.0).abs() < 1e-9));
+        assert!(matches!(how[2], Move::Wait { duration_s } if (duration_s - 0.3).abs() < 1e-9));
+        assert!(matches!(how[3], Move::Linear { speed_mm_s } if (speed_mm_s - 6.0).abs() < 1e-9));
+        let arcs: Vec<Arc> = p.targets.iter().map(|t| t.arc).collect();
+        assert_eq!(
+            arcs,
+            [
+                Arc::Keep,
+                Arc::On,
+                Arc::Keep,
+                Arc::Keep,
+                Arc::Off,
+                Arc::Keep
+            ]
+        );
+        assert_eq!(p.passes(), 1);
+        assert_eq!(p.weld_speeds(), [6.0]);
+        // The robot formats need configurations; G-code does not.
+        assert!(matches!(
+            export(&p, Format::Rapid, &CellSettings::default()),
+            Err(ExportError::NeedsRobot { .. })
+        ));
+        let g = export(&p, Format::Gcode, &CellSettings::default()).unwrap();
+        assert!(g[0].text.contains("G4 P0.300\nG1 X10.000 Y0.000 Z0.000\n"));
+    }
+
+    #[test]
+    fn programs_split_only_where_the_arc_is_off() {
+        // Two passes of 4 targets with 2 transit targets before each.
+        let mut poses = Vec::new();
+        let mut t = 0.0;
+        for _ in 0..2 {
+            for (x, arc) in [
+                (0.0, false),
+                (5.0, false),
+                (10.0, true),
+                (15.0, true),
+                (20.0, true),
+                (25.0, false),
+            ] {
+                poses.push((x, t, arc));
+                t += 1.0;
+            }
+        }
+        let p = program(&poses);
+        assert_eq!(p.chunks(Format::Rapid, 100).unwrap(), [0..12]);
+        assert_eq!(p.chunks(Format::Rapid, 6).unwrap(), [0..6, 6..12]);
+        // Any target the arc is off on the way to may start a program; none inside a pass.
+        assert_eq!(p.chunks(Format::Rapid, 7).unwrap(), [0..7, 7..12]);
+        assert_eq!(p.chunks(Format::Rapid, 8).unwrap(), [0..8, 8..12]);
+        for max in 4..12 {
+            for r in p.chunks(Format::Rapid, max).unwrap() {
+                assert!(r.len() <= max && !p.targets[r.start].arc_during, "{max}: {r:?}");
+            }
+        }
+        assert!(matches!(
+            p.chunks(Format::Krl, 3),
+            Err(ExportError::PassTooLong { limit: 3, .. })
+        ));
+    }
+
+    #[test]
+    fn configuration_numbers_follow_the_documented_rules() {
+        let c = ArmConfig {
+            behind: true,
+            elbow_down: false,
+            wrist_negative: true,
+            joints_deg: vec![-30.0, 10.0, 20.0, 95.0, -40.0, -181.0],
+        };
+        assert_eq!(c.abb_confdata(), [-1, 1, -3, 5]);
+        assert_eq!(c.kuka_status(), 0b101);
+        assert_eq!(c.kuka_turn(), 0b110001);
+        assert_eq!(
+            [
+                ArmConfig::turn(0.0),
+                ArmConfig::turn(180.0),
+                ArmConfig::turn(181.0),
+                ArmConfig::turn(-181.0)
+            ],
+            [0, 0, 1, -1]
+        );
+        assert_eq!(fanuc::config_string(&c), "F U B, 0, 0, -1");
+    }
+
+    #[test]
+    fn cell_settings_name_the_bad_key() {
+        let e = CellSettings::from_yaml("voltage_v: -3\n").unwrap_err();
+        assert!(e.to_string().contains("voltage_v"), "{e}");
+        let e = CellSettings::from_yaml("max_targets: {rapid: 0}\n").unwrap_err();
+        assert!(e.to_string().contains("max_targets"), "{e}");
+        let e = CellSettings::from_yaml("volts: 3\n").unwrap_err();
+        assert!(e.to_string().contains("volts"), "{e}");
+        let s = CellSettings::from_yaml(include_str!("../../../config/export.yaml")).unwrap();
+        assert_eq!(
+            s,
+            CellSettings::default(),
+            "config/export.yaml holds the defaults"
+        );
+    }
+}
