@@ -771,7 +771,7 @@ mod tests {
             }
         }
         let p = program(&poses);
-        assert_eq!(p.chunks(Format::Rapid, 100).unwrap(), [0..12]);
+        assert_eq!(p.chunks(Format::Rapid, 100).unwrap(), vec![0..12]);
         assert_eq!(p.chunks(Format::Rapid, 6).unwrap(), [0..6, 6..12]);
         // Any target the arc is off on the way to may start a program; none inside a pass.
         assert_eq!(p.chunks(Format::Rapid, 7).unwrap(), [0..7, 7..12]);
