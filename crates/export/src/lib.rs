@@ -778,7 +778,10 @@ mod tests {
         assert_eq!(p.chunks(Format::Rapid, 8).unwrap(), [0..8, 8..12]);
         for max in 4..12 {
             for r in p.chunks(Format::Rapid, max).unwrap() {
-                assert!(r.len() <= max && !p.targets[r.start].arc_during, "{max}: {r:?}");
+                assert!(
+                    r.len() <= max && !p.targets[r.start].arc_during,
+                    "{max}: {r:?}"
+                );
             }
         }
         assert!(matches!(
