@@ -25,6 +25,10 @@ step "recording tests venv (scripts/py-venv.sh: mcap, mcap-ros2-support, rosbags
 WAAM_BAG_PYTHON="$(scripts/py-venv.sh | tail -1)"
 export WAAM_BAG_PYTHON
 
+step "export tests venv (scripts/export-venv.sh: rapidchecker, pygcode)"
+WAAM_EXPORT_PYTHON="$(scripts/export-venv.sh | tail -1)"
+export WAAM_EXPORT_PYTHON
+
 step "ROS 2 Jazzy venv (scripts/ros-venv.sh: rclpy, message packages, Fast DDS wheels)"
 WAAM_ROS_VENV="$(scripts/ros-venv.sh | tail -1)"
 export WAAM_ROS_VENV

@@ -164,6 +164,10 @@ pub struct PlanArgs {
     pub no_symmetry: bool,
     #[command(flatten, next_help_heading = "Robot motion")]
     pub robot: super::motion::OptionalRobotArgs,
+    /// With --robot and --out: also write the motion as a robot program in this format
+    /// into DIR (default cell settings; `waam export` takes others).
+    #[arg(long, value_name = "FORMAT", requires_all = ["robot", "out"], conflicts_with = "json", value_parser = super::export::format_parser())]
+    pub export: Option<waam_export::Format>,
     /// Record the run as a rosbag2 bag (MCAP) in the new directory DIR: the layer document,
     /// the statuses (objective, proof, gap), the motion's trajectory, poses, path, markers
     /// and weld plan (with --robot) and the temperature field over time.
@@ -374,7 +378,12 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
         print_result(&model, &r);
         match &motion {
             None => {}
-            Some(Ok((tp, traj))) => report_motion(tp, traj, args.out.as_deref())?,
+            Some(Ok((tp, traj))) => {
+                report_motion(tp, traj, args.out.as_deref())?;
+                if let (Some(format), Some(dir), Some(robot)) = (args.export, &args.out, &robot) {
+                    super::export::export_default(dir, format, robot)?;
+                }
+            }
             Some(Err(e)) => println!("NO MOTION: {e}"),
         }
     }

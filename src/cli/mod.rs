@@ -11,6 +11,7 @@ use waam_planner::Acyclicity;
 pub mod bag;
 pub mod bench;
 pub mod check;
+pub mod export;
 pub mod layer;
 pub mod motion;
 pub mod node;
@@ -61,6 +62,7 @@ pub struct GlobalArgs {
 pub enum Command {
     Bag(bag::BagArgs),
     Check(check::CheckArgs),
+    Export(export::ExportArgs),
     /// Thick-wall layers: plan, plot and benchmark one weld trail per layer.
     Layer(layer::LayerArgs),
     Plan(plan::PlanArgs),
@@ -78,6 +80,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Bag(args) => bag::run(args),
         Command::Check(args) => check::run(args),
+        Command::Export(args) => export::run(args),
         Command::Layer(args) => layer::run(args),
         Command::Plan(args) => plan::run(args, &cli.global),
         Command::Bench(args) => bench::run(args),

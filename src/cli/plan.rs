@@ -64,6 +64,10 @@ pub struct PlanArgs {
     /// --robot and the options of its motion (also recorded with --record).
     #[command(flatten)]
     pub robot: super::motion::OptionalRobotArgs,
+    /// With --robot and --out: also write the motion as a robot program in this format
+    /// into DIR (default cell settings; `waam export` takes others).
+    #[arg(long, value_name = "FORMAT", requires_all = ["robot", "out"], value_parser = super::export::format_parser())]
+    pub export: Option<waam_export::Format>,
 }
 
 pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
@@ -199,7 +203,10 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         planned = super::motion::plan_robot_motion(&part, found, cell);
         match &planned {
             Some(p) => {
-                super::motion::report_motion(&p.toolpath, &p.trajectory, args.out.as_deref())?
+                super::motion::report_motion(&p.toolpath, &p.trajectory, args.out.as_deref())?;
+                if let (Some(format), Some(dir)) = (args.export, &args.out) {
+                    super::export::export_default(dir, format, cell)?;
+                }
             }
             None => motion_ok = false,
         }
