@@ -77,15 +77,21 @@ pub fn weld_plan(
 pub const SETTING: &str = "planner.";
 
 /// The planner's settings as status values: `planner.acyclicity`, `planner.lookahead_budget`,
-/// `planner.max_fragments` (absent: the part's own) and `planner.timeout_s` (absent: none).
+/// `planner.solver`, `planner.max_fragments` (absent: the part's own) and
+/// `planner.timeout_s` (absent: none).
 pub fn settings(opts: &Options) -> Vec<KeyValue> {
     let name = clap::ValueEnum::to_possible_value(&opts.acyclicity).map_or_else(
         || format!("{:?}", opts.acyclicity),
         |v| v.get_name().to_string(),
     );
+    let solver = clap::ValueEnum::to_possible_value(&opts.solver).map_or_else(
+        || format!("{:?}", opts.solver),
+        |v| v.get_name().to_string(),
+    );
     let mut values = vec![
         KeyValue::new(format!("{SETTING}acyclicity"), name),
         KeyValue::new(format!("{SETTING}lookahead_budget"), opts.lookahead_budget),
+        KeyValue::new(format!("{SETTING}solver"), solver),
     ];
     if let Some(k) = opts.max_fragments {
         values.push(KeyValue::new(format!("{SETTING}max_fragments"), k));
@@ -111,6 +117,10 @@ pub fn options_from(values: &[(String, String)], base: &Options) -> Result<Optio
             "acyclicity" => {
                 opts.acyclicity = clap::ValueEnum::from_str(value, true)
                     .map_err(|_| bad("not an acyclicity method"))?
+            }
+            "solver" => {
+                opts.solver =
+                    clap::ValueEnum::from_str(value, true).map_err(|_| bad("not a SAT solver"))?
             }
             "lookahead_budget" => {
                 opts.lookahead_budget = value.parse().map_err(|_| bad("not a count"))?
@@ -338,6 +348,7 @@ mod tests {
             timeout: Some(std::time::Duration::from_secs(3)),
             max_fragments: Some(4),
             cancel: None,
+            solver: crate::planner::Backend::Varisat,
         };
         let values: Vec<(String, String)> = settings(&opts)
             .into_iter()
@@ -348,6 +359,7 @@ mod tests {
         assert_eq!(back.acyclicity, Acyclicity::Eager);
         assert_eq!(back.lookahead_budget, 7);
         assert_eq!(back.max_fragments, Some(4));
+        assert_eq!(back.solver, crate::planner::Backend::Varisat);
         assert_eq!(back.timeout, None, "replay never plans under a timeout");
         let bad = [("planner.acyclicity".to_string(), "sideways".to_string())];
         let err = options_from(&bad, &Options::default()).unwrap_err();

@@ -10,7 +10,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 use waam::part::Part;
 use waam::plan::Plan;
-use waam::planner::{self, Acyclicity, Options, Stats};
+use waam::planner::{self, Acyclicity, Backend, Options, Stats};
 
 use super::{GlobalArgs, EXIT_NO, EXIT_OK};
 
@@ -52,6 +52,10 @@ pub struct PlanArgs {
     /// How cycles are excluded: lazily by cuts between solves, or eagerly by a rank order.
     #[arg(long, value_enum, default_value_t = Acyclicity::Lazy)]
     pub acyclicity: Acyclicity,
+    /// The SAT solver: CaDiCaL (cycles kept out inside its search; stops inside a solve at
+    /// --timeout) or varisat (pure Rust; cycles cut between solves, stops between solves).
+    #[arg(long, value_enum, default_value_t = Backend::default())]
+    pub solver: Backend,
     /// Learn the plain violating prefix (as the paper) instead of proven shorter clauses.
     #[arg(long)]
     pub no_shortening: bool,
@@ -86,6 +90,7 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
             .transpose()?,
         max_fragments: args.max_fragments,
         cancel: None,
+        solver: args.solver,
     };
     if !args.json && !global.quiet {
         eprintln!(
