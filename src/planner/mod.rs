@@ -338,7 +338,7 @@ fn search_plans(
         }
     }
     let no_plan = match (&best, proven) {
-        (None, true) if !any_valid => Some(no_valid_plan(part, &graph, k, opts)),
+        (None, true) if !any_valid => Some(no_valid_plan(part, &graph, k, opts, started)),
         (None, true) => {
             let (block, times) = search
                 .violations
@@ -455,15 +455,29 @@ fn enumerate_from(
 
 /// Explains a part with no valid plan: the fewest fragments it needs, and a layer that
 /// alone needs more weld paths than allowed.
-fn no_valid_plan(part: &Part, graph: &WeldGraph, k: usize, opts: &Options) -> NoPlan {
+fn no_valid_plan(
+    part: &Part,
+    graph: &WeldGraph,
+    k: usize,
+    opts: &Options,
+    started: Instant,
+) -> NoPlan {
     let layer = layer_path_bound(part, graph)
         .into_iter()
         .filter(|&(_, paths, _)| paths > k)
         .max_by_key(|&(z, paths, _)| (paths, std::cmp::Reverse(z)));
-    // The fewest fragments, by asking the solver for structure only (bounded effort).
-    let needs_at_least = (k + 1..=part.len().min(k + 16)).find(|&f| {
-        let mut search = Search::new(part, graph, f, opts.acyclicity, 0, opts.solver);
-        search.next_candidate(&[]).is_some()
+    // The fewest fragments, by asking the solver for structure only (bounded effort, and
+    // within the run's deadline), from the layers' lower bound up.
+    let from = (k + 1).max(layer.map_or(0, |(_, paths, _)| paths));
+    let mut interrupted = false;
+    let needs_at_least = (from..=part.len().min(from + 15)).find(|&f| {
+        if interrupted {
+            return false;
+        }
+        let mut search = new_search(part, graph, f, opts, 0, started);
+        let found = search.next_candidate(&[]).is_some();
+        interrupted = search.interrupted;
+        found
     });
     NoPlan::NoValidPlan {
         max_fragments: k,
