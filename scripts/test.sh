@@ -11,7 +11,7 @@ step "formatting (cargo fmt --check)"
 cargo fmt --all -- --check
 
 step "lints (cargo clippy -D warnings)"
-cargo clippy --all-targets --all-features -- -D warnings
+cargo clippy --workspace --all-targets --all-features -- -D warnings
 
 # The independent checker lives beside the repo (shared/); the project's own tests do not
 # need it, but where it is present the cross-check against it runs too.
@@ -31,4 +31,4 @@ export WAAM_ROS_VENV
 
 # `milp` adds the MILP cross-check of the thick-wall layer search (pure Rust, light).
 step "tests (cargo test)"
-cargo test --all-targets --features milp
+cargo test --workspace --all-targets --all-features

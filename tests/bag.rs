@@ -84,12 +84,13 @@ fn info_names_a_file_that_is_not_a_bag() {
 /// violating prefix and the learned clause.
 #[test]
 fn plan_with_a_robot_records_the_motion_and_every_candidates_verdict() {
-    use waam::bag::{topics, Bag};
-    use waam::msgs::geometry_msgs::PoseArray;
-    use waam::msgs::trajectory_msgs::JointTrajectory;
-    use waam::msgs::visualization_msgs::MarkerArray;
-    use waam::msgs::waam_interfaces::{PlanCandidate, WeldPlan};
-    use waam::part::Part;
+    use waam_part::Part;
+    use waam_ros::topics;
+    use waam_rosbag::Bag;
+    use waam_rosmsg::geometry_msgs::PoseArray;
+    use waam_rosmsg::trajectory_msgs::JointTrajectory;
+    use waam_rosmsg::visualization_msgs::MarkerArray;
+    use waam_rosmsg::waam_interfaces::{PlanCandidate, WeldPlan};
 
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let part_path = root.join("config/parts/s1-wall.yaml");
@@ -117,7 +118,7 @@ fn plan_with_a_robot_records_the_motion_and_every_candidates_verdict() {
         assert_eq!(bag.count(topic), 1, "{topic} recorded once");
     }
     assert!(bag.count(topics::HEAT) > 0, "heat frames recorded");
-    fn only<M: waam::msgs::RosMessage>(bag: &Bag) -> M {
+    fn only<M: waam_rosmsg::RosMessage>(bag: &Bag) -> M {
         bag.decode_all::<M>().unwrap().remove(0).2
     }
     let trajectory: JointTrajectory = only(&bag);

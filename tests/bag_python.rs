@@ -76,7 +76,7 @@ fn python_mcap_reads_a_killed_recording_like_we_do() {
     let dir = tmp.path().join("killed");
     let flushed = recording::kill_a_recording(&dir, 300);
     let file = dir.join("killed_0.mcap");
-    let ours = waam::bag::Bag::open(&file).unwrap();
+    let ours = waam_rosbag::Bag::open(&file).unwrap();
     assert!(ours.truncated.is_some());
     let theirs = run_python(
         &python,
@@ -111,7 +111,7 @@ fn python_readers_decode_a_planning_session_with_motion() {
     let report = recording::last_json(&stdout);
     let candidates = report["stats"]["candidates"].as_u64().unwrap();
     // The heat frames are as many as the simulation makes; everything else is known.
-    let heat = waam::bag::Bag::open(&dir)
+    let heat = waam_rosbag::Bag::open(&dir)
         .unwrap()
         .topics
         .iter()

@@ -69,8 +69,8 @@ fn motion_then_plot_writes_yaml_and_pictures() {
         String::from_utf8_lossy(&run.stderr)
     );
     for (file, size) in [
-        ("toolpath.png", waam::plot::TOOLPATH_SIZE),
-        ("t85.png", waam::plot::T85_SIZE),
+        ("toolpath.png", waam_plot::TOOLPATH_SIZE),
+        ("t85.png", waam_plot::T85_SIZE),
     ] {
         let (w, h, pixels, bpp) = decode(&dir.path().join(file));
         assert_eq!((w, h), size, "{file}");
@@ -145,7 +145,7 @@ fn motion_errors_are_answers_not_crashes() {
 
 #[test]
 fn plot_draws_a_planned_layer_as_layer_plot_does() {
-    use waam::layer::plot::{TEMPERATURE_SIZE, TRAIL_SIZE};
+    use waam_plot::layer::{TEMPERATURE_SIZE, TRAIL_SIZE};
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().to_str().unwrap();
     let layer = "config/layers/paper-16mm.yaml";
@@ -175,7 +175,7 @@ fn plot_draws_a_planned_layer_as_layer_plot_does() {
     );
     let read = |file: &str| std::fs::read(dir.path().join(file)).unwrap();
     for (file, size) in [
-        ("toolpath.png", waam::plot::TOOLPATH_SIZE),
+        ("toolpath.png", waam_plot::TOOLPATH_SIZE),
         ("trail.png", TRAIL_SIZE),
         ("temperature.png", TEMPERATURE_SIZE),
     ] {

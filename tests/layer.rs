@@ -1,9 +1,9 @@
 //! Thick-wall layers: the file format's rules, the finite-element model, the search.
 
-use waam::layer::fem::Matrices;
-use waam::layer::mesh::Mesh;
-use waam::layer::output::TrailFile;
-use waam::layer::{search, Layer, Model, SearchOptions, Trail};
+use waam_layer::fem::Matrices;
+use waam_layer::mesh::Mesh;
+use waam_layer::output::TrailFile;
+use waam_layer::{search, Layer, Model, SearchOptions, Trail};
 
 const PAPER: &str = include_str!("../config/layers/paper-16mm.yaml");
 
@@ -165,7 +165,7 @@ fn mass_matrix_sums_to_the_meshed_area_and_the_walls_area() {
         let boundary: f64 = mesh
             .boundary
             .iter()
-            .map(|&[a, b]| waam::layer::format::dist(mesh.points[a], mesh.points[b]))
+            .map(|&[a, b]| waam_layer::format::dist(mesh.points[a], mesh.points[b]))
             .sum();
         assert!((boundary - 144.0).abs() < 1e-9, "boundary {boundary}");
     }
@@ -224,7 +224,7 @@ fn mesh_refinement_converges() {
     for refinement in 0..=3 {
         let mesh = Mesh::with_refinement(&layer, refinement);
         let at = mesh.nearest(probe);
-        assert!(waam::layer::format::dist(mesh.points[at], probe) < 1e-9);
+        assert!(waam_layer::format::dist(mesh.points[at], probe) < 1e-9);
         let model = Model::with_mesh(&layer, mesh).unwrap();
         let load: Vec<(usize, f64)> = (0..model.mesh.points.len())
             .map(|i| {
@@ -293,7 +293,7 @@ fn deadheading_count_is_the_chinese_postman_minimum() {
     assert_eq!(Model::new(&paper()).unwrap().deadheads, 1);
     assert_eq!(Model::new(&domino()).unwrap().deadheads, 0);
     let grid = Layer::parse(include_str!("../config/layers/grid-4x4.yaml")).unwrap();
-    assert_eq!(waam::layer::model::min_deadheads(&grid), 5);
+    assert_eq!(waam_layer::model::min_deadheads(&grid), 5);
 }
 
 #[test]
@@ -351,9 +351,9 @@ fn plots_are_png_files_of_the_requested_size() {
     let r = search(&model, &SearchOptions::default());
     let dir = tempfile::tempdir().unwrap();
     let (trail_png, temp_png) = (dir.path().join("trail.png"), dir.path().join("temp.png"));
-    waam::layer::plot::plot_trail(&model, &r.trail, &trail_png, (640, 480)).unwrap();
+    waam_plot::layer::plot_trail(&model, &r.trail, &trail_png, (640, 480)).unwrap();
     let node = model.mesh.nearest([8.0, 8.0]);
-    waam::layer::plot::plot_temperature(&model, &r.trail, node, &temp_png, (800, 500)).unwrap();
+    waam_plot::layer::plot_temperature(&model, &r.trail, node, &temp_png, (800, 500)).unwrap();
     for (path, (w, h)) in [(trail_png, (640u32, 480u32)), (temp_png, (800, 500))] {
         let bytes = std::fs::read(&path).unwrap();
         assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
@@ -363,7 +363,7 @@ fn plots_are_png_files_of_the_requested_size() {
         assert!(bytes.len() > 5000, "{} looks empty", path.display());
     }
     let missing = dir.path().join("x.png");
-    let err = waam::layer::plot::plot_temperature(&model, &r.trail, 10_000_000, &missing, (10, 10));
+    let err = waam_plot::layer::plot_temperature(&model, &r.trail, 10_000_000, &missing, (10, 10));
     assert!(err.unwrap_err().to_string().contains("does not exist"));
 }
 
@@ -449,14 +449,14 @@ segments:
 " + &PAPER[PAPER.find("process:").unwrap()..];
     for layer in [domino(), Layer::parse(&star).unwrap(), paper()] {
         let model = Model::new(&layer).unwrap();
-        let checked = waam::layer::search::check_bound(&model).unwrap();
+        let checked = waam_layer::search::check_bound(&model).unwrap();
         assert!(checked > 20, "{}: only {checked} prefixes", layer.name);
     }
 }
 
 #[test]
 fn local_search_keeps_trails_valid_and_never_worsens() {
-    use waam::layer::improve::improve;
+    use waam_layer::improve::improve;
     let model = Model::new(&paper()).unwrap();
     let r = search(
         &model,
@@ -472,7 +472,7 @@ fn local_search_keeps_trails_valid_and_never_worsens() {
         .moves
         .iter()
         .rev()
-        .map(|m| waam::layer::Move {
+        .map(|m| waam_layer::Move {
             reversed: !m.reversed,
             deadhead_before: false,
             ..*m
@@ -484,7 +484,7 @@ fn local_search_keeps_trails_valid_and_never_worsens() {
         let (start, _) = model.ends(&moves[k]);
         moves[k].deadhead_before = prev_end != start;
     }
-    let start = waam::layer::Trail { moves };
+    let start = waam_layer::Trail { moves };
     model.check_trail(&start).unwrap();
     let value = model.simulate(&start, None);
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(2);

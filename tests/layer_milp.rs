@@ -1,7 +1,7 @@
 //! The MILP of the paper's formulation and the branch and bound agree on a reduced layer.
 #![cfg(feature = "milp")]
 
-use waam::layer::{milp, search, Layer, Model, SearchOptions};
+use waam_layer::{milp, search, Layer, Model, SearchOptions};
 
 /// A triangle with a tail, every wall 4 mm long and welded in two 2 mm steps: four
 /// possible trails, no deadheading, a coarse mesh — small enough for a pure-Rust MILP.

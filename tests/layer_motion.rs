@@ -7,17 +7,18 @@ use std::time::Duration;
 
 use nalgebra::Point3;
 use serde_json::Value;
-use waam::bag::{topics, Bag};
-use waam::layer::output::TrailFile;
-use waam::layer::{search, Layer, Model, SearchOptions, SearchResult};
-use waam::motion::plan_layer_motion;
-use waam::msgs::diagnostic_msgs::DiagnosticArray;
-use waam::msgs::sensor_msgs::PointCloud2;
-use waam::msgs::std_msgs::String as RosString;
-use waam::msgs::trajectory_msgs::JointTrajectory;
-use waam::msgs::visualization_msgs::MarkerArray;
-use waam::msgs::waam_interfaces::{WeldPlan, WeldPoint};
-use waam::toolpath::{PoseKind, ProcessSettings};
+use waam_layer::output::TrailFile;
+use waam_layer::plan_layer_motion;
+use waam_layer::{search, Layer, Model, SearchOptions, SearchResult};
+use waam_motion::toolpath::{PoseKind, ProcessSettings};
+use waam_ros::topics;
+use waam_rosbag::Bag;
+use waam_rosmsg::diagnostic_msgs::DiagnosticArray;
+use waam_rosmsg::sensor_msgs::PointCloud2;
+use waam_rosmsg::std_msgs::String as RosString;
+use waam_rosmsg::trajectory_msgs::JointTrajectory;
+use waam_rosmsg::visualization_msgs::MarkerArray;
+use waam_rosmsg::waam_interfaces::{WeldPlan, WeldPoint};
 
 mod common;
 mod recording;
@@ -150,8 +151,8 @@ fn an_unreachable_layer_names_the_wall_and_gives_no_motion() {
 
 #[test]
 fn heat_frames_are_thinned_evenly_and_keep_the_last_step() {
-    use waam::layer::messages::heat_frames;
-    use waam::msgs::builtin_interfaces::Time;
+    use waam_ros::layer::heat_frames;
+    use waam_rosmsg::builtin_interfaces::Time;
     let model = model(PAPER);
     let r = quick_search(&model);
     let start = Time::from_nanos(1_000_000_000);

@@ -4,12 +4,12 @@ use std::path::PathBuf;
 use std::process::Command;
 
 use proptest::prelude::*;
-use waam::mesh::{
+use waam_mesh::{
     read_stl, voxelize, voxelize_indexed, MeshError, TriangleMesh, Units, VoxelizeOptions,
     WindowRule,
 };
-use waam::part::{Part, Window};
-use waam::part_writer;
+use waam_part::writer;
+use waam_part::{Part, Window};
 
 fn data(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -349,7 +349,7 @@ fn waam_voxelize_writes_a_part_file_that_reads_back() {
     assert_eq!(part.blocks(), ring.blocks());
     assert_eq!(part.windows(), ring.windows());
     assert_eq!(part.max_fragments, 2);
-    assert_eq!(part_writer::to_yaml(&part), text);
+    assert_eq!(writer::to_yaml(&part), text);
 
     let run = |args: &[&str]| {
         Command::new(env!("CARGO_BIN_EXE_waam"))

@@ -3,10 +3,10 @@
 
 mod common;
 
-use waam::motion::{plan_motion, MotionError};
-use waam::robot::{pose_error, Robot};
-use waam::toolpath::{PoseKind, ProcessSettings, Toolpath};
-use waam::trajectory::{JointTrajectory, TrajectoryError};
+use waam_motion::robot::{pose_error, Robot};
+use waam_motion::toolpath::{PoseKind, ProcessSettings, Toolpath};
+use waam_motion::trajectory::{JointTrajectory, TrajectoryError};
+use waam_motion::{plan_motion, MotionError};
 
 /// Checks everything the issue asks of a trajectory, independently of the library's
 /// own validation.
@@ -92,7 +92,7 @@ fn a_part_five_metres_away_names_the_first_unreachable_block() {
     let (part, fragments) = common::part_and_plan("s1-wall");
     let mut settings = ProcessSettings::default();
     settings.plate.position_m[0] += 5.0;
-    let first = waam::part::BlockDisplay(part.block(fragments[0][0])).to_string();
+    let first = waam_part::BlockDisplay(part.block(fragments[0][0])).to_string();
     for robot in [common::our_robot(), common::abb_robot()] {
         let err = plan_motion(&part, &fragments, &settings, &robot).unwrap_err();
         assert!(
@@ -111,7 +111,7 @@ fn a_part_five_metres_away_names_the_first_unreachable_block() {
 #[test]
 fn the_numeric_solver_follows_the_same_paths() {
     let settings = ProcessSettings {
-        ik_solver: waam::robot::Solver::Numeric,
+        ik_solver: waam_motion::robot::Solver::Numeric,
         ..ProcessSettings::default()
     };
     for robot in [common::our_robot(), common::abb_robot()] {
@@ -133,7 +133,7 @@ fn an_arm_without_a_spherical_wrist_uses_the_numeric_solver() {
         "<origin xyz=\"0 0.02 0\" rpy=\"0 0 0\"/>\n    <axis xyz=\"0 1 0\"/>\n    <limit lower=\"-2.00713\"",
     );
     assert_ne!(moved, text);
-    let choice = waam::robot::TcpChoice {
+    let choice = waam_motion::robot::TcpChoice {
         explicit: None,
         default: nalgebra::Isometry3::identity(),
     };
@@ -162,16 +162,17 @@ fn coarse_toolpaths_are_split_until_the_tcp_keeps_to_the_line() {
     };
     let robot = common::our_robot();
     let (part, fragments) = common::part_and_plan("s2-corner");
-    let passes = waam::toolpath::passes_from_plan(&part, &fragments);
-    let timing = waam::toolpath::WeldTiming::PerPoint(part.thermal.block_time_s);
-    let coarse = waam::toolpath::build(&passes, &settings, timing, "base_link").unwrap();
+    let passes = waam_motion::toolpath::passes_from_plan(&part, &fragments);
+    let timing = waam_motion::toolpath::WeldTiming::PerPoint(part.thermal.block_time_s);
+    let coarse = waam_motion::toolpath::build(&passes, &settings, timing, "base_link").unwrap();
     let (tp, traj) = plan_motion(&part, &fragments, &settings, &robot).unwrap();
     assert!(tp.poses.len() > coarse.poses.len(), "some steps were split");
     check(&robot, &tp, &traj, "s2-corner coarse");
     for k in 1..tp.poses.len() {
         let (a, b) = (&traj.points[k - 1].positions, &traj.points[k].positions);
         let mid: Vec<f64> = a.iter().zip(b).map(|(x, y)| 0.5 * (x + y)).collect();
-        let line = waam::trajectory::interpolate(&tp.poses[k - 1].pose, &tp.poses[k].pose, 0.5);
+        let line =
+            waam_motion::trajectory::interpolate(&tp.poses[k - 1].pose, &tp.poses[k].pose, 0.5);
         let (dp, dr) = pose_error(&robot.tcp_pose(&mid), &line);
         assert!(
             dp * 1000.0 <= settings.path_tolerance_mm + 1e-9,
@@ -188,7 +189,7 @@ fn output_files_have_exactly_the_documented_keys() {
     let robot = common::abb_robot();
     let (tp, traj) = plan_motion(&part, &fragments, &ProcessSettings::default(), &robot).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    waam::motion::write_outputs(dir.path(), &tp, &traj).unwrap();
+    waam_motion::write_outputs(dir.path(), &tp, &traj).unwrap();
     let read = |f: &str| -> serde_yaml::Value {
         serde_yaml::from_str(&std::fs::read_to_string(dir.path().join(f)).unwrap()).unwrap()
     };
@@ -230,8 +231,8 @@ fn output_files_have_exactly_the_documented_keys() {
         ["arc_on", "positions", "time_from_start", "velocities"]
     );
     // The files round-trip: FK of the written joints reproduces the written poses.
-    let tf: waam::toolpath::ToolpathFile = serde_yaml::from_value(t).unwrap();
-    let jf: waam::trajectory::TrajectoryFile = serde_yaml::from_value(j).unwrap();
+    let tf: waam_motion::toolpath::ToolpathFile = serde_yaml::from_value(t).unwrap();
+    let jf: waam_motion::trajectory::TrajectoryFile = serde_yaml::from_value(j).unwrap();
     for (p, q) in tf.poses.iter().zip(&jf.points) {
         assert_eq!(p.time, q.time_from_start);
         let (dp, dr) = pose_error(&robot.tcp_pose(&q.positions), &p.isometry());

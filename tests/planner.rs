@@ -7,9 +7,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use support::*;
-use waam::part::{Part, Window};
-
-use waam::planner::{self, Acyclicity, Backend, NoPlan, Options};
+use waam_part::{Part, Window};
+use waam_planner::{self as planner, Acyclicity, Backend, NoPlan, Options};
 
 /// (part, plans, feasible) from config/parts/COUNTS.md (a copy of shared/parts/COUNTS.md).
 fn expected_counts() -> Vec<(String, u64, u64)> {
@@ -89,7 +88,7 @@ fn small_part() -> impl Strategy<Value = Part> {
             for pick in picks.iter().take(size - 1) {
                 let mut frontier: Vec<[i64; 3]> = Vec::new();
                 for b in &blocks {
-                    for d in waam::graph::FACE_DIRS {
+                    for d in waam_part::graph::FACE_DIRS {
                         let c = [b[0] + d[0], b[1] + d[1], b[2] + d[2]];
                         let stands = c[2] == 0 || blocks.contains(&[c[0], c[1], c[2] - 1]);
                         if inside(c) && stands && !blocks.contains(&c) && !frontier.contains(&c) {
@@ -144,8 +143,8 @@ fn the_best_plan_is_feasible_with_fewest_fragments_and_best_margin() {
     assert!(report.proven);
     let best = report.best.unwrap();
     // Brute force: among feasible plans with the fewest fragments, the largest margin.
-    let graph = waam::graph::WeldGraph::new(&part);
-    let model = waam::thermal::ThermalModel::new(&part, &graph);
+    let graph = waam_part::graph::WeldGraph::new(&part);
+    let model = waam_thermal::ThermalModel::new(&part, &graph);
     let feasible: Vec<_> = brute_force_plans(&part, part.max_fragments)
         .into_iter()
         .filter(|p| is_feasible(&part, p))
@@ -154,7 +153,7 @@ fn the_best_plan_is_feasible_with_fewest_fragments_and_best_margin() {
     let best_margin = feasible
         .iter()
         .filter(|p| p.len() == fewest)
-        .map(|p| model.margin(&waam::thermal::simulate(&model, p).unwrap().crossings))
+        .map(|p| model.margin(&waam_thermal::simulate(&model, p).unwrap().crossings))
         .fold(f64::NEG_INFINITY, f64::max);
     assert_eq!(best.fragments.len(), fewest);
     assert!(
@@ -245,10 +244,10 @@ fn enumerated_plans_are_all_feasible_and_distinct() {
         .collect();
     assert_eq!(docs.len(), 21);
     let p = read_part("s1-wall");
-    let g = waam::graph::WeldGraph::new(&p);
+    let g = waam_part::graph::WeldGraph::new(&p);
     let mut seen = std::collections::HashSet::new();
     for d in docs {
-        let plan = waam::plan::Plan::from_bytes(d.as_bytes(), false).unwrap();
+        let plan = waam_part::plan::Plan::from_bytes(d.as_bytes(), false).unwrap();
         let idx = plan.validate(&p, &g).unwrap();
         assert!(is_feasible(&p, &idx));
         assert!(seen.insert(idx));

@@ -2,14 +2,14 @@
 
 mod common;
 
-use waam::graph::WeldGraph;
-use waam::thermal::{simulate, Simulation, ThermalModel};
+use waam_part::graph::WeldGraph;
+use waam_thermal::{simulate, Simulation, ThermalModel};
 
 #[test]
 fn temperature_curves_follow_the_thermal_model() {
     for name in ["s3-ring", "s7-pad", "ex3-h-column"] {
         let (part, fragments) = common::part_and_plan(name);
-        let curves = waam::plot::temperature_curves(&part, &fragments);
+        let curves = waam_plot::temperature_curves(&part, &fragments);
         assert_eq!(curves.len(), part.windows().len());
         let graph = WeldGraph::new(&part);
         let model = ThermalModel::new(&part, &graph);

@@ -15,10 +15,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
 use serde_json::{json, Value};
-use waam::graph::WeldGraph;
-use waam::part::{Block, Part};
-use waam::plan::Plan;
-use waam::thermal::{simulate, ThermalModel};
+use waam_part::graph::WeldGraph;
+use waam_part::plan::Plan;
+use waam_part::{Block, Part};
+use waam_thermal::{simulate, ThermalModel};
 
 /// SplitMix64: a fixed-seed generator, so that every run checks the same plans.
 struct Rng(u64);

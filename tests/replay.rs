@@ -4,9 +4,10 @@
 use std::path::Path;
 
 use serde_json::Value;
-use waam::bag::{topics, Bag};
-use waam::msgs::std_msgs::String as RosString;
-use waam::msgs::to_cdr;
+use waam_ros::topics;
+use waam_rosbag::Bag;
+use waam_rosmsg::std_msgs::String as RosString;
+use waam_rosmsg::to_cdr;
 
 mod recording;
 use recording::{copy_bag, run_ok, waam};
@@ -38,7 +39,7 @@ fn replay(bag: &Path, extra: &[&str]) -> (i32, Value) {
 fn copy_doctored(from: &Path, to: &Path, doctor: impl Fn(&str) -> String) {
     copy_bag(from, to, |topic, data| {
         if topic == topics::PART {
-            let part: RosString = waam::msgs::from_cdr(data).unwrap();
+            let part: RosString = waam_rosmsg::from_cdr(data).unwrap();
             Some(to_cdr(&RosString::from(doctor(&part.data).as_str())).unwrap())
         } else {
             Some(data.to_vec())

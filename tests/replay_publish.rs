@@ -7,8 +7,8 @@
 //! its own, so no other DDS traffic on the machine is reached.
 
 use serde_json::Value;
-use waam::bag::Bag;
-use waam::msgs::waam_interfaces::WeldPlan;
+use waam_rosbag::Bag;
+use waam_rosmsg::waam_interfaces::WeldPlan;
 
 mod recording;
 use recording::{run_isolated, waam};

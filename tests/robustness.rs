@@ -8,11 +8,11 @@ use std::time::Instant;
 
 use proptest::prelude::*;
 use serde_yaml::{Mapping, Value};
-use waam::graph::WeldGraph;
-use waam::mesh::{read_stl, voxelize, Units, VoxelizeOptions};
-use waam::part::Part;
-use waam::plan::Plan;
-use waam::thermal::{simulate, ThermalModel};
+use waam_mesh::{read_stl, voxelize, Units, VoxelizeOptions};
+use waam_part::graph::WeldGraph;
+use waam_part::plan::Plan;
+use waam_part::Part;
+use waam_thermal::{simulate, ThermalModel};
 
 const TOP_KEYS: [&str; 8] = [
     "name",

@@ -130,7 +130,7 @@ mod rust_peer {
         TopicKind,
     };
     use ros2_client::{Context, NodeName, NodeOptions, QosProfile};
-    use waam::node::ros::{DiscoveryRange, RosEnv};
+    use waam_ros::node::ros::{DiscoveryRange, RosEnv};
 
     /// `waam ARGS` on `domain`, loopback-only, its output captured.
     pub fn waam(args: &[&str], domain: u16) -> Child {
@@ -304,11 +304,11 @@ fn weld_plan_raw_cdr_decodes_against_the_msg_files() {
         .create_topic(
             &ros2_client::Name::new("/waam_planner/plan", "poses").unwrap(),
             ros2_client::MessageTypeName::new("geometry_msgs", "PoseArray"),
-            &waam::node::io::latched_qos(),
+            &waam_ros::node::io::latched_qos(),
         )
         .unwrap();
     let poses = node
-        .create_subscription::<waam::msgs::geometry_msgs::PoseArray>(&topic, None)
+        .create_subscription::<waam_rosmsg::geometry_msgs::PoseArray>(&topic, None)
         .unwrap();
     let pose_array = rust_peer::take_within(&poses, Duration::from_secs(60), "PoseArray");
     let (_, log) = rust_peer::finish(child, Duration::from_secs(60));
@@ -382,12 +382,12 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
     use ros2_client::action::{GetResultResponse, SendGoalResponse};
     use ros2_client::action_msgs::GoalStatusEnum;
     use ros2_client::{ActionTypeName, MessageTypeName, Name, QosProfile, ServiceMapping};
-    use waam::msgs::control_msgs::{
+    use waam_rosmsg::control_msgs::{
         FollowJointTrajectoryFeedback as Feedback, FollowJointTrajectoryGoal as Goal,
         FollowJointTrajectoryResult as FjtResult,
     };
-    use waam::msgs::std_msgs::Bool;
-    use waam::msgs::trajectory_msgs::JointTrajectory;
+    use waam_rosmsg::std_msgs::Bool;
+    use waam_rosmsg::trajectory_msgs::JointTrajectory;
 
     if ros_python().is_none() {
         return;
@@ -427,7 +427,7 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
         .create_topic(
             &Name::new("/waam_planner/plan", "joint_trajectory").unwrap(),
             MessageTypeName::new("trajectory_msgs", "JointTrajectory"),
-            &waam::node::io::latched_qos(),
+            &waam_ros::node::io::latched_qos(),
         )
         .unwrap();
     let trajectory_sub = node
@@ -618,11 +618,12 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
 fn a_mesh_the_node_recorded_replays_identically() {
     use std::time::{Duration, Instant};
 
-    use waam::bag::{topics, Bag};
-    use waam::msgs::geometry_msgs::Point;
-    use waam::msgs::shape_msgs::{Mesh, MeshTriangle};
-    use waam::msgs::waam_interfaces::{PlanCandidate, WeldPlan};
-    use waam::msgs::{from_cdr, to_cdr};
+    use waam_ros::topics;
+    use waam_rosbag::Bag;
+    use waam_rosmsg::geometry_msgs::Point;
+    use waam_rosmsg::shape_msgs::{Mesh, MeshTriangle};
+    use waam_rosmsg::waam_interfaces::{PlanCandidate, WeldPlan};
+    use waam_rosmsg::{from_cdr, to_cdr};
 
     if ros_python().is_none() {
         return;
@@ -660,7 +661,7 @@ fn a_mesh_the_node_recorded_replays_identically() {
         .create_topic(
             &ros2_client::Name::new("/waam_planner", "part_mesh").unwrap(),
             ros2_client::MessageTypeName::new("shape_msgs", "Mesh"),
-            &waam::node::io::input_qos(),
+            &waam_ros::node::io::input_qos(),
         )
         .unwrap();
     let sender = node.create_publisher::<Mesh>(&mesh_topic, None).unwrap();
@@ -668,7 +669,7 @@ fn a_mesh_the_node_recorded_replays_identically() {
         .create_topic(
             &ros2_client::Name::new("/waam_planner/plan", "weld_plan").unwrap(),
             ros2_client::MessageTypeName::new("waam_interfaces", "WeldPlan"),
-            &waam::node::io::latched_qos(),
+            &waam_ros::node::io::latched_qos(),
         )
         .unwrap();
     let plans = node

@@ -6,16 +6,16 @@ use std::time::Duration;
 
 use anyhow::Context;
 use serde_json::json;
-use waam::bag::planning::{statistics, PlanningRecorder};
-use waam::bag::sample::SampleSession;
-use waam::bag::{Bag, BagOptions, Recorder};
-use waam::motion::weld_speed;
-use waam::msgs::builtin_interfaces::Time;
-use waam::msgs::std_msgs::Header;
-use waam::node::convert::{PlanMessages, PlanSummary};
-use waam::part::Part;
-use waam::part_writer;
-use waam::planner::{Found, Options, Report};
+use waam_motion::weld_speed;
+use waam_part::writer;
+use waam_part::Part;
+use waam_planner::{Found, Options, Report};
+use waam_ros::node::convert::{PlanMessages, PlanSummary};
+use waam_ros::planning::{statistics, PlanningRecorder};
+use waam_ros::sample::SampleSession;
+use waam_rosbag::{Bag, BagOptions, Recorder};
+use waam_rosmsg::builtin_interfaces::Time;
+use waam_rosmsg::std_msgs::Header;
 
 use super::motion::Motion;
 use super::EXIT_OK;
@@ -187,23 +187,23 @@ fn info(args: InfoArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn echo(args: EchoArgs) -> anyhow::Result<ExitCode> {
-    use ros2_client::qos::{Durability, History};
+    use waam_rosbag::qos::{Durability, Qos};
     let timeout = Duration::try_from_secs_f64(args.timeout)
         .map_err(|_| anyhow::anyhow!("--timeout: expected seconds >= 0, got {}", args.timeout))?;
-    let mut qos =
-        ros2_client::QosProfile::publisher_default().history(History::KeepLast { depth: 100 });
-    if args.best_effort {
-        qos = qos.reliability_best_effort();
-    }
+    let mut qos = if args.best_effort {
+        Qos::best_effort(100)
+    } else {
+        Qos::reliable(100)
+    };
     if args.transient_local {
-        qos = qos.durability(Durability::TransientLocal);
+        qos.durability = Durability::TransientLocal;
     }
-    let context = waam::replay::publish::context_from_env()?;
-    let got = waam::replay::publish::echo(
+    let context = waam_ros::replay::publish::context_from_env()?;
+    let got = waam_ros::replay::publish::echo(
         &context,
         &args.topic,
         &args.type_name,
-        qos,
+        &qos,
         args.count,
         timeout,
         &mut |message| println!("{message}"),
@@ -251,7 +251,7 @@ pub fn start_planning(
 ) -> anyhow::Result<(Recorder, PlanningRecorder)> {
     let is_stl = |p: &Path| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("stl"));
     let text = match part_file {
-        Some(path) if is_stl(path) => part_writer::to_yaml(part),
+        Some(path) if is_stl(path) => writer::to_yaml(part),
         Some(path) => std::fs::read_to_string(path)
             .with_context(|| format!("cannot read part {}", path.display()))?,
         None => super::plan::DEFAULT_PART.to_string(),

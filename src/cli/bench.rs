@@ -5,10 +5,10 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use serde_json::json;
-use waam::graph::WeldGraph;
-use waam::part::Part;
-use waam::planner::{self, Options};
-use waam::thermal::{Simulation, ThermalModel};
+use waam_part::graph::WeldGraph;
+use waam_part::Part;
+use waam_planner::{self as planner, Options};
+use waam_thermal::{Simulation, ThermalModel};
 
 use super::{read_part, EXIT_OK};
 
@@ -39,8 +39,8 @@ pub enum BenchWhat {
         #[arg(long)]
         only: Option<String>,
         /// How cycles are excluded.
-        #[arg(long, value_enum, default_value_t = waam::planner::Acyclicity::Lazy)]
-        acyclicity: waam::planner::Acyclicity,
+        #[arg(long, value_parser = super::acyclicity_parser(), default_value = "lazy")]
+        acyclicity: waam_planner::Acyclicity,
     },
     /// Planner: first feasible plan and all feasible plans of each part file in DIR.
     Planner {
@@ -125,7 +125,7 @@ pub fn large_parts() -> Vec<Part> {
         for i in picks {
             part.set_window(
                 i,
-                waam::part::Window {
+                waam_part::Window {
                     min_s: 0.5,
                     max_s: 120.0,
                 },
@@ -138,7 +138,7 @@ pub fn large_parts() -> Vec<Part> {
 fn bench_large(
     timeout: f64,
     only: Option<&str>,
-    acyclicity: waam::planner::Acyclicity,
+    acyclicity: waam_planner::Acyclicity,
 ) -> anyhow::Result<ExitCode> {
     for part in large_parts() {
         if only.is_some_and(|o| !part.name.contains(o)) {

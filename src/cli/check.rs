@@ -5,10 +5,10 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use serde_json::json;
-use waam::graph::WeldGraph;
-use waam::part::BlockDisplay;
-use waam::plan::Plan;
-use waam::thermal::{self, ThermalModel};
+use waam_part::graph::WeldGraph;
+use waam_part::plan::Plan;
+use waam_part::BlockDisplay;
+use waam_thermal::{self as thermal, ThermalModel};
 
 use super::{EXIT_NO, EXIT_OK};
 

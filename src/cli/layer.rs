@@ -7,18 +7,18 @@ use std::time::Duration;
 use anyhow::Context;
 use clap::{Args, Subcommand};
 use serde_json::json;
-use waam::bag::Recorder;
-use waam::layer::messages::{
+use waam_layer::output::TrailFile;
+use waam_layer::plan_layer_motion;
+use waam_layer::{search, Layer, Model, SearchOptions, SearchResult};
+use waam_plot::layer::{plot_temperature, plot_trail, TEMPERATURE_SIZE, TRAIL_SIZE};
+use waam_ros::layer::{
     no_motion_status, plan_messages, planned_status, LayerRecording, MotionOutcome,
 };
-use waam::layer::output::TrailFile;
-use waam::layer::plot::{plot_temperature, plot_trail, TEMPERATURE_SIZE, TRAIL_SIZE};
-use waam::layer::{search, Layer, Model, SearchOptions, SearchResult};
-use waam::motion::plan_layer_motion;
-use waam::msgs::builtin_interfaces::Time;
-use waam::msgs::std_msgs::Header;
-use waam::node::once::publish_once;
-use waam::node::params::TopicParams;
+use waam_ros::node::once::publish_once;
+use waam_ros::node::params::TopicParams;
+use waam_rosbag::Recorder;
+use waam_rosmsg::builtin_interfaces::Time;
+use waam_rosmsg::std_msgs::Header;
 
 use super::motion::{report_motion, write_motion, MotionSummary};
 use super::{EXIT_NO, EXIT_OK};

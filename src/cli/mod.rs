@@ -5,7 +5,8 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
-use waam::part::Part;
+use waam_part::Part;
+use waam_planner::{Acyclicity, Backend};
 
 pub mod bag;
 pub mod bench;
@@ -88,7 +89,25 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     }
 }
 
+/// clap's parser of the planner's SAT solvers, each listed with its help line.
+pub fn solver_parser() -> impl clap::builder::TypedValueParser<Value = Backend> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser as _};
+    PossibleValuesParser::new(
+        Backend::ALL.map(|(_, name, help)| PossibleValue::new(name).help(help)),
+    )
+    .map(|name| name.parse().expect("clap accepts only listed names"))
+}
+
 /// Reads a part file, logging the reader's warnings.
+/// clap's parser of the planner's acyclicity methods, each listed with its help line.
+pub fn acyclicity_parser() -> impl clap::builder::TypedValueParser<Value = Acyclicity> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser as _};
+    PossibleValuesParser::new(
+        Acyclicity::ALL.map(|(_, name, help)| PossibleValue::new(name).help(help)),
+    )
+    .map(|name| name.parse().expect("clap accepts only listed names"))
+}
+
 pub fn read_part(path: &Path) -> anyhow::Result<Part> {
     let bytes =
         std::fs::read(path).with_context(|| format!("cannot read part {}", path.display()))?;

@@ -6,13 +6,13 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
-use waam::graph::WeldGraph;
-use waam::motion::{plan_motion, write_outputs};
-use waam::part::Part;
-use waam::plan::Plan;
-use waam::robot::{parse_xyz_rpy, Robot, TcpChoice};
-use waam::toolpath::{PoseKind, ProcessSettings, Toolpath};
-use waam::trajectory::JointTrajectory;
+use waam_motion::robot::{parse_xyz_rpy, Robot, TcpChoice};
+use waam_motion::toolpath::{PoseKind, ProcessSettings, Toolpath};
+use waam_motion::trajectory::JointTrajectory;
+use waam_motion::{plan_motion, write_outputs};
+use waam_part::graph::WeldGraph;
+use waam_part::plan::Plan;
+use waam_part::Part;
 
 use super::{read_part, EXIT_NO, EXIT_OK};
 

@@ -7,9 +7,9 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use clap::Args;
-use waam::node::params::NodeParams;
-use waam::node::pipeline::sat_planner;
-use waam::node::{Mode, RunOptions};
+use waam_ros::node::params::NodeParams;
+use waam_ros::node::pipeline::sat_planner;
+use waam_ros::node::{Mode, RunOptions};
 
 /// Run the ROS 2 node `waam_planner` beside a welding cell.
 ///
@@ -58,6 +58,6 @@ pub fn run(args: NodeArgs) -> anyhow::Result<ExitCode> {
         record: args.record,
         planner: sat_planner(),
     };
-    waam::node::run(options, Mode::Serve, stop_on_signal()?)?;
+    waam_ros::node::run(options, Mode::Serve, stop_on_signal()?)?;
     Ok(ExitCode::SUCCESS)
 }

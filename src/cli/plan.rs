@@ -8,9 +8,9 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
-use waam::part::Part;
-use waam::plan::Plan;
-use waam::planner::{self, Acyclicity, Backend, Options, Stats};
+use waam_part::plan::Plan;
+use waam_part::Part;
+use waam_planner::{self as planner, Acyclicity, Backend, Options, Stats};
 
 use super::{GlobalArgs, EXIT_NO, EXIT_OK};
 
@@ -50,11 +50,11 @@ pub struct PlanArgs {
     #[arg(long, value_name = "K")]
     pub max_fragments: Option<usize>,
     /// How cycles are excluded: lazily by cuts between solves, or eagerly by a rank order.
-    #[arg(long, value_enum, default_value_t = Acyclicity::Lazy)]
+    #[arg(long, value_parser = super::acyclicity_parser(), default_value = "lazy")]
     pub acyclicity: Acyclicity,
     /// The SAT solver: CaDiCaL (cycles kept out inside its search; stops inside a solve at
     /// --timeout) or varisat (pure Rust; cycles cut between solves, stops between solves).
-    #[arg(long, value_enum, default_value_t = Backend::default())]
+    #[arg(long, value_parser = super::solver_parser(), default_value = Backend::default().name())]
     pub solver: Backend,
     /// Learn the plain violating prefix (as the paper) instead of proven shorter clauses.
     #[arg(long)]

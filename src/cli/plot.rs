@@ -4,10 +4,10 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{bail, Context};
-use waam::graph::WeldGraph;
-use waam::plan::Plan;
-use waam::plot;
-use waam::toolpath::ToolpathFile;
+use waam_motion::toolpath::ToolpathFile;
+use waam_part::graph::WeldGraph;
+use waam_part::plan::Plan;
+use waam_plot as plot;
 
 use super::{read_part, EXIT_NO, EXIT_OK};
 

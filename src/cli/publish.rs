@@ -7,12 +7,12 @@ use std::time::Duration;
 
 use anyhow::Context;
 use clap::Args;
-use waam::graph::WeldGraph;
-use waam::msgs::waam_interfaces::PlanStatistics;
-use waam::node::pipeline::{sat_planner, PartInput, PlanFn, PlanRequest, PlannerOutput};
-use waam::node::{Mode, RunOptions};
-use waam::part::Part;
-use waam::plan::Plan;
+use waam_part::graph::WeldGraph;
+use waam_part::plan::Plan;
+use waam_part::Part;
+use waam_ros::node::pipeline::{sat_planner, PartInput, PlanFn, PlanRequest, PlannerOutput};
+use waam_ros::node::{Mode, RunOptions};
+use waam_rosmsg::waam_interfaces::PlanStatistics;
 
 use super::node::{load_params, stop_on_signal};
 use super::{EXIT_NO, EXIT_OK};
@@ -84,7 +84,7 @@ pub fn run(args: PublishArgs) -> anyhow::Result<ExitCode> {
         wait_for_subscriber: Duration::from_secs_f64(args.wait_for_subscriber),
         linger: Duration::from_secs_f64(args.linger),
     };
-    let ok = waam::node::run(options, mode, stop_on_signal()?)?;
+    let ok = waam_ros::node::run(options, mode, stop_on_signal()?)?;
     Ok(ExitCode::from(if ok { EXIT_OK } else { EXIT_NO }))
 }
 

@@ -6,13 +6,13 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use serde_json::json;
-use waam::bag::planning::{options_from, statistics, PlanningRecorder};
-use waam::bag::{Bag, Recorder};
-use waam::node::pipeline::MeshSettings;
-use waam::part::Part;
-use waam::part_writer;
-use waam::planner::{self, Acyclicity, Options, Stats};
-use waam::replay::{self, CaseInput, Replanned, Verdict};
+use waam_part::writer;
+use waam_part::Part;
+use waam_planner::{self as planner, Acyclicity, Options, Stats};
+use waam_ros::node::pipeline::MeshSettings;
+use waam_ros::planning::{options_from, statistics, PlanningRecorder};
+use waam_ros::replay::{self, CaseInput, Replanned, Verdict};
+use waam_rosbag::{Bag, Recorder};
 
 use super::{EXIT_BAD_INPUT, EXIT_NO, EXIT_OK};
 
@@ -43,7 +43,7 @@ pub struct ReplayArgs {
     #[arg(long, value_name = "K")]
     pub max_fragments: Option<usize>,
     /// How cycles are excluded (as `waam plan --acyclicity`), instead of the recorded setting.
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = super::acyclicity_parser())]
     pub acyclicity: Option<Acyclicity>,
     /// Learn plain violating prefixes (as `waam plan --no-shortening`), whatever was recorded.
     #[arg(long)]
@@ -81,7 +81,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     }
     let cases = replay::recorded_cases(&bag)?;
     if cases.is_empty() {
-        let layer_note = if bag.count(waam::bag::topics::LAYER) > 0 {
+        let layer_note = if bag.count(waam_ros::topics::LAYER) > 0 {
             "; it is a layer recording (`waam layer plan --record`), which replay does not \
              re-plan: `waam bag info` and `waam replay --publish` read it"
         } else {
@@ -134,7 +134,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
                 };
                 match settings.voxelize_message(name, mesh) {
                     Ok(part) => {
-                        let text = part_writer::to_yaml(&part);
+                        let text = writer::to_yaml(&part);
                         (part, text)
                     }
                     Err(e) => return Replanned::NoPlan(e),

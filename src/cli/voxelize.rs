@@ -4,9 +4,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{bail, Context};
-use waam::mesh::{self, Units, VoxelizeOptions, WindowRule, DEFAULT_MAX_CELLS};
-use waam::part::{Part, Window};
-use waam::part_writer;
+use waam_mesh::{self as mesh, Units, VoxelizeOptions, WindowRule, DEFAULT_MAX_CELLS};
+use waam_part::writer;
+use waam_part::{Part, Window};
 
 use super::EXIT_OK;
 
@@ -122,7 +122,7 @@ impl MeshArgs {
 
 pub fn run(args: VoxelizeArgs) -> anyhow::Result<ExitCode> {
     let part = args.options.voxelize(&args.mesh)?;
-    let text = part_writer::to_yaml(&part);
+    let text = writer::to_yaml(&part);
     // What we write must read back: a failure here is a bug of ours, not bad input.
     Part::parse(&text).context("internal error: the written part file does not read back")?;
     match &args.out {

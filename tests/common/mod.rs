@@ -5,10 +5,10 @@
 use std::path::PathBuf;
 
 use nalgebra::Isometry3;
-use waam::graph::WeldGraph;
-use waam::part::Part;
-use waam::plan::Plan;
-use waam::robot::{parse_xyz_rpy, Robot, TcpChoice};
+use waam_motion::robot::{parse_xyz_rpy, Robot, TcpChoice};
+use waam_part::graph::WeldGraph;
+use waam_part::plan::Plan;
+use waam_part::Part;
 
 pub fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

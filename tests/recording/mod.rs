@@ -31,8 +31,8 @@ pub fn last_json(stdout: &str) -> serde_json::Value {
 /// Copies a recording message by message, passing each message's CDR bytes through
 /// `doctor(topic, bytes)`; a message it maps to `None` is left out.
 pub fn copy_bag(from: &Path, to: &Path, doctor: impl Fn(&str, &[u8]) -> Option<Vec<u8>>) {
-    let bag = waam::bag::Bag::open(from).unwrap();
-    let recorder = waam::bag::Recorder::create(to).unwrap();
+    let bag = waam_rosbag::Bag::open(from).unwrap();
+    let recorder = waam_rosbag::Recorder::create(to).unwrap();
     for m in &bag.messages {
         let t = bag.topic_of(m);
         let Some(data) = doctor(&t.name, &m.data) else {

@@ -4,10 +4,10 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use waam::graph::WeldGraph;
-use waam::part::Part;
-use waam::plan::Plan;
-use waam::thermal::{self, ThermalModel};
+use waam_part::graph::WeldGraph;
+use waam_part::plan::Plan;
+use waam_part::Part;
+use waam_thermal::{self as thermal, ThermalModel};
 
 /// The repository root (where Cargo.toml is).
 pub fn root() -> PathBuf {

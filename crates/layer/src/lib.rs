@@ -1,0 +1,56 @@
+//! Thick-wall layers: one continuous weld trail (with the fewest deadheading moves) over
+//! a layer of walls, chosen to keep a finite-element temperature field near a target —
+//! the problem of Schmidt, Buhl and Fügenschuh, "A Finite Element Approach for Trajectory
+//! Optimization in Wire-Arc Additive Manufacturing" (2021), solved to proven optimality
+//! by branch and bound instead of a MILP.
+//!
+//! Data flows: [`format::Layer`] (the layer file) → [`mesh::Mesh`] → [`fem`] matrices and
+//! the implicit-Euler [`fem::Heat`] stepper → [`model::Model`] (torch positions, loads,
+//! schedule, objective) → [`search::search`] → a [`model::Trail`], written by
+//! [`output`] and drawn by [`plot`]; [`model::Model::passes`] hands it to the toolpath
+//! (`waam_motion::plan_layer_motion`) and [`messages`] to recordings and ROS 2.
+
+pub mod fem;
+pub mod format;
+pub mod improve;
+pub mod mesh;
+#[cfg(feature = "milp")]
+pub mod milp;
+pub mod model;
+pub mod output;
+
+pub mod search;
+pub mod symmetry;
+
+pub use format::{Layer, LayerError};
+pub use model::{Model, Move, Trail};
+pub use search::{search, SearchOptions, SearchResult};
+
+use waam_motion::robot::Robot;
+use waam_motion::toolpath::{ProcessSettings, Toolpath, WeldTiming};
+use waam_motion::trajectory::JointTrajectory;
+use waam_motion::{plan_passes, MotionError};
+
+/// Toolpath and joint trajectory for a layer trail: one pass per run between deadheading
+/// moves (the arc is off on each of them), welded at the layer's own weld speed so the torch
+/// moves as the finite-element model assumed. Errors name the wall.
+pub fn plan_layer_motion(
+    model: &Model,
+    trail: &Trail,
+    settings: &ProcessSettings,
+    robot: &Robot,
+) -> Result<(Toolpath, JointTrajectory), MotionError> {
+    let (passes, segments) = model.passes_with_segments(trail);
+    let timing = WeldTiming::Speed(model.layer.process.weld_speed_mm_s);
+    plan_passes(&passes, timing, settings, robot).map_err(|mut e| {
+        if let MotionError::Trajectory(t) = &mut e {
+            if let Some(at) = t.at_mut() {
+                at.block = segments
+                    .get(at.fragment)
+                    .and_then(|f| f.get(at.point))
+                    .map(|&s| model.layer.segment_name(s));
+            }
+        }
+        e
+    })
+}

@@ -1,0 +1,87 @@
+//! From weld passes to robot motion: [`toolpath`] (torch poses, arc-on/off markers,
+//! transits), [`robot`] (a URDF arm and its inverse kinematics) and [`trajectory`] (a timed,
+//! validated joint trajectory).
+//!
+//! [`plan_motion`] turns a plan's fragments (and `waam_layer::plan_layer_motion` a layer's
+//! trail) into weld passes, the passes into a toolpath (torch poses, arc-on/off markers, transits) and
+//! the toolpath into a validated joint trajectory for the robot; [`write_outputs`] writes
+//! `toolpath.yaml` and `trajectory.yaml`.
+
+use std::path::Path;
+
+pub mod robot;
+pub mod toolpath;
+pub mod trajectory;
+
+use thiserror::Error;
+
+use crate::robot::Robot;
+use crate::toolpath::{ProcessSettings, Toolpath, ToolpathError, WeldPass, WeldTiming};
+use crate::trajectory::{JointTrajectory, TrajectoryError};
+use waam_part::{BlockDisplay, Part};
+
+/// Why no motion could be planned.
+#[derive(Debug, Error)]
+pub enum MotionError {
+    #[error(transparent)]
+    Toolpath(#[from] ToolpathError),
+    #[error(transparent)]
+    Trajectory(#[from] TrajectoryError),
+}
+
+/// Toolpath and joint trajectory for a block plan (fragments of block indices). Errors
+/// name the block and the pose.
+pub fn plan_motion(
+    part: &Part,
+    fragments: &[Vec<usize>],
+    settings: &ProcessSettings,
+    robot: &Robot,
+) -> Result<(Toolpath, JointTrajectory), MotionError> {
+    let passes = toolpath::passes_from_plan(part, fragments);
+    let timing = match settings.weld_speed_mm_s {
+        Some(v) => WeldTiming::Speed(v),
+        None => WeldTiming::PerPoint(part.thermal.block_time_s),
+    };
+    plan_passes(&passes, timing, settings, robot).map_err(|mut e| {
+        if let MotionError::Trajectory(t) = &mut e {
+            if let Some(at) = t.at_mut() {
+                let block = fragments
+                    .get(at.fragment)
+                    .and_then(|f| f.get(at.point))
+                    .map(|&b| format!("block {}", BlockDisplay(part.block(b))));
+                at.block = block;
+            }
+        }
+        e
+    })
+}
+
+/// The torch speed while welding a block plan, m/s: the process settings' weld speed, else
+/// one block length per block time.
+pub fn weld_speed(part: &Part, settings: &ProcessSettings) -> f64 {
+    match settings.weld_speed_mm_s {
+        Some(v) => v / 1000.0,
+        None => part.block_mm[0] / 1000.0 / part.thermal.block_time_s,
+    }
+}
+
+/// Toolpath and joint trajectory for any weld passes (block plans, layer trails).
+pub fn plan_passes(
+    passes: &[WeldPass],
+    timing: WeldTiming,
+    settings: &ProcessSettings,
+    robot: &Robot,
+) -> Result<(Toolpath, JointTrajectory), MotionError> {
+    let robot = robot.clone().with_solver(settings.ik_solver);
+    let mut tp = toolpath::build(passes, settings, timing, &robot.base_link)?;
+    let traj = trajectory::plan_trajectory(&robot, &mut tp, settings)?;
+    Ok((tp, traj))
+}
+
+/// Writes `DIR/toolpath.yaml` and `DIR/trajectory.yaml` (creating DIR).
+pub fn write_outputs(dir: &Path, tp: &Toolpath, traj: &JointTrajectory) -> std::io::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    std::fs::write(dir.join("toolpath.yaml"), tp.to_yaml())?;
+    std::fs::write(dir.join("trajectory.yaml"), traj.to_yaml())?;
+    Ok(())
+}

@@ -1,0 +1,612 @@
+//! Toolpaths: torch poses with arc-on / arc-off markers, approach, retract and transit.
+//!
+//! The input is a list of [`WeldPass`]es — torch target points along which the arc
+//! burns — so that block plans ([`passes_from_plan`]) and other planners (layer trails)
+//! feed the same builder. For each pass [`build`] emits:
+//!
+//! transit at safe height (arc off) → approach along the torch axis → **arc-on marker**
+//! at the first point → dwell → one weld pose per point (plus interpolated poses) →
+//! **arc-off marker** after the dwell at the last point → retract along the torch axis.
+//!
+//! A pose's `arc_on` is the arc's state from that pose on: the arc-on marker is the first
+//! pose with the arc on, the arc-off marker the first with it off again.
+
+pub mod settings;
+
+use std::fmt::Write as _;
+
+use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+pub use settings::{ProcessSettings, SettingsError};
+use waam_part::Part;
+
+/// One weld path: torch target points (TCP) in the part frame, mm; the arc burns along it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WeldPass {
+    pub points_mm: Vec<Point3<f64>>,
+}
+
+/// One pass per fragment, one point per block at the top centre of the block (the torch
+/// rises one layer height on an up move).
+pub fn passes_from_plan(part: &Part, fragments: &[Vec<usize>]) -> Vec<WeldPass> {
+    fragments
+        .iter()
+        .map(|f| WeldPass {
+            points_mm: f
+                .iter()
+                .map(|&b| {
+                    let c = part.centre_mm(part.block(b));
+                    Point3::new(c[0], c[1], c[2] + 0.5 * part.block_mm[2])
+                })
+                .collect(),
+        })
+        .collect()
+}
+
+/// How long the torch takes from one weld point to the next.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum WeldTiming {
+    /// The same time for every step, s (a block plan: the thermal model's `block_time_s`).
+    PerPoint(f64),
+    /// A constant speed, mm/s.
+    Speed(f64),
+}
+
+/// What a pose is for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PoseKind {
+    Transit,
+    Approach,
+    /// The arc turns on here (first point of a pass).
+    ArcOn,
+    Weld,
+    /// The arc turns off here (last point of a pass, after the dwell).
+    ArcOff,
+    Retract,
+}
+
+/// One TCP pose of a toolpath.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ToolPose {
+    /// Time from the start, s.
+    pub time_s: f64,
+    /// The TCP in the robot's base link (m); z is the wire direction.
+    pub pose: Isometry3<f64>,
+    /// The arc's state from this pose on.
+    pub arc_on: bool,
+    /// Index of the pass (fragment) this pose belongs to, from 0.
+    pub fragment: usize,
+    /// Index of the pass point this pose is at (weld, markers) or next to (approach:
+    /// the first point; retract: the last; transit: the next pass's first point).
+    pub point: usize,
+    pub kind: PoseKind,
+    /// True at a pass point itself, false for an interpolated pose.
+    pub at_point: bool,
+}
+
+/// A toolpath: poses in time order, in the robot's base link.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Toolpath {
+    /// The frame of every pose (the robot's base link).
+    pub frame: String,
+    pub poses: Vec<ToolPose>,
+}
+
+/// A toolpath that cannot be built.
+#[derive(Debug, Error, PartialEq)]
+pub enum ToolpathError {
+    #[error("no weld passes")]
+    NoPasses,
+    #[error("weld pass {0} has no points")]
+    EmptyPass(usize),
+    #[error("weld pass {pass} point {point} is not a finite point")]
+    BadPoint { pass: usize, point: usize },
+}
+
+/// A waypoint in the part frame while building.
+#[derive(Debug, Clone, Copy)]
+struct Way {
+    p: Point3<f64>,
+    r: UnitQuaternion<f64>,
+}
+
+struct Builder<'a> {
+    s: &'a ProcessSettings,
+    plate: Isometry3<f64>,
+    poses: Vec<ToolPose>,
+    at: Option<Way>,
+    time: f64,
+}
+
+impl Builder<'_> {
+    /// Moves in a straight line (position and rotation) from the current waypoint to `to`
+    /// in `duration` s, emitting interpolated poses; the last gets `last_kind`/`last_arc`.
+    #[allow(clippy::too_many_arguments)]
+    fn line(
+        &mut self,
+        to: Way,
+        duration: f64,
+        kind: PoseKind,
+        arc: bool,
+        last_kind: PoseKind,
+        last_arc: bool,
+        fragment: usize,
+        point: usize,
+        at_point: bool,
+    ) {
+        let Some(from) = self.at else {
+            self.push(to, kind, arc, fragment, point, at_point);
+            return;
+        };
+        let dist = (to.p - from.p).norm();
+        let rel = to.r * from.r.inverse();
+        let angle = rel.angle();
+        let n = ((dist / self.s.max_step_mm).ceil())
+            .max((angle.to_degrees() / self.s.max_step_deg).ceil())
+            .max(1.0) as usize;
+        let axis = rel.axis().unwrap_or(Vector3::z_axis());
+        for k in 1..=n {
+            let t = k as f64 / n as f64;
+            let way = Way {
+                p: from.p + (to.p - from.p) * t,
+                r: UnitQuaternion::from_axis_angle(&axis, angle * t) * from.r,
+            };
+            self.time += duration / n as f64;
+            if k == n {
+                self.push(to, last_kind, last_arc, fragment, point, at_point);
+            } else {
+                self.push(way, kind, arc, fragment, point, false);
+            }
+        }
+    }
+
+    /// A transit/approach/retract line at the transit speed (skipped when too short).
+    fn travel(&mut self, to: Way, kind: PoseKind, fragment: usize, point: usize) {
+        let from = self.at.expect("travel starts from a pose");
+        let dist = (to.p - from.p).norm();
+        if dist < 1e-6 && to.r.angle_to(&from.r) < 1e-9 {
+            return;
+        }
+        let duration = dist / self.s.transit_speed_mm_s;
+        self.line(
+            to, duration, kind, false, kind, false, fragment, point, false,
+        );
+    }
+
+    fn push(
+        &mut self,
+        w: Way,
+        kind: PoseKind,
+        arc_on: bool,
+        fragment: usize,
+        point: usize,
+        at_point: bool,
+    ) {
+        let part = Isometry3::from_parts(Translation3::from(w.p.coords / 1000.0), w.r);
+        let mut pose = self.plate * part;
+        // Keep consecutive quaternions in one hemisphere: no sign flips.
+        if let Some(prev) = self.poses.last() {
+            if prev.pose.rotation.coords.dot(&pose.rotation.coords) < 0.0 {
+                pose.rotation = UnitQuaternion::new_unchecked(-pose.rotation.into_inner());
+            }
+        }
+        self.poses.push(ToolPose {
+            time_s: self.time,
+            pose,
+            arc_on,
+            fragment,
+            point,
+            kind,
+            at_point,
+        });
+        self.at = Some(w);
+    }
+}
+
+/// The torch's travel heading at each point of a pass: the bisector of the incoming and
+/// outgoing horizontal moves (a corner turns in two halves, a U-turn over an up move in
+/// two quarter turns); a point without horizontal moves keeps the previous heading.
+fn headings(points: &[Point3<f64>], mut carry: Vector3<f64>) -> Vec<Vector3<f64>> {
+    let horizontal = |a: &Point3<f64>, b: &Point3<f64>| {
+        let d = Vector3::new(b.x - a.x, b.y - a.y, 0.0);
+        (d.norm() > 1e-9).then(|| d.normalize())
+    };
+    let n = points.len();
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        let h_in = (i > 0)
+            .then(|| horizontal(&points[i - 1], &points[i]))
+            .flatten();
+        let h_out = (i + 1 < n)
+            .then(|| horizontal(&points[i], &points[i + 1]))
+            .flatten();
+        let a = h_in.or(if i == 0 { h_out } else { None }).unwrap_or(carry);
+        let b = h_out.unwrap_or(a);
+        let sum = a + b;
+        let h = if sum.norm() < 1e-9 {
+            Vector3::new(-a.y, a.x, 0.0)
+        } else {
+            sum.normalize()
+        };
+        out.push(h);
+        carry = h;
+    }
+    out
+}
+
+/// The torch orientation for a heading: z (the wire) points down, tilted forward by the
+/// travel angle and sideways by the work angle. The torch does not spin about its own
+/// axis: its frame is the vertical torch (x along the part's +x, z down) tilted the
+/// shortest way, so rings and spirals do not wind up the last joint.
+fn torch_rotation(h: &Vector3<f64>, s: &ProcessSettings) -> UnitQuaternion<f64> {
+    let (alpha, beta) = (
+        s.travel_angle_deg.to_radians(),
+        s.work_angle_deg.to_radians(),
+    );
+    let down = -Vector3::z();
+    let z0 = down * alpha.cos() + h * alpha.sin();
+    let z = UnitQuaternion::from_axis_angle(&Unit::new_normalize(*h), beta) * z0;
+    let vertical = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI);
+    let tilt = UnitQuaternion::rotation_between(&down, &z).unwrap_or_else(UnitQuaternion::identity);
+    tilt * vertical
+}
+
+/// Builds the toolpath of the passes, in the robot's `frame` (the base link).
+pub fn build(
+    passes: &[WeldPass],
+    settings: &ProcessSettings,
+    timing: WeldTiming,
+    frame: &str,
+) -> Result<Toolpath, ToolpathError> {
+    if passes.is_empty() {
+        return Err(ToolpathError::NoPasses);
+    }
+    for (f, pass) in passes.iter().enumerate() {
+        if pass.points_mm.is_empty() {
+            return Err(ToolpathError::EmptyPass(f));
+        }
+        if let Some(p) = pass
+            .points_mm
+            .iter()
+            .position(|p| !p.iter().all(|v| v.is_finite()))
+        {
+            return Err(ToolpathError::BadPoint { pass: f, point: p });
+        }
+    }
+    let s = settings;
+    let mut b = Builder {
+        s,
+        plate: s.plate.isometry(),
+        poses: Vec::new(),
+        at: None,
+        time: 0.0,
+    };
+    let back_off = |w: &Way| Way {
+        p: w.p - (w.r * Vector3::z()) * s.approach_mm,
+        r: w.r,
+    };
+    // The tallest point welded so far (the plate's surface at first).
+    let mut tallest = 0.0f64;
+    let mut heading = Vector3::x();
+    for (f, pass) in passes.iter().enumerate() {
+        let pts = &pass.points_mm;
+        let hs = headings(pts, heading);
+        heading = *hs.last().expect("a pass has points");
+        let ways: Vec<Way> = pts
+            .iter()
+            .zip(&hs)
+            .map(|(p, h)| Way {
+                p: *p,
+                r: torch_rotation(h, s),
+            })
+            .collect();
+        let approach = back_off(&ways[0]);
+        let mut safe = (tallest + s.clearance_mm).max(approach.p.z);
+        match b.at {
+            None => {
+                let start = Way {
+                    p: Point3::new(approach.p.x, approach.p.y, safe),
+                    r: approach.r,
+                };
+                b.line(
+                    start,
+                    0.0,
+                    PoseKind::Transit,
+                    false,
+                    PoseKind::Transit,
+                    false,
+                    f,
+                    0,
+                    false,
+                );
+            }
+            Some(at) => {
+                safe = safe.max(at.p.z);
+                b.travel(
+                    Way {
+                        p: Point3::new(at.p.x, at.p.y, safe),
+                        r: at.r,
+                    },
+                    PoseKind::Transit,
+                    f,
+                    0,
+                );
+                b.travel(
+                    Way {
+                        p: Point3::new(approach.p.x, approach.p.y, safe),
+                        r: approach.r,
+                    },
+                    PoseKind::Transit,
+                    f,
+                    0,
+                );
+            }
+        }
+        b.travel(approach, PoseKind::Transit, f, 0);
+        // Approach along the torch axis; its last pose is the arc-on marker.
+        let dist = (ways[0].p - approach.p).norm();
+        b.line(
+            ways[0],
+            dist / s.transit_speed_mm_s,
+            PoseKind::Approach,
+            false,
+            PoseKind::ArcOn,
+            true,
+            f,
+            0,
+            true,
+        );
+        b.time += s.arc_on_dwell_s;
+        b.push(ways[0], PoseKind::Weld, true, f, 0, true);
+        for i in 1..ways.len() {
+            let step = match timing {
+                WeldTiming::PerPoint(t) => t,
+                WeldTiming::Speed(v) => (ways[i].p - ways[i - 1].p).norm() / v,
+            };
+            b.line(
+                ways[i],
+                step,
+                PoseKind::Weld,
+                true,
+                PoseKind::Weld,
+                true,
+                f,
+                i,
+                true,
+            );
+        }
+        let last = ways.len() - 1;
+        b.time += s.arc_off_dwell_s;
+        b.push(ways[last], PoseKind::ArcOff, false, f, last, true);
+        b.travel(back_off(&ways[last]), PoseKind::Retract, f, last);
+        tallest = pts.iter().map(|p| p.z).fold(tallest, f64::max);
+    }
+    // Leave the part: up to safe height above the last retract.
+    let at = b.at.expect("poses were emitted");
+    let f = passes.len() - 1;
+    let safe = (tallest + s.clearance_mm).max(at.p.z);
+    b.travel(
+        Way {
+            p: Point3::new(at.p.x, at.p.y, safe),
+            r: at.r,
+        },
+        PoseKind::Transit,
+        f,
+        passes[f].points_mm.len() - 1,
+    );
+    Ok(Toolpath {
+        frame: frame.to_string(),
+        poses: b.poses,
+    })
+}
+
+/// `toolpath.yaml`: exactly these keys (SI units, quaternions [x, y, z, w]).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ToolpathFile {
+    pub frame: String,
+    pub poses: Vec<ToolpathFilePose>,
+}
+
+/// One pose of `toolpath.yaml`.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ToolpathFilePose {
+    pub time: f64,
+    pub position: [f64; 3],
+    pub orientation: [f64; 4],
+    pub arc_on: bool,
+    pub fragment: usize,
+}
+
+impl ToolpathFilePose {
+    /// The pose as an isometry.
+    pub fn isometry(&self) -> Isometry3<f64> {
+        let [x, y, z, w] = self.orientation;
+        Isometry3::from_parts(
+            Translation3::new(self.position[0], self.position[1], self.position[2]),
+            UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z)),
+        )
+    }
+}
+
+impl Toolpath {
+    /// The file form of the toolpath.
+    pub fn to_file(&self) -> ToolpathFile {
+        ToolpathFile {
+            frame: self.frame.clone(),
+            poses: self
+                .poses
+                .iter()
+                .map(|p| {
+                    let t = p.pose.translation.vector;
+                    let q = p.pose.rotation.coords;
+                    ToolpathFilePose {
+                        time: p.time_s,
+                        position: [t.x, t.y, t.z],
+                        orientation: [q.x, q.y, q.z, q.w],
+                        arc_on: p.arc_on,
+                        fragment: p.fragment,
+                    }
+                })
+                .collect(),
+        }
+    }
+
+    /// `toolpath.yaml` text, one pose per line.
+    pub fn to_yaml(&self) -> String {
+        let file = self.to_file();
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "frame: {}",
+            serde_json::to_string(&file.frame).expect("a string")
+        );
+        out.push_str("poses:\n");
+        for p in &file.poses {
+            let _ = writeln!(
+                out,
+                "  - {{time: {:?}, position: {}, orientation: {}, arc_on: {}, fragment: {}}}",
+                p.time,
+                list(&p.position),
+                list(&p.orientation),
+                p.arc_on,
+                p.fragment
+            );
+        }
+        out
+    }
+}
+
+/// A flow-style YAML list of floats written to full precision.
+pub(crate) fn list(v: &[f64]) -> String {
+    let items: Vec<String> = v.iter().map(|x| format!("{x:?}")).collect();
+    format!("[{}]", items.join(", "))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn straight(n: usize) -> WeldPass {
+        WeldPass {
+            points_mm: (0..n)
+                .map(|i| Point3::new(6.0 * i as f64, 0.0, 2.5))
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn a_pass_has_markers_dwells_and_transits() {
+        let s = ProcessSettings::default();
+        let tp = build(
+            &[straight(3), straight(2)],
+            &s,
+            WeldTiming::PerPoint(1.0),
+            "base_link",
+        )
+        .unwrap();
+        let kinds: Vec<PoseKind> = tp.poses.iter().map(|p| p.kind).collect();
+        assert_eq!(kinds.iter().filter(|k| **k == PoseKind::ArcOn).count(), 2);
+        assert_eq!(kinds.iter().filter(|k| **k == PoseKind::ArcOff).count(), 2);
+        // Times strictly increase.
+        assert!(tp.poses.windows(2).all(|w| w[1].time_s > w[0].time_s));
+        // The arc is on exactly from each arc-on marker to the next arc-off marker.
+        let mut on = false;
+        for p in &tp.poses {
+            match p.kind {
+                PoseKind::ArcOn => {
+                    assert!(!on && p.arc_on);
+                    on = true;
+                }
+                PoseKind::ArcOff => {
+                    assert!(on && !p.arc_on);
+                    on = false;
+                }
+                _ => assert_eq!(p.arc_on, on, "{:?}", p.kind),
+            }
+        }
+        // Weld: three key poses in pass 0, one block time apart after the dwell.
+        let keys: Vec<&ToolPose> = tp
+            .poses
+            .iter()
+            .filter(|p| p.fragment == 0 && p.kind == PoseKind::Weld && p.at_point)
+            .collect();
+        assert_eq!(keys.len(), 3);
+        assert!((keys[1].time_s - keys[0].time_s - 1.0).abs() < 1e-12);
+        let on = tp.poses.iter().find(|p| p.kind == PoseKind::ArcOn).unwrap();
+        assert!((keys[0].time_s - on.time_s - s.arc_on_dwell_s).abs() < 1e-12);
+        // Weld poses sit on the points (plate offset added, metres).
+        let plate = s.plate.isometry();
+        let expect = plate * Point3::new(0.012, 0.0, 0.0025);
+        assert!((keys[2].pose.translation.vector - expect.coords).norm() < 1e-12);
+        // Transit clears the tallest block by the clearance.
+        let top = tp
+            .poses
+            .iter()
+            .filter(|p| p.kind == PoseKind::Transit)
+            .map(|p| p.pose.translation.z)
+            .fold(f64::MIN, f64::max);
+        assert!(top >= plate.translation.z + 0.0025 + 0.020 - 1e-12);
+        // Steps stay within the resolution.
+        for w in tp.poses.windows(2) {
+            let d = (w[1].pose.translation.vector - w[0].pose.translation.vector).norm();
+            assert!(d <= s.max_step_mm / 1000.0 + 1e-12);
+            assert!(w[0].pose.rotation.coords.dot(&w[1].pose.rotation.coords) >= 0.0);
+        }
+    }
+
+    #[test]
+    fn the_torch_leans_along_travel_and_keeps_heading_on_up_moves() {
+        let s = ProcessSettings::default();
+        let pass = WeldPass {
+            points_mm: vec![
+                Point3::new(0.0, 0.0, 2.5),
+                Point3::new(6.0, 0.0, 2.5),
+                Point3::new(6.0, 0.0, 5.0),
+                Point3::new(0.0, 0.0, 5.0),
+            ],
+        };
+        let hs = headings(&pass.points_mm, Vector3::x());
+        assert!((hs[0] - Vector3::x()).norm() < 1e-12);
+        assert!(
+            (hs[1] - Vector3::x()).norm() < 1e-12,
+            "up move keeps the heading"
+        );
+        assert!(hs[2].x.abs() < 1e-12, "a U-turn turns in quarters");
+        assert!((hs[3] + Vector3::x()).norm() < 1e-12);
+        let r = torch_rotation(&Vector3::x(), &s);
+        let z = r * Vector3::z();
+        assert!(
+            z.z < 0.0 && z.x > 0.0,
+            "push: the wire points down and forward"
+        );
+        assert!((z.x - s.travel_angle_deg.to_radians().sin()).abs() < 1e-12);
+        // The torch does not spin with the heading: its x axis stays near the part's +x.
+        for h in [Vector3::x(), Vector3::y(), -Vector3::x(), -Vector3::y()] {
+            let r = torch_rotation(&h, &s);
+            assert!((r * Vector3::x()).x > 0.98, "{h}");
+            let tilt = (r * Vector3::z()).angle(&-Vector3::z());
+            assert!((tilt - s.travel_angle_deg.to_radians()).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn empty_input_is_refused() {
+        let s = ProcessSettings::default();
+        assert_eq!(
+            build(&[], &s, WeldTiming::PerPoint(1.0), "b"),
+            Err(ToolpathError::NoPasses)
+        );
+        let e = build(
+            &[straight(1), WeldPass { points_mm: vec![] }],
+            &s,
+            WeldTiming::PerPoint(1.0),
+            "b",
+        );
+        assert_eq!(e, Err(ToolpathError::EmptyPass(1)));
+    }
+}

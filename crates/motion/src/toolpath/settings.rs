@@ -1,0 +1,207 @@
+//! Process settings: where the part sits, how the torch is held and how fast it moves.
+//! The documented file is `config/process.yaml`; every key is optional (defaults below).
+
+use nalgebra::Isometry3;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::robot::{xyz_rpy, Solver};
+
+/// A process-settings file that cannot be used, naming the key.
+#[derive(Debug, Error)]
+pub enum SettingsError {
+    #[error("not valid process settings: {0}")]
+    Yaml(String),
+    #[error("{key}: {reason}")]
+    Value { key: &'static str, reason: String },
+}
+
+/// A pose given as a position (m) and roll-pitch-yaw angles (degrees, URDF convention:
+/// roll about x, then pitch about y, then yaw about z, all in the fixed frame).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PoseSetting {
+    pub position_m: [f64; 3],
+    #[serde(default)]
+    pub rpy_deg: [f64; 3],
+}
+
+impl PoseSetting {
+    pub fn isometry(&self) -> Isometry3<f64> {
+        xyz_rpy(&self.position_m, &self.rpy_deg.map(f64::to_radians))
+    }
+}
+
+/// The process settings (see `config/process.yaml` for the meaning of each key).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ProcessSettings {
+    /// The part frame (z = 0 on the plate's top surface) in the robot's base link.
+    pub plate: PoseSetting,
+    /// The TCP in the tip link, for a URDF without a `tcp` link and no `--tcp`.
+    pub tcp: PoseSetting,
+    /// Torch tilt along the travel direction, degrees: + push (wire leads), - drag.
+    pub travel_angle_deg: f64,
+    /// Torch tilt across the travel direction, degrees: + leans the wire to the left.
+    pub work_angle_deg: f64,
+    /// Weld speed, mm/s; `null`: one block per the part's `block_time_s`.
+    pub weld_speed_mm_s: Option<f64>,
+    /// TCP speed on transit, approach and retract moves, mm/s (joint limits may slow it).
+    pub transit_speed_mm_s: f64,
+    /// Transit height above the tallest block welded so far, mm.
+    pub clearance_mm: f64,
+    /// Approach and retract distance along the torch axis, mm.
+    pub approach_mm: f64,
+    /// Dwell at the first block after arc-on, s.
+    pub arc_on_dwell_s: f64,
+    /// Dwell at the last block before arc-off (crater fill), s.
+    pub arc_off_dwell_s: f64,
+    /// Longest straight step between toolpath poses, mm.
+    pub max_step_mm: f64,
+    /// Largest torch rotation between toolpath poses, degrees.
+    pub max_step_deg: f64,
+    /// Fraction of each URDF joint velocity limit the trajectory may use, (0, 1].
+    pub joint_speed_scale: f64,
+    /// How far the TCP may stray from the straight line between two poses while the
+    /// joints move linearly, mm; longer steps are split.
+    pub path_tolerance_mm: f64,
+    /// The same for the torch's orientation, degrees.
+    pub path_tolerance_deg: f64,
+    /// Inverse kinematics: `auto` (analytic OPW where the arm fits, else numeric) or
+    /// `numeric` (damped least squares only).
+    pub ik_solver: Solver,
+}
+
+impl Default for ProcessSettings {
+    fn default() -> Self {
+        ProcessSettings {
+            plate: PoseSetting {
+                position_m: [0.80, -0.05, 0.35],
+                rpy_deg: [0.0, 0.0, 0.0],
+            },
+            tcp: PoseSetting {
+                position_m: [0.0, 0.0, 0.35],
+                rpy_deg: [0.0, 0.0, 0.0],
+            },
+            travel_angle_deg: 10.0,
+            work_angle_deg: 0.0,
+            weld_speed_mm_s: None,
+            transit_speed_mm_s: 100.0,
+            clearance_mm: 20.0,
+            approach_mm: 15.0,
+            arc_on_dwell_s: 0.3,
+            arc_off_dwell_s: 0.5,
+            max_step_mm: 5.0,
+            max_step_deg: 5.0,
+            joint_speed_scale: 1.0,
+            path_tolerance_mm: 0.2,
+            path_tolerance_deg: 0.5,
+            ik_solver: Solver::Auto,
+        }
+    }
+}
+
+impl ProcessSettings {
+    /// Reads a settings file's text; missing keys take their defaults.
+    pub fn from_yaml(text: &str) -> Result<ProcessSettings, SettingsError> {
+        let s: ProcessSettings = if text.trim().is_empty() {
+            ProcessSettings::default()
+        } else {
+            serde_yaml::from_str(text).map_err(|e| SettingsError::Yaml(e.to_string()))?
+        };
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// Checks every value's range.
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let bad = |key: &'static str, reason: &str| SettingsError::Value {
+            key,
+            reason: reason.to_string(),
+        };
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        if !finite(&self.plate.position_m) || !finite(&self.plate.rpy_deg) {
+            return Err(bad("plate", "every value must be a finite number"));
+        }
+        if !finite(&self.tcp.position_m) || !finite(&self.tcp.rpy_deg) {
+            return Err(bad("tcp", "every value must be a finite number"));
+        }
+        let angle = |key, v: f64| {
+            if v.is_finite() && v.abs() < 60.0 {
+                Ok(())
+            } else {
+                Err(bad(
+                    key,
+                    &format!("must be within -60..60 degrees, got {v}"),
+                ))
+            }
+        };
+        angle("travel_angle_deg", self.travel_angle_deg)?;
+        angle("work_angle_deg", self.work_angle_deg)?;
+        let positive = |key, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(bad(key, &format!("must be a number > 0, got {v}")))
+            }
+        };
+        if let Some(v) = self.weld_speed_mm_s {
+            positive("weld_speed_mm_s", v)?;
+        }
+        positive("transit_speed_mm_s", self.transit_speed_mm_s)?;
+        positive("approach_mm", self.approach_mm)?;
+        positive("arc_on_dwell_s", self.arc_on_dwell_s)?;
+        positive("arc_off_dwell_s", self.arc_off_dwell_s)?;
+        positive("max_step_mm", self.max_step_mm)?;
+        positive("max_step_deg", self.max_step_deg)?;
+        positive("path_tolerance_mm", self.path_tolerance_mm)?;
+        positive("path_tolerance_deg", self.path_tolerance_deg)?;
+        if !(self.clearance_mm.is_finite() && self.clearance_mm >= 0.0) {
+            return Err(bad(
+                "clearance_mm",
+                &format!("must be a number >= 0, got {}", self.clearance_mm),
+            ));
+        }
+        let s = self.joint_speed_scale;
+        if !(s.is_finite() && s > 0.0 && s <= 1.0) {
+            return Err(bad(
+                "joint_speed_scale",
+                &format!("must be in (0, 1], got {s}"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_bundled_file_holds_the_defaults() {
+        let text = include_str!("../../../../config/process.yaml");
+        assert_eq!(
+            ProcessSettings::from_yaml(text).unwrap(),
+            ProcessSettings::default()
+        );
+    }
+
+    #[test]
+    fn bad_values_name_their_key() {
+        let e = ProcessSettings::from_yaml("clearence_mm: 3\n").unwrap_err();
+        assert!(
+            e.to_string().contains("unknown field `clearence_mm`"),
+            "{e}"
+        );
+        let e = ProcessSettings::from_yaml("approach_mm: 0\n").unwrap_err();
+        assert_eq!(e.to_string(), "approach_mm: must be a number > 0, got 0");
+        let e = ProcessSettings::from_yaml("travel_angle_deg: 75\n").unwrap_err();
+        assert!(e.to_string().starts_with("travel_angle_deg:"), "{e}");
+        let e = ProcessSettings::from_yaml("joint_speed_scale: 1.5\n").unwrap_err();
+        assert!(e.to_string().starts_with("joint_speed_scale:"), "{e}");
+        let e = ProcessSettings::from_yaml("ik_solver: magic\n").unwrap_err();
+        assert!(e.to_string().contains("magic"), "{e}");
+        let s = ProcessSettings::from_yaml("weld_speed_mm_s: 8\n").unwrap();
+        assert_eq!(s.weld_speed_mm_s, Some(8.0));
+    }
+}

@@ -1,0 +1,150 @@
+//! The weld graph of a part (part-format.md, "The weld graph").
+//!
+//! Vertices are the blocks (by index); a directed edge runs from a block to each existing
+//! block one step sideways within its layer or one layer straight up: the torch never
+//! moves down. The graph also keeps the six face neighbours of every block, which the
+//! thermal model needs, so that neighbour lists are computed once per part.
+
+use crate::Part;
+
+/// Marks an absent neighbour in the fixed-size neighbour arrays.
+pub const NONE: u32 = u32::MAX;
+
+/// Face-neighbour order used everywhere (also the summation order of the heat flux):
+/// -x, +x, -y, +y, -z, +z. Opposite directions differ in the lowest bit (`k ^ 1`).
+pub const FACE_DIRS: [[i64; 3]; 6] = [
+    [-1, 0, 0],
+    [1, 0, 0],
+    [0, -1, 0],
+    [0, 1, 0],
+    [0, 0, -1],
+    [0, 0, 1],
+];
+
+/// Weld-graph moves: sideways within a layer or one layer up.
+pub const MOVES: [[i64; 3]; 5] = [[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, 1]];
+
+/// The weld graph in compressed adjacency form, plus face neighbours.
+#[derive(Debug, Clone)]
+pub struct WeldGraph {
+    succ_start: Vec<u32>,
+    succ: Vec<u32>,
+    pred_start: Vec<u32>,
+    pred: Vec<u32>,
+    faces: Vec<[u32; 6]>,
+}
+
+impl WeldGraph {
+    pub fn new(part: &Part) -> WeldGraph {
+        let n = part.len();
+        let faces: Vec<[u32; 6]> = part
+            .blocks()
+            .iter()
+            .map(|&b| FACE_DIRS.map(|d| part.neighbour(b, d).map_or(NONE, |j| j as u32)))
+            .collect();
+        let mut succ_start = Vec::with_capacity(n + 1);
+        let mut succ = Vec::with_capacity(n * 3);
+        for f in &faces {
+            succ_start.push(succ.len() as u32);
+            // MOVES are FACE_DIRS without -z: faces 0..4 and 5.
+            succ.extend(
+                [f[0], f[1], f[2], f[3], f[5]]
+                    .into_iter()
+                    .filter(|&j| j != NONE),
+            );
+        }
+        succ_start.push(succ.len() as u32);
+        let mut pred_count = vec![0u32; n + 1];
+        for &j in &succ {
+            pred_count[j as usize + 1] += 1;
+        }
+        for i in 0..n {
+            pred_count[i + 1] += pred_count[i];
+        }
+        let pred_start = pred_count.clone();
+        let mut fill = pred_count;
+        let mut pred = vec![0u32; succ.len()];
+        for i in 0..n {
+            for &j in &succ[succ_start[i] as usize..succ_start[i + 1] as usize] {
+                pred[fill[j as usize] as usize] = i as u32;
+                fill[j as usize] += 1;
+            }
+        }
+        WeldGraph {
+            succ_start,
+            succ,
+            pred_start,
+            pred,
+            faces,
+        }
+    }
+
+    /// Number of blocks (vertices).
+    pub fn len(&self) -> usize {
+        self.faces.len()
+    }
+
+    /// True for a graph without vertices (never for a graph of a part).
+    pub fn is_empty(&self) -> bool {
+        self.faces.is_empty()
+    }
+
+    /// Number of directed edges.
+    pub fn edge_count(&self) -> usize {
+        self.succ.len()
+    }
+
+    /// Blocks the torch may move to from `i`.
+    pub fn successors(&self, i: usize) -> &[u32] {
+        &self.succ[self.succ_start[i] as usize..self.succ_start[i + 1] as usize]
+    }
+
+    /// Blocks the torch may come to `i` from.
+    pub fn predecessors(&self, i: usize) -> &[u32] {
+        &self.pred[self.pred_start[i] as usize..self.pred_start[i + 1] as usize]
+    }
+
+    /// Whether `a -> b` is an edge.
+    pub fn has_edge(&self, a: usize, b: usize) -> bool {
+        self.successors(a).contains(&(b as u32))
+    }
+
+    /// The six face neighbours of `i` in [`FACE_DIRS`] order, [`NONE`] where absent.
+    pub fn faces(&self, i: usize) -> [u32; 6] {
+        self.faces[i]
+    }
+
+    /// The block directly below `i`, if any.
+    pub fn below(&self, i: usize) -> Option<usize> {
+        let j = self.faces[i][4];
+        (j != NONE).then_some(j as usize)
+    }
+
+    /// The block directly above `i`, if any.
+    pub fn above(&self, i: usize) -> Option<usize> {
+        let j = self.faces[i][5];
+        (j != NONE).then_some(j as usize)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn edges_go_sideways_and_up_never_down() {
+        let part = Part::parse(
+            "name: t\nblock_mm: [1,1,1]\nmax_fragments: 1\nblocks: [[0,0,0],[1,0,0],[0,0,1]]\n",
+        )
+        .unwrap();
+        let g = WeldGraph::new(&part);
+        let (a, b, c) = (0, 1, 2); // [0,0,0], [1,0,0], [0,0,1]
+        assert!(g.has_edge(a, b) && g.has_edge(b, a) && g.has_edge(a, c));
+        assert!(!g.has_edge(c, a) && !g.has_edge(b, c) && !g.has_edge(c, b));
+        assert_eq!(g.edge_count(), 3);
+        assert_eq!(g.predecessors(c), &[a as u32]);
+        assert_eq!(g.below(c), Some(a));
+        assert_eq!(g.above(a), Some(c));
+        assert_eq!(g.below(a), None);
+    }
+}

@@ -1,0 +1,531 @@
+//! The SAT planner: at most k weld paths that together deposit every block once, moving
+//! sideways or up, never welding under what stands, whose cooling keeps every t8/5 window
+//! — or a proof that there is none.
+//!
+//! The objective of [`plan`]: fewest fragments (arc starts) first, then the largest
+//! worst-case margin of any t8/5 value to its window's bounds. Fragment counts are tried
+//! from 1 up under an assumption, so everything the solver learns carries over; within the
+//! smallest count that has a feasible plan, every feasible plan found narrows the windows
+//! by its margin, so the next one found is strictly better, until none is left.
+
+pub mod cadical;
+pub mod encoding;
+pub mod sat;
+mod search;
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+use thiserror::Error;
+
+use waam_part::graph::WeldGraph;
+use waam_part::plan::Plan;
+use waam_part::{Block, Part};
+use waam_thermal::{self as thermal, ThermalModel};
+
+pub use encoding::Acyclicity;
+pub use sat::Backend;
+use search::{Search, Verdict};
+
+/// How the planner searches.
+#[derive(Debug, Clone)]
+pub struct Options {
+    pub acyclicity: Acyclicity,
+    /// Block-steps the thermal model may simulate per violation to prove a shorter
+    /// clause (0: learn the plain violating prefix, as the paper does).
+    pub lookahead_budget: usize,
+    /// Stop and return the best found so far (not proven) after this long.
+    pub timeout: Option<Duration>,
+    /// Override the part's max_fragments.
+    pub max_fragments: Option<usize>,
+    /// Set from another thread to stop the run (as a timeout does): the node cancels a plan
+    /// when a newer part arrives. CaDiCaL stops inside a solve; varisat after it.
+    pub cancel: Option<Arc<AtomicBool>>,
+    /// The SAT solver.
+    pub solver: Backend,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            acyclicity: Acyclicity::Lazy,
+            lookahead_budget: 2_000_000,
+            timeout: None,
+            max_fragments: None,
+            cancel: None,
+            solver: Backend::default(),
+        }
+    }
+}
+
+/// What a run did, like the paper's Table 1 and more.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Stats {
+    pub variables: usize,
+    pub clauses: usize,
+    pub encode_s: f64,
+    /// Candidate plans judged by the thermal model.
+    pub candidates: u64,
+    /// Feasible plans found.
+    pub feasible: u64,
+    pub sat_solves: u64,
+    pub cycle_cuts: u64,
+    pub first_feasible_s: Option<f64>,
+    pub total_s: f64,
+    pub sat_s: f64,
+    pub acyclicity_s: f64,
+    pub simulator_s: f64,
+    /// Time spent proving shorter clauses (part of the learning, not of the simulator).
+    pub lookahead_s: f64,
+    pub lookahead_block_steps: u64,
+    /// Decisions dropped from learned clauses by proof.
+    pub shortened: u64,
+    /// Deposits simulated for candidates, and deposits resumed from a saved prefix.
+    pub deposits_simulated: u64,
+    pub deposits_reused: u64,
+    /// Euler steps of cooldowns after complete candidates.
+    pub cooldown_steps: u64,
+    pub learned_clauses: u64,
+    pub clause_len_min: Option<usize>,
+    pub clause_len_max: Option<usize>,
+    pub clause_len_mean: Option<f64>,
+    #[serde(skip)]
+    clause_len_sum: u64,
+    /// The verdict on the latest candidate (progress callbacks come after every candidate,
+    /// so a recorder can log each one).
+    #[serde(skip)]
+    pub last_candidate: Option<CandidateVerdict>,
+}
+
+/// What the thermal check said about one candidate plan.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CandidateVerdict {
+    Feasible,
+    Violated {
+        /// The block whose window broke, and how.
+        block: Block,
+        kind: thermal::ViolationKind,
+        /// Simulated time of the violation, s.
+        time_s: f64,
+        /// Blocks deposited up to the violation.
+        prefix_len: usize,
+        /// Literals in the clause learned from it.
+        clause_len: usize,
+    },
+}
+
+impl Stats {
+    fn record_clause(&mut self, len: usize) {
+        self.learned_clauses += 1;
+        self.clause_len_sum += len as u64;
+        self.clause_len_min = Some(self.clause_len_min.map_or(len, |m| m.min(len)));
+        self.clause_len_max = Some(self.clause_len_max.map_or(len, |m| m.max(len)));
+        self.clause_len_mean = Some(self.clause_len_sum as f64 / self.learned_clauses as f64);
+    }
+}
+
+/// A feasible plan with its worst-case t8/5 margin.
+#[derive(Debug, Clone)]
+pub struct Found {
+    /// Fragments of block indices, in weld order.
+    pub fragments: Vec<Vec<usize>>,
+    /// Smallest distance of any t8/5 value to its window bounds, s (+inf: no windows).
+    pub margin: f64,
+}
+
+impl Found {
+    /// The plan in the shared plan format.
+    pub fn plan(&self, part: &Part) -> Plan {
+        Plan::from_indices(part, &self.fragments)
+    }
+}
+
+/// Why a part has no feasible plan.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum NoPlan {
+    /// No valid plan at all with at most k fragments.
+    NoValidPlan {
+        max_fragments: usize,
+        /// The fewest fragments a valid plan needs, if found.
+        needs_at_least: Option<usize>,
+        /// A layer that alone needs more weld paths than allowed: (z, paths, dead ends).
+        layer: Option<(i64, usize, usize)>,
+    },
+    /// Valid plans exist, but every one breaks a t8/5 window.
+    AllBreakWindows {
+        /// The window broken most often among the candidates, and how often.
+        block: Block,
+        times: usize,
+    },
+}
+
+impl std::fmt::Display for NoPlan {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            NoPlan::NoValidPlan {
+                max_fragments,
+                needs_at_least,
+                layer,
+            } => {
+                write!(f, "no valid plan with at most {max_fragments} fragment(s)")?;
+                if let Some(n) = needs_at_least {
+                    write!(f, ": needs at least {n} fragments")?;
+                }
+                if let Some((z, paths, ends)) = layer {
+                    write!(
+                        f,
+                        " (layer z = {z} alone needs {paths} weld paths: it has {ends} dead ends, \
+                         and each weld path ends at two at most)"
+                    )?;
+                }
+                Ok(())
+            }
+            NoPlan::AllBreakWindows { block, times } => write!(
+                f,
+                "valid plans exist, but every one breaks a t8/5 window; the window of block \
+                 [{},{},{}] broke most often ({times} of the candidates)",
+                block[0], block[1], block[2]
+            ),
+        }
+    }
+}
+
+/// The answer of [`plan`] or [`first`].
+#[derive(Debug, Clone)]
+pub struct Report {
+    /// The best feasible plan found.
+    pub best: Option<Found>,
+    /// True when the answer is proven: the plan is optimal (or the first, for
+    /// [`first`]), or no plan exists. False after a timeout.
+    pub proven: bool,
+    /// Why there is no plan (when proven and none found).
+    pub no_plan: Option<NoPlan>,
+    pub stats: Stats,
+}
+
+/// Exact numbers of plans.
+#[derive(Debug, Clone, Serialize)]
+pub struct Counts {
+    /// Valid plans (None when not counted).
+    pub plans: Option<u64>,
+    /// Feasible plans.
+    pub feasible: u64,
+    /// False when a timeout cut the count short.
+    pub complete: bool,
+    pub stats: Stats,
+}
+
+/// Errors that stop planning.
+#[derive(Debug, Error)]
+pub enum PlanError {
+    #[error(transparent)]
+    NotCooled(#[from] thermal::NotCooled),
+    #[error("writing plans: {0}")]
+    Output(#[from] std::io::Error),
+}
+
+/// Called with the statistics after every candidate (for progress displays).
+pub type Progress<'a> = &'a mut dyn FnMut(&Stats);
+
+fn max_fragments(part: &Part, opts: &Options) -> usize {
+    opts.max_fragments
+        .unwrap_or(part.max_fragments)
+        .clamp(1, part.len())
+}
+
+/// Whether the run must stop now: its time is up or it was cancelled.
+fn timed_out(opts: &Options, started: Instant) -> bool {
+    opts.timeout.is_some_and(|t| started.elapsed() >= t)
+        || opts
+            .cancel
+            .as_ref()
+            .is_some_and(|c| c.load(Ordering::Relaxed))
+}
+
+/// A search with the run's solver, its solves stopped at the run's deadline or on cancel.
+fn new_search<'p>(
+    part: &'p Part,
+    graph: &'p WeldGraph,
+    k: usize,
+    opts: &Options,
+    lookahead_budget: usize,
+    started: Instant,
+) -> Search<'p> {
+    let mut search = Search::new(
+        part,
+        graph,
+        k,
+        opts.acyclicity,
+        lookahead_budget,
+        opts.solver,
+    );
+    search.set_interrupt(
+        opts.timeout.and_then(|t| started.checked_add(t)),
+        opts.cancel.clone(),
+    );
+    search
+}
+
+/// The best feasible plan: fewest fragments, then the largest worst-case t8/5 margin.
+pub fn plan(part: &Part, opts: &Options, progress: Progress) -> Result<Report, PlanError> {
+    search_plans(part, opts, progress, true)
+}
+
+/// The first feasible plan found, without optimizing.
+pub fn first(part: &Part, opts: &Options, progress: Progress) -> Result<Report, PlanError> {
+    search_plans(part, opts, progress, false)
+}
+
+fn search_plans(
+    part: &Part,
+    opts: &Options,
+    progress: Progress,
+    optimize: bool,
+) -> Result<Report, PlanError> {
+    let started = Instant::now();
+    let graph = WeldGraph::new(part);
+    let k = max_fragments(part, opts);
+    let mut search = new_search(part, &graph, k, opts, opts.lookahead_budget, started);
+    let base = ThermalModel::new(part, &graph);
+    let mut best: Option<Found> = None;
+    let mut proven = true;
+    let mut any_valid = false;
+    // Fewest fragments first: f = 1, 2, ... under an assumption (all of k when not optimizing).
+    let levels: Vec<usize> = if optimize { (1..=k).collect() } else { vec![k] };
+    'levels: for f in levels {
+        let assume: Vec<_> = search.enc.at_most_fragments(f).into_iter().collect();
+        loop {
+            if timed_out(opts, started) {
+                proven = false;
+                break 'levels;
+            }
+            let Some(candidate) = search.next_candidate(&assume) else {
+                if search.interrupted {
+                    proven = false;
+                    break 'levels;
+                }
+                break;
+            };
+            any_valid = true;
+            let verdict = search.judge(&candidate)?;
+            progress(&search.stats);
+            if let Verdict::Feasible = verdict {
+                // Judge by the part's own windows: the search may run on narrowed ones.
+                let margin = margin_under(&base, &candidate)?;
+                search
+                    .stats
+                    .first_feasible_s
+                    .get_or_insert(started.elapsed().as_secs_f64());
+                if best.as_ref().is_none_or(|b| margin > b.margin) {
+                    best = Some(Found {
+                        fragments: candidate.clone(),
+                        margin,
+                    });
+                }
+                if !optimize || margin.is_infinite() {
+                    break 'levels;
+                }
+                search.block_plan(&candidate);
+                // Only strictly better plans from now on (margins compared to 1 µs).
+                search.set_thermal(base.narrowed(margin + 1e-6));
+            }
+        }
+        if best.is_some() {
+            break;
+        }
+    }
+    let no_plan = match (&best, proven) {
+        (None, true) if !any_valid => Some(no_valid_plan(part, &graph, k, opts, started)),
+        (None, true) => {
+            let (block, times) = search
+                .violations
+                .iter()
+                .enumerate()
+                .max_by_key(|&(i, &t)| (t, std::cmp::Reverse(i)))
+                .map(|(i, &t)| (part.block(i), t))
+                .expect("a part has blocks");
+            Some(NoPlan::AllBreakWindows { block, times })
+        }
+        _ => None,
+    };
+    search.stats.total_s = started.elapsed().as_secs_f64();
+    Ok(Report {
+        best,
+        proven,
+        no_plan,
+        stats: search.stats,
+    })
+}
+
+fn margin_under(model: &ThermalModel, fragments: &[Vec<usize>]) -> Result<f64, PlanError> {
+    let outcome = thermal::simulate(model, fragments)?;
+    Ok(model.margin(&outcome.crossings))
+}
+
+/// Counts the valid plans (`with_plans`) and the feasible plans, exactly.
+pub fn count(
+    part: &Part,
+    opts: &Options,
+    with_plans: bool,
+    progress: Progress,
+) -> Result<Counts, PlanError> {
+    let started = Instant::now();
+    let graph = WeldGraph::new(part);
+    let k = max_fragments(part, opts);
+    let mut complete = true;
+    let plans = if with_plans {
+        let mut search = new_search(part, &graph, k, opts, 0, started);
+        let mut plans = 0u64;
+        while let Some(candidate) = search.next_candidate(&[]) {
+            plans += 1;
+            search.block_plan(&candidate);
+            if plans % 256 == 0 {
+                progress(&search.stats);
+                if timed_out(opts, started) {
+                    complete = false;
+                    break;
+                }
+            }
+        }
+        complete &= !search.interrupted;
+        Some(plans)
+    } else {
+        None
+    };
+    // The feasible plans share the deadline of the whole count.
+    let mut counts = enumerate_from(part, &graph, k, opts, started, progress, &mut |_| Ok(()))?;
+    counts.plans = plans;
+    counts.complete &= complete;
+    Ok(counts)
+}
+
+/// Enumerates every feasible plan, handing each to `sink` as it is found.
+pub fn enumerate(
+    part: &Part,
+    opts: &Options,
+    progress: Progress,
+    sink: &mut dyn FnMut(&[Vec<usize>]) -> std::io::Result<()>,
+) -> Result<Counts, PlanError> {
+    let graph = WeldGraph::new(part);
+    let k = max_fragments(part, opts);
+    enumerate_from(part, &graph, k, opts, Instant::now(), progress, sink)
+}
+
+/// The thermal loop to exhaustion, blocking each feasible plan after handing it to `sink`;
+/// timeouts count from `started`.
+fn enumerate_from(
+    part: &Part,
+    graph: &WeldGraph,
+    k: usize,
+    opts: &Options,
+    started: Instant,
+    progress: Progress,
+    sink: &mut dyn FnMut(&[Vec<usize>]) -> std::io::Result<()>,
+) -> Result<Counts, PlanError> {
+    let mut search = new_search(part, graph, k, opts, opts.lookahead_budget, started);
+    let (mut feasible, mut complete) = (0u64, true);
+    while let Some(candidate) = search.next_candidate(&[]) {
+        if let Verdict::Feasible = search.judge(&candidate)? {
+            feasible += 1;
+            search
+                .stats
+                .first_feasible_s
+                .get_or_insert(started.elapsed().as_secs_f64());
+            sink(&candidate)?;
+            search.block_plan(&candidate);
+        }
+        progress(&search.stats);
+        if timed_out(opts, started) {
+            complete = false;
+            break;
+        }
+    }
+    complete &= !search.interrupted;
+    search.stats.total_s = started.elapsed().as_secs_f64();
+    Ok(Counts {
+        plans: None,
+        feasible,
+        complete,
+        stats: search.stats,
+    })
+}
+
+/// Explains a part with no valid plan: the fewest fragments it needs, and a layer that
+/// alone needs more weld paths than allowed.
+fn no_valid_plan(
+    part: &Part,
+    graph: &WeldGraph,
+    k: usize,
+    opts: &Options,
+    started: Instant,
+) -> NoPlan {
+    let layer = layer_path_bound(part, graph)
+        .into_iter()
+        .filter(|&(_, paths, _)| paths > k)
+        .max_by_key(|&(z, paths, _)| (paths, std::cmp::Reverse(z)));
+    // The fewest fragments, by asking the solver for structure only (bounded effort, and
+    // within the run's deadline), from the layers' lower bound up.
+    let from = (k + 1).max(layer.map_or(0, |(_, paths, _)| paths));
+    let mut interrupted = false;
+    let needs_at_least = (from..=part.len().min(from + 15)).find(|&f| {
+        if interrupted {
+            return false;
+        }
+        let mut search = new_search(part, graph, f, opts, 0, started);
+        let found = search.next_candidate(&[]).is_some();
+        interrupted = search.interrupted;
+        found
+    });
+    NoPlan::NoValidPlan {
+        max_fragments: k,
+        needs_at_least,
+        layer,
+    }
+}
+
+/// Per layer: (z, a lower bound on the weld paths through it, its dead ends). A weld path
+/// crosses a layer in one piece, so each piece of a layer (a component of its sideways
+/// moves) needs a path, and every dead end (a block with one sideways neighbour) ends one.
+pub fn layer_path_bound(part: &Part, graph: &WeldGraph) -> Vec<(i64, usize, usize)> {
+    let n = part.len();
+    let z = |i: usize| part.block(i)[2];
+    let sideways = |i: usize| {
+        graph
+            .successors(i)
+            .iter()
+            .map(|&j| j as usize)
+            .filter(move |&j| z(j) == z(i))
+    };
+    let mut comp = vec![usize::MAX; n];
+    let mut out: Vec<(i64, usize, usize)> = Vec::new();
+    for s in 0..n {
+        if comp[s] != usize::MAX {
+            continue;
+        }
+        comp[s] = s;
+        let (mut stack, mut ends) = (vec![s], 0usize);
+        while let Some(i) = stack.pop() {
+            if sideways(i).count() == 1 {
+                ends += 1;
+            }
+            for j in sideways(i) {
+                if comp[j] == usize::MAX {
+                    comp[j] = s;
+                    stack.push(j);
+                }
+            }
+        }
+        let paths = ends.div_ceil(2).max(1);
+        match out.last_mut() {
+            Some(last) if last.0 == z(s) => {
+                last.1 += paths;
+                last.2 += ends;
+            }
+            _ => out.push((z(s), paths, ends)),
+        }
+    }
+    out
+}

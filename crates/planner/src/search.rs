@@ -1,0 +1,447 @@
+//! The thermal loop: the SAT solver proposes a plan, the thermal model judges it, and a
+//! violation teaches the solver a clause that rules out the violating prefix.
+//!
+//! Two things make it fast:
+//! - candidates share prefixes, so the simulation of a new candidate resumes from the
+//!   snapshot of the longest prefix it shares with *any* earlier candidate (a cache of
+//!   prefix snapshots keyed by a 128-bit hash of the deposit sequence);
+//! - before a prefix clause is learned, it is shortened where that is *proven*: when every
+//!   possible next step after a shorter prefix also breaks a window within that step, the
+//!   shorter prefix already forces a violation, and its clause is learned instead. Every
+//!   step counted there is one the weld-graph rules allow (a successor of the last block, or
+//!   a new fragment at any block whose support is welded), so no feasible plan is cut off.
+
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Instant;
+
+use waam_part::graph::WeldGraph;
+use waam_part::Part;
+use waam_thermal::{self as thermal, Phase, Simulation, Snapshot, ThermalModel, Violation};
+
+use super::encoding::{Acyclicity, Decoded, Encoding};
+use super::sat::{Backend, Lit, SatSolver};
+use super::{CandidateVerdict, Stats};
+
+/// What the thermal model says of a candidate.
+pub enum Verdict {
+    /// Every window kept.
+    Feasible,
+    /// A window broke; the (shortened) prefix clause is learned already.
+    Violated,
+}
+
+/// One SAT instance with its thermal loop.
+pub struct Search<'p> {
+    pub part: &'p Part,
+    pub graph: &'p WeldGraph,
+    pub enc: Encoding,
+    solver: Box<dyn SatSolver>,
+    thermal: ThermalModel,
+    acyclicity: Acyclicity,
+    /// Simulated steps allowed for proving shorter clauses, per violation.
+    lookahead_budget: usize,
+    pub stats: Stats,
+    /// Violations per window block (to name the one broken most often).
+    pub violations: Vec<usize>,
+    cache: PrefixCache,
+    /// Layers given the eager rank order (hybrid acyclicity).
+    ranked_layers: Vec<i64>,
+    spacing: usize,
+    /// True once a solve was stopped by the deadline or a cancel (no answer, no proof).
+    pub interrupted: bool,
+    /// Cycle cuts the solver made inside its searches (counted into the statistics).
+    inside_cuts: u64,
+}
+
+impl<'p> Search<'p> {
+    pub fn new(
+        part: &'p Part,
+        graph: &'p WeldGraph,
+        k: usize,
+        acyclicity: Acyclicity,
+        lookahead_budget: usize,
+        backend: Backend,
+    ) -> Search<'p> {
+        let started = Instant::now();
+        let mut solver = backend.solver();
+        let enc = Encoding::new(part, graph, k, acyclicity, &mut solver);
+        // Lazy acyclicity inside the search where the backend can (the paper's way); cuts
+        // between solves otherwise. Hybrid needs no ranks when no cycle reaches a model.
+        if acyclicity != Acyclicity::Eager {
+            solver.exclude_cycles(part.len(), &enc.cycle_edges(part));
+        }
+        let mut stats = Stats::default();
+        let (vars, clauses) = solver.size();
+        stats.variables = vars;
+        stats.clauses = clauses;
+        stats.encode_s = started.elapsed().as_secs_f64();
+        let n = part.len();
+        Search {
+            part,
+            graph,
+            enc,
+            solver,
+            thermal: ThermalModel::new(part, graph),
+            acyclicity,
+            lookahead_budget,
+            stats,
+            violations: vec![0; n],
+            cache: PrefixCache::default(),
+            ranked_layers: Vec::new(),
+            // Snapshots of every prefix cost n²/2 temperatures: space them on big parts.
+            spacing: (n / 1000).max(1),
+            interrupted: false,
+            inside_cuts: 0,
+        }
+    }
+
+    /// Stops solves at `deadline` or on `cancel` (inside a solve where the backend can):
+    /// [`Search::next_candidate`] then returns `None` and sets `interrupted`.
+    pub fn set_interrupt(&mut self, deadline: Option<Instant>, cancel: Option<Arc<AtomicBool>>) {
+        self.solver.set_interrupt(deadline, cancel);
+    }
+
+    /// Suggests the value of `lit` to the solver's decisions (a warm start's hint).
+    #[allow(dead_code)] // the hook for the warm start (a constructive plan as phases)
+    pub fn set_phase(&mut self, lit: Lit) {
+        self.solver.set_phase(lit);
+    }
+
+    /// Judges later candidates by `model` (e.g. narrowed windows while optimizing).
+    pub fn set_thermal(&mut self, model: ThermalModel) {
+        self.thermal = model;
+        self.cache = PrefixCache::default();
+    }
+
+    /// The next plan the solver allows, cutting cycles until the model is one;
+    /// `None` when no plan is left (under `assumptions`).
+    pub fn next_candidate(&mut self, assumptions: &[Lit]) -> Option<Vec<Vec<usize>>> {
+        loop {
+            let t = Instant::now();
+            let sat = self.solver.solve(assumptions);
+            self.stats.sat_solves += 1;
+            let dt = t.elapsed().as_secs_f64();
+            let inside = self.solver.cycle_cuts();
+            self.stats.cycle_cuts += inside - self.inside_cuts;
+            self.inside_cuts = inside;
+            if sat != Some(true) {
+                self.interrupted |= sat.is_none();
+                self.stats.sat_s += dt;
+                return None;
+            }
+            let t2 = Instant::now();
+            match self.enc.decode(&self.solver) {
+                Decoded::Plan(fragments) => {
+                    self.stats.sat_s += dt;
+                    self.stats.acyclicity_s += t2.elapsed().as_secs_f64();
+                    return Some(fragments);
+                }
+                Decoded::Cycles(cycles) => {
+                    debug_assert_ne!(
+                        self.acyclicity,
+                        Acyclicity::Eager,
+                        "eager encoding left a cycle"
+                    );
+                    for cycle in &cycles {
+                        let cut = self.enc.cycle_cut(cycle);
+                        self.solver.add_clause(&cut);
+                        self.stats.cycle_cuts += 1;
+                    }
+                    if self.acyclicity == Acyclicity::Hybrid {
+                        // Layers that cycle once tend to cycle again: order them eagerly.
+                        let z = |b: usize| self.part.block(b)[2];
+                        let fresh: Vec<i64> = cycles
+                            .iter()
+                            .map(|c| z(c[0]))
+                            .filter(|l| !self.ranked_layers.contains(l))
+                            .collect();
+                        if !fresh.is_empty() {
+                            self.ranked_layers.extend(&fresh);
+                            self.enc
+                                .encode_ranks(self.part, &mut self.solver, |l| fresh.contains(&l));
+                        }
+                    }
+                    // A solve that ended in a cycle is work done for acyclicity.
+                    self.stats.acyclicity_s += dt + t2.elapsed().as_secs_f64();
+                }
+            }
+        }
+    }
+
+    /// Rules out one complete plan (after counting or accepting it).
+    pub fn block_plan(&mut self, fragments: &[Vec<usize>]) {
+        let clause: Vec<Lit> = self
+            .enc
+            .plan_literals(fragments)
+            .into_iter()
+            .map(|l| !l)
+            .collect();
+        self.solver.add_clause(&clause);
+    }
+
+    /// Simulates a candidate, resuming from the longest shared prefix, and on a violation
+    /// learns the (shortened) prefix clause.
+    pub fn judge(&mut self, fragments: &[Vec<usize>]) -> Result<Verdict, thermal::NotCooled> {
+        let t = Instant::now();
+        self.stats.candidates += 1;
+        let seq: Vec<(usize, bool)> = fragments
+            .iter()
+            .flat_map(|f| f.iter().enumerate().map(|(p, &b)| (b, p == 0)))
+            .collect();
+        let result = self.simulate(&seq);
+        self.stats.simulator_s += t.elapsed().as_secs_f64();
+        match result? {
+            None => {
+                self.stats.feasible += 1;
+                self.stats.last_candidate = Some(CandidateVerdict::Feasible);
+                Ok(Verdict::Feasible)
+            }
+            Some(v) => {
+                self.violations[v.block] += 1;
+                let t = Instant::now();
+                let clause_len = self.learn(&seq, &v);
+                self.stats.lookahead_s += t.elapsed().as_secs_f64();
+                self.stats.last_candidate = Some(CandidateVerdict::Violated {
+                    block: self.part.block(v.block),
+                    kind: v.kind,
+                    time_s: v.time_s,
+                    prefix_len: v.prefix_len,
+                    clause_len,
+                });
+                Ok(Verdict::Violated)
+            }
+        }
+    }
+
+    /// The simulation of `seq` to its first violation (`None`: feasible).
+    fn simulate(&mut self, seq: &[(usize, bool)]) -> Result<Option<Violation>, thermal::NotCooled> {
+        let keys = prefix_keys(seq);
+        let (mut sim, at) = resume(&self.thermal, &self.cache, self.spacing, seq, &keys);
+        self.stats.deposits_reused += at as u64;
+        for (j, &(b, new)) in seq.iter().enumerate().skip(at) {
+            self.stats.deposits_simulated += 1;
+            if let Err(v) = sim.deposit(b, new) {
+                return Ok(Some(v));
+            }
+            if (j + 1) % self.spacing == 0 {
+                self.cache.insert(keys[j], &sim);
+            }
+        }
+        let before = sim.steps();
+        let end = sim.finish()?.err();
+        self.stats.cooldown_steps += sim.steps() - before;
+        Ok(end)
+    }
+
+    /// Learns the clause of the violating prefix, shortened where every alternative
+    /// next step is proven to violate too. Returns the clause's length.
+    fn learn(&mut self, seq: &[(usize, bool)], v: &Violation) -> usize {
+        let n = self.part.len();
+        // The doomed prefix: `len` blocks, its last fragment closed or still open.
+        let mut len = v.prefix_len;
+        let mut closed = v.phase != Phase::Deposit;
+        let mut budget = self.lookahead_budget as i64;
+        // An empty doomed prefix (len 0) proves that no plan is feasible: its clause is empty.
+        while budget > 0 && len > 0 {
+            if closed && len == n {
+                closed = false; // a complete plan is the same whether closed or not
+                continue;
+            }
+            // The shorter target, the step from it that is known doomed, and which kinds
+            // of step remain to be tried from it.
+            let (target_len, target_closed, skip, try_continue, try_new) = if closed {
+                (len, false, None, true, false)
+            } else {
+                let (b, new) = seq[len - 1];
+                if new {
+                    (len - 1, true, Some((b, true)), false, true)
+                } else {
+                    (len - 1, false, Some((b, false)), true, true)
+                }
+            };
+            let Some(base) = self.state_after(&seq[..target_len]) else {
+                break;
+            };
+            let (proven, cost) =
+                self.all_steps_violate(&base, &seq[..target_len], skip, try_continue, try_new);
+            budget -= cost as i64;
+            self.stats.lookahead_block_steps += cost;
+            if !proven {
+                break;
+            }
+            self.stats.shortened += 1;
+            len = target_len;
+            closed = target_closed;
+        }
+        let prefix = fragments_of(&seq[..len]);
+        let clause: Vec<Lit> = self
+            .enc
+            .prefix_literals(&prefix, closed)
+            .into_iter()
+            .map(|l| !l)
+            .collect();
+        self.stats.record_clause(clause.len());
+        self.solver.add_clause(&clause);
+        clause.len()
+    }
+
+    /// The simulation state after `prefix` (from the nearest cached snapshot).
+    fn state_after(&self, prefix: &[(usize, bool)]) -> Option<Simulation<'_>> {
+        let keys = prefix_keys(prefix);
+        let (mut sim, at) = resume(&self.thermal, &self.cache, self.spacing, prefix, &keys);
+        for &(b, new) in &prefix[at..] {
+            sim.deposit(b, new).ok()?;
+        }
+        Some(sim)
+    }
+
+    /// Whether every allowed next step after `prefix` (state `base`) breaks a window within
+    /// its own steps, and the block-steps simulated to find out. `skip`: a step (block,
+    /// new fragment) already proven doomed. The steps are: moving on to a successor of the last
+    /// block (`try_continue`), or closing the fragment and starting a new one at any block
+    /// whose support is welded (`try_new`, if fragments remain). A complete prefix has one
+    /// continuation: the cooldown.
+    fn all_steps_violate(
+        &self,
+        base: &Simulation<'_>,
+        prefix: &[(usize, bool)],
+        skip: Option<(usize, bool)>,
+        try_continue: bool,
+        try_new: bool,
+    ) -> (bool, u64) {
+        let n = self.part.len();
+        let placed = |b: usize| base.is_welded(b);
+        let allowed = |b: usize, new: bool| {
+            !placed(b) && Some((b, new)) != skip && self.graph.below(b).is_none_or(placed)
+        };
+        let start = base.snapshot();
+        let mut sim = base.clone();
+        let mut cost = 0u64;
+        let mut spent = |sim: &Simulation<'_>| {
+            cost += (sim.steps() - base.steps()) * sim.welded() as u64;
+        };
+        if prefix.len() == n {
+            let r = sim.finish();
+            spent(&sim);
+            return (matches!(r, Ok(Err(_))), cost);
+        }
+        if try_continue {
+            if let Some(&(last, _)) = prefix.last() {
+                for &c in self.graph.successors(last) {
+                    if !allowed(c as usize, false) {
+                        continue;
+                    }
+                    sim.restore(&start);
+                    let r = sim.deposit(c as usize, false);
+                    spent(&sim);
+                    if r.is_ok() {
+                        return (false, cost);
+                    }
+                }
+            }
+        }
+        if try_new && base.fragments() < self.enc.max_fragments() {
+            sim.restore(&start);
+            let transit = sim.transit();
+            spent(&sim);
+            if transit.is_ok() {
+                let after = sim.snapshot();
+                for c in (0..n).filter(|&c| allowed(c, true)) {
+                    sim.restore(&after);
+                    let r = sim.deposit_after_transit(c);
+                    spent(&sim);
+                    if r.is_ok() {
+                        return (false, cost);
+                    }
+                }
+            }
+        }
+        (true, cost)
+    }
+}
+
+/// Fragments of block indices from a deposit sequence.
+pub fn fragments_of(seq: &[(usize, bool)]) -> Vec<Vec<usize>> {
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    for &(b, new) in seq {
+        if new || out.is_empty() {
+            out.push(Vec::new());
+        }
+        out.last_mut().expect("just pushed").push(b);
+    }
+    out
+}
+
+/// A simulation at the longest cached prefix of `seq` (of a length that is a multiple of
+/// `spacing`), and that prefix's length.
+fn resume<'m>(
+    model: &'m ThermalModel,
+    cache: &PrefixCache,
+    spacing: usize,
+    seq: &[(usize, bool)],
+    keys: &[Key],
+) -> (Simulation<'m>, usize) {
+    let mut sim = Simulation::new(model);
+    for len in (1..=seq.len()).rev().filter(|len| len % spacing == 0) {
+        if let Some(snap) = cache.get(keys[len - 1], len) {
+            sim.restore_from_trail(snap, seq);
+            return (sim, len);
+        }
+    }
+    (sim, 0)
+}
+
+/// A 128-bit hash of a deposit sequence prefix (two independent 64-bit mixes).
+type Key = (u64, u64);
+
+/// The key of every prefix of `seq`: `keys[j]` is the key of `seq[..=j]`.
+fn prefix_keys(seq: &[(usize, bool)]) -> Vec<Key> {
+    let mut h = (0x9e37_79b9_7f4a_7c15u64, 0xc2b2_ae3d_27d4_eb4fu64);
+    seq.iter()
+        .map(|&(b, new)| {
+            let x = (b as u64) << 1 | new as u64;
+            h = (
+                mix(h.0 ^ x),
+                mix(h.1.wrapping_add(x.wrapping_mul(0xff51_afd7_ed55_8ccd))),
+            );
+            h
+        })
+        .collect()
+}
+
+/// splitmix64's finalizer.
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// Snapshots of simulated prefixes, bounded in memory (cleared when full).
+#[derive(Default)]
+struct PrefixCache {
+    map: rustc_hash::FxHashMap<Key, Snapshot>,
+    temperatures: usize,
+}
+
+impl PrefixCache {
+    /// Temperatures kept at most (8 bytes each): 256 MiB.
+    const CAPACITY: usize = 32 << 20;
+
+    fn get(&self, key: Key, len: usize) -> Option<&Snapshot> {
+        self.map.get(&key).filter(|s| s.welded() == len)
+    }
+
+    fn insert(&mut self, key: Key, sim: &Simulation<'_>) {
+        if self.map.contains_key(&key) {
+            return;
+        }
+        if self.temperatures + sim.welded() > Self::CAPACITY {
+            self.map.clear();
+            self.temperatures = 0;
+        }
+        self.temperatures += sim.welded();
+        self.map.insert(key, sim.snapshot());
+    }
+}

@@ -1,0 +1,335 @@
+//! Pictures a person can look at: the toolpath (top and side view, weld vs transit,
+//! arc-on/off marked) and the temperature curves of the t8/5-windowed blocks.
+//!
+//! Text is drawn with DejaVu Sans, embedded from the `dejavu` crate, so no font has to be
+//! installed on the machine. [`layer`] draws thick-wall layer trails and their heat.
+
+pub mod layer;
+
+use std::path::Path;
+use std::sync::Once;
+
+use plotters::prelude::*;
+use thiserror::Error;
+
+use waam_motion::toolpath::ToolpathFile;
+use waam_part::graph::WeldGraph;
+use waam_part::{Block, BlockDisplay, Part, Window};
+use waam_thermal::{Simulation, ThermalModel, HOT_C, WARM_C};
+
+/// Size of `toolpath.png` (two panels side by side), pixels.
+pub const TOOLPATH_SIZE: (u32, u32) = (1600, 800);
+/// Size of `t85.png`, pixels.
+pub const T85_SIZE: (u32, u32) = (1200, 800);
+
+const FONT: &str = "sans-serif";
+
+#[derive(Debug, Error)]
+pub enum PlotError {
+    #[error("cannot draw {file}: {reason}")]
+    Draw { file: String, reason: String },
+    #[error("the toolpath has no poses")]
+    Empty,
+}
+
+fn font() {
+    static REGISTER: Once = Once::new();
+    REGISTER.call_once(|| {
+        let _ = plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular());
+    });
+}
+
+fn draw_err(path: &Path) -> impl Fn(String) -> PlotError + '_ {
+    move |reason| PlotError::Draw {
+        file: path.display().to_string(),
+        reason,
+    }
+}
+
+/// A range around `values` with a margin, at least `min_span` wide.
+fn range(values: impl Iterator<Item = f64>, min_span: f64) -> (f64, f64) {
+    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    let mid = 0.5 * (lo + hi);
+    let half = 0.5 * (hi - lo).max(min_span) * 1.08;
+    (mid - half, mid + half)
+}
+
+/// Draws `toolpath.png`: top view (x, y) and side view (x, z) in mm in the toolpath's
+/// frame; weld moves red, arc-off moves blue, arc-on green dots, arc-off black crosses.
+pub fn toolpath_png(tp: &ToolpathFile, path: &Path) -> Result<(), PlotError> {
+    if tp.poses.is_empty() {
+        return Err(PlotError::Empty);
+    }
+    font();
+    let err = draw_err(path);
+    let mm: Vec<[f64; 3]> = tp
+        .poses
+        .iter()
+        .map(|p| p.position.map(|v| v * 1000.0))
+        .collect();
+    let root = BitMapBackend::new(path, TOOLPATH_SIZE).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+    let (left, right) = root.split_horizontally(TOOLPATH_SIZE.0 / 2);
+    // Equal scales on both axes of each panel.
+    let span = |a: usize, b: usize| {
+        let (x0, x1) = range(mm.iter().map(|p| p[a]), 1.0);
+        let (y0, y1) = range(mm.iter().map(|p| p[b]), 1.0);
+        let s = (x1 - x0).max(y1 - y0);
+        let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+        (
+            (cx - s / 2.0)..(cx + s / 2.0),
+            (cy - s / 2.0)..(cy + s / 2.0),
+        )
+    };
+    for (area, (a, b), title, ylabel) in [
+        (&left, (0, 1), "Toolpath, top view", "y (mm)"),
+        (&right, (0, 2), "Toolpath, side view", "z (mm)"),
+    ] {
+        let (xr, yr) = span(a, b);
+        let mut chart = ChartBuilder::on(area)
+            .caption(format!("{title} ({})", tp.frame), (FONT, 24))
+            .margin(15)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d(xr, yr)
+            .map_err(|e| err(e.to_string()))?;
+        chart
+            .configure_mesh()
+            .x_desc("x (mm)")
+            .y_desc(ylabel)
+            .label_style((FONT, 15))
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+        let xy = |k: usize| (mm[k][a], mm[k][b]);
+        // Polylines of equal arc state (a move's state is its first pose's).
+        let mut start = 0;
+        let (mut weld_label, mut transit_label) = (false, false);
+        for k in 1..=tp.poses.len() {
+            let end_run = k == tp.poses.len() || tp.poses[k].arc_on != tp.poses[start].arc_on;
+            if !end_run {
+                continue;
+            }
+            let last = k.min(tp.poses.len() - 1);
+            let on = tp.poses[start].arc_on;
+            let style = if on {
+                RED.stroke_width(3)
+            } else {
+                BLUE.mix(0.6).stroke_width(1)
+            };
+            let series = chart
+                .draw_series(LineSeries::new((start..=last).map(xy), style))
+                .map_err(|e| err(e.to_string()))?;
+            if on && !weld_label {
+                weld_label = true;
+                series.label("weld (arc on)").legend(|(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(3))
+                });
+            } else if !on && !transit_label {
+                transit_label = true;
+                series
+                    .label("approach / retract / transit")
+                    .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE.mix(0.6)));
+            }
+            start = last;
+        }
+        let ons: Vec<usize> = (0..tp.poses.len())
+            .filter(|&k| tp.poses[k].arc_on && (k == 0 || !tp.poses[k - 1].arc_on))
+            .collect();
+        let offs: Vec<usize> = (1..tp.poses.len())
+            .filter(|&k| !tp.poses[k].arc_on && tp.poses[k - 1].arc_on)
+            .collect();
+        chart
+            .draw_series(ons.iter().map(|&k| Circle::new(xy(k), 6, GREEN.filled())))
+            .map_err(|e| err(e.to_string()))?
+            .label("arc on")
+            .legend(|(x, y)| Circle::new((x + 10, y), 6, GREEN.filled()));
+        chart
+            .draw_series(
+                offs.iter()
+                    .map(|&k| Cross::new(xy(k), 7, BLACK.stroke_width(2))),
+            )
+            .map_err(|e| err(e.to_string()))?
+            .label("arc off")
+            .legend(|(x, y)| Cross::new((x + 10, y), 7, BLACK.stroke_width(2)));
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font((FONT, 15))
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+    }
+    root.present().map_err(|e| err(e.to_string()))?;
+    Ok(())
+}
+
+/// The temperature of one windowed block over time.
+#[derive(Debug, Clone)]
+pub struct Curve {
+    pub block: Block,
+    pub window: Window,
+    /// (time s, temperature °C), from its deposit on.
+    pub samples: Vec<(f64, f64)>,
+}
+
+/// Simulates a plan with the part's thermal model and samples every windowed block's
+/// temperature at its deposit and after each deposit, then through the cooldown until all are below
+/// 500 °C. The samples are exact model values at block-time intervals.
+///
+/// The simulation runs on a copy of the part without windows (temperatures do not
+/// depend on them, and an infeasible plan is then still simulated to its end). The
+/// cooldown is stepped by depositing isolated probe blocks far from the part: they share
+/// no face with it, so each only advances time by one `block_time_s`.
+pub fn temperature_curves(part: &Part, fragments: &[Vec<usize>]) -> Vec<Curve> {
+    let params = part.thermal;
+    let max_x = part.blocks().iter().map(|b| b[0]).max().unwrap_or(0);
+    let probes = ((params.max_cooldown_s / params.block_time_s).ceil() as i64).clamp(1, 20_000);
+    let mut blocks = part.blocks().to_vec();
+    let probe_at = |i: i64| [max_x.saturating_add(4).saturating_add(2 * i), 0, 0];
+    blocks.extend((0..probes).map(probe_at));
+    let Ok(mut sim_part) = Part::from_blocks(
+        part.name.clone(),
+        part.block_mm,
+        part.origin_mm,
+        part.max_fragments,
+        blocks,
+    ) else {
+        return Vec::new();
+    };
+    sim_part.thermal = params;
+    let graph = WeldGraph::new(&sim_part);
+    let model = ThermalModel::new(&sim_part, &graph);
+    let mut sim = Simulation::new(&model);
+    let index = |b: usize| sim_part.index_of(part.block(b)).expect("same blocks");
+    let windowed: Vec<(usize, Window)> =
+        part.windows().iter().map(|&(b, w)| (index(b), w)).collect();
+    let mut curves: Vec<Curve> = part
+        .windows()
+        .iter()
+        .map(|&(b, w)| Curve {
+            block: part.block(b),
+            window: w,
+            samples: Vec::new(),
+        })
+        .collect();
+    let mut temps = vec![f64::NAN; sim_part.len()];
+    let mut sample = |sim: &Simulation, curves: &mut Vec<Curve>| {
+        temps.iter_mut().for_each(|t| *t = f64::NAN);
+        for (b, t) in sim.temperatures() {
+            temps[b] = t;
+        }
+        let mut warm = false;
+        for (c, &(b, _)) in curves.iter_mut().zip(&windowed) {
+            if temps[b].is_finite() {
+                c.samples.push((sim.time_s(), temps[b]));
+                warm |= temps[b] >= WARM_C;
+            }
+        }
+        warm
+    };
+    for fragment in fragments {
+        for (p, &b) in fragment.iter().enumerate() {
+            // No windows: a deposit cannot fail.
+            let _ = sim.deposit(index(b), p == 0);
+            // The block starts at the deposit temperature one block time ago.
+            if let Some(k) = windowed.iter().position(|w| w.0 == index(b)) {
+                let placed = sim.time_s() - params.dt() * params.substeps as f64;
+                curves[k].samples.push((placed, params.deposit_c));
+            }
+            sample(&sim, &mut curves);
+        }
+    }
+    for i in 0..probes {
+        let Some(probe) = sim_part.index_of(probe_at(i)) else {
+            break;
+        };
+        let _ = sim.deposit(probe, false);
+        if !sample(&sim, &mut curves) {
+            break;
+        }
+    }
+    curves
+}
+
+/// Draws `t85.png`: each windowed block's temperature over time, with the 800 °C and
+/// 500 °C lines between which its t8/5 time is counted.
+pub fn t85_png(part: &Part, curves: &[Curve], path: &Path) -> Result<(), PlotError> {
+    font();
+    let err = draw_err(path);
+    let root = BitMapBackend::new(path, T85_SIZE).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+    let t_end = curves
+        .iter()
+        .flat_map(|c| c.samples.last().map(|s| s.0))
+        .fold(1.0, f64::max);
+    let (y0, y1) = (part.thermal.ambient_c.min(0.0), 1600.0);
+    let title = if curves.is_empty() {
+        format!("{}: no t8/5 windows", part.name)
+    } else {
+        format!(
+            "{}: temperatures of the {} windowed blocks",
+            part.name,
+            curves.len()
+        )
+    };
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, (FONT, 24))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..t_end * 1.02, y0..y1)
+        .map_err(|e| err(e.to_string()))?;
+    chart
+        .configure_mesh()
+        .x_desc("time (s)")
+        .y_desc("temperature (°C)")
+        .label_style((FONT, 15))
+        .draw()
+        .map_err(|e| err(e.to_string()))?;
+    for (level, name) in [(HOT_C, "800 °C"), (WARM_C, "500 °C")] {
+        chart
+            .draw_series(LineSeries::new(
+                vec![(0.0, level), (t_end * 1.02, level)],
+                BLACK.mix(0.5).stroke_width(1),
+            ))
+            .map_err(|e| err(e.to_string()))?;
+        chart
+            .draw_series(std::iter::once(Text::new(
+                name,
+                (t_end * 0.005, level + 15.0),
+                (FONT, 14),
+            )))
+            .map_err(|e| err(e.to_string()))?;
+    }
+    for (i, c) in curves.iter().enumerate() {
+        let colour = Palette99::pick(i).to_rgba();
+        let points = c.samples.iter().map(|&(t, v)| (t, v.clamp(y0, y1)));
+        chart
+            .draw_series(LineSeries::new(points, colour.stroke_width(2)))
+            .map_err(|e| err(e.to_string()))?
+            .label(format!(
+                "{} [{}, {}] s",
+                BlockDisplay(c.block),
+                c.window.min_s,
+                c.window.max_s
+            ))
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+            });
+    }
+    if !curves.is_empty() {
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font((FONT, 13))
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+    }
+    root.present().map_err(|e| err(e.to_string()))?;
+    Ok(())
+}

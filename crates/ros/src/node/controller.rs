@@ -1,0 +1,324 @@
+//! Running a planned trajectory: the execution thread, and the simulated controller of a
+//! dry run that follows goals in (scaled) real time and publishes `/joint_states`.
+
+use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use super::convert::Status;
+use super::execute::{plan_steps, Step};
+use super::io::{Level, Outputs};
+use super::pipeline::Planned;
+use super::worker::Cancel;
+use waam_motion::trajectory::JointTrajectory;
+use waam_rosmsg::builtin_interfaces::{Duration as RosDuration, Time};
+use waam_rosmsg::diagnostic_msgs::DiagnosticStatus;
+use waam_rosmsg::sensor_msgs::JointState;
+use waam_rosmsg::std_msgs::{Bool, Header};
+use waam_rosmsg::trajectory_msgs::{JointTrajectory as TrajectoryMsg, JointTrajectoryPoint};
+
+/// The whole trajectory as a trajectory_msgs/JointTrajectory.
+pub fn trajectory_msg(trajectory: &JointTrajectory, header: &Header) -> TrajectoryMsg {
+    TrajectoryMsg {
+        header: header.clone(),
+        joint_names: trajectory.joint_names.clone(),
+        points: trajectory
+            .points
+            .iter()
+            .map(|p| JointTrajectoryPoint {
+                positions: p.positions.clone(),
+                velocities: p.velocities.clone(),
+                time_from_start: RosDuration::from_secs_f64(p.time_from_start),
+                ..JointTrajectoryPoint::default()
+            })
+            .collect(),
+    }
+}
+
+/// The goal trajectory for points `span`: times count from the point before the span (where
+/// the robot stands), or from `lead_in_s` before the first point for the very first goal;
+/// the last point has zero velocity, since the robot stops there until the next goal.
+pub fn goal_msg(
+    trajectory: &JointTrajectory,
+    span: std::ops::RangeInclusive<usize>,
+    lead_in_s: f64,
+) -> TrajectoryMsg {
+    let points = &trajectory.points;
+    let (first, last) = (*span.start(), *span.end());
+    let t0 = if first == 0 {
+        points[0].time_from_start - lead_in_s
+    } else {
+        points[first - 1].time_from_start
+    };
+    let mut out: Vec<JointTrajectoryPoint> = points[span]
+        .iter()
+        .map(|p| JointTrajectoryPoint {
+            positions: p.positions.clone(),
+            velocities: p.velocities.clone(),
+            time_from_start: RosDuration::from_secs_f64(p.time_from_start - t0),
+            ..JointTrajectoryPoint::default()
+        })
+        .collect();
+    if let Some(end) = out.last_mut() {
+        end.velocities.iter_mut().for_each(|v| *v = 0.0);
+    }
+    debug_assert_eq!(out.len(), last + 1 - first);
+    TrajectoryMsg {
+        header: Header::new(Time::default(), ""), // stamp 0: start on receipt
+        joint_names: trajectory.joint_names.clone(),
+        points: out,
+    }
+}
+
+/// Something that moves the robot through one goal at a time.
+pub trait Controller: Send {
+    /// Runs one goal to its end; `Err` with the reason when it fails or is cancelled.
+    fn execute(&mut self, goal: TrajectoryMsg, cancel: &Cancel) -> Result<(), String>;
+    /// Called while no goal runs, about every `idle_period()`.
+    fn idle(&mut self) {}
+    fn idle_period(&self) -> Duration {
+        Duration::from_millis(200)
+    }
+}
+
+/// Runs a planned trajectory on `controller`: goals of at most `max_points` points with the
+/// arc switched on `~/arc_on` between them. Stops at the first failed goal or when cancelled,
+/// always leaving the arc off.
+pub fn run_plan(
+    job: u64,
+    planned: &Planned,
+    controller: &mut dyn Controller,
+    outputs: &Outputs,
+    max_points: usize,
+    lead_in_s: f64,
+    cancel: &Cancel,
+) -> Result<(), String> {
+    let arc: Vec<bool> = planned.trajectory.points.iter().map(|p| p.arc_on).collect();
+    let steps = plan_steps(&arc, max_points);
+    let goals = steps
+        .iter()
+        .filter(|s| matches!(s, Step::Goal { .. }))
+        .count();
+    let report = |message: String, level: u8| {
+        outputs.status.publish(
+            &Status::Executing {
+                job,
+                message,
+                level,
+            }
+            .to_msg(Time::now(), ""),
+            outputs.recorder.as_ref(),
+        );
+    };
+    let set_arc = |on: bool| {
+        outputs
+            .arc_on
+            .publish(&Bool { data: on }, outputs.recorder.as_ref());
+    };
+    outputs.log(
+        Level::Info,
+        &format!(
+            "executing part {job}: {} fragment(s) in {goals} goal(s) of at most {max_points} points",
+            planned.fragments.len()
+        ),
+    );
+    let mut arc_is_on = false;
+    let mut sent = 0;
+    let result = (|| {
+        for step in &steps {
+            if cancel.is_cancelled() {
+                return Err("cancelled".to_string());
+            }
+            match step {
+                Step::Arc(on) => {
+                    set_arc(*on);
+                    arc_is_on = *on;
+                }
+                Step::Goal { span, welding } => {
+                    sent += 1;
+                    let goal = goal_msg(&planned.trajectory, span.clone(), lead_in_s);
+                    let what = match welding {
+                        Some(f) => format!("welding fragment {}", f + 1),
+                        None => "moving (arc off)".to_string(),
+                    };
+                    report(
+                        format!(
+                            "part {job}: goal {sent}/{goals}, {what}, {} points",
+                            goal.points.len()
+                        ),
+                        DiagnosticStatus::OK,
+                    );
+                    controller
+                        .execute(goal, cancel)
+                        .map_err(|e| format!("goal {sent}/{goals} ({what}) failed: {e}"))?;
+                }
+            }
+        }
+        Ok(())
+    })();
+    if arc_is_on {
+        set_arc(false);
+    }
+    match &result {
+        Ok(()) => {
+            report(format!("part {job}: executed"), DiagnosticStatus::OK);
+            outputs.log(Level::Info, &format!("part {job}: execution finished"));
+        }
+        Err(e) => {
+            report(
+                format!("part {job}: execution stopped: {e}"),
+                DiagnosticStatus::ERROR,
+            );
+            outputs.log(Level::Error, &format!("part {job}: execution stopped: {e}"));
+        }
+    }
+    result
+}
+
+/// Work for the execution thread.
+pub enum ExecCommand {
+    Run {
+        job: u64,
+        planned: Arc<Planned>,
+        cancel: Cancel,
+        /// Told when the run ends (for `waam publish`).
+        done: Option<Sender<Result<(), String>>>,
+    },
+}
+
+/// Starts the execution thread: runs plans one at a time, idles the controller in between.
+pub fn spawn_executor(
+    mut controller: Box<dyn Controller>,
+    outputs: Arc<Outputs>,
+    max_points: usize,
+    lead_in_s: f64,
+    commands: Receiver<ExecCommand>,
+) -> std::thread::JoinHandle<()> {
+    std::thread::Builder::new()
+        .name("execute".into())
+        .spawn(move || loop {
+            match commands.recv_timeout(controller.idle_period()) {
+                Ok(ExecCommand::Run {
+                    job,
+                    planned,
+                    cancel,
+                    done,
+                }) => {
+                    let result = run_plan(
+                        job,
+                        &planned,
+                        controller.as_mut(),
+                        &outputs,
+                        max_points,
+                        lead_in_s,
+                        &cancel,
+                    );
+                    if let Some(done) = done {
+                        let _ = done.send(result);
+                    }
+                }
+                Err(RecvTimeoutError::Timeout) => controller.idle(),
+                Err(RecvTimeoutError::Disconnected) => return,
+            }
+        })
+        .expect("cannot start the execution thread")
+}
+
+/// The dry run's controller: follows each goal in real time × `time_scale`, interpolating
+/// joint positions linearly between points, and publishes `/joint_states` at `rate_hz`
+/// (also while idle, so a viewer always shows the robot).
+pub struct SimController {
+    outputs: Arc<Outputs>,
+    joint_names: Vec<String>,
+    position: Vec<f64>,
+    time_scale: f64,
+    period: Duration,
+}
+
+impl SimController {
+    pub fn new(outputs: Arc<Outputs>, time_scale: f64, rate_hz: f64) -> SimController {
+        SimController {
+            outputs,
+            joint_names: Vec::new(),
+            position: Vec::new(),
+            time_scale,
+            period: Duration::from_secs_f64(1.0 / rate_hz),
+        }
+    }
+
+    fn publish(&self, velocity: Vec<f64>) {
+        if let Some(out) = &self.outputs.joint_states {
+            out.publish(
+                &JointState {
+                    header: Header::new(Time::now(), ""),
+                    name: self.joint_names.clone(),
+                    position: self.position.clone(),
+                    velocity,
+                    effort: Vec::new(),
+                },
+                self.outputs.recorder.as_ref(),
+            );
+        }
+    }
+}
+
+impl Controller for SimController {
+    fn execute(&mut self, goal: TrajectoryMsg, cancel: &Cancel) -> Result<(), String> {
+        let Some(first) = goal.points.first() else {
+            return Ok(());
+        };
+        if self.joint_names != goal.joint_names || self.position.len() != first.positions.len() {
+            // First goal (or another robot): start at the goal's first point.
+            self.joint_names = goal.joint_names.clone();
+            self.position = first.positions.clone();
+        }
+        let start_pos = self.position.clone();
+        let times: Vec<f64> = goal
+            .points
+            .iter()
+            .map(|p| p.time_from_start.as_secs_f64())
+            .collect();
+        let end = *times.last().unwrap_or(&0.0);
+        let started = Instant::now();
+        loop {
+            if cancel.is_cancelled() {
+                return Err("cancelled".into());
+            }
+            let t = (started.elapsed().as_secs_f64() * self.time_scale).min(end);
+            // The segment holding t: from the previous point (or the start) to point k.
+            let k = times
+                .iter()
+                .position(|&tk| tk >= t)
+                .unwrap_or(times.len() - 1);
+            let (t_a, a) = if k == 0 {
+                (0.0, &start_pos)
+            } else {
+                (times[k - 1], &goal.points[k - 1].positions)
+            };
+            let b = &goal.points[k].positions;
+            let span = times[k] - t_a;
+            let s = if span > 0.0 { (t - t_a) / span } else { 1.0 };
+            self.position = a.iter().zip(b).map(|(x, y)| x + (y - x) * s).collect();
+            let velocity = if span > 0.0 && t < end {
+                a.iter().zip(b).map(|(x, y)| (y - x) / span).collect()
+            } else {
+                vec![0.0; b.len()]
+            };
+            self.publish(velocity);
+            if t >= end {
+                return Ok(());
+            }
+            std::thread::sleep(self.period);
+        }
+    }
+
+    fn idle(&mut self) {
+        if !self.joint_names.is_empty() {
+            self.publish(vec![0.0; self.position.len()]);
+        }
+    }
+
+    fn idle_period(&self) -> Duration {
+        self.period
+    }
+}

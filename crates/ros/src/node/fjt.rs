@@ -1,0 +1,189 @@
+//! Execution on a real controller: a `control_msgs/action/FollowJointTrajectory` client.
+//!
+//! One goal at a time: wait for the action server (bounded), send the goal, wait for
+//! acceptance, then for the result; a cancelled execution cancels the goal on the server.
+
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use futures::FutureExt as _;
+use ros2_client::action::ActionClientQosPolicies;
+use ros2_client::action_msgs::GoalStatusEnum;
+use ros2_client::{ActionClient, ActionTypeName, Node, QosProfile, ServiceMapping};
+
+use super::controller::Controller;
+use super::params::ExecutionParams;
+use super::ros::resolve_topic;
+use super::worker::Cancel;
+use waam_rosmsg::control_msgs::{
+    FollowJointTrajectoryFeedback as Feedback, FollowJointTrajectoryGoal as Goal,
+    FollowJointTrajectoryResult as FjtResult,
+};
+use waam_rosmsg::trajectory_msgs::JointTrajectory as TrajectoryMsg;
+
+type Client = ActionClient<Goal, FjtResult, Feedback>;
+
+/// The QoS rcl uses for action services and topics (services: reliable, volatile, depth 10;
+/// status: transient local).
+fn action_qos() -> ActionClientQosPolicies {
+    let service =
+        QosProfile::publisher_default().history(ros2_client::qos::History::KeepLast { depth: 10 });
+    ActionClientQosPolicies {
+        goal_service: service.clone(),
+        result_service: service.clone(),
+        cancel_service: service.clone(),
+        feedback_subscription: service.clone(),
+        status_subscription: service
+            .durability(ros2_client::qos::Durability::TransientLocal)
+            .history(ros2_client::qos::History::KeepLast { depth: 1 }),
+    }
+}
+
+/// Runs goals on a FollowJointTrajectory action server.
+pub struct FjtController {
+    client: Client,
+    node: Arc<Mutex<Node>>,
+    action: String,
+    server_timeout: Duration,
+}
+
+impl FjtController {
+    pub fn new(node: Arc<Mutex<Node>>, params: &ExecutionParams) -> Result<Self, super::NodeError> {
+        let mut guard = node.lock().unwrap_or_else(|e| e.into_inner());
+        let name = resolve_topic(
+            &params.controller_action,
+            guard.namespace(),
+            super::NODE_NAME,
+        )?;
+        let client = guard
+            .create_action_client::<Goal, FjtResult, Feedback>(
+                ServiceMapping::Enhanced,
+                &name,
+                &ActionTypeName::new("control_msgs", "FollowJointTrajectory"),
+                action_qos(),
+            )
+            .map_err(|e| {
+                super::NodeError::Ros(format!("cannot create action client {name}: {e:?}"))
+            })?;
+        drop(guard);
+        Ok(FjtController {
+            client,
+            node,
+            action: name.to_string(),
+            server_timeout: Duration::from_secs_f64(params.server_timeout_s),
+        })
+    }
+
+    /// Waits until the action's goal and result services have a server (bounded).
+    fn wait_for_server(&self) -> Result<(), String> {
+        let node = self.node.lock().unwrap_or_else(|e| e.into_inner());
+        let waits = async {
+            futures::join!(
+                self.client.goal_client().wait_for_service(&node),
+                self.client.result_client().wait_for_service(&node)
+            );
+        };
+        let found = futures::executor::block_on(async {
+            futures::select! {
+                _ = waits.fuse() => true,
+                _ = sleep(self.server_timeout).fuse() => false,
+            }
+        });
+        if found {
+            Ok(())
+        } else {
+            Err(format!(
+                "no FollowJointTrajectory server on {} after {:.1} s",
+                self.action,
+                self.server_timeout.as_secs_f64()
+            ))
+        }
+    }
+}
+
+/// A future that completes after `d` (a helper thread; we have no async timer otherwise).
+fn sleep(d: Duration) -> futures::channel::oneshot::Receiver<()> {
+    let (tx, rx) = futures::channel::oneshot::channel();
+    std::thread::spawn(move || {
+        std::thread::sleep(d);
+        let _ = tx.send(());
+    });
+    rx
+}
+
+/// Polls `f` every 5 ms until it yields, `cancel` is raised or `deadline` passes.
+fn poll_until<T>(
+    deadline: Instant,
+    cancel: &Cancel,
+    mut f: impl FnMut() -> Result<Option<T>, String>,
+) -> Result<Option<T>, String> {
+    loop {
+        if let Some(v) = f()? {
+            return Ok(Some(v));
+        }
+        if cancel.is_cancelled() || Instant::now() >= deadline {
+            return Ok(None);
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+impl Controller for FjtController {
+    fn execute(&mut self, trajectory: TrajectoryMsg, cancel: &Cancel) -> Result<(), String> {
+        self.wait_for_server()?;
+        let duration = trajectory
+            .points
+            .last()
+            .map_or(0.0, |p| p.time_from_start.as_secs_f64());
+        let goal = Goal {
+            trajectory,
+            ..Goal::default()
+        };
+        let (request, goal_id) = self
+            .client
+            .send_goal(goal)
+            .map_err(|e| format!("cannot send the goal: {e}"))?;
+        let answer_by = Instant::now() + self.server_timeout;
+        let response = poll_until(answer_by, cancel, || {
+            self.client
+                .receive_goal_response(request)
+                .map_err(|e| format!("reading the goal response: {e:?}"))
+        })?;
+        match response {
+            Some(r) if r.accepted => {}
+            Some(_) => return Err(format!("{} rejected the goal", self.action)),
+            None if cancel.is_cancelled() => return Err("cancelled".into()),
+            None => return Err(format!("{} did not answer the goal", self.action)),
+        }
+        let result_request = self
+            .client
+            .request_result(goal_id)
+            .map_err(|e| format!("cannot request the result: {e}"))?;
+        // The goal takes its duration; allow the server timeout on top for the answer.
+        let done_by = Instant::now() + Duration::from_secs_f64(duration) + self.server_timeout;
+        let result = poll_until(done_by, cancel, || {
+            self.client
+                .receive_result(result_request)
+                .map_err(|e| format!("reading the result: {e:?}"))
+        })?;
+        match result {
+            Some((GoalStatusEnum::Succeeded, r)) if r.error_code == FjtResult::SUCCESSFUL => Ok(()),
+            Some((status, r)) => Err(format!(
+                "goal ended {status:?}, error code {}: {}",
+                r.error_code, r.error_string
+            )),
+            None => {
+                let _ = self.client.cancel_goal(goal_id);
+                if cancel.is_cancelled() {
+                    Err("cancelled (goal cancel sent)".into())
+                } else {
+                    Err(format!(
+                        "no result from {} {:.1} s after the goal's end (goal cancel sent)",
+                        self.action,
+                        self.server_timeout.as_secs_f64()
+                    ))
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,558 @@
+//! The ROS 2 node `waam_planner`: parts in, weld plans and robot trajectories out.
+//!
+//! Threads: the `ros2-client` spinner; an input thread that takes `~/part` and `~/part_mesh`
+//! messages; one planning thread per job ([`worker`], latest part wins); the execution thread
+//! when a controller is attached ([`controller`]); and the event loop here, which alone
+//! decides what is published. Bad input of any kind ends as an ERROR status, never as a
+//! stopped node, and only a plan that passed validation and the thermal check is published.
+
+pub mod controller;
+pub mod convert;
+pub mod execute;
+pub mod fjt;
+pub mod io;
+pub mod once;
+pub mod params;
+pub mod pipeline;
+pub mod ros;
+pub mod worker;
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{channel, RecvTimeoutError, Sender};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use futures::StreamExt;
+use ros2_client::{NodeName, NodeOptions};
+
+use controller::{spawn_executor, Controller, ExecCommand, SimController};
+use convert::{PlanMessages, Status};
+use io::{Inputs, Level, Outputs};
+use params::NodeParams;
+use pipeline::{PartInput, PlanFn, Planned, PlanningPipeline};
+use ros::RosEnv;
+use waam_rosbag::Recorder;
+use waam_rosmsg::builtin_interfaces::Time;
+use waam_rosmsg::diagnostic_msgs::KeyValue;
+use waam_rosmsg::std_msgs::Header;
+use worker::{Cancel, Worker, WorkerEvent};
+
+/// Node name on the ROS graph.
+pub const NODE_NAME: &str = "waam_planner";
+
+/// How a run of the node is set up.
+pub struct RunOptions {
+    pub params: NodeParams,
+    /// Follow each plan with the built-in simulated controller (publishes `/joint_states`).
+    pub dry_run: bool,
+    /// Record everything received and sent into this rosbag2 directory.
+    pub record: Option<PathBuf>,
+    /// The planner jobs call.
+    pub planner: Arc<PlanFn>,
+}
+
+/// What the node does: serve parts from topics until stopped, or plan one part and exit.
+pub enum Mode {
+    Serve,
+    Once {
+        input: PartInput,
+        /// First wait up to this long for a subscriber on the joint trajectory topic.
+        wait_for_subscriber: Duration,
+        /// Keep serving the latched outputs this long before exiting.
+        linger: Duration,
+    },
+}
+
+enum Event {
+    Input(PartInput),
+    Worker(WorkerEvent<Box<Planned>>),
+}
+
+/// Why the node could not start or go on.
+#[derive(Debug, thiserror::Error)]
+pub enum NodeError {
+    #[error(transparent)]
+    Env(#[from] ros::RosEnvError),
+    #[error(transparent)]
+    Io(#[from] io::IoError),
+    #[error("cannot record into {}: {source}", dir.display())]
+    Record {
+        dir: PathBuf,
+        source: waam_rosbag::BagError,
+    },
+    #[error("{0}")]
+    Setup(String),
+    #[error("{0}")]
+    Ros(String),
+    #[error("cannot start a thread: {0}")]
+    Thread(#[from] std::io::Error),
+}
+
+/// Runs the node until `stop` is raised (or, for [`Mode::Once`], the part is done). Returns
+/// whether the last part was planned (and executed, when a controller is attached).
+pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<bool, NodeError> {
+    let env = RosEnv::from_env()?;
+    let mut node = start_node(&env)?;
+
+    let recorder = match &options.record {
+        Some(dir) => Some(Recorder::create(dir).map_err(|source| NodeError::Record {
+            dir: dir.clone(),
+            source,
+        })?),
+        None => None,
+    };
+    let params = &options.params;
+    let outputs = Arc::new(Outputs::new(
+        &mut node,
+        &params.topics,
+        options.dry_run,
+        recorder.clone(),
+    )?);
+    outputs.log(
+        Level::Info,
+        &format!(
+            "{} up: domain {}, discovery {:?}{}{}",
+            node.fully_qualified_name(),
+            env.domain_id,
+            env.range,
+            if options.dry_run { ", dry run" } else { "" },
+            if params.execution.enabled && !options.dry_run {
+                format!(", executing on {}", params.execution.controller_action)
+            } else {
+                String::new()
+            }
+        ),
+    );
+    let mut pipeline = PlanningPipeline::from_params(params, Arc::clone(&options.planner))
+        .map_err(NodeError::Setup)?;
+    pipeline.recorder = recorder.clone();
+    let mesh_settings = pipeline.mesh.clone();
+
+    let (events, event_rx) = channel::<Event>();
+    let worker_events = events.clone();
+    let mut worker = Worker::new(pipeline, move |e| {
+        let _ = worker_events.send(Event::Worker(e));
+    });
+
+    let (once, linger) = match mode {
+        Mode::Serve => {
+            let inputs = Inputs::new(&mut node, &params.topics)?;
+            outputs.log(
+                Level::Info,
+                &format!(
+                    "waiting for parts on {} and {}",
+                    inputs.part_topic, inputs.mesh_topic
+                ),
+            );
+            spawn_inputs(inputs, events.clone(), Arc::clone(&outputs));
+            (false, Duration::ZERO)
+        }
+        Mode::Once {
+            input,
+            wait_for_subscriber,
+            linger,
+        } => {
+            let until = Instant::now() + wait_for_subscriber;
+            while outputs.joint_trajectory.subscribers(&node) == 0
+                && Instant::now() < until
+                && !stop.load(Ordering::Relaxed)
+            {
+                std::thread::sleep(Duration::from_millis(20));
+            }
+            // Record the part as if it had arrived on ~/part, so a replay finds it.
+            if let (Some(r), PartInput::Document(text)) = (&recorder, &input) {
+                let topic = ros::resolve_topic(&params.topics.part, "/", NODE_NAME)?;
+                let msg = waam_rosmsg::std_msgs::String { data: text.clone() };
+                if let Err(e) = r.record(&topic.to_string(), &waam_rosbag::Qos::reliable(10), &msg)
+                {
+                    tracing::warn!("recording {topic}: {e}");
+                }
+            }
+            let _ = events.send(Event::Input(input));
+            (true, linger)
+        }
+    };
+    // The node is shared from here on: the FollowJointTrajectory client waits on it.
+    let node = Arc::new(std::sync::Mutex::new(node));
+
+    // Execution: the simulated controller on a dry run, FollowJointTrajectory when enabled.
+    let controller: Option<Box<dyn Controller>> = if options.dry_run {
+        Some(Box::new(SimController::new(
+            Arc::clone(&outputs),
+            params.dry_run.time_scale,
+            params.dry_run.rate_hz,
+        )))
+    } else if params.execution.enabled {
+        Some(Box::new(fjt::FjtController::new(
+            Arc::clone(&node),
+            &params.execution,
+        )?))
+    } else {
+        None
+    };
+    let (executor, executor_thread) = match controller {
+        Some(c) => {
+            let (tx, rx) = channel();
+            let thread = spawn_executor(
+                c,
+                Arc::clone(&outputs),
+                params.execution.max_points_per_goal as usize,
+                params.execution.lead_in_s,
+                rx,
+            );
+            (Some(tx), Some(thread))
+        }
+        None => (None, None),
+    };
+
+    drop(events);
+
+    let mut state = LoopState {
+        outputs: Arc::clone(&outputs),
+        executor,
+        execution: None,
+        last_progress: None,
+        success: false,
+    };
+    let mut finished_once = false;
+    while !stop.load(Ordering::Relaxed) && !finished_once {
+        let event = match event_rx.recv_timeout(Duration::from_millis(100)) {
+            Ok(event) => event,
+            Err(RecvTimeoutError::Timeout) => continue,
+            Err(RecvTimeoutError::Disconnected) => break,
+        };
+        match event {
+            Event::Input(input) => {
+                let source = input.describe();
+                let settings = match &input {
+                    PartInput::Mesh { name, .. } => mesh_settings.to_values(name),
+                    PartInput::Document(_) => Vec::new(),
+                };
+                let (job, cancelled) = worker.submit(input);
+                state.status(Status::Received {
+                    job,
+                    source: source.clone(),
+                    cancelled,
+                    settings,
+                });
+                let mut line = format!("part {job} received ({source})");
+                if let Some(old) = cancelled {
+                    line.push_str(&format!(
+                        "; it supersedes part {old}, whose planning is cancelled"
+                    ));
+                }
+                outputs.log(Level::Info, &line);
+            }
+            Event::Worker(WorkerEvent::Progress { job, progress }) => {
+                if worker.is_current(job) {
+                    state.progress(job, progress);
+                }
+            }
+            Event::Worker(WorkerEvent::Finished { job, result }) => {
+                if !worker.is_current(job) {
+                    tracing::debug!("part {job}: stale result dropped");
+                    continue;
+                }
+                worker.finish(job);
+                let done = state.finished(job, result);
+                if once {
+                    if let Some(done) = done {
+                        // Wait for the execution to end (or the user to stop us).
+                        loop {
+                            match done.recv_timeout(Duration::from_millis(100)) {
+                                Ok(result) => {
+                                    state.success &= result.is_ok();
+                                    break;
+                                }
+                                Err(RecvTimeoutError::Timeout) if !stop.load(Ordering::Relaxed) => {
+                                }
+                                _ => {
+                                    state.success = false;
+                                    break;
+                                }
+                            }
+                        }
+                    }
+                    finished_once = true;
+                }
+            }
+        }
+    }
+    // Stop an execution in progress (the arc goes off) before the recording closes.
+    if let Some(cancel) = state.execution.take() {
+        cancel.cancel();
+    }
+    drop(state.executor.take());
+    if let Some(thread) = executor_thread {
+        let _ = thread.join();
+    }
+    worker.shutdown();
+    if once && !stop.load(Ordering::Relaxed) {
+        // Let subscribers fetch the latched outputs before the writers go away.
+        let until = Instant::now() + linger;
+        while Instant::now() < until && !stop.load(Ordering::Relaxed) {
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+    if let Some(r) = &recorder {
+        match r.finish() {
+            Ok(summary) => tracing::info!("recording finished: {summary:?}"),
+            Err(e) => tracing::warn!("finishing the recording: {e}"),
+        }
+    }
+    drop(node); // stops the spinner
+    Ok(state.success)
+}
+
+/// Node `waam_planner` (with `/rosout`) on the environment's domain and discovery range,
+/// its spinner running on a thread of its own until the node is dropped.
+pub fn start_node(env: &RosEnv) -> Result<ros2_client::Node, NodeError> {
+    let mut node = env
+        .context()?
+        .new_node(
+            NodeName::new("/", NODE_NAME).expect("a valid node name"),
+            NodeOptions::new().enable_rosout(true),
+        )
+        .map_err(|e| NodeError::Ros(format!("cannot create the ROS 2 node: {e:?}")))?;
+    let spinner = node
+        .spinner()
+        .map_err(|e| NodeError::Ros(format!("cannot start the ROS 2 spinner: {e:?}")))?;
+    std::thread::Builder::new()
+        .name("ros-spin".into())
+        .spawn(move || futures::executor::block_on(spinner.spin()))?;
+    Ok(node)
+}
+
+/// The event loop's memory between events.
+struct LoopState {
+    outputs: Arc<Outputs>,
+    executor: Option<Sender<ExecCommand>>,
+    /// Cancel flag of the execution in progress.
+    execution: Option<Cancel>,
+    /// When and which stage the last progress status was published.
+    last_progress: Option<(Instant, &'static str)>,
+    success: bool,
+}
+
+impl LoopState {
+    fn status(&self, status: Status) {
+        self.outputs.status.publish(
+            &status.to_msg(Time::now(), ""),
+            self.outputs.recorder.as_ref(),
+        );
+    }
+
+    /// A planning status, at most 4 per second unless the stage changes.
+    fn progress(&mut self, job: u64, progress: worker::Progress) {
+        let now = Instant::now();
+        if let Some((at, stage)) = self.last_progress {
+            if stage == progress.stage && now.duration_since(at) < Duration::from_millis(250) {
+                return;
+            }
+        }
+        self.last_progress = Some((now, progress.stage));
+        self.status(Status::Planning {
+            job,
+            stage: progress.stage.to_string(),
+            fraction: progress.fraction,
+            detail: progress.detail,
+        });
+    }
+
+    /// Publishes a finished job's plan (or its error) and starts its execution. Returns the
+    /// channel that reports the end of the execution, when one was started.
+    fn finished(
+        &mut self,
+        job: u64,
+        result: Result<Box<Planned>, String>,
+    ) -> Option<std::sync::mpsc::Receiver<Result<(), String>>> {
+        self.last_progress = None;
+        let planned = match result {
+            Ok(planned) => planned,
+            Err(reason) => {
+                self.success = false;
+                self.outputs
+                    .log(Level::Error, &format!("part {job}: {reason}"));
+                self.status(Status::Error {
+                    job: Some(job),
+                    reason,
+                });
+                return None;
+            }
+        };
+        publish_plan(&self.outputs, &planned);
+        if let Some(r) = &self.outputs.recorder {
+            record_heat(r, &planned);
+        }
+        self.status(Status::Planned {
+            job,
+            values: plan_values(&planned),
+        });
+        self.outputs.log(
+            Level::Info,
+            &format!(
+                "part {job} planned: {} blocks in {} fragment(s), {} trajectory points, {:.1} s",
+                planned.part.len(),
+                planned.fragments.len(),
+                planned.trajectory.points.len(),
+                planned
+                    .trajectory
+                    .points
+                    .last()
+                    .map_or(0.0, |p| p.time_from_start)
+            ),
+        );
+        self.success = true;
+        let executor = self.executor.as_ref()?;
+        if let Some(old) = self.execution.take() {
+            old.cancel();
+            self.outputs.log(
+                Level::Warn,
+                "a newer plan arrived: stopping the execution in progress",
+            );
+        }
+        let cancel = Cancel::new();
+        self.execution = Some(cancel.clone());
+        let (done_tx, done_rx) = channel();
+        let _ = executor.send(ExecCommand::Run {
+            job,
+            planned: Arc::from(planned),
+            cancel,
+            done: Some(done_tx),
+        });
+        Some(done_rx)
+    }
+}
+
+/// Publishes every output of a plan, all with the same header (recording them too).
+pub fn publish_plan(outputs: &Outputs, planned: &Planned) {
+    let header = Header::new(Time::now(), planned.toolpath.frame.clone());
+    let m = PlanMessages::of_plan(
+        &planned.summary(),
+        &planned.trajectory,
+        &planned.plate,
+        &header,
+    );
+    publish_messages(outputs, &m);
+}
+
+/// Publishes a plan's messages on the outputs (recording them when the outputs record).
+pub fn publish_messages(outputs: &Outputs, m: &PlanMessages) {
+    let rec = outputs.recorder.as_ref();
+    outputs.joint_trajectory.publish(&m.joint_trajectory, rec);
+    outputs.poses.publish(&m.poses, rec);
+    outputs.path.publish(&m.path, rec);
+    outputs.markers.publish(&m.markers, rec);
+    outputs.weld_plan.publish(&m.weld_plan, rec);
+}
+
+/// Records the chosen plan's simulated block temperatures (PointCloud2 frames in the part
+/// frame `waam_part`, metres) so Foxglove can play the build's heat back.
+fn record_heat(recorder: &Recorder, planned: &Planned) {
+    let graph = waam_part::graph::WeldGraph::new(&planned.part);
+    let model = waam_thermal::ThermalModel::new(&planned.part, &graph);
+    if let Err(e) = crate::heat::record_heat(
+        recorder,
+        &planned.part,
+        &model,
+        &planned.fragments,
+        "waam_part",
+        Time::now(),
+        crate::heat::HeatOptions::default(),
+    ) {
+        tracing::warn!("recording the heat frames: {e}");
+    }
+}
+
+/// The statistics a "planned" status carries.
+fn plan_values(p: &Planned) -> Vec<KeyValue> {
+    let s = &p.statistics;
+    let duration = p
+        .trajectory
+        .points
+        .last()
+        .map_or(0.0, |q| q.time_from_start);
+    vec![
+        KeyValue::new("part", &p.part.name),
+        KeyValue::new("blocks", p.part.len()),
+        KeyValue::new("fragments", p.fragments.len()),
+        KeyValue::new("candidates", s.candidates),
+        KeyValue::new("feasible_found", s.feasible),
+        KeyValue::new("optimal", s.optimal),
+        KeyValue::new("planning_time_s", format!("{:.3}", s.total_time_s)),
+        KeyValue::new("worst_margin_s", format!("{:.3}", p.worst_margin_s)),
+        KeyValue::new("toolpath_poses", p.toolpath.poses.len()),
+        KeyValue::new("trajectory_points", p.trajectory.points.len()),
+        KeyValue::new("duration_s", format!("{duration:.3}")),
+    ]
+}
+
+/// The input thread: turns `~/part` and `~/part_mesh` messages into jobs (and records them).
+fn spawn_inputs(inputs: Inputs, events: Sender<Event>, outputs: Arc<Outputs>) {
+    std::thread::Builder::new()
+        .name("ros-inputs".into())
+        .spawn(move || {
+            let Inputs {
+                part_topic,
+                part,
+                mesh_topic,
+                mesh,
+            } = inputs;
+            let mut mesh_count = 0u64;
+            let recorder = outputs.recorder.clone();
+            let record =
+                |topic: &str, msg: &dyn Fn(&Recorder) -> Result<(), waam_rosbag::BagError>| {
+                    if let Some(r) = &recorder {
+                        if let Err(e) = msg(r) {
+                            tracing::warn!("recording {topic}: {e}");
+                        }
+                    }
+                };
+            let parts = part.async_stream().map(|r| r.map(Incoming::Part));
+            let meshes = mesh.async_stream().map(|r| r.map(Incoming::Mesh));
+            let mut merged = futures::stream::select(Box::pin(parts), Box::pin(meshes));
+            futures::executor::block_on(async {
+                while let Some(item) = merged.next().await {
+                    let input = match item {
+                        Ok(Incoming::Part((msg, _))) => {
+                            record(&part_topic, &|r| {
+                                r.record(&part_topic, &waam_rosbag::qos::Qos::reliable(10), &msg)
+                            });
+                            PartInput::Document(msg.data)
+                        }
+                        Ok(Incoming::Mesh((msg, _))) => {
+                            record(&mesh_topic, &|r| {
+                                r.record(&mesh_topic, &waam_rosbag::qos::Qos::reliable(10), &msg)
+                            });
+                            mesh_count += 1;
+                            PartInput::from_mesh(format!("mesh-{mesh_count}"), &msg)
+                        }
+                        Err(e) => {
+                            // An undecodable message (wrong type on the topic, bad CDR).
+                            outputs
+                                .log(Level::Error, &format!("cannot read an input message: {e}"));
+                            outputs.status.publish(
+                                &Status::Error {
+                                    job: None,
+                                    reason: format!("cannot read an input message: {e}"),
+                                }
+                                .to_msg(Time::now(), ""),
+                                outputs.recorder.as_ref(),
+                            );
+                            continue;
+                        }
+                    };
+                    if events.send(Event::Input(input)).is_err() {
+                        return;
+                    }
+                }
+            });
+        })
+        .expect("cannot start the input thread");
+}
+
+enum Incoming {
+    Part((waam_rosmsg::std_msgs::String, ros2_client::MessageInfo)),
+    Mesh((waam_rosmsg::shape_msgs::Mesh, ros2_client::MessageInfo)),
+}

@@ -1,0 +1,367 @@
+//! The node's parameters, read from a ROS 2 parameters file.
+//!
+//! The file is the one `ros2 run … --ros-args --params-file` takes: a mapping from the node
+//! name (`waam_planner`, `/waam_planner` or the wildcard `/**`) to `ros__parameters`. Every
+//! key has a default, so a file only needs the keys it changes; an unknown key is an error
+//! that names it, because a typo in a cell's config must not be silently ignored.
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+/// The parameters file shipped with the project; also the defaults of `waam node`.
+pub const DEFAULT_PARAMS_YAML: &str = include_str!("../../../../config/waam_planner.params.yaml");
+
+#[derive(Debug, thiserror::Error)]
+pub enum ParamsError {
+    #[error("cannot read parameters file {path}: {source}")]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("parameters file{where_}: {msg}")]
+    Invalid { where_: String, msg: String },
+}
+
+/// Everything `waam node` can be told through its parameters.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct NodeParams {
+    /// Process settings file (toolpath: placement, TCP angles, speeds, dwell); "" = built-in.
+    pub process_file: String,
+    pub robot: RobotParams,
+    pub planner: PlannerParams,
+    pub mesh: MeshParams,
+    pub topics: TopicParams,
+    pub execution: ExecutionParams,
+    pub dry_run: DryRunParams,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RobotParams {
+    /// URDF of the welding robot; "" = the project's bundled robot.
+    pub urdf: String,
+    /// Link the TCP is attached to; "" = the URDF's own `tcp` frame.
+    pub tip_link: String,
+    /// TCP in the tip link: [x, y, z (m), roll, pitch, yaw (rad)]; [] = none (use `tcp` frame).
+    pub tcp: Vec<f64>,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PlannerParams {
+    /// Stop a planning run after this many seconds and use the best plan found (0 = no limit).
+    pub timeout_s: f64,
+    /// k for parts that do not name one (meshes): the most weld paths allowed.
+    pub default_max_fragments: i64,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MeshParams {
+    /// Block pitch [x, y, z] in millimetres for voxelizing `~/part_mesh`.
+    pub block_mm: Vec<f64>,
+    /// A t8/5 window [min_s, max_s] given to every voxelized block; [] = no windows.
+    pub t85_window_s: Vec<f64>,
+}
+
+/// Topic names: `~/x` is private to the node, `/x` absolute, `x` relative to its namespace.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TopicParams {
+    pub part: String,
+    pub part_mesh: String,
+    pub joint_trajectory: String,
+    pub poses: String,
+    pub path: String,
+    pub markers: String,
+    pub weld_plan: String,
+    pub status: String,
+    pub arc_on: String,
+    pub joint_states: String,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ExecutionParams {
+    /// Send each plan to the robot controller (FollowJointTrajectory). Off by default.
+    pub enabled: bool,
+    /// The controller's FollowJointTrajectory action.
+    pub controller_action: String,
+    /// The most trajectory points in one goal (MotoROS2 accepts 200).
+    pub max_points_per_goal: i64,
+    /// Seconds to wait for the action server before giving up on a plan.
+    pub server_timeout_s: f64,
+    /// Seconds the first goal gives the robot to reach the trajectory's first point.
+    pub lead_in_s: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DryRunParams {
+    /// Simulated time runs this many times faster than real time (1 = real time).
+    pub time_scale: f64,
+    /// `/joint_states` messages per second of wall-clock time.
+    pub rate_hz: f64,
+}
+
+impl Default for PlannerParams {
+    fn default() -> Self {
+        PlannerParams {
+            timeout_s: 60.0,
+            default_max_fragments: 2,
+        }
+    }
+}
+
+impl Default for MeshParams {
+    fn default() -> Self {
+        MeshParams {
+            block_mm: vec![6.0, 6.0, 2.5],
+            t85_window_s: Vec::new(),
+        }
+    }
+}
+
+impl Default for TopicParams {
+    fn default() -> Self {
+        TopicParams {
+            part: "~/part".into(),
+            part_mesh: "~/part_mesh".into(),
+            joint_trajectory: "~/plan/joint_trajectory".into(),
+            poses: "~/plan/poses".into(),
+            path: "~/plan/path".into(),
+            markers: "~/plan/markers".into(),
+            weld_plan: "~/plan/weld_plan".into(),
+            status: "~/status".into(),
+            arc_on: "~/arc_on".into(),
+            joint_states: "/joint_states".into(),
+        }
+    }
+}
+
+impl Default for ExecutionParams {
+    fn default() -> Self {
+        ExecutionParams {
+            enabled: false,
+            controller_action: "/joint_trajectory_controller/follow_joint_trajectory".into(),
+            max_points_per_goal: 200,
+            server_timeout_s: 10.0,
+            lead_in_s: 2.0,
+        }
+    }
+}
+
+impl Default for DryRunParams {
+    fn default() -> Self {
+        DryRunParams {
+            time_scale: 1.0,
+            rate_hz: 50.0,
+        }
+    }
+}
+
+/// The node names a parameters file may address this node by.
+const NODE_KEYS: [&str; 3] = ["waam_planner", "/waam_planner", "/**"];
+
+impl NodeParams {
+    /// Reads a parameters file.
+    pub fn from_file(path: &Path) -> Result<NodeParams, ParamsError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ParamsError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        NodeParams::parse(&text).map_err(|e| match e {
+            ParamsError::Invalid { where_, msg } => ParamsError::Invalid {
+                where_: format!(" {}{where_}", path.display()),
+                msg,
+            },
+            other => other,
+        })
+    }
+
+    /// Parses parameters-file text: the sections of every node key that names this node are
+    /// merged, later ones winning, as rcl does.
+    pub fn parse(text: &str) -> Result<NodeParams, ParamsError> {
+        let invalid = |msg: String| ParamsError::Invalid {
+            where_: String::new(),
+            msg,
+        };
+        let doc: serde_yaml::Value =
+            serde_yaml::from_str(text).map_err(|e| invalid(format!("not valid YAML: {e}")))?;
+        let serde_yaml::Value::Mapping(nodes) = doc else {
+            return Err(invalid(
+                "expected a mapping from node name to ros__parameters".into(),
+            ));
+        };
+        let mut merged = serde_yaml::Mapping::new();
+        let mut found = false;
+        for (key, section) in &nodes {
+            let Some(name) = key.as_str().filter(|k| NODE_KEYS.contains(k)) else {
+                continue; // parameters for other nodes of the same launch
+            };
+            found = true;
+            let section = section.as_mapping().ok_or_else(|| {
+                invalid(format!("'{name}' must be a mapping with 'ros__parameters'"))
+            })?;
+            for (k, v) in section {
+                if k.as_str() != Some("ros__parameters") {
+                    return Err(invalid(format!(
+                        "'{name}': unknown key {:?} (only 'ros__parameters')",
+                        k.as_str().unwrap_or("?")
+                    )));
+                }
+                let serde_yaml::Value::Mapping(params) = v else {
+                    return Err(invalid(format!(
+                        "'{name}.ros__parameters' must be a mapping"
+                    )));
+                };
+                merge(&mut merged, params);
+            }
+        }
+        if !found {
+            return Err(invalid(format!(
+                "no section for this node: expected one of {}",
+                NODE_KEYS.join(", ")
+            )));
+        }
+        let params: NodeParams = serde_yaml::from_value(serde_yaml::Value::Mapping(merged))
+            .map_err(|e| invalid(format!("ros__parameters: {e}")))?;
+        params.check().map_err(invalid)?;
+        Ok(params)
+    }
+
+    /// The shipped defaults.
+    pub fn defaults() -> NodeParams {
+        NodeParams::parse(DEFAULT_PARAMS_YAML).expect("the bundled parameters file is valid")
+    }
+
+    /// Rules serde cannot express: ranges and list lengths.
+    fn check(&self) -> Result<(), String> {
+        let finite_pos = |v: f64| v.is_finite() && v > 0.0;
+        if !(self.planner.timeout_s.is_finite() && self.planner.timeout_s >= 0.0) {
+            return Err(format!(
+                "planner.timeout_s: expected seconds >= 0, got {}",
+                self.planner.timeout_s
+            ));
+        }
+        if self.planner.default_max_fragments < 1 {
+            return Err(format!(
+                "planner.default_max_fragments: expected an integer >= 1, got {}",
+                self.planner.default_max_fragments
+            ));
+        }
+        if self.mesh.block_mm.len() != 3 || !self.mesh.block_mm.iter().all(|&v| finite_pos(v)) {
+            return Err(format!(
+                "mesh.block_mm: expected three lengths > 0 (mm), got {:?}",
+                self.mesh.block_mm
+            ));
+        }
+        match self.mesh.t85_window_s[..] {
+            [] => {}
+            [min, max] if min.is_finite() && max.is_finite() && 0.0 <= min && min <= max => {}
+            _ => {
+                return Err(format!(
+                    "mesh.t85_window_s: expected [] or [min_s, max_s] with 0 <= min_s <= max_s, got {:?}",
+                    self.mesh.t85_window_s
+                ))
+            }
+        }
+        if !(self.robot.tcp.is_empty() || self.robot.tcp.len() == 6)
+            || self.robot.tcp.iter().any(|v| !v.is_finite())
+        {
+            return Err(format!(
+                "robot.tcp: expected [] or [x, y, z, roll, pitch, yaw] (m, rad), got {:?}",
+                self.robot.tcp
+            ));
+        }
+        if self.execution.max_points_per_goal < 1 {
+            return Err(format!(
+                "execution.max_points_per_goal: expected an integer >= 1, got {}",
+                self.execution.max_points_per_goal
+            ));
+        }
+        if !finite_pos(self.execution.server_timeout_s) {
+            return Err(format!(
+                "execution.server_timeout_s: expected seconds > 0, got {}",
+                self.execution.server_timeout_s
+            ));
+        }
+        if !(self.execution.lead_in_s.is_finite() && self.execution.lead_in_s >= 0.0) {
+            return Err(format!(
+                "execution.lead_in_s: expected seconds >= 0, got {}",
+                self.execution.lead_in_s
+            ));
+        }
+        if !finite_pos(self.dry_run.time_scale) {
+            return Err(format!(
+                "dry_run.time_scale: expected a factor > 0, got {}",
+                self.dry_run.time_scale
+            ));
+        }
+        if !(finite_pos(self.dry_run.rate_hz) && self.dry_run.rate_hz <= 1000.0) {
+            return Err(format!(
+                "dry_run.rate_hz: expected 0 < rate <= 1000, got {}",
+                self.dry_run.rate_hz
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Deep-merges `from` into `into` (nested mappings merge, everything else replaces).
+fn merge(into: &mut serde_yaml::Mapping, from: &serde_yaml::Mapping) {
+    for (k, v) in from {
+        match (into.get_mut(k), v) {
+            (Some(serde_yaml::Value::Mapping(a)), serde_yaml::Value::Mapping(b)) => merge(a, b),
+            _ => {
+                into.insert(k.clone(), v.clone());
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bundled_file_is_the_defaults() {
+        assert_eq!(NodeParams::defaults(), NodeParams::default());
+    }
+
+    #[test]
+    fn sections_merge_and_later_wins() {
+        let p = NodeParams::parse(
+            "/**:\n  ros__parameters:\n    planner: {timeout_s: 5.0}\n\
+             waam_planner:\n  ros__parameters:\n    planner: {default_max_fragments: 3}\n\
+             other_node:\n  ros__parameters: {x: 1}\n",
+        )
+        .unwrap();
+        assert_eq!(p.planner.timeout_s, 5.0);
+        assert_eq!(p.planner.default_max_fragments, 3);
+        assert_eq!(p.topics.part, "~/part");
+    }
+
+    #[test]
+    fn errors_name_the_key() {
+        let err = |text: &str| NodeParams::parse(text).unwrap_err().to_string();
+        let e = err("waam_planner:\n  ros__parameters:\n    planer: {timeout_s: 1}\n");
+        assert!(e.contains("unknown field `planer`"), "{e}");
+        let e = err("waam_planner:\n  ros__parameters:\n    execution: {max_points_per_goal: 0}\n");
+        assert!(e.contains("execution.max_points_per_goal"), "{e}");
+        let e = err("waam_planner:\n  ros__parameters:\n    mesh: {block_mm: [1, 2]}\n");
+        assert!(e.contains("mesh.block_mm"), "{e}");
+        let e = err("waam_planner:\n  ros__parameters:\n    mesh: {t85_window_s: [5, 1]}\n");
+        assert!(e.contains("mesh.t85_window_s"), "{e}");
+        let e = err("waam_planner:\n  ros__parameters:\n    robot: {tcp: [0, 0]}\n");
+        assert!(e.contains("robot.tcp"), "{e}");
+        let e = err("someone_else:\n  ros__parameters: {}\n");
+        assert!(e.contains("no section for this node"), "{e}");
+        let e = err("waam_planner:\n  params: {}\n");
+        assert!(e.contains("only 'ros__parameters'"), "{e}");
+        let e = err("[1, 2");
+        assert!(e.contains("not valid YAML"), "{e}");
+    }
+}

@@ -1,0 +1,77 @@
+//! Recording to and reading from rosbag2 bags with MCAP storage, laid out as rosbag2 (ROS 2
+//! Jazzy) writes them, so `ros2 bag info/play`, Foxglove and Python readers open them:
+//!
+//! - `DIR/metadata.yaml`: rosbag2 metadata version 9 with per-topic offered QoS;
+//! - `DIR/<DIR name>_0.mcap`: profile `ros2`, one `ros2msg` schema per type (the complete
+//!   definition), `cdr` messages, channel metadata `offered_qos_profiles` and
+//!   `topic_type_hash`, the `rosbag2` metadata record, zstd chunks with message indexes, and
+//!   a summary with statistics and chunk indexes.
+//!
+//! Chunks are bounded in size and age and each closed chunk is flushed to disk with a fresh
+//! `metadata.yaml`, so a recording killed mid-run stays readable up to its last closed chunk;
+//! [`Bag::open`] reads such a file and reports it as truncated.
+
+use std::path::{Path, PathBuf};
+
+pub mod metadata;
+pub mod qos;
+pub mod reader;
+pub mod recorder;
+pub mod writer;
+
+pub use qos::Qos;
+pub use reader::{Bag, RecordedMessage, TopicInfo, Truncation};
+pub use recorder::Recorder;
+pub use writer::{BagOptions, BagSummary, BagWriter};
+
+use waam_rosmsg::CdrError;
+
+/// A bag could not be written or read.
+#[derive(Debug, thiserror::Error)]
+pub enum BagError {
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{}: already exists (a recording goes into a new directory)", .0.display())]
+    Exists(PathBuf),
+    #[error("{}: not a usable bag directory name", .0.display())]
+    BadPath(PathBuf),
+    #[error("{}: not an MCAP file (no MCAP magic at the start)", .0.display())]
+    NotMcap(PathBuf),
+    #[error("{}: {reason}", path.display())]
+    Mcap { path: PathBuf, reason: String },
+    #[error("{}: {reason}", path.display())]
+    Corrupt { path: PathBuf, reason: String },
+    #[error("topic {topic} is recorded as {recorded}, cannot record {given} on it")]
+    TopicType {
+        topic: String,
+        recorded: String,
+        given: String,
+    },
+    #[error("topic {0} was not declared")]
+    UnknownTopic(String),
+    #[error("the recording is already finished")]
+    Finished,
+    #[error(transparent)]
+    Cdr(#[from] CdrError),
+    #[error("message on {topic} at {log_time} ns: {source}")]
+    Decode {
+        topic: String,
+        log_time: u64,
+        source: CdrError,
+    },
+}
+
+impl BagError {
+    fn mcap(path: &Path, error: mcap::McapError) -> BagError {
+        BagError::Mcap {
+            path: path.to_path_buf(),
+            reason: error.to_string(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,322 @@
+//! Reads our bags back: every schema, channel and message in file order, tolerating a file
+//! cut short (a killed recording) and saying where it ends.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use mcap::read::{ChunkFlattener, Options};
+use mcap::records::Record;
+
+use super::metadata::relative_file_paths;
+use super::qos::{self, Qos};
+use super::BagError;
+use waam_rosmsg::{from_cdr, RosMessage};
+
+/// One topic (MCAP channel) of a bag.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TopicInfo {
+    pub name: String,
+    /// `pkg/msg/Name` (the schema name).
+    pub type_name: String,
+    /// Schema encoding (`ros2msg`) and its text.
+    pub schema_encoding: String,
+    pub definition: String,
+    pub message_encoding: String,
+    pub offered_qos: Vec<Qos>,
+    pub type_hash: String,
+    /// Messages read on this topic.
+    pub count: u64,
+}
+
+/// One recorded message.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordedMessage {
+    /// Index into [`Bag::topics`].
+    pub topic: usize,
+    pub sequence: u32,
+    /// Receive and send time, ns since the epoch.
+    pub log_time: u64,
+    pub publish_time: u64,
+    /// CDR with its encapsulation header.
+    pub data: Vec<u8>,
+}
+
+/// Where and why a file ends before its footer.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Truncation {
+    /// Bytes in the file.
+    pub file_len: u64,
+    /// What the reader found at the end.
+    pub reason: String,
+}
+
+/// The contents of one bag file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bag {
+    pub mcap_file: PathBuf,
+    pub profile: String,
+    pub library: String,
+    pub topics: Vec<TopicInfo>,
+    /// In file order (for our bags, also time order per topic).
+    pub messages: Vec<RecordedMessage>,
+    /// Chunks read whole.
+    pub chunks: usize,
+    /// The last `rosbag2` metadata record's keys (`ROS_DISTRO`, `serialized_metadata`).
+    pub rosbag2_metadata: HashMap<String, String>,
+    /// `Some` when the file ends without its summary and footer.
+    pub truncated: Option<Truncation>,
+}
+
+impl Bag {
+    /// Reads a bag directory (through its `metadata.yaml`, or its only `.mcap` file when the
+    /// metadata is missing) or a single `.mcap` file.
+    pub fn open(path: &Path) -> Result<Bag, BagError> {
+        let file = mcap_file_of(path)?;
+        let bytes = std::fs::read(&file).map_err(|source| BagError::Io {
+            path: file.clone(),
+            source,
+        })?;
+        Bag::from_bytes(&file, &bytes)
+    }
+
+    /// Parses the bytes of an MCAP file; `file` names it in errors.
+    pub fn from_bytes(file: &Path, bytes: &[u8]) -> Result<Bag, BagError> {
+        if !bytes.starts_with(mcap::MAGIC) {
+            return Err(BagError::NotMcap(file.to_path_buf()));
+        }
+        let mut bag = Bag {
+            mcap_file: file.to_path_buf(),
+            profile: String::new(),
+            library: String::new(),
+            topics: Vec::new(),
+            messages: Vec::new(),
+            chunks: 0,
+            rosbag2_metadata: HashMap::new(),
+            truncated: None,
+        };
+        let mut schemas: HashMap<u16, (String, String, Arc<str>)> = HashMap::new();
+        let mut topic_of_channel: HashMap<u16, usize> = HashMap::new();
+        let mut footer = false;
+        let records = ChunkFlattener::new_with_options(bytes, Options::IgnoreEndMagic.into())
+            .map_err(|e| BagError::mcap(file, e))?;
+        for record in records {
+            let record = match record {
+                Ok(r) => r,
+                // Not a cut: a chunk this build cannot decompress (rosbag2 may write lz4).
+                Err(e @ mcap::McapError::UnsupportedCompression(_)) => {
+                    return Err(BagError::Corrupt {
+                        path: file.to_path_buf(),
+                        reason: format!("{e} (this build reads zstd and uncompressed chunks)"),
+                    })
+                }
+                Err(e) => {
+                    bag.truncated = Some(Truncation {
+                        file_len: bytes.len() as u64,
+                        reason: e.to_string(),
+                    });
+                    break;
+                }
+            };
+            match record {
+                Record::Header(h) => {
+                    bag.profile = h.profile;
+                    bag.library = h.library;
+                }
+                Record::Schema { header, data } => {
+                    let text = String::from_utf8_lossy(&data).into_owned();
+                    schemas.insert(header.id, (header.name, header.encoding, text.into()));
+                }
+                Record::Channel(c) => {
+                    if topic_of_channel.contains_key(&c.id) {
+                        continue;
+                    }
+                    let (type_name, encoding, definition) = schemas
+                        .get(&c.schema_id)
+                        .cloned()
+                        .ok_or_else(|| BagError::Corrupt {
+                            path: file.to_path_buf(),
+                            reason: format!(
+                                "channel {} ({}) refers to unknown schema {}",
+                                c.id, c.topic, c.schema_id
+                            ),
+                        })?;
+                    let offered_qos = qos::from_yaml(
+                        c.metadata
+                            .get("offered_qos_profiles")
+                            .map(String::as_str)
+                            .unwrap_or(""),
+                    )
+                    .map_err(|reason| BagError::Corrupt {
+                        path: file.to_path_buf(),
+                        reason: format!("topic {}: {reason}", c.topic),
+                    })?;
+                    topic_of_channel.insert(c.id, bag.topics.len());
+                    bag.topics.push(TopicInfo {
+                        name: c.topic,
+                        type_name,
+                        schema_encoding: encoding,
+                        definition: definition.to_string(),
+                        message_encoding: c.message_encoding,
+                        offered_qos,
+                        type_hash: c
+                            .metadata
+                            .get("topic_type_hash")
+                            .cloned()
+                            .unwrap_or_default(),
+                        count: 0,
+                    });
+                }
+                Record::Message { header, data } => {
+                    let &topic = topic_of_channel.get(&header.channel_id).ok_or_else(|| {
+                        BagError::Corrupt {
+                            path: file.to_path_buf(),
+                            reason: format!(
+                                "message {} on unknown channel {}",
+                                header.sequence, header.channel_id
+                            ),
+                        }
+                    })?;
+                    bag.topics[topic].count += 1;
+                    bag.messages.push(RecordedMessage {
+                        topic,
+                        sequence: header.sequence,
+                        log_time: header.log_time,
+                        publish_time: header.publish_time,
+                        data: data.into_owned(),
+                    });
+                }
+                Record::ChunkIndex(_) => {}
+                Record::MessageIndex(_) => {}
+                Record::Metadata(m) if m.name == "rosbag2" => {
+                    bag.rosbag2_metadata = m.metadata.into_iter().collect()
+                }
+                Record::DataEnd(_) => {}
+                Record::Footer(_) => footer = true,
+                _ => {}
+            }
+        }
+        bag.chunks = count_chunks(bytes);
+        if bag.truncated.is_none() {
+            let reason = if !footer {
+                Some("the file ends without a footer")
+            } else if bytes.len() < 2 * mcap::MAGIC.len() || !bytes.ends_with(mcap::MAGIC) {
+                Some("the file ends without its closing magic")
+            } else {
+                None
+            };
+            bag.truncated = reason.map(|reason| Truncation {
+                file_len: bytes.len() as u64,
+                reason: reason.into(),
+            });
+        }
+        Ok(bag)
+    }
+
+    /// The topic a message was recorded on.
+    pub fn topic_of(&self, message: &RecordedMessage) -> &TopicInfo {
+        &self.topics[message.topic]
+    }
+
+    /// Messages read on `topic` (0 for a topic not in the bag).
+    pub fn count(&self, topic: &str) -> u64 {
+        self.topics
+            .iter()
+            .find(|t| t.name == topic)
+            .map_or(0, |t| t.count)
+    }
+
+    /// Messages on topics of type `M`, decoded, with their receive times.
+    pub fn decode_all<M: RosMessage>(&self) -> Result<Vec<(u64, &str, M)>, BagError> {
+        self.messages
+            .iter()
+            .filter(|m| self.topics[m.topic].type_name == M::TYPE_NAME)
+            .map(|m| {
+                let topic = self.topics[m.topic].name.as_str();
+                from_cdr::<M>(&m.data)
+                    .map(|msg| (m.log_time, topic, msg))
+                    .map_err(|e| BagError::Decode {
+                        topic: topic.to_string(),
+                        log_time: m.log_time,
+                        source: e,
+                    })
+            })
+            .collect()
+    }
+
+    /// Messages on topics of type `M`, decoded, in file order.
+    pub fn decode<M: RosMessage>(&self) -> Result<Vec<M>, BagError> {
+        Ok(self.decode_all()?.into_iter().map(|(_, _, m)| m).collect())
+    }
+
+    /// First and last receive time of the messages read, ns since the epoch.
+    pub fn time_range(&self) -> Option<(u64, u64)> {
+        let mut times = self.messages.iter().map(|m| m.log_time);
+        let first = times.next()?;
+        Some(times.fold((first, first), |(a, b), t| (a.min(t), b.max(t))))
+    }
+}
+
+/// The MCAP file of a bag path: the path itself, or the file a bag directory's
+/// `metadata.yaml` names (falling back to its only `.mcap` file).
+pub fn mcap_file_of(path: &Path) -> Result<PathBuf, BagError> {
+    if !path.is_dir() {
+        if !path.exists() {
+            return Err(BagError::Io {
+                path: path.to_path_buf(),
+                source: std::io::Error::new(
+                    std::io::ErrorKind::NotFound,
+                    "no such file or directory",
+                ),
+            });
+        }
+        return Ok(path.to_path_buf());
+    }
+    let metadata = path.join("metadata.yaml");
+    if let Ok(text) = std::fs::read_to_string(&metadata) {
+        let files = relative_file_paths(&text).map_err(|reason| BagError::Corrupt {
+            path: metadata.clone(),
+            reason,
+        })?;
+        return match files.as_slice() {
+            [one] => Ok(path.join(one)),
+            [] => Err(BagError::Corrupt {
+                path: metadata,
+                reason: "relative_file_paths is empty".into(),
+            }),
+            _ => Err(BagError::Corrupt {
+                path: metadata,
+                reason: format!("split bags are not supported ({} files)", files.len()),
+            }),
+        };
+    }
+    let mut mcaps: Vec<PathBuf> = std::fs::read_dir(path)
+        .map_err(|source| BagError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
+        .collect();
+    mcaps.sort();
+    match mcaps.len() {
+        1 => Ok(mcaps.remove(0)),
+        n => Err(BagError::Corrupt {
+            path: path.to_path_buf(),
+            reason: format!("no metadata.yaml and {n} .mcap files (expected one)"),
+        }),
+    }
+}
+
+/// Chunks that were read whole (a partial last chunk is not counted).
+fn count_chunks(bytes: &[u8]) -> usize {
+    let Ok(reader) =
+        mcap::read::LinearReader::new_with_options(bytes, Options::IgnoreEndMagic.into())
+    else {
+        return 0;
+    };
+    reader
+        .take_while(Result::is_ok)
+        .filter(|r| matches!(r, Ok(Record::Chunk { .. })))
+        .count()
+}
