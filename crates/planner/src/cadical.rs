@@ -45,8 +45,14 @@ pub struct Cadical {
 
 impl Default for Cadical {
     fn default() -> Self {
+        let mut inner = Inner::default();
+        // CaDiCaL polls the terminate callback only after a propagation without conflict.
+        // Chronological backtracking can climb down thousands of decision levels one
+        // conflict at a time (seen on 10^4-block parts with long prefix clauses), which
+        // would starve the deadline: backjump instead.
+        inner.set_option("chrono", 0);
         Cadical {
-            inner: Inner::default(),
+            inner,
             model: Vec::new(),
             vars: 0,
             clauses: 0,
