@@ -363,8 +363,7 @@ impl Propagator for NoCycles {
         let Some(&(t, h)) = self.edge_of.get(var) else {
             return;
         };
-        let mut reason = vec![Lit::positive(var as u32)];
-        reason[0] = !reason[0];
+        let mut reason = vec![!Lit::positive(var as u32)];
         self.chain_negated(h, t, &mut reason);
         clause.extend(reason.into_iter().map(to_pk));
     }
