@@ -62,6 +62,26 @@ impl Default for Cadical {
     }
 }
 
+impl Drop for Cadical {
+    /// Freeing a CaDiCaL instance of millions of clauses takes seconds: a big one is freed
+    /// on a thread of its own, so that a run stopped by its deadline answers on time.
+    fn drop(&mut self) {
+        if self.clauses < 200_000 {
+            return;
+        }
+        /// The solver with its propagator: the only two owners of that `Rc` move together.
+        struct Parcel(Inner, Option<Rc<RefCell<NoCycles>>>);
+        // SAFETY: CaDiCaL keeps no thread-local state, and every clone of the propagator's
+        // `Rc` (ours and the one the solver's store holds) is inside the parcel.
+        unsafe impl Send for Parcel {}
+        let parcel = Parcel(std::mem::take(&mut self.inner), self.cycles.take());
+        // If no thread can be started, the parcel is freed here.
+        let _ = std::thread::Builder::new()
+            .name("cadical-free".into())
+            .spawn(move || drop(parcel));
+    }
+}
+
 fn to_pk(l: Lit) -> pindakaas::Lit {
     pindakaas::Lit::from_raw(NonZeroI32::new(l.to_dimacs()).expect("literals are non-zero"))
 }
