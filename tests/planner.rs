@@ -1,12 +1,12 @@
 //! The SAT planner: exact counts, soundness against brute force, and the no-plan answers.
 
-mod support;
+mod common;
 
+use common::planner::*;
 use proptest::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-use support::*;
 use waam_part::{Part, Window};
 use waam_planner::{self as planner, Acyclicity, Backend, NoPlan, Options};
 

@@ -70,11 +70,17 @@ impl Drop for Cadical {
             return;
         }
         /// The solver with its propagator: the only two owners of that `Rc` move together.
-        struct Parcel(Inner, Option<Rc<RefCell<NoCycles>>>);
+        struct Parcel {
+            _solver: Inner,
+            _propagator: Option<Rc<RefCell<NoCycles>>>,
+        }
         // SAFETY: CaDiCaL keeps no thread-local state, and every clone of the propagator's
         // `Rc` (ours and the one the solver's store holds) is inside the parcel.
         unsafe impl Send for Parcel {}
-        let parcel = Parcel(std::mem::take(&mut self.inner), self.cycles.take());
+        let parcel = Parcel {
+            _solver: std::mem::take(&mut self.inner),
+            _propagator: self.cycles.take(),
+        };
         // If no thread can be started, the parcel is freed here.
         let _ = std::thread::Builder::new()
             .name("cadical-free".into())
