@@ -4,8 +4,11 @@ mod common;
 
 use common::planner::*;
 use proptest::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 use waam_part::{Part, Window};
-use waam_planner::{self as planner, Acyclicity, NoPlan, Options};
+use waam_planner::{self as planner, Acyclicity, Backend, NoPlan, Options};
 
 /// (part, plans, feasible) from config/parts/COUNTS.md (a copy of shared/parts/COUNTS.md).
 fn expected_counts() -> Vec<(String, u64, u64)> {
@@ -24,12 +27,21 @@ fn expected_counts() -> Vec<(String, u64, u64)> {
 fn counts_match_the_published_numbers() {
     let expected = expected_counts();
     assert_eq!(expected.len(), 10, "COUNTS.md lists 10 parts");
-    for (name, plans, feasible) in expected {
-        let part = read_part(&name);
-        let counts = planner::count(&part, &Options::default(), true, &mut |_| {}).unwrap();
-        assert!(counts.complete);
-        assert_eq!(counts.plans, Some(plans), "{name}: plans");
-        assert_eq!(counts.feasible, feasible, "{name}: feasible plans");
+    for solver in [Backend::Cadical, Backend::Varisat] {
+        let opts = Options {
+            solver,
+            ..Options::default()
+        };
+        for (name, plans, feasible) in &expected {
+            let part = read_part(name);
+            let counts = planner::count(&part, &opts, true, &mut |_| {}).unwrap();
+            assert!(counts.complete);
+            assert_eq!(counts.plans, Some(*plans), "{name} {solver:?}: plans");
+            assert_eq!(
+                counts.feasible, *feasible,
+                "{name} {solver:?}: feasible plans"
+            );
+        }
     }
 }
 
@@ -113,11 +125,13 @@ proptest! {
     fn counts_equal_brute_force(part in small_part()) {
         let all = brute_force_plans(&part, part.max_fragments);
         let feasible = all.iter().filter(|p| is_feasible(&part, p)).count() as u64;
-        for acyclicity in [Acyclicity::Lazy, Acyclicity::Eager] {
-            let opts = Options { acyclicity, ..Options::default() };
-            let counts = planner::count(&part, &opts, true, &mut |_| {}).unwrap();
-            prop_assert_eq!(counts.plans, Some(all.len() as u64));
-            prop_assert_eq!(counts.feasible, feasible);
+        for solver in [Backend::Cadical, Backend::Varisat] {
+            for acyclicity in [Acyclicity::Lazy, Acyclicity::Eager] {
+                let opts = Options { acyclicity, solver, ..Options::default() };
+                let counts = planner::count(&part, &opts, true, &mut |_| {}).unwrap();
+                prop_assert_eq!(counts.plans, Some(all.len() as u64), "{:?} {:?}", solver, acyclicity);
+                prop_assert_eq!(counts.feasible, feasible, "{:?} {:?}", solver, acyclicity);
+            }
         }
     }
 }
@@ -248,4 +262,79 @@ fn count_json_has_plans_and_feasible() {
     let v: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
     assert_eq!(v["plans"], 122);
     assert_eq!(v["feasible"], 23);
+}
+
+/// A part no SAT solver plans quickly: one layer of `side` x `side` blocks without two
+/// opposite corners, in one weld path. A path alternates the two colours of the
+/// checkerboard, and two same-coloured blocks are missing, so there is no plan; proving it
+/// is a counting argument, which resolution (CDCL) cannot do in short.
+fn parity_part(side: usize) -> std::path::PathBuf {
+    let mut text = format!(
+        "name: parity-{side}\nblock_mm: [6.0, 6.0, 2.5]\nmax_fragments: 1\nlayers:\n  - |\n"
+    );
+    for y in 0..side {
+        let row: String = (0..side)
+            .map(|x| {
+                let corner = (x == 0 && y == 0) || (x == side - 1 && y == side - 1);
+                if corner {
+                    '.'
+                } else {
+                    '#'
+                }
+            })
+            .collect();
+        text.push_str(&format!("    {row}\n"));
+    }
+    let path = scratch(&format!("parity-{side}")).join("part.yaml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn a_timeout_holds_inside_one_long_solve() {
+    let part = parity_part(20);
+    let t = Instant::now();
+    let out = waam(&[
+        "plan",
+        part.to_str().unwrap(),
+        "--solver",
+        "cadical",
+        "--timeout",
+        "5",
+    ]);
+    let took = t.elapsed();
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(
+        stdout(&out).contains("none found before the timeout"),
+        "{}",
+        stdout(&out)
+    );
+    assert!(took < Duration::from_secs(6), "took {took:?}");
+}
+
+#[test]
+fn a_cancel_stops_a_solve_within_a_second() {
+    let part = Part::parse(&std::fs::read_to_string(parity_part(20)).unwrap()).unwrap();
+    let cancel = Arc::new(AtomicBool::new(false));
+    let opts = Options {
+        cancel: Some(Arc::clone(&cancel)),
+        solver: Backend::Cadical,
+        ..Options::default()
+    };
+    let flag = Arc::clone(&cancel);
+    let setter = std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_secs(1));
+        flag.store(true, Ordering::Relaxed);
+        Instant::now()
+    });
+    let report = planner::plan(&part, &opts, &mut |_| {}).unwrap();
+    let returned = Instant::now();
+    let cancelled = setter.join().unwrap();
+    assert!(report.best.is_none() && !report.proven);
+    assert!(report.no_plan.is_none());
+    assert!(
+        returned.duration_since(cancelled) < Duration::from_secs(1),
+        "returned {:?} after the cancel",
+        returned.duration_since(cancelled)
+    );
 }

@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
 use waam_part::Part;
-use waam_planner::Acyclicity;
+use waam_planner::{Acyclicity, Backend};
 
 pub mod bag;
 pub mod bench;
@@ -91,6 +91,15 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Node(args) => node::run(args),
         Command::Publish(args) => publish::run(args),
     }
+}
+
+/// clap's parser of the planner's SAT solvers, each listed with its help line.
+pub fn solver_parser() -> impl clap::builder::TypedValueParser<Value = Backend> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser as _};
+    PossibleValuesParser::new(
+        Backend::ALL.map(|(_, name, help)| PossibleValue::new(name).help(help)),
+    )
+    .map(|name| name.parse().expect("clap accepts only listed names"))
 }
 
 /// Reads a part file, logging the reader's warnings.

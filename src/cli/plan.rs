@@ -10,7 +10,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 use waam_part::plan::Plan;
 use waam_part::Part;
-use waam_planner::{self as planner, Acyclicity, Options, Stats};
+use waam_planner::{self as planner, Acyclicity, Backend, Options, Stats};
 
 use super::{record, GlobalArgs, EXIT_NO, EXIT_OK};
 use waam_pipeline::Found;
@@ -50,6 +50,10 @@ pub struct PlanArgs {
     /// How cycles are excluded: lazily by cuts between solves, or eagerly by a rank order.
     #[arg(long, value_parser = super::acyclicity_parser(), default_value = "lazy")]
     pub acyclicity: Acyclicity,
+    /// The SAT solver: CaDiCaL (cycles kept out inside its search; stops inside a solve at
+    /// --timeout) or varisat (pure Rust; cycles cut between solves, stops between solves).
+    #[arg(long, value_parser = super::solver_parser(), default_value = Backend::default().name())]
+    pub solver: Backend,
     /// Learn the plain violating prefix (as the paper) instead of proven shorter clauses.
     #[arg(long)]
     pub no_shortening: bool,
@@ -88,6 +92,7 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
             .transpose()?,
         max_fragments: args.max_fragments,
         cancel: None,
+        solver: args.solver,
     };
     if !args.json && !global.quiet {
         eprintln!(

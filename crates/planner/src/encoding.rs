@@ -369,6 +369,20 @@ impl Encoding {
             .collect()
     }
 
+    /// The edges that can lie on a cycle, as (u, v, e(u,v)): the sideways ones (a cycle
+    /// never leaves its layer, since the torch never moves down).
+    pub fn cycle_edges(&self, part: &Part) -> Vec<(usize, usize, Lit)> {
+        let z = |b: usize| part.block(b)[2];
+        (0..self.out.len())
+            .flat_map(|u| {
+                self.out[u]
+                    .iter()
+                    .filter(move |&&(v, _)| z(v as usize) == z(u))
+                    .map(move |&(v, e)| (u, v as usize, e))
+            })
+            .collect()
+    }
+
     /// The literal of edge `u -> v`.
     pub fn edge(&self, u: usize, v: usize) -> Option<Lit> {
         self.out[u]

@@ -8,6 +8,7 @@
 //! smallest count that has a feasible plan, every feasible plan found narrows the windows
 //! by its margin, so the next one found is strictly better, until none is left.
 
+pub mod cadical;
 pub mod encoding;
 pub mod sat;
 mod search;
@@ -25,6 +26,7 @@ use waam_part::{Block, Part};
 use waam_thermal::{self as thermal, ThermalModel};
 
 pub use encoding::Acyclicity;
+pub use sat::Backend;
 use search::Search;
 
 /// How the planner searches.
@@ -38,9 +40,11 @@ pub struct Options {
     pub timeout: Option<Duration>,
     /// Override the part's max_fragments.
     pub max_fragments: Option<usize>,
-    /// Set from another thread to stop the run between two candidates (as a timeout does):
-    /// the node cancels a plan when a newer part arrives.
+    /// Set from another thread to stop the run (as a timeout does): the node cancels a plan
+    /// when a newer part arrives. CaDiCaL stops inside a solve; varisat after it.
     pub cancel: Option<Arc<AtomicBool>>,
+    /// The SAT solver.
+    pub solver: Backend,
 }
 
 impl Default for Options {
@@ -51,6 +55,7 @@ impl Default for Options {
             timeout: None,
             max_fragments: None,
             cancel: None,
+            solver: Backend::default(),
         }
     }
 }
@@ -260,6 +265,30 @@ fn timed_out(opts: &Options, started: Instant) -> bool {
             .is_some_and(|c| c.load(Ordering::Relaxed))
 }
 
+/// A search with the run's solver, its solves stopped at the run's deadline or on cancel.
+fn new_search<'p>(
+    part: &'p Part,
+    graph: &'p WeldGraph,
+    k: usize,
+    opts: &Options,
+    lookahead_budget: usize,
+    started: Instant,
+) -> Search<'p> {
+    let mut search = Search::new(
+        part,
+        graph,
+        k,
+        opts.acyclicity,
+        lookahead_budget,
+        opts.solver,
+    );
+    search.set_interrupt(
+        opts.timeout.and_then(|t| started.checked_add(t)),
+        opts.cancel.clone(),
+    );
+    search
+}
+
 /// The best feasible plan: fewest fragments, then the largest worst-case t8/5 margin.
 pub fn plan(part: &Part, opts: &Options, progress: Progress) -> Result<Report, PlanError> {
     search_plans(part, opts, progress, true)
@@ -279,7 +308,7 @@ fn search_plans(
     let started = Instant::now();
     let graph = WeldGraph::new(part);
     let k = max_fragments(part, opts);
-    let mut search = Search::new(part, &graph, k, opts.acyclicity, opts.lookahead_budget);
+    let mut search = new_search(part, &graph, k, opts, opts.lookahead_budget, started);
     let base = ThermalModel::new(part, &graph);
     let mut best: Option<Found> = None;
     let mut proven = true;
@@ -294,6 +323,10 @@ fn search_plans(
                 break 'levels;
             }
             let Some(candidate) = search.next_candidate(&assume) else {
+                if search.interrupted {
+                    proven = false;
+                    break 'levels;
+                }
                 break;
             };
             any_valid = true;
@@ -329,7 +362,7 @@ fn search_plans(
         }
     }
     let no_plan = match (&best, proven) {
-        (None, true) if !any_valid => Some(no_valid_plan(part, &graph, k, opts)),
+        (None, true) if !any_valid => Some(no_valid_plan(part, &graph, k, opts, started)),
         (None, true) => {
             let (block, times) = search
                 .violations
@@ -368,7 +401,7 @@ pub fn count(
     let k = max_fragments(part, opts);
     let mut complete = true;
     let plans = if with_plans {
-        let mut search = Search::new(part, &graph, k, opts.acyclicity, 0);
+        let mut search = new_search(part, &graph, k, opts, 0, started);
         let mut plans = 0u64;
         while let Some(candidate) = search.next_candidate(&[]) {
             plans += 1;
@@ -384,6 +417,7 @@ pub fn count(
                 }
             }
         }
+        complete &= !search.interrupted;
         Some(plans)
     } else {
         None
@@ -418,7 +452,7 @@ fn enumerate_from(
     progress: Progress,
     sink: &mut dyn FnMut(&[Vec<usize>]) -> std::io::Result<()>,
 ) -> Result<Counts, PlanError> {
-    let mut search = Search::new(part, graph, k, opts.acyclicity, opts.lookahead_budget);
+    let mut search = new_search(part, graph, k, opts, opts.lookahead_budget, started);
     let (mut feasible, mut complete) = (0u64, true);
     while let Some(candidate) = search.next_candidate(&[]) {
         let verdict = search.judge(&candidate)?;
@@ -441,6 +475,7 @@ fn enumerate_from(
             break;
         }
     }
+    complete &= !search.interrupted;
     search.stats.total_s = started.elapsed().as_secs_f64();
     Ok(Counts {
         plans: None,
@@ -452,15 +487,29 @@ fn enumerate_from(
 
 /// Explains a part with no valid plan: the fewest fragments it needs, and a layer that
 /// alone needs more weld paths than allowed.
-fn no_valid_plan(part: &Part, graph: &WeldGraph, k: usize, opts: &Options) -> NoPlan {
+fn no_valid_plan(
+    part: &Part,
+    graph: &WeldGraph,
+    k: usize,
+    opts: &Options,
+    started: Instant,
+) -> NoPlan {
     let layer = layer_path_bound(part, graph)
         .into_iter()
         .filter(|&(_, paths, _)| paths > k)
         .max_by_key(|&(z, paths, _)| (paths, std::cmp::Reverse(z)));
-    // The fewest fragments, by asking the solver for structure only (bounded effort).
-    let needs_at_least = (k + 1..=part.len().min(k + 16)).find(|&f| {
-        let mut search = Search::new(part, graph, f, opts.acyclicity, 0);
-        search.next_candidate(&[]).is_some()
+    // The fewest fragments, by asking the solver for structure only (bounded effort, and
+    // within the run's deadline), from the layers' lower bound up.
+    let from = (k + 1).max(layer.map_or(0, |(_, paths, _)| paths));
+    let mut interrupted = false;
+    let needs_at_least = (from..=part.len().min(from + 15)).find(|&f| {
+        if interrupted {
+            return false;
+        }
+        let mut search = new_search(part, graph, f, opts, 0, started);
+        let found = search.next_candidate(&[]).is_some();
+        interrupted = search.interrupted;
+        found
     });
     NoPlan::NoValidPlan {
         max_fragments: k,

@@ -1,7 +1,75 @@
 //! A small solver interface of our own, so that the encoding does not depend on one
 //! SAT backend: add clauses, solve under assumptions, read the model.
+//!
+//! Two backends: [`Varisat`] (pure Rust) and [`super::cadical::Cadical`] (CaDiCaL through
+//! pindakaas), which keeps cycles out inside its search and can be interrupted mid-solve.
+
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Instant;
 
 use varisat::ExtendFormula;
+
+/// Which SAT solver runs the search.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Backend {
+    /// CaDiCaL (C++, through pindakaas): acyclicity checked inside the search by a user
+    /// propagator (IPASIR-UP), and solves stop at the deadline or on cancel.
+    #[default]
+    Cadical,
+    /// varisat (pure Rust): cycles cut between solves; a solve runs to its end.
+    Varisat,
+}
+
+/// A name that is not a SAT solver.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("unknown SAT solver {0:?} (expected cadical or varisat)")]
+pub struct UnknownBackend(pub String);
+
+impl std::str::FromStr for Backend {
+    type Err = UnknownBackend;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::ALL
+            .iter()
+            .find(|(_, n, _)| n.eq_ignore_ascii_case(s))
+            .map(|(b, _, _)| *b)
+            .ok_or_else(|| UnknownBackend(s.to_string()))
+    }
+}
+
+impl Backend {
+    /// Every backend with its name (as settings and recordings write it) and a one-line help.
+    pub const ALL: [(Backend, &'static str, &'static str); 2] = [
+        (
+            Backend::Cadical,
+            "cadical",
+            "CaDiCaL: cycles kept out inside the search, stops inside a solve at the deadline",
+        ),
+        (
+            Backend::Varisat,
+            "varisat",
+            "varisat (pure Rust): cycles cut between solves, stops between solves",
+        ),
+    ];
+
+    /// The backend's name, as settings and recordings write it.
+    pub fn name(self) -> &'static str {
+        Self::ALL
+            .iter()
+            .find(|(b, _, _)| *b == self)
+            .map_or("", |(_, n, _)| n)
+    }
+
+    /// A fresh solver of this kind.
+    pub fn solver(self) -> Box<dyn SatSolver> {
+        match self {
+            Backend::Cadical => Box::new(super::cadical::Cadical::default()),
+            Backend::Varisat => Box::new(Varisat::default()),
+        }
+    }
+}
 
 /// A literal: variable number (from 1) with a sign, DIMACS style.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -48,9 +116,62 @@ pub trait SatSolver {
     fn value(&self, lit: Lit) -> bool;
     /// Variables and clauses given so far.
     fn size(&self) -> (usize, usize);
+    /// The value the solver tries first for `lit`'s variable (`lit` true) when it decides
+    /// on it, e.g. a known plan as a warm start. A hint only: backends without phases
+    /// (varisat) ignore it.
+    fn set_phase(&mut self, lit: Lit) {
+        let _ = lit;
+    }
+    /// Makes solves stop at `deadline`, or soon after `cancel` is set: `solve` then returns
+    /// `None`. Backends that cannot stop inside a solve (varisat) ignore it; the caller
+    /// still stops between solves.
+    fn set_interrupt(&mut self, deadline: Option<Instant>, cancel: Option<Arc<AtomicBool>>) {
+        let _ = (deadline, cancel);
+    }
+    /// Keeps cycles out of the models inside the search, given every edge that can be on a
+    /// cycle as (u, v, e(u,v)). True when the backend does (its models are then acyclic);
+    /// false when the caller must cut cycles between solves.
+    fn exclude_cycles(&mut self, blocks: usize, edges: &[(usize, usize, Lit)]) -> bool {
+        let _ = (blocks, edges);
+        false
+    }
+    /// Cycle cuts the backend added by itself so far (with [`SatSolver::exclude_cycles`]).
+    fn cycle_cuts(&self) -> u64 {
+        0
+    }
 }
 
-/// The default backend: varisat, a CDCL solver in pure Rust.
+impl<S: SatSolver + ?Sized> SatSolver for Box<S> {
+    fn new_lit(&mut self) -> Lit {
+        (**self).new_lit()
+    }
+    fn add_clause(&mut self, lits: &[Lit]) {
+        (**self).add_clause(lits)
+    }
+    fn solve(&mut self, assumptions: &[Lit]) -> Option<bool> {
+        (**self).solve(assumptions)
+    }
+    fn value(&self, lit: Lit) -> bool {
+        (**self).value(lit)
+    }
+    fn size(&self) -> (usize, usize) {
+        (**self).size()
+    }
+    fn set_phase(&mut self, lit: Lit) {
+        (**self).set_phase(lit)
+    }
+    fn set_interrupt(&mut self, deadline: Option<Instant>, cancel: Option<Arc<AtomicBool>>) {
+        (**self).set_interrupt(deadline, cancel)
+    }
+    fn exclude_cycles(&mut self, blocks: usize, edges: &[(usize, usize, Lit)]) -> bool {
+        (**self).exclude_cycles(blocks, edges)
+    }
+    fn cycle_cuts(&self) -> u64 {
+        (**self).cycle_cuts()
+    }
+}
+
+/// varisat, a CDCL solver in pure Rust.
 pub struct Varisat {
     solver: varisat::Solver<'static>,
     model: Vec<bool>,
@@ -125,13 +246,16 @@ mod tests {
 
     #[test]
     fn solves_under_assumptions() {
-        let mut s = Varisat::default();
-        let (a, b) = (s.new_lit(), s.new_lit());
-        s.add_clause(&[a, b]);
-        s.add_clause(&[!a, b]);
-        assert_eq!(s.solve(&[]), Some(true));
-        assert!(s.value(b));
-        assert_eq!(s.solve(&[!b]), Some(false));
-        assert_eq!(s.solve(&[]), Some(true));
+        for backend in [Backend::Varisat, Backend::Cadical] {
+            let mut s = backend.solver();
+            let (a, b) = (s.new_lit(), s.new_lit());
+            s.add_clause(&[a, b]);
+            s.add_clause(&[!a, b]);
+            assert_eq!(s.solve(&[]), Some(true), "{backend:?}");
+            assert!(s.value(b));
+            assert_eq!(s.solve(&[!b]), Some(false), "{backend:?}");
+            assert_eq!(s.solve(&[]), Some(true), "{backend:?}");
+            assert_eq!(s.size(), (2, 2));
+        }
     }
 }

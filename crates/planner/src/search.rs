@@ -11,6 +11,8 @@
 //!   step counted there is one the weld-graph rules allow (a successor of the last block, or
 //!   a new fragment at any block whose support is welded), so no feasible plan is cut off.
 
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 use std::time::Instant;
 
 use waam_part::graph::WeldGraph;
@@ -18,7 +20,7 @@ use waam_part::Part;
 use waam_thermal::{self as thermal, Phase, Simulation, Snapshot, ThermalModel, Violation};
 
 use super::encoding::{Acyclicity, Decoded, Encoding};
-use super::sat::{Lit, SatSolver, Varisat};
+use super::sat::{Backend, Lit, SatSolver};
 use super::{CandidateVerdict, Stats};
 
 /// One SAT instance with its thermal loop.
@@ -26,7 +28,7 @@ pub struct Search<'p> {
     pub part: &'p Part,
     pub graph: &'p WeldGraph,
     pub enc: Encoding,
-    solver: Varisat,
+    solver: Box<dyn SatSolver>,
     thermal: ThermalModel,
     acyclicity: Acyclicity,
     /// Simulated steps allowed for proving shorter clauses, per violation.
@@ -38,6 +40,10 @@ pub struct Search<'p> {
     /// Layers given the eager rank order (hybrid acyclicity).
     ranked_layers: Vec<i64>,
     spacing: usize,
+    /// True once a solve was stopped by the deadline or a cancel (no answer, no proof).
+    pub interrupted: bool,
+    /// Cycle cuts the solver made inside its searches (counted into the statistics).
+    inside_cuts: u64,
 }
 
 impl<'p> Search<'p> {
@@ -47,10 +53,16 @@ impl<'p> Search<'p> {
         k: usize,
         acyclicity: Acyclicity,
         lookahead_budget: usize,
+        backend: Backend,
     ) -> Search<'p> {
         let started = Instant::now();
-        let mut solver = Varisat::default();
+        let mut solver = backend.solver();
         let enc = Encoding::new(part, graph, k, acyclicity, &mut solver);
+        // Lazy acyclicity inside the search where the backend can (the paper's way); cuts
+        // between solves otherwise. Hybrid needs no ranks when no cycle reaches a model.
+        if acyclicity != Acyclicity::Eager {
+            solver.exclude_cycles(part.len(), &enc.cycle_edges(part));
+        }
         let mut stats = Stats::default();
         let (vars, clauses) = solver.size();
         stats.variables = vars;
@@ -71,7 +83,21 @@ impl<'p> Search<'p> {
             ranked_layers: Vec::new(),
             // Snapshots of every prefix cost n²/2 temperatures: space them on big parts.
             spacing: (n / 1000).max(1),
+            interrupted: false,
+            inside_cuts: 0,
         }
+    }
+
+    /// Stops solves at `deadline` or on `cancel` (inside a solve where the backend can):
+    /// [`Search::next_candidate`] then returns `None` and sets `interrupted`.
+    pub fn set_interrupt(&mut self, deadline: Option<Instant>, cancel: Option<Arc<AtomicBool>>) {
+        self.solver.set_interrupt(deadline, cancel);
+    }
+
+    /// Suggests the value of `lit` to the solver's decisions (a warm start's hint).
+    #[allow(dead_code)] // the hook for the warm start (a constructive plan as phases)
+    pub fn set_phase(&mut self, lit: Lit) {
+        self.solver.set_phase(lit);
     }
 
     /// Judges later candidates by `model` (e.g. narrowed windows while optimizing).
@@ -88,7 +114,11 @@ impl<'p> Search<'p> {
             let sat = self.solver.solve(assumptions);
             self.stats.sat_solves += 1;
             let dt = t.elapsed().as_secs_f64();
+            let inside = self.solver.cycle_cuts();
+            self.stats.cycle_cuts += inside - self.inside_cuts;
+            self.inside_cuts = inside;
             if sat != Some(true) {
+                self.interrupted |= sat.is_none();
                 self.stats.sat_s += dt;
                 return None;
             }

@@ -33,11 +33,13 @@ pub enum RecordError {
 pub const SETTING: &str = "planner.";
 
 /// The planner's settings as status values: `planner.acyclicity`, `planner.lookahead_budget`,
-/// `planner.max_fragments` (absent: the part's own) and `planner.timeout_s` (absent: none).
+/// `planner.solver`, `planner.max_fragments` (absent: the part's own) and
+/// `planner.timeout_s` (absent: none).
 pub fn settings(opts: &Options) -> Vec<KeyValue> {
     let mut values = vec![
         KeyValue::new(format!("{SETTING}acyclicity"), opts.acyclicity.name()),
         KeyValue::new(format!("{SETTING}lookahead_budget"), opts.lookahead_budget),
+        KeyValue::new(format!("{SETTING}solver"), opts.solver.name()),
     ];
     if let Some(k) = opts.max_fragments {
         values.push(KeyValue::new(format!("{SETTING}max_fragments"), k));
@@ -70,6 +72,7 @@ pub fn options_from(
             "acyclicity" => {
                 opts.acyclicity = value.parse().map_err(|_| bad("not an acyclicity method"))?
             }
+            "solver" => opts.solver = value.parse().map_err(|_| bad("not a SAT solver"))?,
             "lookahead_budget" => {
                 opts.lookahead_budget = value.parse().map_err(|_| bad("not a count"))?
             }
@@ -368,7 +371,7 @@ impl PlanningRecorder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use waam_planner::Acyclicity;
+    use waam_planner::{Acyclicity, Backend};
 
     #[test]
     fn settings_round_trip_through_status_values() {
@@ -378,6 +381,7 @@ mod tests {
             timeout: Some(std::time::Duration::from_secs(3)),
             max_fragments: Some(4),
             cancel: None,
+            solver: Backend::Varisat,
         };
         let values: Vec<(String, String)> = settings(&opts)
             .into_iter()
@@ -388,6 +392,7 @@ mod tests {
         assert_eq!(back.acyclicity, Acyclicity::Eager);
         assert_eq!(back.lookahead_budget, 7);
         assert_eq!(back.max_fragments, Some(4));
+        assert_eq!(back.solver, Backend::Varisat);
         assert_eq!(back.timeout, None, "replay never plans under a timeout");
         let bad = [("planner.acyclicity".to_string(), "sideways".to_string())];
         let err = options_from(&bad, &Options::default())

@@ -213,7 +213,7 @@ pub fn sat_planner() -> Arc<PlanFn> {
             timeout: std::time::Duration::try_from_secs_f64(timeout_s)
                 .ok()
                 .filter(|t| !t.is_zero()),
-            // A newer part stops this run between two candidates; the worker then drops it.
+            // A newer part stops this run (inside a solve with CaDiCaL); the worker then drops it.
             cancel: Some(ctx.cancel.flag()),
             ..waam_planner::Options::default()
         };

@@ -1,0 +1,470 @@
+//! The CaDiCaL backend (through pindakaas), with the paper's own acyclicity mechanism:
+//! cycles are kept out *inside* the search by a user propagator (IPASIR-UP), not by cuts
+//! between solves; and solves stop at a deadline or on cancel (CaDiCaL's terminate
+//! callback), so a timeout holds even inside one long solve.
+//!
+//! The propagator follows the chosen sideways moves as chains (paths of blocks, each
+//! moving to the next). When an assigned edge `u -> v` joins the chain ending at `u` to the
+//! chain starting at `v`:
+//! - if both are one chain, the edge closes a cycle with no arc start on it: the cut
+//!   "not all of these edges" is handed to the solver as a conflict clause;
+//! - otherwise the new chain runs from `h` to `t`, and the edge `t -> h` (if the weld
+//!   graph has it) would close a cycle: it is propagated false, its reason being the
+//!   chain's edges.
+//!
+//! Every clause handed over is a cycle cut, which holds in every plan, so no plan is lost;
+//! and a complete assignment is checked for cycles before the solver may report it
+//! (`check_solution`), so no model with a cycle gets out, whatever the chains missed.
+
+use std::cell::RefCell;
+use std::num::NonZeroI32;
+use std::rc::Rc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+use pindakaas::solver::cadical::Cadical as Inner;
+use pindakaas::solver::propagation::{
+    ClauseBuilder, ClausePersistence, ExternalPropagation, Propagator, PropagatorConfig, Solution,
+    SolvingActions,
+};
+use pindakaas::solver::{Assumptions, SolveResult, TermSignal, TerminateCallback};
+use pindakaas::{ClauseDatabase, Valuation};
+
+use super::sat::{Lit, SatSolver};
+
+/// CaDiCaL 3 as a [`SatSolver`].
+pub struct Cadical {
+    inner: Inner,
+    model: Vec<bool>,
+    vars: usize,
+    clauses: usize,
+    buf: Vec<pindakaas::Lit>,
+    cycles: Option<Rc<RefCell<NoCycles>>>,
+}
+
+impl Default for Cadical {
+    fn default() -> Self {
+        let mut inner = Inner::default();
+        // CaDiCaL polls the terminate callback only after a propagation without conflict.
+        // Chronological backtracking can climb down thousands of decision levels one
+        // conflict at a time (seen on 10^4-block parts with long prefix clauses), which
+        // would starve the deadline: backjump instead.
+        inner.set_option("chrono", 0);
+        Cadical {
+            inner,
+            model: Vec::new(),
+            vars: 0,
+            clauses: 0,
+            buf: Vec::new(),
+            cycles: None,
+        }
+    }
+}
+
+impl Drop for Cadical {
+    /// Freeing a CaDiCaL instance of millions of clauses takes seconds: a big one is freed
+    /// on a thread of its own, so that a run stopped by its deadline answers on time.
+    fn drop(&mut self) {
+        if self.clauses < 200_000 {
+            return;
+        }
+        /// The solver with its propagator: the only two owners of that `Rc` move together.
+        struct Parcel {
+            _solver: Inner,
+            _propagator: Option<Rc<RefCell<NoCycles>>>,
+        }
+        // SAFETY: CaDiCaL keeps no thread-local state, and every clone of the propagator's
+        // `Rc` (ours and the one the solver's store holds) is inside the parcel.
+        unsafe impl Send for Parcel {}
+        let parcel = Parcel {
+            _solver: std::mem::take(&mut self.inner),
+            _propagator: self.cycles.take(),
+        };
+        // If no thread can be started, the parcel is freed here.
+        let _ = std::thread::Builder::new()
+            .name("cadical-free".into())
+            .spawn(move || drop(parcel));
+    }
+}
+
+fn to_pk(l: Lit) -> pindakaas::Lit {
+    pindakaas::Lit::from_raw(NonZeroI32::new(l.to_dimacs()).expect("literals are non-zero"))
+}
+
+impl SatSolver for Cadical {
+    fn new_lit(&mut self) -> Lit {
+        let v = self
+            .inner
+            .new_var_range(1)
+            .next()
+            .expect("one new variable");
+        self.vars += 1;
+        Lit::positive(i32::from(v) as u32)
+    }
+
+    fn add_clause(&mut self, lits: &[Lit]) {
+        self.buf.clear();
+        self.buf.extend(lits.iter().map(|&l| to_pk(l)));
+        // An empty clause makes the formula unsatisfiable; the solver remembers that.
+        let _ = self.inner.add_clause_from_slice(&self.buf);
+        self.clauses += 1;
+    }
+
+    fn solve(&mut self, assumptions: &[Lit]) -> Option<bool> {
+        let vars = self.vars;
+        let model = &mut self.model;
+        match self
+            .inner
+            .solve_assuming(assumptions.iter().map(|&l| to_pk(l)))
+        {
+            SolveResult::Satisfied(sol) => {
+                model.clear();
+                model.push(false);
+                model.extend((1..=vars).map(|v| sol.value(to_pk(Lit::positive(v as u32)))));
+                Some(true)
+            }
+            SolveResult::Unsatisfiable(_) => Some(false),
+            SolveResult::Unknown => None,
+        }
+    }
+
+    fn value(&self, lit: Lit) -> bool {
+        let v = self.model.get(lit.var() as usize).copied().unwrap_or(false);
+        v != lit.is_negative()
+    }
+
+    fn size(&self) -> (usize, usize) {
+        (self.vars, self.clauses)
+    }
+
+    fn set_phase(&mut self, lit: Lit) {
+        self.inner.phase(to_pk(lit));
+    }
+
+    fn set_interrupt(&mut self, deadline: Option<Instant>, cancel: Option<Arc<AtomicBool>>) {
+        if deadline.is_none() && cancel.is_none() {
+            self.inner
+                .set_terminate_callback(None::<fn() -> TermSignal>);
+            return;
+        }
+        self.inner.set_terminate_callback(Some(move || {
+            let late = deadline.is_some_and(|d| Instant::now() >= d);
+            let cancelled = cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
+            if late || cancelled {
+                TermSignal::Terminate
+            } else {
+                TermSignal::Continue
+            }
+        }));
+    }
+
+    fn exclude_cycles(&mut self, blocks: usize, edges: &[(usize, usize, Lit)]) -> bool {
+        let propagator = Rc::new(RefCell::new(NoCycles::new(blocks, edges)));
+        self.inner.connect_propagator(Rc::clone(&propagator));
+        for &(_, _, e) in edges {
+            self.inner.add_observed_var(to_pk(e).var());
+        }
+        self.cycles = Some(propagator);
+        true
+    }
+
+    fn cycle_cuts(&self) -> u64 {
+        self.cycles.as_ref().map_or(0, |c| c.borrow().cuts)
+    }
+}
+
+const NONE: u32 = u32::MAX;
+
+/// The chains of chosen edges under the solver's current (partial) assignment.
+///
+/// Invariants: `succ`/`pred` hold the merged edges; for a block with no successor (a
+/// chain's tail) `head_of` is its chain's head, for a block with no predecessor (a head)
+/// `tail_of` is its chain's tail. Merges are undone in reverse order on backtracking.
+struct NoCycles {
+    /// Per variable number: the edge (u, v) it stands for (NONE: not an edge).
+    edge_of: Vec<(u32, u32)>,
+    /// Per block: its sideways successors and their edge literals.
+    out: Vec<Vec<(u32, Lit)>>,
+    succ: Vec<u32>,
+    succ_lit: Vec<Lit>,
+    pred: Vec<u32>,
+    head_of: Vec<u32>,
+    tail_of: Vec<u32>,
+    /// Merged edges (u, v, head, tail), in assignment order.
+    trail: Vec<(u32, u32, u32, u32)>,
+    /// Trail length at the start of each decision level above 0.
+    levels: Vec<usize>,
+    /// Edges (t, h) that would close a chain into a cycle: to propagate false.
+    pending: Vec<(u32, u32)>,
+    /// Clauses to hand to the solver.
+    clauses: Vec<(Vec<Lit>, ClausePersistence)>,
+    /// Cycle cuts handed over (conflicts and model checks).
+    cuts: u64,
+}
+
+impl NoCycles {
+    fn new(blocks: usize, edges: &[(usize, usize, Lit)]) -> NoCycles {
+        let max_var = edges.iter().map(|e| e.2.var() as usize).max().unwrap_or(0);
+        let mut edge_of = vec![(NONE, NONE); max_var + 1];
+        let mut out = vec![Vec::new(); blocks];
+        for &(u, v, e) in edges {
+            debug_assert!(!e.is_negative());
+            edge_of[e.var() as usize] = (u as u32, v as u32);
+            out[u].push((v as u32, e));
+        }
+        NoCycles {
+            edge_of,
+            out,
+            succ: vec![NONE; blocks],
+            succ_lit: vec![Lit::positive(1); blocks],
+            pred: vec![NONE; blocks],
+            head_of: (0..blocks as u32).collect(),
+            tail_of: (0..blocks as u32).collect(),
+            trail: Vec::new(),
+            levels: Vec::new(),
+            pending: Vec::new(),
+            clauses: Vec::new(),
+            cuts: 0,
+        }
+    }
+
+    fn edge_lit(&self, u: u32, v: u32) -> Option<Lit> {
+        self.out
+            .get(u as usize)?
+            .iter()
+            .find(|(w, _)| *w == v)
+            .map(|&(_, e)| e)
+    }
+
+    /// The edges of the chain from `from` to `to`, negated, into `clause` (at most one
+    /// walk over the blocks: a broken chain stops it).
+    fn chain_negated(&self, from: u32, to: u32, clause: &mut Vec<Lit>) {
+        let mut at = from;
+        let mut steps = 0;
+        while at != to && steps < self.succ.len() {
+            let next = self.succ[at as usize];
+            if next == NONE {
+                break;
+            }
+            clause.push(!self.succ_lit[at as usize]);
+            at = next;
+            steps += 1;
+        }
+    }
+
+    /// Edge `u -> v` (literal `e`) was assigned true.
+    fn assign(&mut self, u: u32, v: u32, e: Lit) {
+        let (ui, vi) = (u as usize, v as usize);
+        if self.succ[ui] != NONE || self.pred[vi] != NONE {
+            // A second edge out of u or into v: the solver's own clauses conflict (or the
+            // edge is known already). Nothing to merge.
+            return;
+        }
+        let h = self.head_of[ui];
+        let t = self.tail_of[vi];
+        if h == v {
+            // v ... u -> v: a cycle. Its cut is falsified now: a conflict.
+            let mut clause = vec![!e];
+            self.chain_negated(v, u, &mut clause);
+            self.clauses.push((clause, ClausePersistence::Forgettable));
+            self.cuts += 1;
+            return;
+        }
+        self.succ[ui] = v;
+        self.succ_lit[ui] = e;
+        self.pred[vi] = u;
+        self.head_of[t as usize] = h;
+        self.tail_of[h as usize] = t;
+        self.trail.push((u, v, h, t));
+        if self.edge_lit(t, h).is_some() {
+            self.pending.push((t, h));
+        }
+    }
+
+    fn undo_to(&mut self, len: usize) {
+        while self.trail.len() > len {
+            let (u, v, h, t) = self.trail.pop().expect("longer than len");
+            self.succ[u as usize] = NONE;
+            self.pred[v as usize] = NONE;
+            self.head_of[t as usize] = v;
+            self.tail_of[h as usize] = u;
+        }
+    }
+
+    /// Whether `t ... ` is still the chain from `h` to `t` (so `t -> h` closes a cycle).
+    fn closes(&self, t: u32, h: u32) -> bool {
+        self.succ[t as usize] == NONE
+            && self.pred[h as usize] == NONE
+            && self.head_of[t as usize] == h
+            && self.tail_of[h as usize] == t
+    }
+
+    /// The cycles of a complete assignment, each as its cut.
+    fn model_cycles(&mut self, solution: &Solution<'_>) -> bool {
+        let n = self.succ.len();
+        let mut next = vec![NONE; n];
+        let mut next_lit = vec![Lit::positive(1); n];
+        for (u, outs) in self.out.iter().enumerate() {
+            for &(v, e) in outs {
+                if solution.value(to_pk(e)) {
+                    next[u] = v;
+                    next_lit[u] = e;
+                }
+            }
+        }
+        // 0: unseen, 1: on the current walk, 2: done.
+        let mut state = vec![0u8; n];
+        let mut found = false;
+        for s in 0..n {
+            let mut walk = Vec::new();
+            let mut at = s as u32;
+            while at != NONE && state[at as usize] == 0 {
+                state[at as usize] = 1;
+                walk.push(at);
+                at = next[at as usize];
+            }
+            if at != NONE && state[at as usize] == 1 {
+                // A cycle from `at` around to it.
+                let mut clause = Vec::new();
+                let mut c = at;
+                loop {
+                    clause.push(!next_lit[c as usize]);
+                    c = next[c as usize];
+                    if c == at {
+                        break;
+                    }
+                }
+                self.clauses.push((clause, ClausePersistence::Irredundant));
+                self.cuts += 1;
+                found = true;
+            }
+            for w in walk {
+                state[w as usize] = 2;
+            }
+        }
+        found
+    }
+}
+
+impl Propagator for NoCycles {
+    fn notify_assignment(&mut self, lits: &[pindakaas::Lit]) {
+        for &l in lits {
+            if l.is_negated() {
+                continue;
+            }
+            let var = i32::from(l.var()) as usize;
+            if let Some(&(u, v)) = self.edge_of.get(var) {
+                if u != NONE {
+                    self.assign(u, v, Lit::positive(var as u32));
+                }
+            }
+        }
+    }
+
+    fn notify_new_decision_level(&mut self) {
+        self.levels.push(self.trail.len());
+    }
+
+    fn notify_backtrack(&mut self, new_level: usize, _restart: bool) {
+        if let Some(&len) = self.levels.get(new_level) {
+            self.undo_to(len);
+            self.levels.truncate(new_level);
+        }
+        self.pending.clear();
+    }
+
+    fn propagate(&mut self, _slv: &mut dyn SolvingActions) -> Option<pindakaas::Lit> {
+        while let Some((t, h)) = self.pending.pop() {
+            if self.closes(t, h) {
+                let e = self.edge_lit(t, h)?;
+                return Some(to_pk(!e));
+            }
+        }
+        None
+    }
+
+    fn explain_propagation(&mut self, propagated: pindakaas::Lit, mut clause: ClauseBuilder<'_>) {
+        let var = i32::from(propagated.var()) as usize;
+        let Some(&(t, h)) = self.edge_of.get(var) else {
+            return;
+        };
+        let mut reason = vec![!Lit::positive(var as u32)];
+        self.chain_negated(h, t, &mut reason);
+        clause.extend(reason.into_iter().map(to_pk));
+    }
+
+    fn check_solution(&mut self, _slv: &mut dyn SolvingActions, solution: Solution<'_>) -> bool {
+        !self.model_cycles(&solution)
+    }
+
+    fn provide_clause(
+        &mut self,
+        _slv: &mut dyn SolvingActions,
+        mut clause: ClauseBuilder<'_>,
+    ) -> Option<ClausePersistence> {
+        let (lits, persistence) = self.clauses.pop()?;
+        clause.extend(lits.into_iter().map(to_pk));
+        Some(persistence)
+    }
+}
+
+impl PropagatorConfig for NoCycles {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A ring of 4 blocks, both directions: every model is a set of paths, never a cycle.
+    #[test]
+    fn no_model_has_a_cycle() {
+        let mut s = Cadical::default();
+        let n = 4;
+        let mut edges = Vec::new();
+        for u in 0..n {
+            for v in [(u + 1) % n, (u + n - 1) % n] {
+                edges.push((u, v, s.new_lit()));
+            }
+        }
+        // Every block has exactly one successor: only cycles satisfy this, so with the
+        // propagator the formula is unsatisfiable.
+        for u in 0..n {
+            let outs: Vec<Lit> = edges.iter().filter(|e| e.0 == u).map(|e| e.2).collect();
+            s.add_clause(&outs);
+            s.add_clause(&[!outs[0], !outs[1]]);
+            let ins: Vec<Lit> = edges.iter().filter(|e| e.1 == u).map(|e| e.2).collect();
+            s.add_clause(&[!ins[0], !ins[1]]);
+        }
+        assert_eq!(s.solve(&[]), Some(true), "cycles are models without it");
+        assert!(s.exclude_cycles(n, &edges));
+        assert_eq!(s.solve(&[]), Some(false));
+        assert!(s.cycle_cuts() > 0);
+    }
+
+    #[test]
+    fn a_deadline_stops_a_hard_solve() {
+        // Pigeonhole 11 into 10: far beyond a millisecond.
+        let mut s = Cadical::default();
+        let (p, h) = (11, 10);
+        let x: Vec<Vec<Lit>> = (0..p)
+            .map(|_| (0..h).map(|_| s.new_lit()).collect())
+            .collect();
+        for row in &x {
+            s.add_clause(row);
+        }
+        for j in 0..h {
+            for a in 0..p {
+                for b in a + 1..p {
+                    s.add_clause(&[!x[a][j], !x[b][j]]);
+                }
+            }
+        }
+        let t = Instant::now();
+        s.set_interrupt(Some(t + std::time::Duration::from_millis(200)), None);
+        assert_eq!(s.solve(&[]), None);
+        assert!(t.elapsed().as_secs_f64() < 1.2, "{:?}", t.elapsed());
+        let cancel = Arc::new(AtomicBool::new(true));
+        s.set_interrupt(None, Some(cancel));
+        assert_eq!(s.solve(&[]), None);
+    }
+}
