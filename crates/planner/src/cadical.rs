@@ -452,6 +452,7 @@ mod tests {
         for row in &x {
             s.add_clause(row);
         }
+        #[allow(clippy::needless_range_loop)] // j is a hole, a and b pigeons: the maths reads so
         for j in 0..h {
             for a in 0..p {
                 for b in a + 1..p {
