@@ -11,6 +11,7 @@ use waam_planner::Acyclicity;
 pub mod bag;
 pub mod bench;
 pub mod check;
+pub mod first_run;
 pub mod layer;
 pub mod motion;
 pub mod node;

@@ -183,6 +183,14 @@ fn draw_axes<DB: DrawingBackend>(
     Ok(())
 }
 
+/// The colour of the top face of the `k`-th of `len` blocks of weld path `f` in
+/// `plan3d.png`: the path's hue, light for the first block, dark for the last.
+pub fn path_colour(f: usize, k: usize, len: usize) -> RGBColor {
+    let base = PATH_COLOURS[f % PATH_COLOURS.len()];
+    let t = k as f64 / (len.max(2) - 1) as f64;
+    mix(mix(base, WHITE, 0.6), shade(base, 0.6), t)
+}
+
 /// Draws `plan3d.png`: every block as a box coloured by its weld path (hue) and its place
 /// in the path (light = early, dark = late), arc starts numbered in weld order.
 pub fn plan_png(part: &Part, fragments: &[Vec<usize>], path: &Path) -> Result<(), PlotError> {
@@ -202,11 +210,8 @@ pub fn plan_png(part: &Part, fragments: &[Vec<usize>], path: &Path) -> Result<()
     let view = View::fit(part, (10, 50), (PLAN_SIZE.0 - legend_w - 20, PLAN_SIZE.1 - 60));
     let mut colours = vec![None; part.len()];
     for (f, fragment) in fragments.iter().enumerate() {
-        let base = PATH_COLOURS[f % PATH_COLOURS.len()];
-        let n = fragment.len().max(2) - 1;
         for (k, &b) in fragment.iter().enumerate() {
-            let t = k as f64 / n as f64;
-            colours[b] = Some(mix(mix(base, WHITE, 0.6), shade(base, 0.6), t));
+            colours[b] = Some(path_colour(f, k, fragment.len()));
         }
     }
     let tops = draw_blocks(&root, part, &view, &colours).map_err(&err)?;
@@ -230,7 +235,6 @@ pub fn plan_png(part: &Part, fragments: &[Vec<usize>], path: &Path) -> Result<()
     let x = (PLAN_SIZE.0 - legend_w) as i32;
     let mut y = 70;
     for (f, fragment) in fragments.iter().enumerate() {
-        let base = PATH_COLOURS[f % PATH_COLOURS.len()];
         let start = fragment.first().map(|&b| BlockDisplay(part.block(b)).to_string());
         root.draw(&Text::new(
             format!("path {}: {} blocks", f + 1, fragment.len()),
@@ -239,7 +243,7 @@ pub fn plan_png(part: &Part, fragments: &[Vec<usize>], path: &Path) -> Result<()
         ))
         .map_err(|e| err(e.to_string()))?;
         for k in 0..160 {
-            let c = mix(mix(base, WHITE, 0.6), shade(base, 0.6), k as f64 / 159.0);
+            let c = path_colour(f, k as usize, 160);
             root.draw(&Rectangle::new([(x + k, y + 22), (x + k + 1, y + 36)], c.filled()))
                 .map_err(|e| err(e.to_string()))?;
         }
