@@ -5,8 +5,8 @@ use std::path::Path;
 
 use serde_json::Value;
 
-mod recording;
-use recording::{kill_a_recording, last_json, run_ok, waam};
+mod common;
+use common::run::{kill_a_recording, last_json, run_ok, waam};
 
 fn info_json(bag: &Path) -> Value {
     let stdout = run_ok(waam().args(["bag", "info", "--json"]).arg(bag));

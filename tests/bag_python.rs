@@ -8,7 +8,7 @@ use std::process::Command;
 
 use serde_json::Value;
 
-mod recording;
+mod common;
 
 /// The venv's python, or `None` when the caller asked to skip (`WAAM_SKIP_PY=1`).
 fn python() -> Option<PathBuf> {
@@ -49,8 +49,8 @@ fn python_readers_decode_every_message_of_a_session() {
     let Some(python) = python() else { return };
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("session");
-    let stdout = recording::run_ok(
-        recording::waam()
+    let stdout = common::run::run_ok(
+        common::run::waam()
             .args(["bag", "sample", "--rounds", "3"])
             .arg(&dir),
     );
@@ -74,7 +74,7 @@ fn python_mcap_reads_a_killed_recording_like_we_do() {
     let Some(python) = python() else { return };
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("killed");
-    let flushed = recording::kill_a_recording(&dir, 300);
+    let flushed = common::run::kill_a_recording(&dir, 300);
     let file = dir.join("killed_0.mcap");
     let ours = waam_rosbag::Bag::open(&file).unwrap();
     assert!(ours.truncated.is_some());
@@ -100,15 +100,15 @@ fn python_readers_decode_a_planning_session_with_motion() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("session");
-    let stdout = recording::run_ok(
-        recording::waam()
+    let stdout = common::run::run_ok(
+        common::run::waam()
             .args(["-q", "plan", "--json", "--robot"])
             .arg(root.join("urdf/waam_robot.urdf"))
             .arg("--record")
             .arg(&dir)
             .arg(root.join("config/parts/s3-ring.yaml")),
     );
-    let report = recording::last_json(&stdout);
+    let report = common::run::last_json(&stdout);
     let candidates = report["stats"]["candidates"].as_u64().unwrap();
     // The heat frames are as many as the simulation makes; everything else is known.
     let heat = waam_rosbag::Bag::open(&dir)

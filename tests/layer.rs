@@ -342,6 +342,7 @@ fn passes_and_trail_file_round_trip() {
     assert!(model
         .check_trail(&bad)
         .unwrap_err()
+        .to_string()
         .contains("never welded"));
 }
 

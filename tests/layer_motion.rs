@@ -21,8 +21,7 @@ use waam_rosmsg::visualization_msgs::MarkerArray;
 use waam_rosmsg::waam_interfaces::{WeldPlan, WeldPoint};
 
 mod common;
-mod recording;
-use recording::{run_isolated, waam};
+use common::run::{run_isolated, waam};
 
 const PAPER: &str = "config/layers/paper-16mm.yaml";
 const ROBOT: &str = "urdf/waam_robot.urdf";

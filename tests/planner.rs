@@ -1,9 +1,9 @@
 //! The SAT planner: exact counts, soundness against brute force, and the no-plan answers.
 
-mod support;
+mod common;
 
+use common::planner::*;
 use proptest::prelude::*;
-use support::*;
 use waam_part::{Part, Window};
 use waam_planner::{self as planner, Acyclicity, NoPlan, Options};
 

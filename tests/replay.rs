@@ -9,8 +9,8 @@ use waam_rosbag::Bag;
 use waam_rosmsg::std_msgs::String as RosString;
 use waam_rosmsg::to_cdr;
 
-mod recording;
-use recording::{copy_bag, run_ok, waam};
+mod common;
+use common::run::{copy_bag, run_ok, waam};
 
 const PART: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/config/parts/s1-wall.yaml");
 

@@ -10,8 +10,8 @@ use serde_json::Value;
 use waam_rosbag::Bag;
 use waam_rosmsg::waam_interfaces::WeldPlan;
 
-mod recording;
-use recording::{run_isolated, waam};
+mod common;
+use common::run::{run_isolated, waam};
 
 #[test]
 fn a_recording_plays_back_to_subscribers_as_recorded() {

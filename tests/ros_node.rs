@@ -14,7 +14,7 @@ use std::process::{Command, Output};
 use std::sync::atomic::{AtomicU16, Ordering};
 use std::sync::OnceLock;
 
-mod recording;
+mod common;
 
 /// The venv's Python, or `None` when the ROS tests are to be skipped.
 fn ros_python() -> Option<PathBuf> {
@@ -736,7 +736,7 @@ fn a_mesh_the_node_recorded_replays_identically() {
 
     // The same session with the mesh half again as long: 24 blocks, not the recorded 16.
     let doctored = dir.path().join("doctored");
-    recording::copy_bag(&bag_dir, &doctored, |topic, data| {
+    common::run::copy_bag(&bag_dir, &doctored, |topic, data| {
         if topic != topics::PART_MESH {
             return Some(data.to_vec());
         }

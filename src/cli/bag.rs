@@ -1,23 +1,13 @@
 //! `waam bag`: look into recordings (rosbag2 directories with MCAP storage).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
 
-use anyhow::Context;
 use serde_json::json;
-use waam_motion::weld_speed;
-use waam_part::writer;
-use waam_part::Part;
-use waam_planner::{Found, Options, Report};
-use waam_ros::node::convert::{PlanMessages, PlanSummary};
-use waam_ros::planning::{statistics, PlanningRecorder};
 use waam_ros::sample::SampleSession;
 use waam_rosbag::{Bag, BagOptions, Recorder};
-use waam_rosmsg::builtin_interfaces::Time;
-use waam_rosmsg::std_msgs::Header;
 
-use super::motion::Motion;
 use super::EXIT_OK;
 
 /// Recordings: `waam bag info BAG` summarises one like `ros2 bag info`.
@@ -238,67 +228,6 @@ fn sample(args: SampleArgs) -> anyhow::Result<ExitCode> {
         .collect();
     println!("{}", serde_json::Value::Object(counts));
     Ok(ExitCode::from(EXIT_OK))
-}
-
-/// Opens the recording of `waam plan --record DIR` and records the part as a part document:
-/// a part file's own text, the bundled sample's, or, for an STL mesh, the voxelized part that
-/// was planned (so that `waam replay` can plan it again).
-pub fn start_planning(
-    dir: &Path,
-    part_file: Option<&Path>,
-    part: &Part,
-    opts: &Options,
-) -> anyhow::Result<(Recorder, PlanningRecorder)> {
-    let is_stl = |p: &Path| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("stl"));
-    let text = match part_file {
-        Some(path) if is_stl(path) => writer::to_yaml(part),
-        Some(path) => std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read part {}", path.display()))?,
-        None => super::plan::DEFAULT_PART.to_string(),
-    };
-    let recorder = Recorder::create(dir)?;
-    let planning = PlanningRecorder::start(&recorder, &text, &part.name, opts)?;
-    Ok((recorder, planning))
-}
-
-/// The messages of a planned part with its motion, as the node publishes them.
-pub fn plan_messages(part: &Part, best: &Found, report: &Report, motion: &Motion) -> PlanMessages {
-    let summary = PlanSummary {
-        part,
-        fragments: &best.fragments,
-        toolpath: &motion.toolpath,
-        weld_speed: weld_speed(part, &motion.settings),
-        transit_speed: motion.settings.transit_speed_mm_s / 1000.0,
-        worst_margin_s: best.margin,
-        statistics: statistics(&report.stats, report.proven),
-    };
-    let header = Header::new(Time::now(), motion.toolpath.frame.clone());
-    PlanMessages::of_plan(
-        &summary,
-        &motion.trajectory,
-        &motion.settings.plate.isometry(),
-        &header,
-    )
-}
-
-/// Records the outcome of a planning run (with the motion's messages when there is one)
-/// and closes the recording.
-pub fn finish_planning(
-    recorder: Recorder,
-    planning: PlanningRecorder,
-    part: &Part,
-    report: &Report,
-    motion: Option<&PlanMessages>,
-) -> anyhow::Result<()> {
-    planning.finish(part, report, motion)?;
-    let summary = recorder.finish()?;
-    tracing::info!(
-        "recorded {} messages on {} topics to {}",
-        summary.messages,
-        summary.topics,
-        summary.dir.display()
-    );
-    Ok(())
 }
 
 fn human_size(bytes: u64) -> String {

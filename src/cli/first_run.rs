@@ -9,14 +9,14 @@ use anyhow::{bail, Context};
 use waam_motion::robot::{Robot, TcpChoice};
 use waam_motion::toolpath::{ProcessSettings, ToolpathFile};
 use waam_part::Part;
+use waam_pipeline::{Cell, Found, BUNDLED_URDF};
 use waam_planner as planner;
 use waam_plot as plot;
-use waam_ros::node::pipeline::BUNDLED_URDF;
 use waam_rosbag::Bag;
 
 use super::motion::MotionSummary;
-use super::plan::{PlanArgs, DEFAULT_PART};
-use super::{GlobalArgs, EXIT_NO, EXIT_OK};
+use super::plan::PlanArgs;
+use super::{record, GlobalArgs, DEFAULT_PART, EXIT_NO, EXIT_OK};
 
 /// The default output folder; when it exists, `waam-out-2`, `waam-out-3`, … are tried.
 pub const DEFAULT_OUT: &str = "waam-out";
@@ -73,13 +73,13 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     };
     let robot = Robot::from_urdf(BUNDLED_URDF, None, choice).context("the bundled robot")?;
     let robot_name = robot.name.clone();
-    let robot = (settings, robot);
+    let cell = Cell { settings, robot };
     let bag_dir = dir.join("recording");
-    let (recorder, mut planning) = super::bag::start_planning(&bag_dir, None, &part, &opts)?;
+    let (recorder, mut planning) = record::start_planning(&bag_dir, None, &part, &opts)?;
     let mut bar = super::plan::LazyBar::new(global.quiet);
-    let mut progress = |s: &planner::Stats| {
-        bar.update(s);
-        planning.progress(s);
+    let mut progress = |event: planner::Event| {
+        bar.update(event.stats());
+        planning.on_event(&event);
     };
     let report = if args.first {
         planner::first(&part, &opts, &mut progress)?
@@ -101,7 +101,7 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         part.windows().len()
     ));
     let Some(best) = &report.best else {
-        super::bag::finish_planning(recorder, planning, &part, &report, None)?;
+        record::finish_planning(recorder, planning, &part, &report, None)?;
         match &report.no_plan {
             Some(reason) => println!("NO PLAN: {reason}"),
             None => println!("NO PLAN: none found before the timeout"),
@@ -140,11 +140,15 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     if global.verbose > 0 || args.print_plan {
         print!("{}", plan.to_yaml());
     }
-    let motion = super::motion::plan_robot_motion(&part, &best.fragments, &robot);
-    let messages = motion
-        .as_ref()
-        .map(|m| super::bag::plan_messages(&part, best, &report, m));
-    super::bag::finish_planning(recorder, planning, &part, &report, messages.as_ref())?;
+    let found = Found {
+        fragments: best.fragments.clone(),
+        stats: report.stats.clone(),
+        proven: report.proven,
+        worst_margin_s: best.margin,
+    };
+    let motion = super::motion::plan_robot_motion(&part, found, &cell);
+    let messages = motion.as_ref().map(record::plan_messages).transpose()?;
+    record::finish_planning(recorder, planning, &part, &report, messages.as_ref())?;
     let bag = Bag::open(&bag_dir).context("reading back the recording")?;
     if let Some(m) = &motion {
         super::motion::write_motion(&m.toolpath, &m.trajectory, &dir)?;

@@ -191,7 +191,10 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
     // The robot and the recording before the search: bad input fails at once, not after
     // minutes of searching.
     let robot = args.robot.robot_args().map(|a| a.load()).transpose()?;
-    if let Some(v) = robot.as_ref().and_then(|(s, _)| s.weld_speed_mm_s) {
+    if let Some(v) = robot
+        .as_ref()
+        .and_then(|cell| cell.settings.weld_speed_mm_s)
+    {
         if v != layer.process.weld_speed_mm_s {
             tracing::warn!(
                 "process settings weld_speed_mm_s = {v} is not used: the layer is welded at its \
@@ -236,13 +239,20 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
             .with_context(|| format!("cannot write {}", dir.join("layer.yaml").display()))?;
     }
     // Only a motion that plan_layer_motion validated is written, recorded or published.
-    let motion = robot.as_ref().map(|(settings, robot)| {
-        plan_layer_motion(&model, &r.trail, settings, robot).map_err(|e| e.to_string())
+    let motion = robot.as_ref().map(|cell| {
+        plan_layer_motion(&model, &r.trail, &cell.settings, &cell.robot).map_err(|e| e.to_string())
     });
     let messages = match (&motion, &robot) {
-        (Some(Ok((tp, traj))), Some((settings, _))) => {
+        (Some(Ok((tp, traj))), Some(cell)) => {
             let header = Header::new(Time::now(), tp.frame.clone());
-            Some(plan_messages(&model, &r, tp, traj, settings, &header))
+            Some(plan_messages(
+                &model,
+                &r,
+                tp,
+                traj,
+                &cell.settings,
+                &header,
+            )?)
         }
         _ => None,
     };

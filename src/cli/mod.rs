@@ -18,6 +18,7 @@ pub mod node;
 pub mod plan;
 pub mod plot;
 pub mod publish;
+pub mod record;
 pub mod replay;
 pub mod voxelize;
 
@@ -91,6 +92,9 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
 }
 
 /// Reads a part file, logging the reader's warnings.
+/// The bundled sample part (`config/parts/ex3-h-column.yaml`), planned when no part is named.
+pub const DEFAULT_PART: &str = include_str!("../../config/parts/ex3-h-column.yaml");
+
 /// clap's parser of the planner's acyclicity methods, each listed with its help line.
 pub fn acyclicity_parser() -> impl clap::builder::TypedValueParser<Value = Acyclicity> {
     use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser as _};

@@ -9,10 +9,11 @@ use anyhow::Context;
 use waam_motion::robot::{parse_xyz_rpy, Robot, TcpChoice};
 use waam_motion::toolpath::{PoseKind, ProcessSettings, Toolpath};
 use waam_motion::trajectory::JointTrajectory;
-use waam_motion::{plan_motion, write_outputs};
+use waam_motion::write_outputs;
 use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
 use waam_part::Part;
+use waam_pipeline::{Cell, Found, Planned};
 
 use super::{read_part, EXIT_NO, EXIT_OK};
 
@@ -80,8 +81,8 @@ impl OptionalRobotArgs {
 }
 
 impl RobotArgs {
-    /// Reads the process settings and the robot.
-    pub fn load(&self) -> anyhow::Result<(ProcessSettings, Robot)> {
+    /// Reads the process settings and the robot: the cell a plan is welded in.
+    pub fn load(&self) -> anyhow::Result<Cell> {
         let settings = match &self.process {
             Some(path) => {
                 let text = std::fs::read_to_string(path)
@@ -116,30 +117,15 @@ impl RobotArgs {
             ),
             (None, false) => {}
         }
-        Ok((settings, robot))
+        Ok(Cell { settings, robot })
     }
 }
 
-/// A plan's robot motion: the torch poses and the validated joint trajectory.
-pub struct Motion {
-    pub settings: ProcessSettings,
-    pub toolpath: Toolpath,
-    pub trajectory: JointTrajectory,
-}
-
-/// Plans the motion of a valid plan. `Ok(None)`: no motion is possible (the reason is
-/// printed).
-pub fn plan_robot_motion(
-    part: &Part,
-    fragments: &[Vec<usize>],
-    (settings, robot): &(ProcessSettings, Robot),
-) -> Option<Motion> {
-    match plan_motion(part, fragments, settings, robot) {
-        Ok((toolpath, trajectory)) => Some(Motion {
-            settings: settings.clone(),
-            toolpath,
-            trajectory,
-        }),
+/// Checks a plan and plans its motion (the pipeline's last stages). `None`: the plan fails
+/// its check or no motion is possible (the reason is printed).
+pub fn plan_robot_motion(part: &Part, found: Found, cell: &Cell) -> Option<Planned> {
+    match cell.motion(part.clone(), found) {
+        Ok(planned) => Some(planned),
         Err(e) => {
             println!("NO MOTION: {e}");
             None
@@ -247,9 +233,14 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
             return Ok(ExitCode::from(EXIT_NO));
         }
     };
-    let Some(motion) = plan_robot_motion(&part, &fragments, &args.robot.load()?) else {
-        return Ok(ExitCode::from(EXIT_NO));
+    // The plan's rules are checked above; its t8/5 windows are `waam check`'s business.
+    let (toolpath, trajectory) = match args.robot.load()?.plan_motion(&part, &fragments) {
+        Ok(motion) => motion,
+        Err(e) => {
+            println!("NO MOTION: {e}");
+            return Ok(ExitCode::from(EXIT_NO));
+        }
     };
-    report_motion(&motion.toolpath, &motion.trajectory, Some(&args.out))?;
+    report_motion(&toolpath, &trajectory, Some(&args.out))?;
     Ok(ExitCode::from(EXIT_OK))
 }

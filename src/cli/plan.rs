@@ -12,10 +12,8 @@ use waam_part::plan::Plan;
 use waam_part::Part;
 use waam_planner::{self as planner, Acyclicity, Options, Stats};
 
-use super::{GlobalArgs, EXIT_NO, EXIT_OK};
-
-/// The sample part planned when no PART is given (bundled into the binary).
-pub const DEFAULT_PART: &str = include_str!("../../config/parts/ex3-h-column.yaml");
+use super::{record, GlobalArgs, EXIT_NO, EXIT_OK};
+use waam_pipeline::Found;
 
 /// Plan the weld order of a part: at most k weld paths covering every block, moving
 /// sideways or up, never under what stands, keeping every t8/5 window.
@@ -112,7 +110,7 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     }
     let part = match &args.part {
         Some(path) => args.mesh.read_part_or_mesh(path)?,
-        None => Part::parse(DEFAULT_PART).context("the bundled sample part")?,
+        None => Part::parse(super::DEFAULT_PART).context("the bundled sample part")?,
     };
     let opts = options(&args)?;
     if !args.json && !global.quiet {
@@ -131,7 +129,7 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     // The robot before planning: a bad URDF fails at once, not after the search.
     let robot = args.robot.robot_args().map(|a| a.load()).transpose()?;
     let mut session = match &args.record {
-        Some(dir) => Some(super::bag::start_planning(
+        Some(dir) => Some(record::start_planning(
             dir,
             args.part.as_deref(),
             &part,
@@ -140,10 +138,10 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         None => None,
     };
     let mut bar = LazyBar::new(global.quiet || args.json);
-    let mut progress = |s: &Stats| {
-        bar.update(s);
+    let mut progress = |event: planner::Event| {
+        bar.update(event.stats());
         if let Some((_, planning)) = session.as_mut() {
-            planning.progress(s);
+            planning.on_event(&event);
         }
     };
     if args.count {
@@ -218,22 +216,25 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     // The motion is planned only for a feasible plan, and only a validated one is written
     // or recorded.
     let mut motion_ok = true;
-    let mut motion = None;
-    if let (Some(robot), Some(best)) = (&robot, &report.best) {
-        motion = super::motion::plan_robot_motion(&part, &best.fragments, robot);
-        match &motion {
-            Some(m) => {
-                super::motion::report_motion(&m.toolpath, &m.trajectory, args.out.as_deref())?
+    let mut planned = None;
+    if let (Some(cell), Some(best)) = (&robot, &report.best) {
+        let found = Found {
+            fragments: best.fragments.clone(),
+            stats: report.stats.clone(),
+            proven: report.proven,
+            worst_margin_s: best.margin,
+        };
+        planned = super::motion::plan_robot_motion(&part, found, cell);
+        match &planned {
+            Some(p) => {
+                super::motion::report_motion(&p.toolpath, &p.trajectory, args.out.as_deref())?
             }
             None => motion_ok = false,
         }
     }
     if let Some((recorder, planning)) = session {
-        let messages = match (&motion, &report.best) {
-            (Some(m), Some(best)) => Some(super::bag::plan_messages(&part, best, &report, m)),
-            _ => None,
-        };
-        super::bag::finish_planning(recorder, planning, &part, &report, messages.as_ref())?;
+        let messages = planned.as_ref().map(record::plan_messages).transpose()?;
+        record::finish_planning(recorder, planning, &part, &report, messages.as_ref())?;
     }
     let proof = match (&report.best, report.proven, args.first) {
         (Some(_), true, false) => "optimal (proven)",

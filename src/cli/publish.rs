@@ -10,9 +10,9 @@ use clap::Args;
 use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
 use waam_part::Part;
-use waam_ros::node::pipeline::{sat_planner, PartInput, PlanFn, PlanRequest, PlannerOutput};
+use waam_pipeline::Found;
+use waam_ros::node::pipeline::{sat_planner, PartInput, PlanFn, PlanRequest};
 use waam_ros::node::{Mode, RunOptions};
-use waam_rosmsg::waam_interfaces::PlanStatistics;
 
 use super::node::{load_params, stop_on_signal};
 use super::{EXIT_NO, EXIT_OK};
@@ -100,9 +100,10 @@ fn given_plan(part_text: &str, path: &std::path::Path) -> anyhow::Result<Arc<Pla
         .validate(&part, &WeldGraph::new(&part))
         .map_err(|e| anyhow::anyhow!("plan {} is invalid: {e}", path.display()))?;
     Ok(Arc::new(move |_: &PlanRequest| {
-        Ok(PlannerOutput {
+        Ok(Found {
             fragments: fragments.clone(),
-            statistics: PlanStatistics::default(),
+            stats: Default::default(),
+            proven: false,
             worst_margin_s: f64::INFINITY,
         })
     }))

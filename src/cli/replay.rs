@@ -8,9 +8,10 @@ use std::time::Duration;
 use serde_json::json;
 use waam_part::writer;
 use waam_part::Part;
-use waam_planner::{self as planner, Acyclicity, Options, Stats};
-use waam_ros::node::pipeline::MeshSettings;
-use waam_ros::planning::{options_from, statistics, PlanningRecorder};
+use waam_planner::{self as planner, Acyclicity, Options};
+use waam_ros::convert::statistics;
+use waam_ros::node::pipeline::mesh_arrays;
+use waam_ros::planning::{mesh_settings_from_values, options_from, PlanningRecorder, RecordError};
 use waam_ros::replay::{self, CaseInput, Replanned, Verdict};
 use waam_rosbag::{Bag, Recorder};
 
@@ -112,7 +113,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     let reports = replay::replay(cases, !args.plans_only, |case| {
         let opts = match options_from(&case.status_values, &Options::default()) {
             Ok(opts) => overrides(opts),
-            Err(e) => return Replanned::Unsupported(e),
+            Err(e) => return Replanned::Unsupported(e.to_string()),
         };
         // A mesh is voxelized with the settings the node recorded when it received it.
         let (part, text) = match &case.input {
@@ -121,7 +122,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
                 Err(e) => return Replanned::NoPlan(format!("bad part: {e}")),
             },
             CaseInput::Mesh(mesh) => {
-                let (settings, name) = match MeshSettings::from_values(&case.status_values) {
+                let (settings, name) = match mesh_settings_from_values(&case.status_values) {
                     Ok(Some(found)) => found,
                     Ok(None) => {
                         return Replanned::Unsupported(
@@ -130,25 +131,26 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
                                 .into(),
                         )
                     }
-                    Err(e) => return Replanned::Unsupported(e),
+                    Err(e) => return Replanned::Unsupported(e.to_string()),
                 };
-                match settings.voxelize_message(name, mesh) {
+                let (vertices, triangles) = mesh_arrays(mesh);
+                match settings.voxelize(name, &vertices, &triangles) {
                     Ok(part) => {
                         let text = writer::to_yaml(&part);
                         (part, text)
                     }
-                    Err(e) => return Replanned::NoPlan(e),
+                    Err(e) => return Replanned::NoPlan(e.to_string()),
                 }
             }
         };
         let mut planning = recorder.as_ref().and_then(|r| {
             PlanningRecorder::start(r, &text, &part.name, &opts)
-                .map_err(|e| record_error.get_or_insert(e))
+                .map_err(|e| record_error.get_or_insert(RecordError::from(e)))
                 .ok()
         });
-        let mut progress = |s: &Stats| {
+        let mut progress = |event: planner::Event| {
             if let Some(p) = planning.as_mut() {
-                p.progress(s);
+                p.on_event(&event);
             }
         };
         let report = match planner::plan(&part, &opts, &mut progress) {

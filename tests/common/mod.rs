@@ -1,6 +1,10 @@
-//! Test helpers: the sample parts with valid plans (`tests/data/plans/`, each checked
-//! VALID by `waam check`) and the robots.
-#![allow(dead_code)]
+//! The one helper module of the integration tests: the sample parts with valid plans
+//! (`tests/data/plans/`, each checked VALID by `waam check`) and the robots here;
+//! [`planner`] for the planner tests, [`run`] for running `waam` and reading its recordings.
+#![allow(dead_code)] // each test crate uses a different subset
+
+pub mod planner;
+pub mod run;
 
 use std::path::PathBuf;
 

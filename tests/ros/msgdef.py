@@ -3,7 +3,7 @@
 The tests use it to check that what waam_planner sends on ~/plan/weld_plan decodes against
 the interface package's own definitions (ros/waam_interfaces/msg/*.msg), without trusting
 the Rust types that produced the bytes. Standard types come from the Jazzy definitions
-vendored in src/msgs/defs/. Plain CDR (XCDR1), little or big endian, as rmw_fastrtps sends.
+vendored in crates/rosmsg/src/defs/. Plain CDR (XCDR1), little or big endian, as rmw_fastrtps sends.
 """
 
 import os
@@ -15,7 +15,7 @@ REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 
 SEARCH = [
     os.path.join(REPO, "ros"),  # ros/<pkg>/msg/<Name>.msg (our interface package)
-    os.path.join(REPO, "src", "msgs", "defs"),  # src/msgs/defs/<pkg>/<Name>.msg
+    os.path.join(REPO, "crates", "rosmsg", "src", "defs"),  # crates/rosmsg/src/defs/<pkg>/<Name>.msg
 ]
 
 PRIMITIVES = {

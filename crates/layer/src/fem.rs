@@ -87,7 +87,7 @@ struct Factor {
 }
 
 impl Factor {
-    fn new(a: &CscMatrix<f64>) -> Result<Factor, String> {
+    fn new(a: &CscMatrix<f64>) -> Result<Factor, crate::ModelError> {
         let chol =
             CscCholesky::factor(a).map_err(|e| format!("Cholesky factorization failed: {e:?}"))?;
         let l = chol.take_l();
@@ -95,9 +95,9 @@ impl Factor {
         // Each column must start with its diagonal entry (rows sorted, lower triangle).
         for j in 0..col_start.len() - 1 {
             if col_start[j] == col_start[j + 1] || rows[col_start[j]] != j {
-                return Err(format!(
+                return Err(crate::ModelError(format!(
                     "Cholesky factor column {j} has no leading diagonal"
-                ));
+                )));
             }
         }
         Ok(Factor {
@@ -148,7 +148,7 @@ pub struct Heat {
 }
 
 impl Heat {
-    pub fn new(m: &Matrices, dt: f64) -> Result<Heat, String> {
+    pub fn new(m: &Matrices, dt: f64) -> Result<Heat, crate::ModelError> {
         let n = m.lumped_mass.len();
         let scale = m
             .stiffness
@@ -220,7 +220,7 @@ impl Heat {
     }
 
     /// The steady state of the discrete system under a constant load: (K + R) u = F.
-    pub fn steady_state(&self, load: &[(usize, f64)]) -> Result<Vec<f64>, String> {
+    pub fn steady_state(&self, load: &[(usize, f64)]) -> Result<Vec<f64>, crate::ModelError> {
         let factor = Factor::new(&self.k_plus_r)?;
         let mut u = vec![0.0; self.len()];
         for &(i, f) in load {

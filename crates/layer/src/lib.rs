@@ -54,3 +54,21 @@ pub fn plan_layer_motion(
         e
     })
 }
+
+/// Why a layer's model, bound, trail or cross-check could not be made: a message naming the
+/// wall, node or matrix at fault.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct ModelError(pub String);
+
+impl From<String> for ModelError {
+    fn from(message: String) -> Self {
+        ModelError(message)
+    }
+}
+
+impl From<&str> for ModelError {
+    fn from(message: &str) -> Self {
+        ModelError(message.to_string())
+    }
+}

@@ -21,7 +21,7 @@ pub struct MilpResult {
 }
 
 /// Solves the layer's trail problem as a MILP.
-pub fn solve(model: &Model) -> Result<MilpResult, String> {
+pub fn solve(model: &Model) -> Result<MilpResult, crate::ModelError> {
     let segs = model.layer.segments.len();
     let n = model.steps[0];
     if model.deadheads != 0 || model.steps.iter().any(|&s| s != n) {

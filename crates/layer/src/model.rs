@@ -67,11 +67,11 @@ pub struct Model {
 }
 
 impl Model {
-    pub fn new(layer: &Layer) -> Result<Model, String> {
+    pub fn new(layer: &Layer) -> Result<Model, crate::ModelError> {
         Model::with_mesh(layer, Mesh::new(layer))
     }
 
-    pub fn with_mesh(layer: &Layer, mesh: Mesh) -> Result<Model, String> {
+    pub fn with_mesh(layer: &Layer, mesh: Mesh) -> Result<Model, crate::ModelError> {
         let mats = Matrices::assemble(
             &mesh,
             layer.material.diffusivity_mm2_s,
@@ -198,37 +198,40 @@ impl Model {
 
     /// Checks that a trail welds every segment once, in connected runs, with the minimum
     /// number of deadheading moves.
-    pub fn check_trail(&self, trail: &Trail) -> Result<(), String> {
+    pub fn check_trail(&self, trail: &Trail) -> Result<(), crate::ModelError> {
         let mut used = vec![false; self.layer.segments.len()];
         let mut at = None;
         let mut deadheads = 0;
         for (i, m) in trail.moves.iter().enumerate() {
             if m.segment >= used.len() || std::mem::replace(&mut used[m.segment], true) {
-                return Err(format!(
+                return Err(crate::ModelError(format!(
                     "move {i}: segment {} welded twice or unknown",
                     m.segment
-                ));
+                )));
             }
             let (start, end) = self.ends(m);
             match at {
                 Some(_) if m.deadhead_before => deadheads += 1,
                 Some(prev) if prev != start => {
-                    return Err(format!(
+                    return Err(crate::ModelError(format!(
                         "move {i}: starts away from the torch without deadheading"
-                    ))
+                    )))
                 }
                 _ => {}
             }
             at = Some(end);
         }
         if let Some(s) = used.iter().position(|u| !u) {
-            return Err(format!("{} is never welded", self.layer.segment_name(s)));
+            return Err(crate::ModelError(format!(
+                "{} is never welded",
+                self.layer.segment_name(s)
+            )));
         }
         if deadheads != self.deadheads {
-            return Err(format!(
+            return Err(crate::ModelError(format!(
                 "{deadheads} deadheading moves, the minimum is {}",
                 self.deadheads
-            ));
+            )));
         }
         Ok(())
     }

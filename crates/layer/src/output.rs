@@ -125,14 +125,14 @@ impl TrailFile {
     }
 
     /// The trail again, checked against the model's layer.
-    pub fn trail(&self, model: &Model) -> Result<Trail, String> {
+    pub fn trail(&self, model: &Model) -> Result<Trail, crate::ModelError> {
         let mut moves = Vec::new();
         for (i, m) in self.moves.iter().enumerate() {
             if m.segment >= model.layer.segments.len() {
-                return Err(format!(
+                return Err(crate::ModelError(format!(
                     "moves[{i}]: segment {} is not in the layer",
                     m.segment
-                ));
+                )));
             }
             let mv = Move {
                 segment: m.segment,
@@ -141,10 +141,10 @@ impl TrailFile {
             };
             let (a, b) = model.ends(&mv);
             if model.layer.nodes[a].id != m.from || model.layer.nodes[b].id != m.to {
-                return Err(format!(
+                return Err(crate::ModelError(format!(
                     "moves[{i}]: segment {} does not run from {} to {} in the layer",
                     m.segment, m.from, m.to
-                ));
+                )));
             }
             moves.push(mv);
         }

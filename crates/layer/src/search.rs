@@ -599,7 +599,7 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
 /// trail, the bound must not exceed the best objective of the prefix's completions.
 /// Returns the number of prefixes checked, or the first violation. For tests; the number
 /// of trails grows exponentially with the segments.
-pub fn check_bound(model: &Model) -> Result<usize, String> {
+pub fn check_bound(model: &Model) -> Result<usize, crate::ModelError> {
     struct Walk<'a> {
         model: &'a Model,
         bound: Bound,
@@ -616,7 +616,7 @@ pub fn check_bound(model: &Model) -> Result<usize, String> {
             steps: usize,
             at: Option<usize>,
             deadheads_left: usize,
-        ) -> Result<f64, String> {
+        ) -> Result<f64, crate::ModelError> {
             let model = self.model;
             let segs = model.layer.segments.len();
             let left: Vec<usize> = (0..segs).filter(|&s| !self.used[s]).collect();
@@ -684,10 +684,10 @@ pub fn check_bound(model: &Model) -> Result<usize, String> {
                         };
                         self.checked += 1;
                         if lb > exact * (1.0 + 1e-12) + 1e-9 {
-                            return Err(format!(
+                            return Err(crate::ModelError(format!(
                                 "bound {lb} above the best completion {exact} after welding {} at step {n}",
                                 model.layer.segment_name(s)
-                            ));
+                            )));
                         }
                         best = best.min(exact);
                     }

@@ -14,7 +14,7 @@ mod params;
 pub mod plan;
 pub mod writer;
 
-pub use params::{ThermalParams, MAX_STEPS};
+pub use params::{ThermalParams, ThermalParamsError, MAX_STEPS};
 
 use std::collections::HashMap;
 use std::fmt;
@@ -28,6 +28,7 @@ use thiserror::Error;
 pub type Block = [i64; 3];
 
 /// Formats a block as `[x,y,z]`, the way every message of the project names one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct BlockDisplay(pub Block);
 
 impl fmt::Display for BlockDisplay {
@@ -166,7 +167,7 @@ impl Part {
         if let Some(t85) = fields.get("t85") {
             part.parse_windows(t85)?;
         }
-        part.thermal = ThermalParams::from_yaml(fields.get("thermal")).map_err(rule)?;
+        part.thermal = ThermalParams::from_yaml(fields.get("thermal")).map_err(|e| rule(e.0))?;
         Ok(part)
     }
 

@@ -5,6 +5,11 @@ use serde_yaml::Value;
 
 use crate::finite;
 
+/// A `thermal:` key that is unknown or out of range (the message names it and its value).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct ThermalParamsError(pub String);
+
 /// The most Euler steps one phase (a block, a transit, the cooldown) may take.
 pub const MAX_STEPS: u64 = 1_000_000_000;
 /// The constants of the model: the part's `thermal:` keys.
@@ -48,21 +53,26 @@ impl Default for ThermalParams {
 
 impl ThermalParams {
     /// Reads the optional `thermal:` mapping of a part file; every key optional.
-    pub fn from_yaml(value: Option<&Value>) -> Result<ThermalParams, String> {
+    pub fn from_yaml(value: Option<&Value>) -> Result<ThermalParams, ThermalParamsError> {
         let mut p = ThermalParams::default();
         let map = match value {
             None | Some(Value::Null) => return Ok(p),
             Some(Value::Mapping(m)) => m,
             Some(other) => {
-                return Err(format!(
+                return Err(ThermalParamsError(format!(
                     "thermal: expected a mapping, got {}",
                     crate::describe(other)
-                ))
+                )))
             }
         };
         for (key, v) in map {
             let name = key.as_str().unwrap_or("");
-            let bad = |what: &str| format!("thermal.{name}: {what}, got {}", crate::describe(v));
+            let bad = |what: &str| {
+                ThermalParamsError(format!(
+                    "thermal.{name}: {what}, got {}",
+                    crate::describe(v)
+                ))
+            };
             if name == "substeps" {
                 p.substeps =
                     v.as_u64()
@@ -79,7 +89,12 @@ impl ThermalParams {
                 "substrate_per_s" => &mut p.substrate_per_s,
                 "radiation_per_s_k3" => &mut p.radiation_per_s_k3,
                 "max_cooldown_s" => &mut p.max_cooldown_s,
-                _ => return Err(format!("thermal: unknown key {}", crate::describe_key(key))),
+                _ => {
+                    return Err(ThermalParamsError(format!(
+                        "thermal: unknown key {}",
+                        crate::describe_key(key)
+                    )))
+                }
             };
             let x = finite(v).ok_or_else(|| bad("expected a finite number"))?;
             if name == "block_time_s" && x <= 0.0 {
@@ -99,10 +114,10 @@ impl ThermalParams {
             ("block_time_s", p.block_time_s),
         ] {
             if seconds / dt > MAX_STEPS as f64 {
-                return Err(format!(
+                return Err(ThermalParamsError(format!(
                     "thermal.{key}: {seconds} s is more than {MAX_STEPS} Euler steps of \
                      dt = {dt} s (block_time_s / substeps); the simulation would not end"
-                ));
+                )));
             }
         }
         Ok(p)

@@ -25,7 +25,7 @@ use waam_part::{Block, Part};
 use waam_thermal::{self as thermal, ThermalModel};
 
 pub use encoding::Acyclicity;
-use search::{Search, Verdict};
+use search::Search;
 
 /// How the planner searches.
 #[derive(Debug, Clone)]
@@ -88,10 +88,6 @@ pub struct Stats {
     pub clause_len_mean: Option<f64>,
     #[serde(skip)]
     clause_len_sum: u64,
-    /// The verdict on the latest candidate (progress callbacks come after every candidate,
-    /// so a recorder can log each one).
-    #[serde(skip)]
-    pub last_candidate: Option<CandidateVerdict>,
 }
 
 /// What the thermal check said about one candidate plan.
@@ -222,8 +218,32 @@ pub enum PlanError {
     Output(#[from] std::io::Error),
 }
 
-/// Called with the statistics after every candidate (for progress displays).
-pub type Progress<'a> = &'a mut dyn FnMut(&Stats);
+/// What the planner tells its caller while it runs.
+#[derive(Debug, Clone, Copy)]
+pub enum Event<'a> {
+    /// The thermal model judged a candidate plan: every candidate comes as one event, with
+    /// the planner's statistics after it.
+    Candidate {
+        /// Fragments of block indices, in weld order.
+        fragments: &'a [Vec<usize>],
+        verdict: CandidateVerdict,
+        stats: &'a Stats,
+    },
+    /// Valid plans counted so far (`count`), without a thermal check.
+    Counting { plans: u64, stats: &'a Stats },
+}
+
+impl<'a> Event<'a> {
+    /// The planner's statistics at this event.
+    pub fn stats(&self) -> &'a Stats {
+        match self {
+            Event::Candidate { stats, .. } | Event::Counting { stats, .. } => stats,
+        }
+    }
+}
+
+/// The caller's handler of [`Event`]s (progress display, recording).
+pub type Progress<'a> = &'a mut dyn FnMut(Event<'_>);
 
 fn max_fragments(part: &Part, opts: &Options) -> usize {
     opts.max_fragments
@@ -278,8 +298,12 @@ fn search_plans(
             };
             any_valid = true;
             let verdict = search.judge(&candidate)?;
-            progress(&search.stats);
-            if let Verdict::Feasible = verdict {
+            progress(Event::Candidate {
+                fragments: &candidate,
+                verdict,
+                stats: &search.stats,
+            });
+            if let CandidateVerdict::Feasible = verdict {
                 // Judge by the part's own windows: the search may run on narrowed ones.
                 let margin = margin_under(&base, &candidate)?;
                 search
@@ -350,7 +374,10 @@ pub fn count(
             plans += 1;
             search.block_plan(&candidate);
             if plans % 256 == 0 {
-                progress(&search.stats);
+                progress(Event::Counting {
+                    plans,
+                    stats: &search.stats,
+                });
                 if timed_out(opts, started) {
                     complete = false;
                     break;
@@ -394,7 +421,8 @@ fn enumerate_from(
     let mut search = Search::new(part, graph, k, opts.acyclicity, opts.lookahead_budget);
     let (mut feasible, mut complete) = (0u64, true);
     while let Some(candidate) = search.next_candidate(&[]) {
-        if let Verdict::Feasible = search.judge(&candidate)? {
+        let verdict = search.judge(&candidate)?;
+        if let CandidateVerdict::Feasible = verdict {
             feasible += 1;
             search
                 .stats
@@ -403,7 +431,11 @@ fn enumerate_from(
             sink(&candidate)?;
             search.block_plan(&candidate);
         }
-        progress(&search.stats);
+        progress(Event::Candidate {
+            fragments: &candidate,
+            verdict,
+            stats: &search.stats,
+        });
         if timed_out(opts, started) {
             complete = false;
             break;

@@ -21,14 +21,6 @@ use super::encoding::{Acyclicity, Decoded, Encoding};
 use super::sat::{Lit, SatSolver, Varisat};
 use super::{CandidateVerdict, Stats};
 
-/// What the thermal model says of a candidate.
-pub enum Verdict {
-    /// Every window kept.
-    Feasible,
-    /// A window broke; the (shortened) prefix clause is learned already.
-    Violated,
-}
-
 /// One SAT instance with its thermal loop.
 pub struct Search<'p> {
     pub part: &'p Part,
@@ -152,7 +144,10 @@ impl<'p> Search<'p> {
 
     /// Simulates a candidate, resuming from the longest shared prefix, and on a violation
     /// learns the (shortened) prefix clause.
-    pub fn judge(&mut self, fragments: &[Vec<usize>]) -> Result<Verdict, thermal::NotCooled> {
+    pub fn judge(
+        &mut self,
+        fragments: &[Vec<usize>],
+    ) -> Result<CandidateVerdict, thermal::NotCooled> {
         let t = Instant::now();
         self.stats.candidates += 1;
         let seq: Vec<(usize, bool)> = fragments
@@ -164,22 +159,20 @@ impl<'p> Search<'p> {
         match result? {
             None => {
                 self.stats.feasible += 1;
-                self.stats.last_candidate = Some(CandidateVerdict::Feasible);
-                Ok(Verdict::Feasible)
+                Ok(CandidateVerdict::Feasible)
             }
             Some(v) => {
                 self.violations[v.block] += 1;
                 let t = Instant::now();
                 let clause_len = self.learn(&seq, &v);
                 self.stats.lookahead_s += t.elapsed().as_secs_f64();
-                self.stats.last_candidate = Some(CandidateVerdict::Violated {
+                Ok(CandidateVerdict::Violated {
                     block: self.part.block(v.block),
                     kind: v.kind,
                     time_s: v.time_s,
                     prefix_len: v.prefix_len,
                     clause_len,
-                });
-                Ok(Verdict::Violated)
+                })
             }
         }
     }

@@ -5,11 +5,11 @@
 
 use nalgebra::{Isometry3, Point3};
 
-use crate::heat::point_cloud;
-use crate::node::controller::trajectory_msg;
-use crate::node::convert::{
-    delete_all, ns, path, point_msg, pose_array, toolpath_markers, weld_points, PlanMessages,
+use crate::convert::{
+    delete_all, ns, path, point_msg, pose_array, toolpath_markers, trajectory_msg, ConvertError,
+    PlanMessages, WeldPlanOf,
 };
+use crate::heat::point_cloud;
 use crate::planning::{status, PART_FRAME};
 use crate::topics;
 use waam_layer::model::{Model, Trail};
@@ -22,7 +22,7 @@ use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
 use waam_rosmsg::sensor_msgs::PointCloud2;
 use waam_rosmsg::std_msgs::{ColorRGBA, Header, String as RosString};
 use waam_rosmsg::visualization_msgs::{Marker, MarkerArray};
-use waam_rosmsg::waam_interfaces::{PlanStatistics, WeldPlan};
+use waam_rosmsg::waam_interfaces::PlanStatistics;
 
 /// At most this many heat frames per recording (one per time step on the bundled layers).
 pub const MAX_HEAT_FRAMES: usize = 600;
@@ -80,30 +80,31 @@ pub fn plan_messages(
     trajectory: &JointTrajectory,
     settings: &ProcessSettings,
     header: &Header,
-) -> PlanMessages {
+) -> Result<PlanMessages, ConvertError> {
     let width = model.layer.wall_width_mm / 1000.0;
     let mut markers = vec![
         delete_all(header),
         walls_marker(model, &settings.plate.isometry(), header),
     ];
     markers.extend(toolpath_markers(toolpath, 0.25 * width, header));
-    PlanMessages {
+    let weld_plan = WeldPlanOf {
+        part_name: &model.layer.name,
+        block_pitch: width,
+        fragments: Vec::new(),
+        toolpath: Some(toolpath),
+        weld_speed: model.layer.process.weld_speed_mm_s / 1000.0,
+        transit_speed: settings.transit_speed_mm_s / 1000.0,
+        worst_margin_s: f64::INFINITY,
+        statistics: statistics(r),
+    }
+    .to_msg(header)?;
+    Ok(PlanMessages {
         joint_trajectory: trajectory_msg(trajectory, header),
         poses: pose_array(toolpath, header),
         path: path(toolpath, header),
         markers: MarkerArray { markers },
-        weld_plan: WeldPlan {
-            header: header.clone(),
-            part_name: model.layer.name.clone(),
-            block_pitch: width,
-            fragments: Vec::new(),
-            points: weld_points(toolpath),
-            weld_speed: model.layer.process.weld_speed_mm_s / 1000.0,
-            transit_speed: settings.transit_speed_mm_s / 1000.0,
-            worst_margin_s: f64::INFINITY,
-            statistics: statistics(r),
-        },
-    }
+        weld_plan,
+    })
 }
 
 /// The walls as one LINE_LIST as wide as a wall, on the plate (`plate`: the layer frame in

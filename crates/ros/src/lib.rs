@@ -5,6 +5,7 @@
 //! messages (one conversion each), the node runs the pipeline on parts that arrive over
 //! ROS 2, sessions are recorded to rosbag2/MCAP, and recordings are replayed.
 
+pub mod convert;
 pub mod heat;
 pub mod layer;
 pub mod node;

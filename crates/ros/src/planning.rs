@@ -3,78 +3,33 @@
 //! status saying why there is none), and the simulated heat of the chosen plan.
 
 use super::heat::{record_heat, HeatOptions};
-use crate::node::convert::PlanMessages;
+use crate::convert::{
+    block_fragments, block_msg, diagnostics, statistics, ConvertError, PlanMessages, WeldPlanOf,
+};
 use crate::topics;
 use waam_part::graph::WeldGraph;
-use waam_part::Part;
-use waam_planner::{CandidateVerdict, Options, Report, Stats};
+use waam_part::{Part, Window};
+use waam_pipeline::MeshSettings;
+use waam_planner::{CandidateVerdict, Event, Options, Report};
 use waam_rosbag::{BagError, Qos, Recorder};
 use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
 use waam_rosmsg::std_msgs::{Header, String as RosString};
-use waam_rosmsg::waam_interfaces::{Block, PlanCandidate, PlanStatistics, WeldFragment, WeldPlan};
+use waam_rosmsg::waam_interfaces::PlanCandidate;
 use waam_thermal::{ThermalModel, ViolationKind};
 
 /// The frame of part coordinates (block centres in metres from the part origin).
 pub const PART_FRAME: &str = "part";
-/// `hardware_id` and status name of our diagnostics.
-pub const NODE_NAME: &str = "waam_planner";
-
-/// The planner's statistics as our message carries them.
-pub fn statistics(stats: &Stats, proven: bool) -> PlanStatistics {
-    PlanStatistics {
-        candidates: stats.candidates,
-        feasible: stats.feasible,
-        optimal: proven,
-        time_to_first_feasible_s: stats.first_feasible_s.unwrap_or(f64::NAN),
-        total_time_s: stats.total_s,
-        sat_time_s: stats.sat_s,
-        acyclicity_time_s: stats.acyclicity_s,
-        simulation_time_s: stats.simulator_s,
-        learned_clauses: u32::try_from(stats.learned_clauses).unwrap_or(u32::MAX),
-        learned_clause_min: stats.clause_len_min.map_or(0, |v| v as u32),
-        learned_clause_max: stats.clause_len_max.map_or(0, |v| v as u32),
-        learned_clause_mean: stats.clause_len_mean.unwrap_or(0.0),
-    }
+/// A planning run could not be recorded.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordError {
+    #[error(transparent)]
+    Bag(#[from] BagError),
+    #[error(transparent)]
+    Convert(#[from] ConvertError),
 }
 
-/// A plan as a `WeldPlan` without toolpath (the fragments, pitch, margin and statistics).
-pub fn weld_plan(
-    part: &Part,
-    fragments: &[Vec<usize>],
-    margin_s: f64,
-    statistics: PlanStatistics,
-    header: Header,
-) -> Result<WeldPlan, BagError> {
-    let fragments = fragments
-        .iter()
-        .map(|f| {
-            f.iter()
-                .map(|&i| {
-                    let b = part.block(i);
-                    Block::from_part(b).ok_or_else(|| BagError::Corrupt {
-                        path: PART_FRAME.into(),
-                        reason: format!("block [{},{},{}] does not fit in int32", b[0], b[1], b[2]),
-                    })
-                })
-                .collect::<Result<Vec<_>, _>>()
-                .map(|blocks| WeldFragment { blocks })
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    Ok(WeldPlan {
-        header,
-        part_name: part.name.clone(),
-        block_pitch: part.block_mm[0] / 1000.0,
-        fragments,
-        points: Vec::new(),
-        weld_speed: part.block_mm[0] / 1000.0 / part.thermal.block_time_s,
-        transit_speed: 0.0,
-        worst_margin_s: margin_s,
-        statistics,
-    })
-}
-
-/// Prefix of the status keys that record the planner's settings (replay uses them).
+/// The prefix of the planner's settings among status values.
 pub const SETTING: &str = "planner.";
 
 /// The planner's settings as status values: `planner.acyclicity`, `planner.lookahead_budget`,
@@ -97,13 +52,20 @@ pub fn settings(opts: &Options) -> Vec<KeyValue> {
 }
 
 /// Planner settings from recorded status values; settings not recorded keep `base`'s.
-pub fn options_from(values: &[(String, String)], base: &Options) -> Result<Options, String> {
+pub fn options_from(
+    values: &[(String, String)],
+    base: &Options,
+) -> Result<Options, RecordedSettingError> {
     let mut opts = base.clone();
     for (key, value) in values {
         let Some(name) = key.strip_prefix(SETTING) else {
             continue;
         };
-        let bad = |what: &str| format!("recorded setting {key}={value:?}: {what}");
+        let bad = |what: &str| RecordedSettingError {
+            key: key.clone(),
+            value: value.clone(),
+            expected: what.into(),
+        };
         match name {
             "acyclicity" => {
                 opts.acyclicity = value.parse().map_err(|_| bad("not an acyclicity method"))?
@@ -122,18 +84,99 @@ pub fn options_from(values: &[(String, String)], base: &Options) -> Result<Optio
     Ok(opts)
 }
 
-/// A status report of the node's one component.
-pub fn status(level: u8, message: &str, values: Vec<KeyValue>) -> DiagnosticArray {
-    DiagnosticArray {
-        header: Header::new(Time::now(), ""),
-        status: vec![DiagnosticStatus {
-            level,
-            name: NODE_NAME.into(),
-            message: message.into(),
-            hardware_id: NODE_NAME.into(),
-            values,
-        }],
+/// Status keys of the mesh settings ([`MeshSettings`]) and of the mesh part's name: recorded
+/// with every mesh received, so that a replay voxelizes it the same way.
+pub mod mesh_keys {
+    pub const NAME: &str = "mesh.name";
+    pub const BLOCK_MM: &str = "mesh.block_mm";
+    pub const T85_WINDOW_S: &str = "mesh.t85_window_s";
+    pub const MAX_FRAGMENTS: &str = "mesh.max_fragments";
+}
+
+/// A recorded setting that cannot be read back.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("recorded {key}={value:?}: {expected}")]
+pub struct RecordedSettingError {
+    pub key: String,
+    pub value: String,
+    pub expected: String,
+}
+
+/// The mesh settings and the part's name as status values.
+pub fn mesh_values(settings: &MeshSettings, name: &str) -> Vec<KeyValue> {
+    let [a, b, c] = settings.block_mm;
+    let mut values = vec![
+        KeyValue::new(mesh_keys::NAME, name),
+        KeyValue::new(mesh_keys::BLOCK_MM, format!("{a} {b} {c}")),
+        KeyValue::new(mesh_keys::MAX_FRAGMENTS, settings.max_fragments),
+    ];
+    if let Some(w) = settings.window {
+        values.push(KeyValue::new(
+            mesh_keys::T85_WINDOW_S,
+            format!("{} {}", w.min_s, w.max_s),
+        ));
     }
+    values
+}
+
+/// Mesh settings and name from recorded status values (the last value of a key wins);
+/// `None` when no `mesh.block_mm` was recorded.
+pub fn mesh_settings_from_values(
+    values: &[(String, String)],
+) -> Result<Option<(MeshSettings, String)>, RecordedSettingError> {
+    let get = |key: &str| values.iter().rev().find(|(k, _)| k == key).map(|(_, v)| v);
+    let bad = |key: &str, value: &str, expected: &str| RecordedSettingError {
+        key: key.into(),
+        value: value.into(),
+        expected: expected.into(),
+    };
+    let numbers = |key: &str, n: usize| -> Result<Option<Vec<f64>>, RecordedSettingError> {
+        let Some(v) = get(key) else { return Ok(None) };
+        let xs: Vec<f64> = v
+            .split_whitespace()
+            .map(str::parse)
+            .collect::<Result<_, _>>()
+            .map_err(|_| bad(key, v, "not numbers"))?;
+        if xs.len() != n || xs.iter().any(|x| !x.is_finite()) {
+            return Err(bad(key, v, &format!("expected {n} finite numbers")));
+        }
+        Ok(Some(xs))
+    };
+    let Some(block) = numbers(mesh_keys::BLOCK_MM, 3)? else {
+        return Ok(None);
+    };
+    let window = numbers(mesh_keys::T85_WINDOW_S, 2)?.map(|w| Window {
+        min_s: w[0],
+        max_s: w[1],
+    });
+    let max_fragments = match get(mesh_keys::MAX_FRAGMENTS) {
+        Some(v) => v
+            .parse()
+            .map_err(|_| bad(mesh_keys::MAX_FRAGMENTS, v, "not a count"))?,
+        None => {
+            return Err(bad(
+                mesh_keys::MAX_FRAGMENTS,
+                "",
+                &format!("missing beside {}", mesh_keys::BLOCK_MM),
+            ))
+        }
+    };
+    let name = get(mesh_keys::NAME)
+        .cloned()
+        .unwrap_or_else(|| "mesh".into());
+    Ok(Some((
+        MeshSettings {
+            block_mm: [block[0], block[1], block[2]],
+            window,
+            max_fragments,
+        },
+        name,
+    )))
+}
+
+/// A status report stamped now (see [`diagnostics`]).
+pub fn status(level: u8, message: &str, values: Vec<KeyValue>) -> DiagnosticArray {
+    diagnostics(Time::now(), level, message, values)
 }
 
 /// Records the planner's verdict on every candidate as `PlanCandidate` messages. Feed it
@@ -141,72 +184,69 @@ pub fn status(level: u8, message: &str, values: Vec<KeyValue>) -> DiagnosticArra
 /// [`CandidateRecorder::finish`].
 pub struct CandidateRecorder {
     recorder: Recorder,
-    seen: Stats,
     index: u64,
-    error: Option<BagError>,
+    error: Option<RecordError>,
 }
 
 impl CandidateRecorder {
     pub fn new(recorder: &Recorder) -> Self {
         CandidateRecorder {
             recorder: recorder.clone(),
-            seen: Stats::default(),
             index: 0,
             error: None,
         }
     }
 
-    /// Call with the planner's statistics after every candidate: records one
-    /// `PlanCandidate` per new candidate with the planner's verdict on it (the broken
-    /// window's block, kind, time and prefix, and the learned clause's length). Candidates
-    /// the planner reported only in bulk (plain counting) are recorded as counted.
-    pub fn progress(&mut self, stats: &Stats) {
-        if self.error.is_some() || stats.candidates <= self.seen.candidates {
+    /// Call with every event of the planner: records one `PlanCandidate` per candidate
+    /// with the planner's verdict on it (the broken window's block, kind, time and prefix,
+    /// and the learned clause's length).
+    pub fn on_event(&mut self, event: &Event) {
+        let Event::Candidate { verdict, .. } = event else {
+            return;
+        };
+        if self.error.is_some() {
             return;
         }
-        let new = stats.candidates - self.seen.candidates;
-        for k in 0..new {
-            self.index += 1;
-            let mut candidate = PlanCandidate {
-                header: Header::new(Time::now(), ""),
-                index: self.index,
-                verdict: PlanCandidate::VIOLATED,
-                ..Default::default()
+        self.index += 1;
+        let mut candidate = PlanCandidate {
+            header: Header::new(Time::now(), ""),
+            index: self.index,
+            verdict: PlanCandidate::FEASIBLE,
+            ..Default::default()
+        };
+        if let CandidateVerdict::Violated {
+            block,
+            kind,
+            time_s,
+            prefix_len,
+            clause_len,
+        } = *verdict
+        {
+            candidate.verdict = match kind {
+                ViolationKind::Min => PlanCandidate::TOO_SHORT,
+                ViolationKind::Max => PlanCandidate::TOO_LONG,
             };
-            // The details belong to the latest candidate only.
-            match stats.last_candidate.filter(|_| k + 1 == new) {
-                Some(CandidateVerdict::Feasible) => candidate.verdict = PlanCandidate::FEASIBLE,
-                Some(CandidateVerdict::Violated {
-                    block,
-                    kind,
-                    time_s,
-                    prefix_len,
-                    clause_len,
-                }) => {
-                    candidate.verdict = match kind {
-                        ViolationKind::Min => PlanCandidate::TOO_SHORT,
-                        ViolationKind::Max => PlanCandidate::TOO_LONG,
-                    };
-                    candidate.block = Block::from_part(block).unwrap_or_default();
-                    candidate.time_s = time_s;
-                    candidate.prefix_len = u32::try_from(prefix_len).unwrap_or(u32::MAX);
-                    candidate.learned_clause_len = u32::try_from(clause_len).unwrap_or(u32::MAX);
+            candidate.block = match block_msg(block) {
+                Ok(b) => b,
+                Err(e) => {
+                    self.error = Some(e.into());
+                    return;
                 }
-                None => {}
-            }
-            if let Err(e) =
-                self.recorder
-                    .record(topics::CANDIDATES, &Qos::reliable(100), &candidate)
-            {
-                self.error = Some(e);
-                return;
-            }
+            };
+            candidate.time_s = time_s;
+            candidate.prefix_len = u32::try_from(prefix_len).unwrap_or(u32::MAX);
+            candidate.learned_clause_len = u32::try_from(clause_len).unwrap_or(u32::MAX);
         }
-        self.seen = stats.clone();
+        if let Err(e) = self
+            .recorder
+            .record(topics::CANDIDATES, &Qos::reliable(100), &candidate)
+        {
+            self.error = Some(e.into());
+        }
     }
 
     /// The first error met while recording, if any.
-    pub fn finish(self) -> Result<(), BagError> {
+    pub fn finish(self) -> Result<(), RecordError> {
         self.error.map_or(Ok(()), Err)
     }
 }
@@ -245,9 +285,9 @@ impl PlanningRecorder {
         })
     }
 
-    /// Call with the planner's statistics after every candidate (see [`CandidateRecorder`]).
-    pub fn progress(&mut self, stats: &Stats) {
-        self.candidates.progress(stats);
+    /// Call with every event of the planner (see [`CandidateRecorder`]).
+    pub fn on_event(&mut self, event: &Event) {
+        self.candidates.on_event(event);
     }
 
     /// Records the outcome: the plan (with its motion's trajectory, poses, path and markers
@@ -258,7 +298,7 @@ impl PlanningRecorder {
         part: &Part,
         report: &Report,
         motion: Option<&PlanMessages>,
-    ) -> Result<(), BagError> {
+    ) -> Result<(), RecordError> {
         self.candidates.finish()?;
         let stats = statistics(&report.stats, report.proven);
         let Some(best) = &report.best else {
@@ -280,13 +320,17 @@ impl PlanningRecorder {
             }
             None => {
                 let now = Time::now();
-                let plan = weld_plan(
-                    part,
-                    &best.fragments,
-                    best.margin,
-                    stats,
-                    Header::new(now, PART_FRAME),
-                )?;
+                let plan = WeldPlanOf {
+                    part_name: &part.name,
+                    block_pitch: part.block_mm[0] / 1000.0,
+                    fragments: block_fragments(part, &best.fragments),
+                    toolpath: None,
+                    weld_speed: part.block_mm[0] / 1000.0 / part.thermal.block_time_s,
+                    transit_speed: 0.0,
+                    worst_margin_s: best.margin,
+                    statistics: stats,
+                }
+                .to_msg(&Header::new(now, PART_FRAME))?;
                 self.recorder
                     .record_at(topics::WELD_PLAN, &Qos::latched(), now, &plan)?;
                 now
@@ -346,10 +390,42 @@ mod tests {
         assert_eq!(back.max_fragments, Some(4));
         assert_eq!(back.timeout, None, "replay never plans under a timeout");
         let bad = [("planner.acyclicity".to_string(), "sideways".to_string())];
-        let err = options_from(&bad, &Options::default()).unwrap_err();
+        let err = options_from(&bad, &Options::default())
+            .unwrap_err()
+            .to_string();
         assert!(
             err.contains("planner.acyclicity") && err.contains("sideways"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn mesh_settings_round_trip_through_status_values_and_bad_ones_are_named() {
+        let settings = MeshSettings {
+            block_mm: [6.0, 5.5, 2.5],
+            window: Some(Window {
+                min_s: 3.0,
+                max_s: 9.5,
+            }),
+            max_fragments: 3,
+        };
+        let values: Vec<(String, String)> = mesh_values(&settings, "mesh-2")
+            .into_iter()
+            .map(|kv| (kv.key, kv.value))
+            .collect();
+        assert_eq!(
+            mesh_settings_from_values(&values).unwrap(),
+            Some((settings, "mesh-2".to_string()))
+        );
+        assert_eq!(mesh_settings_from_values(&[]).unwrap(), None);
+        let bad = [(mesh_keys::BLOCK_MM.to_string(), "6 x 2.5".to_string())];
+        let err = mesh_settings_from_values(&bad).unwrap_err();
+        let err = err.to_string();
+        assert!(
+            err.contains("mesh.block_mm") && err.contains("6 x 2.5"),
+            "{err}"
+        );
+        let short = [(mesh_keys::BLOCK_MM.to_string(), "6 6".to_string())];
+        assert!(mesh_settings_from_values(&short).is_err());
     }
 }

@@ -6,12 +6,13 @@
 use std::collections::BTreeMap;
 
 use super::heat::{heat_frames, HeatOptions};
+use crate::convert::{block_fragments, diagnostics, WeldPlanOf};
 use crate::topics;
 use waam_part::graph::WeldGraph;
 use waam_part::Part;
 use waam_rosbag::{BagError, Qos, Recorder};
 use waam_rosmsg::builtin_interfaces::{Duration, Time};
-use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
+use waam_rosmsg::diagnostic_msgs::{DiagnosticStatus, KeyValue};
 use waam_rosmsg::geometry_msgs::{Point, Pose, PoseArray, PoseStamped, Quaternion, Vector3};
 use waam_rosmsg::nav_msgs::Path;
 use waam_rosmsg::rcl_interfaces::Log;
@@ -20,7 +21,7 @@ use waam_rosmsg::shape_msgs::{Mesh, MeshTriangle};
 use waam_rosmsg::std_msgs::{Bool, ColorRGBA, Header, String as RosString};
 use waam_rosmsg::trajectory_msgs::{JointTrajectory, JointTrajectoryPoint};
 use waam_rosmsg::visualization_msgs::{Marker, MarkerArray};
-use waam_rosmsg::waam_interfaces::{Block, PlanCandidate, WeldFragment, WeldPlan, WeldPoint};
+use waam_rosmsg::waam_interfaces::{Block, PlanCandidate, PlanStatistics, WeldPoint};
 use waam_rosmsg::RosMessage;
 use waam_thermal::ThermalModel;
 
@@ -160,40 +161,33 @@ impl SampleSession {
         self.record(recorder, topics::PATH, &latched, &path)?;
         let markers = self.markers(&header, &poses);
         self.record(recorder, topics::MARKERS, &latched, &markers)?;
-        let plan = WeldPlan {
-            header: header.clone(),
-            part_name: self.part.name.clone(),
+        let mut plan = WeldPlanOf {
+            part_name: &self.part.name,
             block_pitch: self.part.block_mm[0] / 1000.0,
-            fragments: self
-                .fragments
-                .iter()
-                .map(|f| WeldFragment {
-                    blocks: f
-                        .iter()
-                        .map(|&b| Block::from_part(self.part.block(b)).expect("small part"))
-                        .collect(),
-                })
-                .collect(),
-            points,
+            fragments: block_fragments(&self.part, &self.fragments),
+            toolpath: None,
             weld_speed: 0.006,
             transit_speed: 0.1,
             worst_margin_s: 0.5,
-            ..Default::default()
-        };
+            statistics: PlanStatistics::default(),
+        }
+        .to_msg(&header)
+        .map_err(|e| BagError::Corrupt {
+            path: "sample".into(),
+            reason: e.to_string(),
+        })?;
+        // The sample has no toolpath: its points are made up with the poses above.
+        plan.points = points;
         self.record(recorder, topics::WELD_PLAN, &latched, &plan)?;
-        let status = DiagnosticArray {
-            header: header.clone(),
-            status: vec![DiagnosticStatus {
-                level: DiagnosticStatus::OK,
-                name: "waam_planner".into(),
-                message: format!("planned (sample round {round})"),
-                hardware_id: String::new(),
-                values: vec![
-                    KeyValue::new("part", &self.part.name),
-                    KeyValue::new("fragments", self.fragments.len()),
-                ],
-            }],
-        };
+        let status = diagnostics(
+            header.stamp,
+            DiagnosticStatus::OK,
+            &format!("planned (sample round {round})"),
+            vec![
+                KeyValue::new("part", &self.part.name),
+                KeyValue::new("fragments", self.fragments.len()),
+            ],
+        );
         self.record(recorder, topics::STATUS, &Qos::latched(), &status)?;
         for on in [true, false] {
             self.record(

@@ -91,7 +91,24 @@ impl BagMetadata {
 }
 
 /// The storage files a `metadata.yaml` names, for finding the MCAP file of a bag directory.
-pub fn relative_file_paths(yaml: &str) -> Result<Vec<String>, String> {
+/// `metadata.yaml` is not what rosbag2 writes (the message says which key).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct MetadataError(pub String);
+
+impl From<String> for MetadataError {
+    fn from(message: String) -> Self {
+        MetadataError(message)
+    }
+}
+
+impl From<&str> for MetadataError {
+    fn from(message: &str) -> Self {
+        MetadataError(message.to_string())
+    }
+}
+
+pub fn relative_file_paths(yaml: &str) -> Result<Vec<String>, MetadataError> {
     let value: serde_yaml::Value =
         serde_yaml::from_str(yaml).map_err(|e| format!("metadata.yaml: {e}"))?;
     let info = value

@@ -135,20 +135,39 @@ pub fn to_yaml(profiles: &[Qos]) -> String {
 
 /// Parses an `offered_qos_profiles` value (the string form of metadata versions 4-9: names
 /// or rmw enum numbers). An empty string is no profiles.
-pub fn from_yaml(text: &str) -> Result<Vec<Qos>, String> {
+/// A recorded QoS profile list that cannot be read (the message says where).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct QosError(pub String);
+
+impl From<String> for QosError {
+    fn from(message: String) -> Self {
+        QosError(message)
+    }
+}
+
+impl From<&str> for QosError {
+    fn from(message: &str) -> Self {
+        QosError(message.to_string())
+    }
+}
+
+pub fn from_yaml(text: &str) -> Result<Vec<Qos>, QosError> {
     if text.trim().is_empty() {
         return Ok(Vec::new());
     }
     let value: serde_yaml::Value =
         serde_yaml::from_str(text).map_err(|e| format!("offered_qos_profiles: {e}"))?;
     let serde_yaml::Value::Sequence(items) = value else {
-        return Err("offered_qos_profiles: expected a YAML sequence".into());
+        return Err(QosError(
+            "offered_qos_profiles: expected a YAML sequence".into(),
+        ));
     };
     items.into_iter().map(profile_from_value).collect()
 }
 
 /// One profile from YAML, accepting both policy names (v9) and rmw enum numbers (v4-v8).
-fn profile_from_value(mut value: serde_yaml::Value) -> Result<Qos, String> {
+fn profile_from_value(mut value: serde_yaml::Value) -> Result<Qos, QosError> {
     use serde_yaml::Value;
     const NAMES: [(&str, &[&str]); 4] = [
         (
@@ -197,7 +216,7 @@ fn profile_from_value(mut value: serde_yaml::Value) -> Result<Qos, String> {
             }
         }
     }
-    serde_yaml::from_value(value).map_err(|e| format!("offered_qos_profiles: {e}"))
+    serde_yaml::from_value(value).map_err(|e| QosError(format!("offered_qos_profiles: {e}")))
 }
 
 #[cfg(test)]

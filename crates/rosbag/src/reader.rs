@@ -274,9 +274,9 @@ pub fn mcap_file_of(path: &Path) -> Result<PathBuf, BagError> {
     }
     let metadata = path.join("metadata.yaml");
     if let Ok(text) = std::fs::read_to_string(&metadata) {
-        let files = relative_file_paths(&text).map_err(|reason| BagError::Corrupt {
+        let files = relative_file_paths(&text).map_err(|e| BagError::Corrupt {
             path: metadata.clone(),
-            reason,
+            reason: e.to_string(),
         })?;
         return match files.as_slice() {
             [one] => Ok(path.join(one)),

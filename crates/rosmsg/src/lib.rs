@@ -3,7 +3,7 @@
 //! Each struct lists its fields in the order of its ROS 2 definition, so serde + `cdr-encoding`
 //! give exactly the CDR bytes an `rclcpp` / `rclpy` peer sends. Each type knows its ROS name,
 //! its complete `ros2msg` definition as rosbag2 stores it in MCAP, and its RIHS01 type hash.
-//! The standard definitions are the ROS 2 Jazzy `.msg` files, vendored in `src/msgs/defs/`;
+//! The standard definitions are the ROS 2 Jazzy `.msg` files, vendored in `crates/rosmsg/src/defs/`;
 //! ours live in the colcon package `ros/waam_interfaces/`.
 
 use serde::de::DeserializeOwned;

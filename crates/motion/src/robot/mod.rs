@@ -292,7 +292,7 @@ impl Robot {
         };
         match opw::OpwModel::derive(&robot) {
             Ok(model) => robot.opw = Some(model),
-            Err(reason) => robot.opw_reason = Some(reason),
+            Err(reason) => robot.opw_reason = Some(reason.0),
         }
         Ok(robot)
     }
@@ -396,8 +396,25 @@ pub fn pose_error(a: &Isometry3<f64>, b: &Isometry3<f64>) -> (f64, f64) {
     (dp, dr)
 }
 
+/// Text that is not six numbers "x y z roll pitch yaw".
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct PoseParseError(pub String);
+
+impl From<String> for PoseParseError {
+    fn from(message: String) -> Self {
+        PoseParseError(message)
+    }
+}
+
+impl From<&str> for PoseParseError {
+    fn from(message: &str) -> Self {
+        PoseParseError(message.to_string())
+    }
+}
+
 /// A pose from "x y z roll pitch yaw" (m, rad), as `--tcp` takes it.
-pub fn parse_xyz_rpy(text: &str) -> Result<Isometry3<f64>, String> {
+pub fn parse_xyz_rpy(text: &str) -> Result<Isometry3<f64>, PoseParseError> {
     let v: Vec<f64> = text
         .split(|c: char| c.is_whitespace() || c == ',')
         .filter(|s| !s.is_empty())
@@ -407,10 +424,10 @@ pub fn parse_xyz_rpy(text: &str) -> Result<Isometry3<f64>, String> {
         })
         .collect::<Result<_, _>>()?;
     if v.len() != 6 || v.iter().any(|x| !x.is_finite()) {
-        return Err(format!(
+        return Err(PoseParseError(format!(
             "expected 6 finite numbers \"x y z roll pitch yaw\" (m, rad), got {} value(s)",
             v.len()
-        ));
+        )));
     }
     Ok(xyz_rpy(&[v[0], v[1], v[2]], &[v[3], v[4], v[5]]))
 }

@@ -80,17 +80,37 @@ fn sign(x: f64) -> i8 {
     }
 }
 
+/// Why the analytic OPW solver does not fit a robot (the numeric one is used instead).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct OpwUnsupported(pub String);
+
+impl From<String> for OpwUnsupported {
+    fn from(message: String) -> Self {
+        OpwUnsupported(message)
+    }
+}
+
+impl From<&str> for OpwUnsupported {
+    fn from(message: &str) -> Self {
+        OpwUnsupported(message.to_string())
+    }
+}
+
 impl OpwModel {
     /// Fits OPW parameters to the robot's chain, or says why the chain is not an OPW arm.
-    pub fn derive(robot: &Robot) -> Result<OpwModel, String> {
+    pub fn derive(robot: &Robot) -> Result<OpwModel, OpwUnsupported> {
         if robot.dof() != 6 {
-            return Err(format!(
+            return Err(OpwUnsupported(format!(
                 "the chain has {} movable joints, OPW needs 6",
                 robot.dof()
-            ));
+            )));
         }
         if let Some(j) = robot.joints.iter().find(|j| j.kind != JointKind::Revolute) {
-            return Err(format!("joint '{}' is not revolute", j.name));
+            return Err(OpwUnsupported(format!(
+                "joint '{}' is not revolute",
+                j.name
+            )));
         }
         let axes = robot.joint_axes(&[0.0; 6]);
         let (o, a): (Vec<Point3<f64>>, Vec<Vector3<f64>>) =
@@ -98,10 +118,12 @@ impl OpwModel {
         let perpendicular = |i: usize, j: usize| a[i].dot(&a[j]).abs() < GEOMETRY_TOL;
         let parallel = |i: usize, j: usize| (a[i].dot(&a[j]).abs() - 1.0).abs() < GEOMETRY_TOL;
         if !perpendicular(0, 1) {
-            return Err("joint 2 is not perpendicular to joint 1".into());
+            return Err(OpwUnsupported(
+                "joint 2 is not perpendicular to joint 1".into(),
+            ));
         }
         if !parallel(1, 2) {
-            return Err("joints 2 and 3 are not parallel".into());
+            return Err(OpwUnsupported("joints 2 and 3 are not parallel".into()));
         }
         // OPW base: z along joint 1, x towards joint 2, origin on joint 1 level with the
         // URDF base origin.
@@ -128,18 +150,18 @@ impl OpwModel {
         let (w4, w5) =
             line_closest(&o[3], &a[3], &o[4], &a[4]).ok_or("joints 4 and 5 are parallel")?;
         if (w4 - w5).norm() > GEOMETRY_TOL {
-            return Err(format!(
+            return Err(OpwUnsupported(format!(
                 "axes 4 and 5 miss each other by {:.3e} m: no spherical wrist",
                 (w4 - w5).norm()
-            ));
+            )));
         }
         let w = nalgebra::center(&w4, &w5);
         let off6 = (w - o[5]) - a[5] * (w - o[5]).dot(&a[5]);
         if off6.norm() > GEOMETRY_TOL {
-            return Err(format!(
+            return Err(OpwUnsupported(format!(
                 "axis 6 misses the wrist centre by {:.3e} m: no spherical wrist",
                 off6.norm()
-            ));
+            )));
         }
         let wl = local(&w);
         let b = wl.y;
@@ -156,7 +178,9 @@ impl OpwModel {
         // Forearm: along joint 4's axis (c3) and across it (a2).
         let a4l = rot.inverse() * a[3];
         if a4l.y.abs() > GEOMETRY_TOL {
-            return Err("joint 4 is not perpendicular to joints 2 and 3".into());
+            return Err(OpwUnsupported(
+                "joint 4 is not perpendicular to joints 2 and 3".into(),
+            ));
         }
         let fore = wl - p3;
         let sign4 = sign(fore.dot(&a4l));
@@ -170,7 +194,9 @@ impl OpwModel {
         let a5l = rot.inverse() * a[4];
         let a6l = rot.inverse() * a[5];
         if a5l.dot(&d4).abs() > GEOMETRY_TOL || a6l.dot(&a5l).abs() > GEOMETRY_TOL {
-            return Err("the wrist axes are not mutually orthogonal".into());
+            return Err(OpwUnsupported(
+                "the wrist axes are not mutually orthogonal".into(),
+            ));
         }
         let (x3, y3) = (n4, Vector3::y());
         let theta4 = (-a5l.dot(&x3)).atan2(a5l.dot(&y3));
@@ -224,10 +250,10 @@ impl OpwModel {
             model.verified_error.1 = model.verified_error.1.max(dr);
         }
         if model.verified_error.0 > VERIFY_TOL || model.verified_error.1 > VERIFY_TOL {
-            return Err(format!(
+            return Err(OpwUnsupported(format!(
                 "fitted OPW parameters miss the URDF chain by {:.2e} m / {:.2e} rad",
                 model.verified_error.0, model.verified_error.1
-            ));
+            )));
         }
         Ok(model)
     }

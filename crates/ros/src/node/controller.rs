@@ -5,10 +5,10 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use super::convert::Status;
 use super::execute::{plan_steps, Step};
 use super::io::{Level, Outputs};
 use super::pipeline::Planned;
+use super::status::Status;
 use super::worker::Cancel;
 use waam_motion::trajectory::JointTrajectory;
 use waam_rosmsg::builtin_interfaces::{Duration as RosDuration, Time};
@@ -16,24 +16,6 @@ use waam_rosmsg::diagnostic_msgs::DiagnosticStatus;
 use waam_rosmsg::sensor_msgs::JointState;
 use waam_rosmsg::std_msgs::{Bool, Header};
 use waam_rosmsg::trajectory_msgs::{JointTrajectory as TrajectoryMsg, JointTrajectoryPoint};
-
-/// The whole trajectory as a trajectory_msgs/JointTrajectory.
-pub fn trajectory_msg(trajectory: &JointTrajectory, header: &Header) -> TrajectoryMsg {
-    TrajectoryMsg {
-        header: header.clone(),
-        joint_names: trajectory.joint_names.clone(),
-        points: trajectory
-            .points
-            .iter()
-            .map(|p| JointTrajectoryPoint {
-                positions: p.positions.clone(),
-                velocities: p.velocities.clone(),
-                time_from_start: RosDuration::from_secs_f64(p.time_from_start),
-                ..JointTrajectoryPoint::default()
-            })
-            .collect(),
-    }
-}
 
 /// The goal trajectory for points `span`: times count from the point before the span (where
 /// the robot stands), or from `lead_in_s` before the first point for the very first goal;
@@ -70,10 +52,27 @@ pub fn goal_msg(
     }
 }
 
+/// Why an execution stopped: the controller's answer, a timeout, or a cancel.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct ExecError(pub String);
+
+impl From<String> for ExecError {
+    fn from(message: String) -> Self {
+        ExecError(message)
+    }
+}
+
+impl From<&str> for ExecError {
+    fn from(message: &str) -> Self {
+        ExecError(message.to_string())
+    }
+}
+
 /// Something that moves the robot through one goal at a time.
 pub trait Controller: Send {
     /// Runs one goal to its end; `Err` with the reason when it fails or is cancelled.
-    fn execute(&mut self, goal: TrajectoryMsg, cancel: &Cancel) -> Result<(), String>;
+    fn execute(&mut self, goal: TrajectoryMsg, cancel: &Cancel) -> Result<(), ExecError>;
     /// Called while no goal runs, about every `idle_period()`.
     fn idle(&mut self) {}
     fn idle_period(&self) -> Duration {
@@ -92,7 +91,7 @@ pub fn run_plan(
     max_points: usize,
     lead_in_s: f64,
     cancel: &Cancel,
-) -> Result<(), String> {
+) -> Result<(), ExecError> {
     let arc: Vec<bool> = planned.trajectory.points.iter().map(|p| p.arc_on).collect();
     let steps = plan_steps(&arc, max_points);
     let goals = steps
@@ -119,7 +118,7 @@ pub fn run_plan(
         Level::Info,
         &format!(
             "executing part {job}: {} fragment(s) in {goals} goal(s) of at most {max_points} points",
-            planned.fragments.len()
+            planned.found.fragments.len()
         ),
     );
     let mut arc_is_on = false;
@@ -127,7 +126,7 @@ pub fn run_plan(
     let result = (|| {
         for step in &steps {
             if cancel.is_cancelled() {
-                return Err("cancelled".to_string());
+                return Err(ExecError("cancelled".to_string()));
             }
             match step {
                 Step::Arc(on) => {
@@ -182,7 +181,7 @@ pub enum ExecCommand {
         planned: Arc<Planned>,
         cancel: Cancel,
         /// Told when the run ends (for `waam publish`).
-        done: Option<Sender<Result<(), String>>>,
+        done: Option<Sender<Result<(), ExecError>>>,
     },
 }
 
@@ -263,7 +262,7 @@ impl SimController {
 }
 
 impl Controller for SimController {
-    fn execute(&mut self, goal: TrajectoryMsg, cancel: &Cancel) -> Result<(), String> {
+    fn execute(&mut self, goal: TrajectoryMsg, cancel: &Cancel) -> Result<(), ExecError> {
         let Some(first) = goal.points.first() else {
             return Ok(());
         };
@@ -282,7 +281,7 @@ impl Controller for SimController {
         let started = Instant::now();
         loop {
             if cancel.is_cancelled() {
-                return Err("cancelled".into());
+                return Err(ExecError("cancelled".into()));
             }
             let t = (started.elapsed().as_secs_f64() * self.time_scale).min(end);
             // The segment holding t: from the previous point (or the start) to point k.

@@ -11,7 +11,7 @@ use ros2_client::action::ActionClientQosPolicies;
 use ros2_client::action_msgs::GoalStatusEnum;
 use ros2_client::{ActionClient, ActionTypeName, Node, QosProfile, ServiceMapping};
 
-use super::controller::Controller;
+use super::controller::{Controller, ExecError};
 use super::params::ExecutionParams;
 use super::ros::resolve_topic;
 use super::worker::Cancel;
@@ -75,7 +75,7 @@ impl FjtController {
     }
 
     /// Waits until the action's goal and result services have a server (bounded).
-    fn wait_for_server(&self) -> Result<(), String> {
+    fn wait_for_server(&self) -> Result<(), ExecError> {
         let node = self.node.lock().unwrap_or_else(|e| e.into_inner());
         let waits = async {
             futures::join!(
@@ -92,11 +92,11 @@ impl FjtController {
         if found {
             Ok(())
         } else {
-            Err(format!(
+            Err(ExecError(format!(
                 "no FollowJointTrajectory server on {} after {:.1} s",
                 self.action,
                 self.server_timeout.as_secs_f64()
-            ))
+            )))
         }
     }
 }
@@ -115,8 +115,8 @@ fn sleep(d: Duration) -> futures::channel::oneshot::Receiver<()> {
 fn poll_until<T>(
     deadline: Instant,
     cancel: &Cancel,
-    mut f: impl FnMut() -> Result<Option<T>, String>,
-) -> Result<Option<T>, String> {
+    mut f: impl FnMut() -> Result<Option<T>, ExecError>,
+) -> Result<Option<T>, ExecError> {
     loop {
         if let Some(v) = f()? {
             return Ok(Some(v));
@@ -129,7 +129,7 @@ fn poll_until<T>(
 }
 
 impl Controller for FjtController {
-    fn execute(&mut self, trajectory: TrajectoryMsg, cancel: &Cancel) -> Result<(), String> {
+    fn execute(&mut self, trajectory: TrajectoryMsg, cancel: &Cancel) -> Result<(), ExecError> {
         self.wait_for_server()?;
         let duration = trajectory
             .points
@@ -147,13 +147,18 @@ impl Controller for FjtController {
         let response = poll_until(answer_by, cancel, || {
             self.client
                 .receive_goal_response(request)
-                .map_err(|e| format!("reading the goal response: {e:?}"))
+                .map_err(|e| ExecError(format!("reading the goal response: {e:?}")))
         })?;
         match response {
             Some(r) if r.accepted => {}
-            Some(_) => return Err(format!("{} rejected the goal", self.action)),
-            None if cancel.is_cancelled() => return Err("cancelled".into()),
-            None => return Err(format!("{} did not answer the goal", self.action)),
+            Some(_) => return Err(ExecError(format!("{} rejected the goal", self.action))),
+            None if cancel.is_cancelled() => return Err(ExecError("cancelled".into())),
+            None => {
+                return Err(ExecError(format!(
+                    "{} did not answer the goal",
+                    self.action
+                )))
+            }
         }
         let result_request = self
             .client
@@ -164,24 +169,24 @@ impl Controller for FjtController {
         let result = poll_until(done_by, cancel, || {
             self.client
                 .receive_result(result_request)
-                .map_err(|e| format!("reading the result: {e:?}"))
+                .map_err(|e| ExecError(format!("reading the result: {e:?}")))
         })?;
         match result {
             Some((GoalStatusEnum::Succeeded, r)) if r.error_code == FjtResult::SUCCESSFUL => Ok(()),
-            Some((status, r)) => Err(format!(
+            Some((status, r)) => Err(ExecError(format!(
                 "goal ended {status:?}, error code {}: {}",
                 r.error_code, r.error_string
-            )),
+            ))),
             None => {
                 let _ = self.client.cancel_goal(goal_id);
                 if cancel.is_cancelled() {
-                    Err("cancelled (goal cancel sent)".into())
+                    Err(ExecError("cancelled (goal cancel sent)".into()))
                 } else {
-                    Err(format!(
+                    Err(ExecError(format!(
                         "no result from {} {:.1} s after the goal's end (goal cancel sent)",
                         self.action,
                         self.server_timeout.as_secs_f64()
-                    ))
+                    )))
                 }
             }
         }

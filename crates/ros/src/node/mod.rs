@@ -7,7 +7,6 @@
 //! stopped node, and only a plan that passed validation and the thermal check is published.
 
 pub mod controller;
-pub mod convert;
 pub mod execute;
 pub mod fjt;
 pub mod io;
@@ -15,6 +14,7 @@ pub mod once;
 pub mod params;
 pub mod pipeline;
 pub mod ros;
+pub mod status;
 pub mod worker;
 
 use std::path::PathBuf;
@@ -26,20 +26,20 @@ use std::time::{Duration, Instant};
 use futures::StreamExt;
 use ros2_client::{NodeName, NodeOptions};
 
+use crate::convert::PlanMessages;
 use controller::{spawn_executor, Controller, ExecCommand, SimController};
-use convert::{PlanMessages, Status};
 use io::{Inputs, Level, Outputs};
 use params::NodeParams;
 use pipeline::{PartInput, PlanFn, Planned, PlanningPipeline};
 use ros::RosEnv;
+use status::Status;
 use waam_rosbag::Recorder;
 use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::diagnostic_msgs::KeyValue;
 use waam_rosmsg::std_msgs::Header;
-use worker::{Cancel, Worker, WorkerEvent};
+use worker::{Cancel, JobFailure, Worker, WorkerEvent};
 
-/// Node name on the ROS graph.
-pub const NODE_NAME: &str = "waam_planner";
+pub use crate::convert::NODE_NAME;
 
 /// How a run of the node is set up.
 pub struct RunOptions {
@@ -66,7 +66,7 @@ pub enum Mode {
 
 enum Event {
     Input(PartInput),
-    Worker(WorkerEvent<Box<Planned>>),
+    Worker(WorkerEvent<Box<Planned>, pipeline::JobError>),
 }
 
 /// Why the node could not start or go on.
@@ -81,8 +81,8 @@ pub enum NodeError {
         dir: PathBuf,
         source: waam_rosbag::BagError,
     },
-    #[error("{0}")]
-    Setup(String),
+    #[error(transparent)]
+    Setup(#[from] pipeline::SetupError),
     #[error("{0}")]
     Ros(String),
     #[error("cannot start a thread: {0}")]
@@ -124,8 +124,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
             }
         ),
     );
-    let mut pipeline = PlanningPipeline::from_params(params, Arc::clone(&options.planner))
-        .map_err(NodeError::Setup)?;
+    let mut pipeline = PlanningPipeline::from_params(params, Arc::clone(&options.planner))?;
     pipeline.recorder = recorder.clone();
     let mesh_settings = pipeline.mesh.clone();
 
@@ -226,7 +225,9 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
             Event::Input(input) => {
                 let source = input.describe();
                 let settings = match &input {
-                    PartInput::Mesh { name, .. } => mesh_settings.to_values(name),
+                    PartInput::Mesh { name, .. } => {
+                        crate::planning::mesh_values(&mesh_settings, name)
+                    }
                     PartInput::Document(_) => Vec::new(),
                 };
                 let (job, cancelled) = worker.submit(input);
@@ -365,12 +366,13 @@ impl LoopState {
     fn finished(
         &mut self,
         job: u64,
-        result: Result<Box<Planned>, String>,
-    ) -> Option<std::sync::mpsc::Receiver<Result<(), String>>> {
+        result: Result<Box<Planned>, JobFailure<pipeline::JobError>>,
+    ) -> Option<std::sync::mpsc::Receiver<Result<(), controller::ExecError>>> {
         self.last_progress = None;
         let planned = match result {
             Ok(planned) => planned,
-            Err(reason) => {
+            Err(e) => {
+                let reason = e.to_string();
                 self.success = false;
                 self.outputs
                     .log(Level::Error, &format!("part {job}: {reason}"));
@@ -394,7 +396,7 @@ impl LoopState {
             &format!(
                 "part {job} planned: {} blocks in {} fragment(s), {} trajectory points, {:.1} s",
                 planned.part.len(),
-                planned.fragments.len(),
+                planned.found.fragments.len(),
                 planned.trajectory.points.len(),
                 planned
                     .trajectory
@@ -428,13 +430,10 @@ impl LoopState {
 /// Publishes every output of a plan, all with the same header (recording them too).
 pub fn publish_plan(outputs: &Outputs, planned: &Planned) {
     let header = Header::new(Time::now(), planned.toolpath.frame.clone());
-    let m = PlanMessages::of_plan(
-        &planned.summary(),
-        &planned.trajectory,
-        &planned.plate,
-        &header,
-    );
-    publish_messages(outputs, &m);
+    match PlanMessages::of_planned(planned, &header) {
+        Ok(m) => publish_messages(outputs, &m),
+        Err(e) => outputs.log(Level::Error, &format!("cannot publish the plan: {e}")),
+    }
 }
 
 /// Publishes a plan's messages on the outputs (recording them when the outputs record).
@@ -456,7 +455,7 @@ fn record_heat(recorder: &Recorder, planned: &Planned) {
         recorder,
         &planned.part,
         &model,
-        &planned.fragments,
+        &planned.found.fragments,
         "waam_part",
         Time::now(),
         crate::heat::HeatOptions::default(),
@@ -467,7 +466,7 @@ fn record_heat(recorder: &Recorder, planned: &Planned) {
 
 /// The statistics a "planned" status carries.
 fn plan_values(p: &Planned) -> Vec<KeyValue> {
-    let s = &p.statistics;
+    let (f, s) = (&p.found, &p.found.stats);
     let duration = p
         .trajectory
         .points
@@ -476,12 +475,12 @@ fn plan_values(p: &Planned) -> Vec<KeyValue> {
     vec![
         KeyValue::new("part", &p.part.name),
         KeyValue::new("blocks", p.part.len()),
-        KeyValue::new("fragments", p.fragments.len()),
+        KeyValue::new("fragments", f.fragments.len()),
         KeyValue::new("candidates", s.candidates),
         KeyValue::new("feasible_found", s.feasible),
-        KeyValue::new("optimal", s.optimal),
-        KeyValue::new("planning_time_s", format!("{:.3}", s.total_time_s)),
-        KeyValue::new("worst_margin_s", format!("{:.3}", p.worst_margin_s)),
+        KeyValue::new("optimal", f.proven),
+        KeyValue::new("planning_time_s", format!("{:.3}", s.total_s)),
+        KeyValue::new("worst_margin_s", format!("{:.3}", f.worst_margin_s)),
         KeyValue::new("toolpath_poses", p.toolpath.poses.len()),
         KeyValue::new("trajectory_points", p.trajectory.points.len()),
         KeyValue::new("duration_s", format!("{duration:.3}")),
@@ -526,7 +525,7 @@ fn spawn_inputs(inputs: Inputs, events: Sender<Event>, outputs: Arc<Outputs>) {
                                 r.record(&mesh_topic, &waam_rosbag::qos::Qos::reliable(10), &msg)
                             });
                             mesh_count += 1;
-                            PartInput::from_mesh(format!("mesh-{mesh_count}"), &msg)
+                            pipeline::mesh_input(format!("mesh-{mesh_count}"), &msg)
                         }
                         Err(e) => {
                             // An undecodable message (wrong type on the topic, bad CDR).

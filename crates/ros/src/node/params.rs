@@ -163,7 +163,24 @@ impl Default for DryRunParams {
 }
 
 /// The node names a parameters file may address this node by.
-const NODE_KEYS: [&str; 3] = ["waam_planner", "/waam_planner", "/**"];
+const NODE_KEYS: [&str; 3] = [crate::convert::NODE_NAME, "/waam_planner", "/**"];
+
+/// A parameter out of its range (the message names it and its value).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct ParamRule(pub String);
+
+impl From<String> for ParamRule {
+    fn from(message: String) -> Self {
+        ParamRule(message)
+    }
+}
+
+impl From<&str> for ParamRule {
+    fn from(message: &str) -> Self {
+        ParamRule(message.to_string())
+    }
+}
 
 impl NodeParams {
     /// Reads a parameters file.
@@ -228,7 +245,7 @@ impl NodeParams {
         }
         let params: NodeParams = serde_yaml::from_value(serde_yaml::Value::Mapping(merged))
             .map_err(|e| invalid(format!("ros__parameters: {e}")))?;
-        params.check().map_err(invalid)?;
+        params.check().map_err(|e| invalid(e.0))?;
         Ok(params)
     }
 
@@ -238,73 +255,73 @@ impl NodeParams {
     }
 
     /// Rules serde cannot express: ranges and list lengths.
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), ParamRule> {
         let finite_pos = |v: f64| v.is_finite() && v > 0.0;
         if !(self.planner.timeout_s.is_finite() && self.planner.timeout_s >= 0.0) {
-            return Err(format!(
+            return Err(ParamRule(format!(
                 "planner.timeout_s: expected seconds >= 0, got {}",
                 self.planner.timeout_s
-            ));
+            )));
         }
         if self.planner.default_max_fragments < 1 {
-            return Err(format!(
+            return Err(ParamRule(format!(
                 "planner.default_max_fragments: expected an integer >= 1, got {}",
                 self.planner.default_max_fragments
-            ));
+            )));
         }
         if self.mesh.block_mm.len() != 3 || !self.mesh.block_mm.iter().all(|&v| finite_pos(v)) {
-            return Err(format!(
+            return Err(ParamRule(format!(
                 "mesh.block_mm: expected three lengths > 0 (mm), got {:?}",
                 self.mesh.block_mm
-            ));
+            )));
         }
         match self.mesh.t85_window_s[..] {
             [] => {}
             [min, max] if min.is_finite() && max.is_finite() && 0.0 <= min && min <= max => {}
             _ => {
-                return Err(format!(
+                return Err(ParamRule(format!(
                     "mesh.t85_window_s: expected [] or [min_s, max_s] with 0 <= min_s <= max_s, got {:?}",
                     self.mesh.t85_window_s
-                ))
+                )))
             }
         }
         if !(self.robot.tcp.is_empty() || self.robot.tcp.len() == 6)
             || self.robot.tcp.iter().any(|v| !v.is_finite())
         {
-            return Err(format!(
+            return Err(ParamRule(format!(
                 "robot.tcp: expected [] or [x, y, z, roll, pitch, yaw] (m, rad), got {:?}",
                 self.robot.tcp
-            ));
+            )));
         }
         if self.execution.max_points_per_goal < 1 {
-            return Err(format!(
+            return Err(ParamRule(format!(
                 "execution.max_points_per_goal: expected an integer >= 1, got {}",
                 self.execution.max_points_per_goal
-            ));
+            )));
         }
         if !finite_pos(self.execution.server_timeout_s) {
-            return Err(format!(
+            return Err(ParamRule(format!(
                 "execution.server_timeout_s: expected seconds > 0, got {}",
                 self.execution.server_timeout_s
-            ));
+            )));
         }
         if !(self.execution.lead_in_s.is_finite() && self.execution.lead_in_s >= 0.0) {
-            return Err(format!(
+            return Err(ParamRule(format!(
                 "execution.lead_in_s: expected seconds >= 0, got {}",
                 self.execution.lead_in_s
-            ));
+            )));
         }
         if !finite_pos(self.dry_run.time_scale) {
-            return Err(format!(
+            return Err(ParamRule(format!(
                 "dry_run.time_scale: expected a factor > 0, got {}",
                 self.dry_run.time_scale
-            ));
+            )));
         }
         if !(finite_pos(self.dry_run.rate_hz) && self.dry_run.rate_hz <= 1000.0) {
-            return Err(format!(
+            return Err(ParamRule(format!(
                 "dry_run.rate_hz: expected 0 < rate <= 1000, got {}",
                 self.dry_run.rate_hz
-            ));
+            )));
         }
         Ok(())
     }

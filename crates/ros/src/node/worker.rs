@@ -58,27 +58,42 @@ impl JobContext {
 pub trait Pipeline: Send + Sync + 'static {
     type Input: Send + 'static;
     type Output: Send + 'static;
-    fn run(&self, input: Self::Input, ctx: &JobContext) -> Result<Self::Output, String>;
+    type Error: std::error::Error + Send + 'static;
+    fn run(&self, input: Self::Input, ctx: &JobContext) -> Result<Self::Output, Self::Error>;
+}
+
+/// Why a job ended without output.
+#[derive(Debug, thiserror::Error)]
+pub enum JobFailure<E> {
+    #[error("cancelled: a newer part arrived")]
+    Superseded,
+    #[error("internal error: {0}")]
+    Panicked(String),
+    #[error(transparent)]
+    Failed(E),
 }
 
 /// What the worker tells the node.
 #[derive(Debug)]
-pub enum WorkerEvent<T> {
+pub enum WorkerEvent<T, E> {
     Progress {
         job: u64,
         progress: Progress,
     },
-    /// `Err(reason)`; a cancelled job finishes with `Err` too, and its id is no longer current.
+    /// A cancelled job finishes with `Err` too, and its id is no longer current.
     Finished {
         job: u64,
-        result: Result<T, String>,
+        result: Result<T, JobFailure<E>>,
     },
 }
+
+/// The events of a pipeline's worker.
+pub type EventOf<P> = WorkerEvent<<P as Pipeline>::Output, <P as Pipeline>::Error>;
 
 /// Runs one job at a time on its own thread; a newer job cancels the one in progress.
 pub struct Worker<P: Pipeline> {
     pipeline: Arc<P>,
-    events: Arc<dyn Fn(WorkerEvent<P::Output>) + Send + Sync>,
+    events: Arc<dyn Fn(EventOf<P>) + Send + Sync>,
     next_id: u64,
     current: Option<(u64, Cancel)>,
     threads: Vec<JoinHandle<()>>,
@@ -86,10 +101,7 @@ pub struct Worker<P: Pipeline> {
 
 impl<P: Pipeline> Worker<P> {
     /// A worker that hands every event to `events` (called from the job threads).
-    pub fn new(
-        pipeline: P,
-        events: impl Fn(WorkerEvent<P::Output>) + Send + Sync + 'static,
-    ) -> Worker<P> {
+    pub fn new(pipeline: P, events: impl Fn(EventOf<P>) + Send + Sync + 'static) -> Worker<P> {
         Worker {
             pipeline: Arc::new(pipeline),
             events: Arc::new(events),
@@ -123,14 +135,12 @@ impl<P: Pipeline> Worker<P> {
         let thread = std::thread::Builder::new()
             .name(format!("plan-{job}"))
             .spawn(move || {
-                let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                let result = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                     pipeline.run(input, &ctx)
-                }))
-                .unwrap_or_else(|panic| Err(format!("internal error: {}", panic_text(&panic))));
-                let result = if ctx.cancel.is_cancelled() {
-                    Err("cancelled: a newer part arrived".to_string())
-                } else {
-                    result
+                })) {
+                    _ if ctx.cancel.is_cancelled() => Err(JobFailure::Superseded),
+                    Ok(result) => result.map_err(JobFailure::Failed),
+                    Err(panic) => Err(JobFailure::Panicked(panic_text(&panic))),
                 };
                 events(WorkerEvent::Finished { job, result });
             })
@@ -188,20 +198,25 @@ mod tests {
     use std::sync::mpsc::channel;
     use std::time::Duration;
 
+    #[derive(Debug, thiserror::Error)]
+    #[error("{0}")]
+    struct Stop(&'static str);
+
     /// Counts to `n`, stopping when cancelled; "boom" panics, "bad" fails.
     struct Counter;
     impl Pipeline for Counter {
         type Input = (u32, &'static str);
         type Output = u32;
-        fn run(&self, (n, mode): (u32, &'static str), ctx: &JobContext) -> Result<u32, String> {
+        type Error = Stop;
+        fn run(&self, (n, mode): (u32, &'static str), ctx: &JobContext) -> Result<u32, Stop> {
             match mode {
                 "boom" => panic!("boom"),
-                "bad" => return Err("bad input".into()),
+                "bad" => return Err(Stop("bad input")),
                 _ => {}
             }
             for i in 0..n {
                 if ctx.cancel.is_cancelled() {
-                    return Err("stopped".into());
+                    return Err(Stop("stopped"));
                 }
                 ctx.progress("counting", Some(i as f64 / n as f64), "");
                 std::thread::sleep(Duration::from_millis(1));
@@ -211,12 +226,12 @@ mod tests {
     }
 
     fn finished(
-        rx: &std::sync::mpsc::Receiver<WorkerEvent<u32>>,
+        rx: &std::sync::mpsc::Receiver<EventOf<Counter>>,
     ) -> Vec<(u64, Result<u32, String>)> {
         let mut out = Vec::new();
         while let Ok(ev) = rx.recv_timeout(Duration::from_secs(20)) {
             if let WorkerEvent::Finished { job, result } = ev {
-                out.push((job, result));
+                out.push((job, result.map_err(|e| e.to_string())));
                 if out.len() == 2 {
                     break;
                 }
@@ -266,10 +281,12 @@ mod tests {
         assert_eq!(finished_one(&rx), vec!["bad input".to_string()]);
     }
 
-    fn finished_one(rx: &std::sync::mpsc::Receiver<WorkerEvent<u32>>) -> Vec<String> {
+    fn finished_one(rx: &std::sync::mpsc::Receiver<EventOf<Counter>>) -> Vec<String> {
         loop {
             match rx.recv_timeout(Duration::from_secs(20)).unwrap() {
-                WorkerEvent::Finished { result, .. } => return vec![result.unwrap_err()],
+                WorkerEvent::Finished { result, .. } => {
+                    return vec![result.unwrap_err().to_string()]
+                }
                 WorkerEvent::Progress { .. } => {}
             }
         }

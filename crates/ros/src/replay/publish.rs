@@ -48,8 +48,25 @@ pub fn context_from_env() -> Result<Context, PublishError> {
     Context::from_domain_participant(participant).map_err(|e| PublishError::Dds(e.to_string()))
 }
 
+/// A topic that cannot be created, published or read (the DDS layer's words).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct TopicError(pub String);
+
+impl From<String> for TopicError {
+    fn from(message: String) -> Self {
+        TopicError(message)
+    }
+}
+
+impl From<&str> for TopicError {
+    fn from(message: &str) -> Self {
+        TopicError(message.to_string())
+    }
+}
+
 /// Sends one recorded message (CDR) on its topic.
-type SendFn = Box<dyn Fn(&[u8]) -> Result<(), String>>;
+type SendFn = Box<dyn Fn(&[u8]) -> Result<(), TopicError>>;
 
 /// Creates a typed publisher for one topic; its closure decodes recorded CDR and sends it.
 struct MakePublisher<'a> {
@@ -59,9 +76,9 @@ struct MakePublisher<'a> {
 }
 
 impl TypeVisitor for MakePublisher<'_> {
-    type Output = Result<SendFn, String>;
+    type Output = Result<SendFn, TopicError>;
 
-    fn visit<M>(self) -> Result<SendFn, String>
+    fn visit<M>(self) -> Result<SendFn, TopicError>
     where
         M: AnyMessage,
     {
@@ -75,7 +92,9 @@ impl TypeVisitor for MakePublisher<'_> {
             .map_err(|e| e.to_string())?;
         Ok(Box::new(move |data: &[u8]| {
             let message = from_cdr::<M>(data).map_err(|e| e.to_string())?;
-            publisher.publish(message).map_err(|e| e.to_string())
+            publisher
+                .publish(message)
+                .map_err(|e| TopicError(e.to_string()))
         }))
     }
 }
@@ -121,7 +140,7 @@ impl Player {
             );
             match made {
                 Some(Ok(send)) => publishers.push(Some(send)),
-                Some(Err(reason)) => return Err(bad(reason)),
+                Some(Err(reason)) => return Err(bad(reason.0)),
                 None => {
                     skipped.push(format!(
                         "{} ({}: unknown type)",
@@ -162,7 +181,7 @@ impl Player {
             let topic = &bag.topics[message.topic].name;
             send(&message.data).map_err(|reason| PublishError::Topic {
                 topic: topic.clone(),
-                reason,
+                reason: reason.0,
             })?;
             *sent.entry(topic.clone()).or_insert(0) += 1;
         }
@@ -206,8 +225,8 @@ pub fn echo(
         on_message: &'a mut dyn FnMut(serde_json::Value),
     }
     impl TypeVisitor for Listen<'_> {
-        type Output = Result<u64, String>;
-        fn visit<M>(self) -> Result<u64, String>
+        type Output = Result<u64, TopicError>;
+        fn visit<M>(self) -> Result<u64, TopicError>
         where
             M: AnyMessage,
         {
@@ -245,5 +264,5 @@ pub fn echo(
     };
     visit_type(type_name, listen)
         .ok_or_else(|| bad(format!("unknown type {type_name}")))?
-        .map_err(bad)
+        .map_err(|e| bad(e.0))
 }

@@ -1,25 +1,97 @@
-//! A planned part as ROS 2 messages: poses, path, weld plan, markers, status.
+//! Domain values as ROS 2 messages, each converted in exactly one place: poses, path,
+//! joint trajectory, the weld plan, markers, the planner's statistics and status reports.
 //!
-//! Every output message carries the same header (the time of planning, the robot's base
-//! link), so a viewer can line them up.
+//! Every output message of a plan carries the same header (the time of planning, the
+//! robot's base link), so a viewer can line them up.
 
 use nalgebra::{Isometry3, Point3};
-
-use super::controller::trajectory_msg;
 
 use crate::topics;
 use waam_motion::toolpath::{PoseKind, Toolpath};
 use waam_motion::trajectory::JointTrajectory;
-use waam_part::Part;
+use waam_part::{BlockDisplay, Part};
+use waam_pipeline::Planned;
+use waam_planner::Stats;
 use waam_rosbag::{BagError, Qos, Recorder};
 use waam_rosmsg::builtin_interfaces::{Duration, Time};
 use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
 use waam_rosmsg::geometry_msgs::{Point, Pose, PoseArray, PoseStamped, Quaternion, Vector3};
 use waam_rosmsg::nav_msgs::Path;
 use waam_rosmsg::std_msgs::{ColorRGBA, Header};
-use waam_rosmsg::trajectory_msgs::JointTrajectory as TrajectoryMsg;
+use waam_rosmsg::trajectory_msgs::{JointTrajectory as TrajectoryMsg, JointTrajectoryPoint};
 use waam_rosmsg::visualization_msgs::{Marker, MarkerArray};
 use waam_rosmsg::waam_interfaces::{Block, PlanStatistics, WeldFragment, WeldPlan, WeldPoint};
+
+/// The node's name, and the `name` and `hardware_id` of every status it reports.
+pub const NODE_NAME: &str = "waam_planner";
+
+/// A domain value that has no message form.
+#[derive(Debug, thiserror::Error)]
+pub enum ConvertError {
+    #[error("block {0} does not fit in the message's int32 coordinates")]
+    BlockOutOfRange(BlockDisplay),
+}
+
+/// A block's coordinates as our message carries them (int32): checked, never truncated.
+pub fn block_msg(b: waam_part::Block) -> Result<Block, ConvertError> {
+    Block::from_part(b).ok_or(ConvertError::BlockOutOfRange(BlockDisplay(b)))
+}
+
+/// The planner's statistics as our message carries them.
+pub fn statistics(stats: &Stats, proven: bool) -> PlanStatistics {
+    let count = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
+    PlanStatistics {
+        candidates: stats.candidates,
+        feasible: stats.feasible,
+        optimal: proven,
+        time_to_first_feasible_s: stats.first_feasible_s.unwrap_or(f64::NAN),
+        total_time_s: stats.total_s,
+        sat_time_s: stats.sat_s,
+        acyclicity_time_s: stats.acyclicity_s,
+        simulation_time_s: stats.simulator_s,
+        learned_clauses: u32::try_from(stats.learned_clauses).unwrap_or(u32::MAX),
+        learned_clause_min: stats.clause_len_min.map_or(0, count),
+        learned_clause_max: stats.clause_len_max.map_or(0, count),
+        learned_clause_mean: stats.clause_len_mean.unwrap_or(0.0),
+    }
+}
+
+/// A status report of the node's one component, as a DiagnosticArray.
+pub fn diagnostics(
+    stamp: Time,
+    level: u8,
+    message: &str,
+    values: Vec<KeyValue>,
+) -> DiagnosticArray {
+    DiagnosticArray {
+        header: Header::new(stamp, ""),
+        status: vec![DiagnosticStatus {
+            level,
+            name: NODE_NAME.into(),
+            message: message.into(),
+            hardware_id: NODE_NAME.into(),
+            values,
+        }],
+    }
+}
+
+/// The whole trajectory as a trajectory_msgs/JointTrajectory.
+pub fn trajectory_msg(trajectory: &JointTrajectory, header: &Header) -> TrajectoryMsg {
+    TrajectoryMsg {
+        header: header.clone(),
+        joint_names: trajectory.joint_names.clone(),
+        points: trajectory
+            .points
+            .iter()
+            .map(|p| JointTrajectoryPoint {
+                positions: p.positions.clone(),
+                velocities: p.velocities.clone(),
+                time_from_start: Duration::from_secs_f64(p.time_from_start),
+                ..JointTrajectoryPoint::default()
+            })
+            .collect(),
+    }
+}
 
 /// A geometry_msgs/Pose from an isometry (metres).
 pub fn pose_msg(pose: &Isometry3<f64>) -> Pose {
@@ -87,16 +159,54 @@ fn kind_code(kind: PoseKind) -> u8 {
     }
 }
 
-/// Everything about a plan that is not the joint trajectory.
-pub struct PlanSummary<'a> {
-    pub part: &'a Part,
-    /// Fragments in weld order, as block indices of `part`.
-    pub fragments: &'a [Vec<usize>],
-    pub toolpath: &'a Toolpath,
+/// What a `WeldPlan` message says, from the domain: the one builder of that message.
+#[derive(Debug, Clone)]
+pub struct WeldPlanOf<'a> {
+    pub part_name: &'a str,
+    /// Block pitch along x, m.
+    pub block_pitch: f64,
+    /// Block coordinates per fragment, in weld order (none for a layer's trail).
+    pub fragments: Vec<Vec<waam_part::Block>>,
+    /// The toolpath, when the plan has motion: every point with its arc state and timing.
+    pub toolpath: Option<&'a Toolpath>,
+    /// TCP speeds, m/s.
     pub weld_speed: f64,
     pub transit_speed: f64,
     pub worst_margin_s: f64,
     pub statistics: PlanStatistics,
+}
+
+impl WeldPlanOf<'_> {
+    /// The message; a block whose coordinates do not fit the message is an error.
+    pub fn to_msg(&self, header: &Header) -> Result<WeldPlan, ConvertError> {
+        let fragments = self
+            .fragments
+            .iter()
+            .map(|f| {
+                let blocks = f.iter().map(|&b| block_msg(b)).collect::<Result<_, _>>()?;
+                Ok(WeldFragment { blocks })
+            })
+            .collect::<Result<_, ConvertError>>()?;
+        Ok(WeldPlan {
+            header: header.clone(),
+            part_name: self.part_name.to_string(),
+            block_pitch: self.block_pitch,
+            fragments,
+            points: self.toolpath.map(weld_points).unwrap_or_default(),
+            weld_speed: self.weld_speed,
+            transit_speed: self.transit_speed,
+            worst_margin_s: self.worst_margin_s,
+            statistics: self.statistics.clone(),
+        })
+    }
+}
+
+/// Fragments of block indices of `part` as block coordinates.
+pub fn block_fragments(part: &Part, fragments: &[Vec<usize>]) -> Vec<Vec<waam_part::Block>> {
+    fragments
+        .iter()
+        .map(|f| f.iter().map(|&i| part.block(i)).collect())
+        .collect()
 }
 
 /// Every message a plan goes out as (published by the node, recorded by `--record`), all
@@ -111,21 +221,33 @@ pub struct PlanMessages {
 }
 
 impl PlanMessages {
-    /// The messages of a block plan with its motion; `plate` places the part frame in the
-    /// robot's base link.
-    pub fn of_plan(
-        plan: &PlanSummary,
-        trajectory: &JointTrajectory,
-        plate: &Isometry3<f64>,
-        header: &Header,
-    ) -> Self {
-        PlanMessages {
-            joint_trajectory: trajectory_msg(trajectory, header),
-            poses: pose_array(plan.toolpath, header),
-            path: path(plan.toolpath, header),
-            markers: markers(plan, plate, header),
-            weld_plan: weld_plan(plan, header),
+    /// The messages of a planned part (a checked block plan with its motion).
+    pub fn of_planned(planned: &Planned, header: &Header) -> Result<Self, ConvertError> {
+        let found = &planned.found;
+        let weld_plan = WeldPlanOf {
+            part_name: &planned.part.name,
+            block_pitch: planned.part.block_mm[0] / 1000.0,
+            fragments: block_fragments(&planned.part, &found.fragments),
+            toolpath: Some(&planned.toolpath),
+            weld_speed: planned.weld_speed,
+            transit_speed: planned.transit_speed,
+            worst_margin_s: found.worst_margin_s,
+            statistics: statistics(&found.stats, found.proven),
         }
+        .to_msg(header)?;
+        Ok(PlanMessages {
+            joint_trajectory: trajectory_msg(&planned.trajectory, header),
+            poses: pose_array(&planned.toolpath, header),
+            path: path(&planned.toolpath, header),
+            markers: markers(
+                &planned.part,
+                &found.fragments,
+                &planned.toolpath,
+                &planned.plate,
+                header,
+            ),
+            weld_plan,
+        })
     }
 
     /// Records them on the node's default topics with the QoS the node offers (latched).
@@ -142,38 +264,6 @@ impl PlanMessages {
         recorder.record_at(topics::PATH, &qos, stamp, &self.path)?;
         recorder.record_at(topics::MARKERS, &qos, stamp, &self.markers)?;
         recorder.record_at(topics::WELD_PLAN, &qos, stamp, &self.weld_plan)
-    }
-}
-
-/// Our waam_interfaces/WeldPlan: the fragments, and every toolpath point with its arc
-/// state, kind, time and commanded speed.
-pub fn weld_plan(plan: &PlanSummary, header: &Header) -> WeldPlan {
-    let part = plan.part;
-    let block_msg = |i: usize| {
-        let b = part.block(i);
-        Block {
-            x: b[0] as i32,
-            y: b[1] as i32,
-            z: b[2] as i32,
-        }
-    };
-    let fragments = plan
-        .fragments
-        .iter()
-        .map(|f| WeldFragment {
-            blocks: f.iter().map(|&i| block_msg(i)).collect(),
-        })
-        .collect();
-    WeldPlan {
-        header: header.clone(),
-        part_name: part.name.clone(),
-        block_pitch: part.block_mm[0] / 1000.0,
-        fragments,
-        points: weld_points(plan.toolpath),
-        weld_speed: plan.weld_speed,
-        transit_speed: plan.transit_speed,
-        worst_margin_s: plan.worst_margin_s,
-        statistics: plan.statistics.clone(),
     }
 }
 
@@ -293,8 +383,13 @@ fn new_marker(header: &Header, ns: &str, id: i32, type_: i32) -> Marker {
 /// The plan for RViz / Foxglove: blocks as cubes coloured by fragment, a weld line per
 /// fragment, the transit moves, and an arc-on and an arc-off marker per fragment with
 /// labels. The first marker deletes whatever an earlier plan drew.
-pub fn markers(plan: &PlanSummary, plate: &Isometry3<f64>, header: &Header) -> MarkerArray {
-    let part = plan.part;
+pub fn markers(
+    part: &Part,
+    fragments: &[Vec<usize>],
+    toolpath: &Toolpath,
+    plate: &Isometry3<f64>,
+    header: &Header,
+) -> MarkerArray {
     let base = |ns: &str, id: i32, type_: i32| new_marker(header, ns, id, type_);
     let mut out = vec![delete_all(header)];
 
@@ -307,7 +402,7 @@ pub fn markers(plan: &PlanSummary, plate: &Isometry3<f64>, header: &Header) -> M
         z: bz * 0.95,
     };
     cubes.color = WHITE;
-    for (f, fragment) in plan.fragments.iter().enumerate() {
+    for (f, fragment) in fragments.iter().enumerate() {
         for &i in fragment {
             let c = part.centre_mm(part.block(i)).map(|v| v / 1000.0);
             cubes.points.push(point_msg(&(plate * Point3::from(c))));
@@ -319,7 +414,7 @@ pub fn markers(plan: &PlanSummary, plate: &Isometry3<f64>, header: &Header) -> M
     out.push(cubes);
 
     let width = 0.25 * bx.min(by);
-    out.extend(toolpath_markers(plan.toolpath, width, header));
+    out.extend(toolpath_markers(toolpath, width, header));
     MarkerArray { markers: out }
 }
 
@@ -391,126 +486,15 @@ pub fn toolpath_markers(toolpath: &Toolpath, width: f64, header: &Header) -> Vec
     out
 }
 
-/// The statuses the node reports on `~/status`, one DiagnosticStatus each.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Status {
-    /// An input arrived; `cancelled` names the job it superseded; `settings` are how it
-    /// will be turned into a part (for a mesh: the voxelizing settings), for replays.
-    Received {
-        job: u64,
-        source: String,
-        cancelled: Option<u64>,
-        settings: Vec<KeyValue>,
-    },
-    Planning {
-        job: u64,
-        stage: String,
-        fraction: Option<f64>,
-        detail: String,
-    },
-    Planned {
-        job: u64,
-        values: Vec<KeyValue>,
-    },
-    Error {
-        job: Option<u64>,
-        reason: String,
-    },
-    /// Execution news (goals sent, arc switched, done).
-    Executing {
-        job: u64,
-        message: String,
-        level: u8,
-    },
-}
-
-/// The DiagnosticStatus `name` of every status of this node.
-pub const STATUS_NAME: &str = "waam_planner";
-
-impl Status {
-    /// The status as a DiagnosticArray (level, one-line message, key-value details).
-    pub fn to_msg(&self, stamp: Time, hardware_id: &str) -> DiagnosticArray {
-        fn kv(key: &str, value: impl ToString) -> KeyValue {
-            KeyValue::new(key, value)
-        }
-        let (level, message, values) = match self {
-            Status::Received {
-                job,
-                source,
-                cancelled,
-                settings,
-            } => {
-                let mut message = format!("received part {job} ({source})");
-                let mut values = vec![kv("state", "received"), kv("job", job)];
-                if let Some(old) = cancelled {
-                    message.push_str(&format!("; cancelled planning of part {old}"));
-                    values.push(kv("cancelled_job", old));
-                }
-                values.extend(settings.iter().cloned());
-                (DiagnosticStatus::OK, message, values)
-            }
-            Status::Planning {
-                job,
-                stage,
-                fraction,
-                detail,
-            } => {
-                let mut message = format!("planning part {job}: {stage}");
-                let mut values = vec![kv("state", "planning"), kv("job", job), kv("stage", stage)];
-                if let Some(f) = fraction {
-                    message.push_str(&format!(" {:.0}%", f * 100.0));
-                    values.push(kv("progress", format!("{f:.3}")));
-                }
-                if !detail.is_empty() {
-                    message.push_str(&format!(" ({detail})"));
-                    values.push(kv("detail", detail));
-                }
-                (DiagnosticStatus::OK, message, values)
-            }
-            Status::Planned { job, values } => {
-                let mut all = vec![kv("state", "planned"), kv("job", job)];
-                all.extend(values.iter().cloned());
-                (DiagnosticStatus::OK, format!("planned part {job}"), all)
-            }
-            Status::Error { job, reason } => {
-                let mut values = vec![kv("state", "error"), kv("reason", reason)];
-                if let Some(job) = job {
-                    values.push(kv("job", job));
-                }
-                (DiagnosticStatus::ERROR, reason.clone(), values)
-            }
-            Status::Executing {
-                job,
-                message,
-                level,
-            } => (
-                *level,
-                message.clone(),
-                vec![kv("state", "executing"), kv("job", job)],
-            ),
-        };
-        DiagnosticArray {
-            header: Header::new(stamp, ""),
-            status: vec![DiagnosticStatus {
-                level,
-                name: STATUS_NAME.to_string(),
-                message,
-                hardware_id: hardware_id.to_string(),
-                values,
-            }],
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::node::controller::goal_msg;
-    use crate::node::pipeline::BUNDLED_URDF;
     use waam_motion::robot::{Robot, TcpChoice};
     use waam_motion::toolpath::ProcessSettings;
     use waam_part::graph::WeldGraph;
     use waam_part::plan::Plan;
+    use waam_pipeline::BUNDLED_URDF;
 
     /// s1-wall with its checked sample plan, through the real toolpath and trajectory.
     fn planned() -> (
@@ -519,7 +503,7 @@ mod tests {
         Toolpath,
         waam_motion::trajectory::JointTrajectory,
     ) {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
         let part =
             Part::from_bytes(&std::fs::read(root.join("config/parts/s1-wall.yaml")).unwrap())
                 .unwrap();
@@ -547,17 +531,19 @@ mod tests {
     #[test]
     fn messages_describe_the_plan() {
         let (part, fragments, toolpath, trajectory) = planned();
-        let summary = PlanSummary {
-            part: &part,
-            fragments: &fragments,
-            toolpath: &toolpath,
+        let header = Header::new(Time::from_nanos(5_000_000_000), "base_link");
+        let plan = WeldPlanOf {
+            part_name: &part.name,
+            block_pitch: part.block_mm[0] / 1000.0,
+            fragments: block_fragments(&part, &fragments),
+            toolpath: Some(&toolpath),
             weld_speed: 0.006,
             transit_speed: 0.1,
             worst_margin_s: 1.5,
             statistics: PlanStatistics::default(),
-        };
-        let header = Header::new(Time::from_nanos(5_000_000_000), "base_link");
-        let plan = weld_plan(&summary, &header);
+        }
+        .to_msg(&header)
+        .unwrap();
         assert_eq!(plan.points.len(), toolpath.poses.len());
         let blocks: usize = plan.fragments.iter().map(|f| f.blocks.len()).sum();
         assert_eq!(blocks, part.len());
@@ -585,7 +571,7 @@ mod tests {
         assert_eq!(path.poses[0].header.stamp.sec, 5);
 
         let plate = ProcessSettings::default().plate.isometry();
-        let markers = markers(&summary, &plate, &header).markers;
+        let markers = markers(&part, &fragments, &toolpath, &plate, &header).markers;
         assert_eq!(markers[0].action, Marker::DELETEALL);
         let in_ns = |ns: &str| markers.iter().filter(|m| m.ns == ns).count();
         assert_eq!(in_ns(ns::ARC_ON), fragments.len());
@@ -604,31 +590,5 @@ mod tests {
         let t4 = trajectory.points[4].time_from_start;
         assert!((next.points[0].time_from_start.as_secs_f64() - (t4 - t3)).abs() < 1e-6);
         assert!(next.points[2].velocities.iter().all(|v| *v == 0.0));
-    }
-
-    #[test]
-    fn statuses_carry_state_level_and_reason() {
-        let s = Status::Received {
-            job: 3,
-            source: "mesh".into(),
-            cancelled: Some(2),
-            settings: vec![KeyValue::new("mesh.name", "mesh-1")],
-        }
-        .to_msg(Time::default(), "");
-        let st = &s.status[0];
-        assert_eq!(st.level, DiagnosticStatus::OK);
-        assert!(st.message.contains("cancelled planning of part 2"));
-        assert!(st.values.contains(&KeyValue::new("cancelled_job", 2)));
-        assert!(st.values.contains(&KeyValue::new("mesh.name", "mesh-1")));
-        let e = Status::Error {
-            job: Some(4),
-            reason: "bad part document: x".into(),
-        }
-        .to_msg(Time::default(), "");
-        assert_eq!(e.status[0].level, DiagnosticStatus::ERROR);
-        assert_eq!(e.status[0].message, "bad part document: x");
-        assert!(e.status[0]
-            .values
-            .contains(&KeyValue::new("state", "error")));
     }
 }

@@ -1,5 +1,4 @@
-//! Helpers shared by the integration tests.
-#![allow(dead_code)]
+//! Planner test helpers: sample parts, their checks, brute-force enumeration.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -9,10 +8,7 @@ use waam_part::plan::Plan;
 use waam_part::Part;
 use waam_thermal::{self as thermal, ThermalModel};
 
-/// The repository root (where Cargo.toml is).
-pub fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
+pub use super::root;
 
 /// A sample part bundled in config/parts.
 pub fn part_path(name: &str) -> PathBuf {

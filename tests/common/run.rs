@@ -1,6 +1,5 @@
-//! Helpers shared by the recording tests (bag, bag_python, replay, replay_publish,
-//! layer_motion).
-#![allow(dead_code)] // each test crate uses a different subset
+//! Running `waam` and handling its recordings (bag, bag_python, replay, replay_publish,
+//! layer_motion, ros_node).
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};

@@ -1,0 +1,61 @@
+//! Recording a planning run of the CLI (`waam plan --record DIR`) as the node records one.
+
+use std::path::Path;
+
+use anyhow::Context;
+use waam_part::writer;
+use waam_part::Part;
+use waam_pipeline::Planned;
+use waam_planner::{Options, Report};
+use waam_ros::convert::PlanMessages;
+use waam_ros::planning::PlanningRecorder;
+use waam_rosbag::Recorder;
+use waam_rosmsg::builtin_interfaces::Time;
+use waam_rosmsg::std_msgs::Header;
+
+/// Opens the recording of `waam plan --record DIR` and records the part as a part document:
+/// a part file's own text, the bundled sample's, or, for an STL mesh, the voxelized part that
+/// was planned (so that `waam replay` can plan it again).
+pub fn start_planning(
+    dir: &Path,
+    part_file: Option<&Path>,
+    part: &Part,
+    opts: &Options,
+) -> anyhow::Result<(Recorder, PlanningRecorder)> {
+    let is_stl = |p: &Path| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("stl"));
+    let text = match part_file {
+        Some(path) if is_stl(path) => writer::to_yaml(part),
+        Some(path) => std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read part {}", path.display()))?,
+        None => super::DEFAULT_PART.to_string(),
+    };
+    let recorder = Recorder::create(dir)?;
+    let planning = PlanningRecorder::start(&recorder, &text, &part.name, opts)?;
+    Ok((recorder, planning))
+}
+
+/// The messages of a planned part, as the node publishes them.
+pub fn plan_messages(planned: &Planned) -> anyhow::Result<PlanMessages> {
+    let header = Header::new(Time::now(), planned.toolpath.frame.clone());
+    Ok(PlanMessages::of_planned(planned, &header)?)
+}
+
+/// Records the outcome of a planning run (with the motion's messages when there is one)
+/// and closes the recording.
+pub fn finish_planning(
+    recorder: Recorder,
+    planning: PlanningRecorder,
+    part: &Part,
+    report: &Report,
+    motion: Option<&PlanMessages>,
+) -> anyhow::Result<()> {
+    planning.finish(part, report, motion)?;
+    let summary = recorder.finish()?;
+    tracing::info!(
+        "recorded {} messages on {} topics to {}",
+        summary.messages,
+        summary.topics,
+        summary.dir.display()
+    );
+    Ok(())
+}
