@@ -53,7 +53,10 @@ fn first_run_writes_the_whole_chain_into_a_new_folder() {
     assert!((6..=20).contains(&lines), "{lines} lines:\n{stdout}");
     assert!(stdout.contains("optimal (proven)"), "{stdout}");
     assert!(stdout.contains("wrote waam-out-2/"), "{stdout}");
-    assert!(stdout.contains("waam replay waam-out-2/recording"), "{stdout}");
+    assert!(
+        stdout.contains("waam replay waam-out-2/recording"),
+        "{stdout}"
+    );
     assert!(stdout.contains("waam plot waam-out-2"), "{stdout}");
     // No block lists on the terminal.
     assert!(!stdout.contains("fragments:"), "{stdout}");
@@ -109,14 +112,14 @@ fn first_run_writes_the_whole_chain_into_a_new_folder() {
     let mut decoder = options
         .read_info(std::fs::File::open(out.join("heat.gif")).unwrap())
         .unwrap();
-    assert_eq!(
-        (decoder.width() as u32, decoder.height() as u32),
-        GIF_SIZE
-    );
+    assert_eq!((decoder.width() as u32, decoder.height() as u32), GIF_SIZE);
     let mut frames = 0;
     while let Some(frame) = decoder.read_next_frame().unwrap() {
         let (drawn, colours) = drawn_colours(&frame.buffer, 4);
-        assert!(drawn > 1000 && colours > 10, "frame {frames}: {drawn} px, {colours} colours");
+        assert!(
+            drawn > 1000 && colours > 10,
+            "frame {frames}: {drawn} px, {colours} colours"
+        );
         frames += 1;
     }
     assert!(frames >= 10, "{frames} frames");
@@ -124,7 +127,13 @@ fn first_run_writes_the_whole_chain_into_a_new_folder() {
     let plot = waam_in(cwd.path(), &["plot", "waam-out-2"]);
     let said = String::from_utf8_lossy(&plot.stdout);
     assert_eq!(plot.status.code(), Some(0), "{said}");
-    for file in ["plan3d.png", "heat.png", "heat.gif", "t85.png", "toolpath.png"] {
+    for file in [
+        "plan3d.png",
+        "heat.png",
+        "heat.gif",
+        "t85.png",
+        "toolpath.png",
+    ] {
         assert!(said.contains(file), "{said}");
     }
 }

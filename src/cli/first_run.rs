@@ -182,12 +182,26 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     if motion.is_some() {
         say("  toolpath.yaml trajectory.yaml torch poses, robot joint trajectory (for the robot controller)".into());
     }
-    say("  plan3d.png                    3-D: blocks by weld path and order, arc starts numbered".into());
-    say("  heat.png heat.gif             3-D: temperatures during the build, t8/5 vs windows".into());
+    say(
+        "  plan3d.png                    3-D: blocks by weld path and order, arc starts numbered"
+            .into(),
+    );
+    say(
+        "  heat.png heat.gif             3-D: temperatures during the build, t8/5 vs windows"
+            .into(),
+    );
     say(format!(
-        "  t85.png{}       t8/5 curves{}",
-        if motion.is_some() { " toolpath.png" } else { "             " },
-        if motion.is_some() { "; toolpath top and side view" } else { "" }
+        "  {:<30}t8/5 curves{}",
+        if motion.is_some() {
+            "t85.png toolpath.png"
+        } else {
+            "t85.png"
+        },
+        if motion.is_some() {
+            "; toolpath top and side view"
+        } else {
+            ""
+        }
     ));
     say(format!(
         "  recording/                    rosbag2 bag, {} messages: open {mcap} in Foxglove; waam replay {d}/recording",

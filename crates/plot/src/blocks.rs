@@ -69,7 +69,8 @@ impl View {
         if u0 > u1 {
             (u0, u1, v0, v1) = (0.0, 1.0, 0.0, 1.0);
         }
-        let scale = (0.92 * w as f64 / (u1 - u0).max(1e-9)).min(0.92 * h as f64 / (v1 - v0).max(1e-9));
+        let scale =
+            (0.92 * w as f64 / (u1 - u0).max(1e-9)).min(0.92 * h as f64 / (v1 - v0).max(1e-9));
         let offset = (
             x0 as f64 + 0.5 * w as f64 - scale * 0.5 * (u0 + u1),
             y0 as f64 + 0.5 * h as f64 - scale * 0.5 * (v0 + v1),
@@ -122,7 +123,12 @@ fn draw_blocks<DB: DrawingBackend>(
         (x0, x1, y0, y1) = (x0.min(b[0]), x1.max(b[0]), y0.min(b[1]), y1.max(b[1]));
     }
     if x0 <= x1 {
-        let (fx0, fx1, fy0, fy1) = (x0 as f64 - 1.0, x1 as f64 + 2.0, y0 as f64 - 1.0, y1 as f64 + 2.0);
+        let (fx0, fx1, fy0, fy1) = (
+            x0 as f64 - 1.0,
+            x1 as f64 + 2.0,
+            y0 as f64 - 1.0,
+            y1 as f64 + 2.0,
+        );
         let plate = vec![
             view.px([fx0, fy0, zmin]),
             view.px([fx1, fy0, zmin]),
@@ -145,9 +151,18 @@ fn draw_blocks<DB: DrawingBackend>(
         let p = |dx: f64, dy: f64, dz: f64| view.px([b[0] + dx, b[1] + dy, b[2] + dz]);
         let faces = [
             // top, +x, +y
-            (vec![p(0., 0., 1.), p(1., 0., 1.), p(1., 1., 1.), p(0., 1., 1.)], 1.0),
-            (vec![p(1., 0., 0.), p(1., 1., 0.), p(1., 1., 1.), p(1., 0., 1.)], 0.78),
-            (vec![p(0., 1., 0.), p(1., 1., 0.), p(1., 1., 1.), p(0., 1., 1.)], 0.6),
+            (
+                vec![p(0., 0., 1.), p(1., 0., 1.), p(1., 1., 1.), p(0., 1., 1.)],
+                1.0,
+            ),
+            (
+                vec![p(1., 0., 0.), p(1., 1., 0.), p(1., 1., 1.), p(1., 0., 1.)],
+                0.78,
+            ),
+            (
+                vec![p(0., 1., 0.), p(1., 1., 0.), p(1., 1., 1.), p(0., 1., 1.)],
+                0.6,
+            ),
         ];
         for (pts, f) in faces {
             area.draw(&Polygon::new(pts.clone(), shade(c, f).filled()))
@@ -173,10 +188,16 @@ fn draw_axes<DB: DrawingBackend>(
         let mut p = [0.0; 3];
         p[axis] = unit[axis];
         let (u, v) = View::raw(mm, p);
-        let end = (at.0 + (28.0 * u).round() as i32, at.1 + (28.0 * v).round() as i32);
+        let end = (
+            at.0 + (28.0 * u).round() as i32,
+            at.1 + (28.0 * v).round() as i32,
+        );
         area.draw(&PathElement::new(vec![at, end], BLACK.stroke_width(2)))
             .map_err(e)?;
-        let label = (end.0 + (8.0 * u).round() as i32 - 4, end.1 + (8.0 * v).round() as i32 - 8);
+        let label = (
+            end.0 + (8.0 * u).round() as i32 - 4,
+            end.1 + (8.0 * v).round() as i32 - 8,
+        );
         area.draw(&Text::new(name.to_string(), label, (FONT, 16)))
             .map_err(e)?;
     }
@@ -207,7 +228,11 @@ pub fn plan_png(part: &Part, fragments: &[Vec<usize>], path: &Path) -> Result<()
     root.draw(&Text::new(title, (20, 12), (FONT, 20)))
         .map_err(|e| err(e.to_string()))?;
     let legend_w = 250;
-    let view = View::fit(part, (10, 50), (PLAN_SIZE.0 - legend_w - 20, PLAN_SIZE.1 - 60));
+    let view = View::fit(
+        part,
+        (10, 50),
+        (PLAN_SIZE.0 - legend_w - 20, PLAN_SIZE.1 - 60),
+    );
     let mut colours = vec![None; part.len()];
     for (f, fragment) in fragments.iter().enumerate() {
         for (k, &b) in fragment.iter().enumerate() {
@@ -235,7 +260,9 @@ pub fn plan_png(part: &Part, fragments: &[Vec<usize>], path: &Path) -> Result<()
     let x = (PLAN_SIZE.0 - legend_w) as i32;
     let mut y = 70;
     for (f, fragment) in fragments.iter().enumerate() {
-        let start = fragment.first().map(|&b| BlockDisplay(part.block(b)).to_string());
+        let start = fragment
+            .first()
+            .map(|&b| BlockDisplay(part.block(b)).to_string());
         root.draw(&Text::new(
             format!("path {}: {} blocks", f + 1, fragment.len()),
             (x, y),
@@ -244,8 +271,11 @@ pub fn plan_png(part: &Part, fragments: &[Vec<usize>], path: &Path) -> Result<()
         .map_err(|e| err(e.to_string()))?;
         for k in 0..160 {
             let c = path_colour(f, k as usize, 160);
-            root.draw(&Rectangle::new([(x + k, y + 22), (x + k + 1, y + 36)], c.filled()))
-                .map_err(|e| err(e.to_string()))?;
+            root.draw(&Rectangle::new(
+                [(x + k, y + 22), (x + k + 1, y + 36)],
+                c.filled(),
+            ))
+            .map_err(|e| err(e.to_string()))?;
         }
         root.draw(&Text::new(
             format!("arc start {} at {}", f + 1, start.unwrap_or_default()),
@@ -411,6 +441,14 @@ fn draw_frame<DB: DrawingBackend>(
     let tops = draw_blocks(area, part, &view, &colours)?;
     for (k, wt) in build.windowed.iter().enumerate() {
         let Some(c) = tops[wt.block] else { continue };
+        // A block under a welded one is hidden: its number is in the table only.
+        let b = part.block(wt.block);
+        let covered = part
+            .index_of([b[0], b[1], b[2] + 1])
+            .is_some_and(|above| colours[above].is_some());
+        if covered {
+            continue;
+        }
         let ok = build
             .t85_at(wt, frame.time_s)
             .map(|v| v >= wt.window.min_s && v <= wt.window.max_s);
@@ -447,8 +485,11 @@ fn draw_side<DB: DrawingBackend>(
     for k in 0..bar_h {
         let t = lo + (hi - lo) * (k as f64 + 0.5) / bar_h as f64;
         let y = top + bar_h - k - 1;
-        area.draw(&Rectangle::new([(x, y), (x + 26, y + 1)], heat_colour(build, t).filled()))
-            .map_err(e)?;
+        area.draw(&Rectangle::new(
+            [(x, y), (x + 26, y + 1)],
+            heat_colour(build, t).filled(),
+        ))
+        .map_err(e)?;
     }
     area.draw(&Rectangle::new([(x, top), (x + 26, top + bar_h)], BLACK))
         .map_err(e)?;
@@ -488,7 +529,11 @@ fn draw_side<DB: DrawingBackend>(
                         wt.window.max_s,
                         if ok { "" } else { " BROKEN" }
                     ),
-                    if ok { RGBColor(0, 120, 50) } else { RGBColor(200, 0, 0) },
+                    if ok {
+                        RGBColor(0, 120, 50)
+                    } else {
+                        RGBColor(200, 0, 0)
+                    },
                 )
             }
             None => (
@@ -502,8 +547,12 @@ fn draw_side<DB: DrawingBackend>(
                 RGBColor(90, 90, 90),
             ),
         };
-        area.draw(&Text::new(text, (x, y), (FONT, size).into_font().color(&colour)))
-            .map_err(e)?;
+        area.draw(&Text::new(
+            text,
+            (x, y),
+            (FONT, size).into_font().color(&colour),
+        ))
+        .map_err(e)?;
         y += row_h;
     }
     Ok(())
@@ -518,7 +567,10 @@ pub fn heat_png(part: &Part, build: &HeatBuild, path: &Path) -> Result<(), PlotE
     let root = BitMapBackend::new(path, HEAT_SIZE).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
     root.draw(&Text::new(
-        format!("{}: temperatures during the build (thermal model)", part.name),
+        format!(
+            "{}: temperatures during the build (thermal model)",
+            part.name
+        ),
         (20, 10),
         (FONT, 22),
     ))
