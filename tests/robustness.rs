@@ -480,3 +480,34 @@ fn a_million_block_part_parses_and_builds_its_graph() {
         "10^6 blocks: parse {parsed:?}, weld graph {built:?}, validate {validated:?}, thermal model {modelled:?}"
     );
 }
+
+/// Issue #18, P1: a block far up the grid is refused with its coordinates, not an overflow.
+#[test]
+fn a_block_beyond_the_int32_grid_is_refused_by_name() {
+    let err = Part::parse(
+        "name: z\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nblocks: [[0,0,9223372036854775807]]\n",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        err.contains("[0,0,9223372036854775807]") && err.contains("coordinate above"),
+        "{err}"
+    );
+}
+
+/// Issue #18, P5/P6: time limits too long for a `Duration` are refused, naming the key.
+#[test]
+fn node_time_limits_beyond_a_week_are_refused_by_key() {
+    use waam_ros::node::params::NodeParams;
+    for (text, key) in [
+        ("planner: {timeout_s: 1.0e300}\n", "planner.timeout_s"),
+        (
+            "execution: {enabled: true, server_timeout_s: 1.0e300}\n",
+            "execution.server_timeout_s",
+        ),
+    ] {
+        let file = format!("waam_planner:\n  ros__parameters:\n    {text}");
+        let err = NodeParams::parse(&file).unwrap_err().to_string();
+        assert!(err.contains(key), "{text}: {err}");
+    }
+}

@@ -4,6 +4,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
+use anyhow::Context;
+use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 use waam_part::graph::WeldGraph;
 use waam_part::Part;
@@ -23,11 +25,30 @@ pub struct BenchArgs {
 #[derive(Debug, clap::Subcommand)]
 pub enum BenchWhat {
     /// Simulator throughput: a hollow square tower of about 10,000 blocks, welded ring by
-    /// ring, simulated from the first block to the last.
+    /// ring, simulated from the first block to the last; or, with --part, one full-build
+    /// check (every deposit, then the cooldown) of any part.
     Thermal {
-        /// Repeat the run this many times and report the best.
-        #[arg(long, default_value_t = 3)]
-        repeat: usize,
+        /// Repeat the run this many times and report the best [default: 3, 1 with --part].
+        #[arg(long)]
+        repeat: Option<usize>,
+        /// Threads of the multi-threaded run [default: the available cores]; the
+        /// 1-thread figure is printed beside it.
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Step kernel: scalar, avx2 or avx512 [default: the best the CPU runs].
+        #[arg(long, value_parser = ["scalar", "avx2", "avx512"])]
+        kernel: Option<String>,
+        /// Check this part instead (a part file, or an STL mesh with --pitch). Without
+        /// --plan the deposit order is constructive, for timing only: layer by layer, rows
+        /// in y order walked boustrophedon along x, one fragment per layer (not
+        /// necessarily a valid plan of the part's k).
+        #[arg(long)]
+        part: Option<PathBuf>,
+        #[command(flatten, next_help_heading = "Mesh input (--part is an .stl file)")]
+        mesh: super::voxelize::MeshArgs,
+        /// Deposit order of the --part check: a plan file (YAML or JSON), validated.
+        #[arg(long, requires = "part")]
+        plan: Option<PathBuf>,
     },
     /// Planner on three generated parts of about 10,000 blocks (a thin wall, a ring tower
     /// and a closed hollow box): time to the first feasible plan.
@@ -57,7 +78,27 @@ pub enum BenchWhat {
 
 pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
     match args.what {
-        BenchWhat::Thermal { repeat } => bench_thermal(repeat),
+        BenchWhat::Thermal {
+            repeat,
+            threads,
+            kernel,
+            part: Some(path),
+            mesh,
+            plan,
+        } => bench_part(
+            &path,
+            &mesh,
+            plan.as_deref(),
+            threads,
+            kernel.as_deref(),
+            repeat.unwrap_or(1),
+        ),
+        BenchWhat::Thermal {
+            repeat,
+            threads,
+            kernel,
+            ..
+        } => bench_thermal(repeat.unwrap_or(3), threads, kernel.as_deref()),
         BenchWhat::Planner {
             dir,
             all_up_to,
@@ -183,37 +224,219 @@ fn ring_order(part: &Part, side: i64, z: i64) -> Vec<usize> {
         .collect()
 }
 
-fn bench_thermal(repeat: usize) -> anyhow::Result<ExitCode> {
+/// The model stepped by the named kernel (the scalar one if the CPU lacks it).
+fn with_kernel(model: ThermalModel, kernel: Option<&str>) -> ThermalModel {
+    use waam_thermal::Simd;
+    match kernel {
+        Some("scalar") => model.with_simd(Simd::Scalar),
+        Some("avx2") => model.with_simd(Simd::Avx2),
+        Some("avx512") => model.with_simd(Simd::Avx512),
+        _ => model,
+    }
+}
+
+fn bench_thermal(
+    repeat: usize,
+    threads: Option<usize>,
+    kernel: Option<&str>,
+) -> anyhow::Result<ExitCode> {
     let (side, layers) = (26, 100);
     let part = hollow_tower(side, layers);
     let graph = WeldGraph::new(&part);
-    let model = ThermalModel::new(&part, &graph);
+    let model = with_kernel(ThermalModel::new(&part, &graph), kernel);
     let order: Vec<usize> = (0..layers)
         .flat_map(|z| ring_order(&part, side, z))
         .collect();
-    let mut best = f64::INFINITY;
-    let mut block_steps = 0u64;
+    let threads = threads.unwrap_or_else(waam_thermal::default_threads).max(1);
+    let mut counts = vec![1];
+    if threads > 1 {
+        counts.push(threads);
+    }
+    for threads in counts {
+        let mut best = f64::INFINITY;
+        let mut block_steps = 0u64;
+        for _ in 0..repeat.max(1) {
+            let mut sim = Simulation::new(&model).with_threads(threads);
+            let t = Instant::now();
+            block_steps = 0;
+            for (p, &b) in order.iter().enumerate() {
+                let before = sim.steps();
+                sim.deposit(b, p == 0)
+                    .map_err(|v| anyhow::anyhow!("unexpected violation {v:?}"))?;
+                block_steps += (sim.steps() - before) * sim.welded() as u64;
+            }
+            best = best.min(t.elapsed().as_secs_f64());
+        }
+        println!(
+            "thermal: {} blocks, {} steps, {:.3e} block-steps in {:.3} s: {:.3e} block-steps/s on {} thread{} ({:?} kernel, best of {})",
+            part.len(),
+            order.len() as u64 * model.params.substeps as u64,
+            block_steps as f64,
+            best,
+            block_steps as f64 / best,
+            threads,
+            if threads == 1 { "" } else { "s" },
+            model.simd(),
+            repeat.max(1)
+        );
+    }
+    Ok(ExitCode::from(EXIT_OK))
+}
+
+/// Layer by layer, rows in y order walked boustrophedon along x, one fragment per layer.
+pub fn constructive_order(part: &Part) -> Vec<Vec<usize>> {
+    let blocks = part.blocks();
+    let mut layers: Vec<Vec<usize>> = Vec::new();
+    let mut row_start = 0;
+    let mut rows = 0usize;
+    for i in 1..=blocks.len() {
+        let row_ends = i == blocks.len() || blocks[i][1..] != blocks[row_start][1..];
+        if !row_ends {
+            continue;
+        }
+        if row_start == 0 || blocks[row_start][2] != blocks[row_start - 1][2] {
+            layers.push(Vec::new());
+            rows = 0;
+        }
+        let layer = layers.last_mut().expect("just pushed");
+        if rows % 2 == 0 {
+            layer.extend(row_start..i);
+        } else {
+            layer.extend((row_start..i).rev());
+        }
+        rows += 1;
+        row_start = i;
+    }
+    layers
+}
+
+/// The largest resident set of this process so far, bytes.
+fn peak_rss_bytes() -> Option<u64> {
+    #[cfg(unix)]
+    {
+        // SAFETY: getrusage writes the struct we pass; all-zero is a valid rusage.
+        let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+        if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) } == 0 {
+            // Linux reports KiB (macOS bytes; this is a Linux tool).
+            return Some(usage.ru_maxrss as u64 * 1024);
+        }
+    }
+    None
+}
+
+/// One full-build check of a part: every deposit in order, then the cooldown.
+fn bench_part(
+    path: &std::path::Path,
+    mesh: &super::voxelize::MeshArgs,
+    plan: Option<&std::path::Path>,
+    threads: Option<usize>,
+    kernel: Option<&str>,
+    repeat: usize,
+) -> anyhow::Result<ExitCode> {
+    let part = mesh.read_part_or_mesh(path)?;
+    let graph = WeldGraph::new(&part);
+    let fragments = match plan {
+        Some(plan) => {
+            let bytes = std::fs::read(plan)
+                .with_context(|| format!("cannot read plan {}", plan.display()))?;
+            let is_json = plan.extension().is_some_and(|e| e == "json");
+            waam_part::plan::Plan::from_bytes(&bytes, is_json)
+                .with_context(|| format!("in plan {}", plan.display()))?
+                .validate(&part, &graph)
+                .map_err(|e| anyhow::anyhow!("plan {}: {e}", plan.display()))?
+        }
+        None => constructive_order(&part),
+    };
+    let model = with_kernel(ThermalModel::new(&part, &graph), kernel);
+    let threads = threads.unwrap_or_else(waam_thermal::default_threads).max(1);
+    let stop = super::node::stop_on_signal()?;
+    let n = part.len();
+    let steps_estimate = model.params.substeps as f64 * (n as f64) * (n as f64 + 1.0) / 2.0;
+    println!(
+        "{}: {} blocks, {} layers, {} fragments, {} ({}); about {:.2e} block-steps",
+        part.name,
+        n,
+        part.layers(),
+        fragments.len(),
+        if plan.is_some() {
+            "plan"
+        } else {
+            "constructive order"
+        },
+        if threads == 1 {
+            "1 thread".to_string()
+        } else {
+            format!("{threads} threads")
+        },
+        steps_estimate
+    );
     for _ in 0..repeat.max(1) {
-        let mut sim = Simulation::new(&model);
+        let bar = ProgressBar::new(n as u64);
+        bar.set_style(
+            ProgressStyle::with_template(
+                "[{elapsed_precise}] {bar:40} {pos}/{len} blocks, eta {eta} {msg}",
+            )
+            .expect("a valid template"),
+        );
+        let mut sim = Simulation::new(&model)
+            .with_threads(threads)
+            .with_cancel(stop.clone());
         let t = Instant::now();
-        block_steps = 0;
-        for (p, &b) in order.iter().enumerate() {
+        let mut block_steps = 0u64;
+        let mut verdict = "feasible".to_string();
+        'plan: for fragment in &fragments {
+            for (p, &b) in fragment.iter().enumerate() {
+                let before = sim.steps();
+                let welded = sim.welded() as u64;
+                let r = sim.deposit(b, p == 0);
+                // Transit steps (before the deposit) step the blocks welded before it.
+                let deposit_steps = (sim.steps() - before).min(model.params.substeps as u64);
+                block_steps += (sim.steps() - before - deposit_steps) * welded
+                    + deposit_steps * sim.welded() as u64;
+                if let Err(v) = r {
+                    verdict = format!("violation: {v:?}");
+                    break 'plan;
+                }
+                if sim.cancelled() {
+                    break 'plan;
+                }
+                bar.inc(1);
+            }
+        }
+        if verdict == "feasible" && !sim.cancelled() {
             let before = sim.steps();
-            sim.deposit(b, p == 0)
-                .map_err(|v| anyhow::anyhow!("unexpected violation {v:?}"))?;
+            match sim.finish() {
+                Ok(Ok(())) => {}
+                Ok(Err(v)) => verdict = format!("violation while cooling: {v:?}"),
+                Err(e) => verdict = format!("not cooled: {e}"),
+            }
             block_steps += (sim.steps() - before) * sim.welded() as u64;
         }
-        best = best.min(t.elapsed().as_secs_f64());
+        bar.finish_and_clear();
+        let secs = t.elapsed().as_secs_f64();
+        if sim.cancelled() {
+            println!(
+                "cancelled after {} of {} blocks, {:.3} s",
+                sim.welded(),
+                n,
+                secs
+            );
+            return Ok(ExitCode::from(130));
+        }
+        println!(
+            "thermal check: {} blocks, {} steps, {:.3e} block-steps in {:.3} s: {:.3e} block-steps/s on {} thread{} ({:?} kernel), peak memory {:.1} MiB; {}",
+            n,
+            sim.steps(),
+            block_steps as f64,
+            secs,
+            block_steps as f64 / secs,
+            threads,
+            if threads == 1 { "" } else { "s" },
+            model.simd(),
+            peak_rss_bytes().map_or(f64::NAN, |b| b as f64 / (1 << 20) as f64),
+            verdict
+        );
     }
-    println!(
-        "thermal: {} blocks, {} steps, {:.3e} block-steps in {:.3} s: {:.3e} block-steps/s (best of {})",
-        part.len(),
-        order.len() as u64 * model.params.substeps as u64,
-        block_steps as f64,
-        best,
-        block_steps as f64 / best,
-        repeat.max(1)
-    );
     Ok(ExitCode::from(EXIT_OK))
 }
 

@@ -24,6 +24,9 @@ use rustc_hash::FxHashMap;
 use serde_yaml::Value;
 use thiserror::Error;
 
+/// The largest grid coordinate a part may use (`i32::MAX`).
+pub const MAX_COORD: i64 = i32::MAX as i64;
+
 /// Integer grid coordinates of a block: x, y, z (z = layer, 0 rests on the substrate).
 pub type Block = [i64; 3];
 
@@ -189,6 +192,15 @@ impl Part {
         if let Some(b) = blocks.iter().find(|b| b.iter().any(|&c| c < 0)) {
             return Err(rule(format!(
                 "block {}: negative coordinate",
+                BlockDisplay(*b)
+            )));
+        }
+        // The spec sets no upper bound, but a grid coordinate past 2^31 - 1 is a typo, not a
+        // part (no robot reaches it, ROS messages carry int32): refusing it keeps every
+        // neighbour and layer computation free of overflow.
+        if let Some(b) = blocks.iter().find(|b| b.iter().any(|&c| c > MAX_COORD)) {
+            return Err(rule(format!(
+                "block {}: coordinate above {MAX_COORD}",
                 BlockDisplay(*b)
             )));
         }

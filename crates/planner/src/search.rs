@@ -381,30 +381,93 @@ fn mix(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-/// Snapshots of simulated prefixes, bounded in memory (cleared when full).
+/// Snapshots of simulated prefixes within a byte budget ([`PrefixCache::BUDGET_BYTES`]).
+/// When a new snapshot would not fit, the least recently used half of the snapshots is
+/// dropped (a use is an insert or a resume from it): the prefixes the solver's latest
+/// candidates share stay, old branches go. A snapshot of `m` welded blocks costs about
+/// 8·m bytes (plus the t8/5 counters): about 0.5 MB at the end of a 62,614-block part, so
+/// the budget holds at least ~500 of the largest.
 #[derive(Default)]
 struct PrefixCache {
-    map: rustc_hash::FxHashMap<Key, Snapshot>,
-    temperatures: usize,
+    map: rustc_hash::FxHashMap<Key, (Snapshot, std::cell::Cell<u64>)>,
+    /// Bytes held by the snapshots in `map` (their buffers and entries).
+    bytes: usize,
+    /// Use counter: the last use of an entry is its tick.
+    tick: std::cell::Cell<u64>,
 }
 
 impl PrefixCache {
-    /// Temperatures kept at most (8 bytes each): 256 MiB.
-    const CAPACITY: usize = 32 << 20;
+    /// The most bytes of snapshots kept: 256 MiB.
+    const BUDGET_BYTES: usize = 256 << 20;
+
+    fn use_tick(&self) -> u64 {
+        let t = self.tick.get() + 1;
+        self.tick.set(t);
+        t
+    }
+
+    fn cost(snap: &Snapshot) -> usize {
+        snap.bytes() + std::mem::size_of::<(Key, std::cell::Cell<u64>)>()
+    }
 
     fn get(&self, key: Key, len: usize) -> Option<&Snapshot> {
-        self.map.get(&key).filter(|s| s.welded() == len)
+        let (snap, used) = self.map.get(&key).filter(|(s, _)| s.welded() == len)?;
+        used.set(self.use_tick());
+        Some(snap)
     }
 
     fn insert(&mut self, key: Key, sim: &Simulation<'_>) {
-        if self.map.contains_key(&key) {
+        if let Some((_, used)) = self.map.get(&key) {
+            used.set(self.use_tick());
             return;
         }
-        if self.temperatures + sim.welded() > Self::CAPACITY {
-            self.map.clear();
-            self.temperatures = 0;
+        let snap = sim.snapshot();
+        let cost = Self::cost(&snap);
+        if cost > Self::BUDGET_BYTES {
+            return;
         }
-        self.temperatures += sim.welded();
-        self.map.insert(key, sim.snapshot());
+        while self.bytes + cost > Self::BUDGET_BYTES {
+            self.evict_older_half();
+        }
+        self.bytes += cost;
+        let tick = self.use_tick();
+        self.map.insert(key, (snap, std::cell::Cell::new(tick)));
+    }
+
+    /// Drops the least recently used half of the snapshots.
+    fn evict_older_half(&mut self) {
+        let mut ticks: Vec<u64> = self.map.values().map(|(_, t)| t.get()).collect();
+        let half = ticks.len() / 2;
+        let (_, &mut median, _) = ticks.select_nth_unstable(half);
+        self.map.retain(|_, (_, t)| t.get() > median);
+        self.bytes = self.map.values().map(|(s, _)| Self::cost(s)).sum();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_prefix_cache_keeps_its_byte_budget_and_the_recent_snapshots() {
+        let blocks: Vec<[i64; 3]> = (0..64).map(|x| [x, 0, 0]).collect();
+        let part = Part::from_blocks("w".into(), [6.0, 6.0, 2.5], [0.0; 3], 1, blocks).unwrap();
+        let graph = WeldGraph::new(&part);
+        let model = ThermalModel::new(&part, &graph);
+        let mut sim = Simulation::new(&model);
+        for b in 0..64 {
+            sim.deposit(b, b == 0).unwrap();
+        }
+        let mut cache = PrefixCache::default();
+        let per = PrefixCache::cost(&sim.snapshot());
+        let fits = PrefixCache::BUDGET_BYTES / per;
+        for k in 0..fits as u64 + 10 {
+            cache.insert((k, 0), &sim);
+            // Keep the first key in use: it must survive every eviction.
+            assert!(cache.get((0, 0), 64).is_some());
+            assert!(cache.bytes <= PrefixCache::BUDGET_BYTES);
+        }
+        assert!(cache.map.len() < fits + 10);
+        assert!(cache.get((fits as u64 + 9, 0), 64).is_some());
     }
 }

@@ -162,6 +162,10 @@ impl Default for DryRunParams {
     }
 }
 
+/// The longest time limit or wait a parameter may set, s (a week): longer is a typo, and
+/// every duration stays far inside what `Duration` and `Instant` can hold.
+pub const MAX_WAIT_S: f64 = 7.0 * 24.0 * 3600.0;
+
 /// The node names a parameters file may address this node by.
 const NODE_KEYS: [&str; 3] = [crate::convert::NODE_NAME, "/waam_planner", "/**"];
 
@@ -257,9 +261,11 @@ impl NodeParams {
     /// Rules serde cannot express: ranges and list lengths.
     fn check(&self) -> Result<(), ParamRule> {
         let finite_pos = |v: f64| v.is_finite() && v > 0.0;
-        if !(self.planner.timeout_s.is_finite() && self.planner.timeout_s >= 0.0) {
+        if !(self.planner.timeout_s.is_finite()
+            && (0.0..=MAX_WAIT_S).contains(&self.planner.timeout_s))
+        {
             return Err(ParamRule(format!(
-                "planner.timeout_s: expected seconds >= 0, got {}",
+                "planner.timeout_s: expected seconds in [0, {MAX_WAIT_S}], got {}",
                 self.planner.timeout_s
             )));
         }
@@ -299,9 +305,11 @@ impl NodeParams {
                 self.execution.max_points_per_goal
             )));
         }
-        if !finite_pos(self.execution.server_timeout_s) {
+        if !(finite_pos(self.execution.server_timeout_s)
+            && self.execution.server_timeout_s <= MAX_WAIT_S)
+        {
             return Err(ParamRule(format!(
-                "execution.server_timeout_s: expected seconds > 0, got {}",
+                "execution.server_timeout_s: expected seconds in (0, {MAX_WAIT_S}], got {}",
                 self.execution.server_timeout_s
             )));
         }
