@@ -48,3 +48,91 @@ fn temperature_curves_follow_the_thermal_model() {
         }
     }
 }
+
+/// The build pictures' temperatures and t8/5 times are the thermal model's.
+#[test]
+fn heat_build_frames_follow_the_thermal_model() {
+    // A feasible plan (the stored plans of the larger parts break a window).
+    let (part, fragments) = common::part_and_plan("s3-ring");
+    let build = waam_plot::blocks::heat_build(&part, &fragments, 8);
+    // Eight stages of the build, then one after the cooldown.
+    assert_eq!(build.frames.len(), 9);
+    let last = build.frames.last().unwrap();
+    assert!(
+        last.cooled && last.welded == part.len(),
+        "{} {} {}",
+        last.cooled,
+        last.welded,
+        part.len()
+    );
+    for w in build.frames.windows(2) {
+        assert!(w[1].welded > w[0].welded || w[1].cooled);
+        assert!(w[1].time_s > w[0].time_s);
+    }
+    for f in &build.frames {
+        let hot = f.temps.iter().filter(|t| t.is_finite()).count();
+        assert_eq!(hot, f.welded);
+        assert!(f.temps.iter().flatten_finite_max() <= part.thermal.deposit_c);
+    }
+    assert_eq!(build.frames[7].welded, part.len());
+    // The t8/5 times are the last crossings of the model's own simulation.
+    let graph = WeldGraph::new(&part);
+    let model = ThermalModel::new(&part, &graph);
+    let outcome = simulate(&model, &fragments).unwrap();
+    assert!(outcome.violation.is_none());
+    assert_eq!(build.windowed.len(), part.windows().len());
+    for w in &build.windowed {
+        let x = outcome
+            .crossings
+            .iter()
+            .rfind(|x| x.block == w.block)
+            .unwrap();
+        assert_eq!(w.t85_s, Some((x.time_s, x.t85_s)));
+        assert!(x.t85_s >= w.window.min_s && x.t85_s <= w.window.max_s);
+    }
+}
+
+trait FiniteMax {
+    fn flatten_finite_max(self) -> f64;
+}
+
+impl<'a, I: Iterator<Item = &'a f64>> FiniteMax for I {
+    fn flatten_finite_max(self) -> f64 {
+        self.filter(|t| t.is_finite())
+            .fold(f64::MIN, |a, &b| a.max(b))
+    }
+}
+
+/// plan3d.png shows every weld path in its own colour.
+#[test]
+fn plan_picture_shows_every_weld_path() {
+    let (part, fragments) = common::part_and_plan("ex2-bracket");
+    assert!(fragments.len() >= 2);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("plan3d.png");
+    waam_plot::blocks::plan_png(&part, &fragments, &path).unwrap();
+    let decoder = png::Decoder::new(std::fs::File::open(&path).unwrap());
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!((info.width, info.height), waam_plot::blocks::PLAN_SIZE);
+    let bpp = info.color_type.samples();
+    let pixels: std::collections::HashSet<[u8; 3]> = buf[..info.buffer_size()]
+        .chunks(bpp)
+        .map(|p| [p[0], p[1], p[2]])
+        .collect();
+    for (f, fragment) in fragments.iter().enumerate() {
+        // Top faces are drawn in the path colour itself: some block of each path shows.
+        let shown = (0..fragment.len())
+            .filter(|&k| {
+                let c = waam_plot::blocks::path_colour(f, k, fragment.len());
+                pixels.contains(&[c.0, c.1, c.2])
+            })
+            .count();
+        assert!(
+            shown > fragment.len() / 4,
+            "path {f}: {shown} of {}",
+            fragment.len()
+        );
+    }
+}

@@ -12,6 +12,7 @@ pub mod bag;
 pub mod bench;
 pub mod check;
 pub mod export;
+pub mod first_run;
 pub mod layer;
 pub mod motion;
 pub mod node;

@@ -20,7 +20,11 @@ use waam_pipeline::Found;
 ///
 /// The best plan has the fewest fragments (arc starts), then the largest worst-case margin
 /// of any t8/5 value to its window bounds. Without PART, plans a bundled sample part (an
-/// H-section column of 168 blocks). Exit code 0: a plan was found; 1: there is none (or
+/// H-section column of 168 blocks) and runs the whole chain with the bundled robot: plan,
+/// toolpath, joint trajectory, pictures (3-D views, temperatures during the build) and a
+/// rosbag2/MCAP recording, all in a new folder (--out DIR, or waam-out/, else waam-out-2/,
+/// …; an existing non-empty folder is never written into); with --json, --count, --all,
+/// --record or --robot it plans the sample part like any other. Exit code 0: a plan was found; 1: there is none (or
 /// none found before the timeout); 2: bad input.
 #[derive(Debug, clap::Args)]
 pub struct PlanArgs {
@@ -65,6 +69,10 @@ pub struct PlanArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Also print the plan's block lists when they are written to a file (--out, or the
+    /// first run without PART); -v does the same.
+    #[arg(long)]
+    pub print_plan: bool,
     /// --robot and the options of its motion (also recorded with --record).
     #[command(flatten)]
     pub robot: super::motion::OptionalRobotArgs,
@@ -74,12 +82,21 @@ pub struct PlanArgs {
     pub export: Option<waam_export::Format>,
 }
 
-pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
-    let part = match &args.part {
-        Some(path) => args.mesh.read_part_or_mesh(path)?,
-        None => Part::parse(super::DEFAULT_PART).context("the bundled sample part")?,
-    };
-    let opts = Options {
+impl PlanArgs {
+    /// No PART and nothing that asks for the plain planner: the first run's whole chain.
+    pub fn is_first_run(&self) -> bool {
+        self.part.is_none()
+            && !self.json
+            && !self.count
+            && !self.all
+            && self.record.is_none()
+            && self.robot.robot.is_none()
+    }
+}
+
+/// The planner options of the command line.
+pub fn options(args: &PlanArgs) -> anyhow::Result<Options> {
+    Ok(Options {
         acyclicity: args.acyclicity,
         lookahead_budget: if args.no_shortening {
             0
@@ -93,7 +110,18 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         max_fragments: args.max_fragments,
         cancel: None,
         solver: args.solver,
+    })
+}
+
+pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
+    if args.is_first_run() {
+        return super::first_run::run(args, global);
+    }
+    let part = match &args.part {
+        Some(path) => args.mesh.read_part_or_mesh(path)?,
+        None => Part::parse(super::DEFAULT_PART).context("the bundled sample part")?,
     };
+    let opts = options(&args)?;
     if !args.json && !global.quiet {
         eprintln!(
             "part {:?}: {} blocks, {} layers, max_fragments {}, {} windowed blocks",
@@ -252,7 +280,12 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
                         "unbounded (no windows)".to_string()
                     }
                 );
-                print!("{}", plan.to_yaml());
+                // Written to a file: the block lists only on request.
+                if args.out.is_none() || args.print_plan || global.verbose > 0 {
+                    print!("{}", plan.to_yaml());
+                } else if let Some(dir) = &args.out {
+                    println!("wrote {}", dir.join("plan.yaml").display());
+                }
             }
             None => match &report.no_plan {
                 Some(reason) => println!("NO PLAN: {reason}"),
@@ -311,14 +344,14 @@ fn print_stats(s: &Stats) {
 }
 
 /// A progress spinner that appears only once a run has taken more than a second.
-struct LazyBar {
+pub struct LazyBar {
     quiet: bool,
     started: Instant,
     bar: Option<ProgressBar>,
 }
 
 impl LazyBar {
-    fn new(quiet: bool) -> LazyBar {
+    pub fn new(quiet: bool) -> LazyBar {
         LazyBar {
             quiet,
             started: Instant::now(),
@@ -326,7 +359,7 @@ impl LazyBar {
         }
     }
 
-    fn update(&mut self, s: &Stats) {
+    pub fn update(&mut self, s: &Stats) {
         if self.quiet || self.started.elapsed() < Duration::from_secs(1) {
             return;
         }
@@ -345,7 +378,7 @@ impl LazyBar {
         ));
     }
 
-    fn finish(&mut self) {
+    pub fn finish(&mut self) {
         if let Some(bar) = self.bar.take() {
             bar.finish_and_clear();
         }

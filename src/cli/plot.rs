@@ -15,8 +15,13 @@ use super::{read_part, EXIT_NO, EXIT_OK};
 ///
 /// DIR/toolpath.png (from DIR/toolpath.yaml): top and side view of the torch path, weld
 /// moves red, approach/retract/transit blue, arc-on green dots, arc-off black crosses.
-/// DIR/t85.png (with --part): the simulated temperature of every t8/5-windowed block
-/// over time, with the 800 °C and 500 °C lines, for the plan in DIR/plan.yaml or --plan.
+/// With --part, or DIR/part.yaml as `waam plan` without PART writes it, for the plan in
+/// DIR/plan.yaml or --plan: DIR/t85.png, the simulated temperature of every t8/5-windowed
+/// block over time with the 800 °C and 500 °C lines; DIR/plan3d.png, every block as a box
+/// in a 3-D view coloured by weld path (hue) and order (light = early), arc starts
+/// numbered; DIR/heat.png and DIR/heat.gif, the blocks coloured by temperature at four
+/// stages of the build (an animation of the whole build), with a colour bar and every
+/// windowed block's t8/5 time against its window.
 /// DIR/trail.png and DIR/temperature.png (from DIR/trail.yaml of `waam layer plan --out
 /// DIR`, as `waam layer plot DIR` draws them): the layer's trail over its walls (weld order
 /// numbers on the segments, deadheading dashed, start marked) and the temperature of one
@@ -29,7 +34,8 @@ pub struct PlotArgs {
     /// layer node id (its nearest mesh node). Default: the layer's first node.
     #[arg(long, value_name = "N")]
     pub node: Option<String>,
-    /// The part file: also draw the temperature curves of its windowed blocks.
+    /// The part file: also draw its 3-D views and temperatures (default: DIR/part.yaml
+    /// when it exists).
     #[arg(long, value_name = "PART")]
     pub part: Option<PathBuf>,
     /// The plan for the temperature curves (default: DIR/plan.yaml).
@@ -62,7 +68,13 @@ pub fn run(args: PlotArgs) -> anyhow::Result<ExitCode> {
             trail.display()
         );
     }
-    if let Some(part_path) = &args.part {
+    // The part: --part, else the part.yaml that the first run (`waam plan`) writes.
+    let part_yaml = args.dir.join("part.yaml");
+    let part_path = args
+        .part
+        .clone()
+        .or_else(|| part_yaml.exists().then_some(part_yaml));
+    if let Some(part_path) = &part_path {
         let part = read_part(part_path)?;
         let plan_path = args
             .plan
@@ -84,13 +96,27 @@ pub fn run(args: PlotArgs) -> anyhow::Result<ExitCode> {
         let out = args.dir.join("t85.png");
         plot::t85_png(&part, &curves, &out)?;
         println!("wrote {}", out.display());
-        drew += 1;
+        let out = args.dir.join("plan3d.png");
+        plot::blocks::plan_png(&part, &fragments, &out)?;
+        println!("wrote {}", out.display());
+        let build = plot::blocks::heat_build(&part, &fragments, super::first_run::GIF_FRAMES);
+        for (name, gif) in [("heat.png", false), ("heat.gif", true)] {
+            let out = args.dir.join(name);
+            if gif {
+                plot::blocks::heat_gif(&part, &build, &out, super::first_run::GIF_DELAY_MS)?;
+            } else {
+                plot::blocks::heat_png(&part, &build, &out)?;
+            }
+            println!("wrote {}", out.display());
+        }
+        drew += 4;
     }
     if drew == 0 {
         bail!(
-            "nothing to draw: no {}, no {} and no --part",
+            "nothing to draw: no {}, no {}, no {} and no --part",
             toolpath.display(),
-            trail.display()
+            trail.display(),
+            args.dir.join("part.yaml").display()
         );
     }
     Ok(ExitCode::from(EXIT_OK))

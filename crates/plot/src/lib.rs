@@ -4,6 +4,7 @@
 //! Text is drawn with DejaVu Sans, embedded from the `dejavu` crate, so no font has to be
 //! installed on the machine. [`layer`] draws thick-wall layer trails and their heat.
 
+pub mod blocks;
 pub mod layer;
 
 use std::path::Path;

@@ -1,0 +1,215 @@
+//! `waam plan` without a part: the whole chain on the bundled sample part and robot, every
+//! output in one new folder, and a short summary of what was made and how to look at it.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use waam_motion::robot::{Robot, TcpChoice};
+use waam_motion::toolpath::{ProcessSettings, ToolpathFile};
+use waam_part::Part;
+use waam_pipeline::{Cell, Found, BUNDLED_URDF};
+use waam_planner as planner;
+use waam_plot as plot;
+use waam_rosbag::Bag;
+
+use super::motion::MotionSummary;
+use super::plan::PlanArgs;
+use super::{record, GlobalArgs, DEFAULT_PART, EXIT_NO, EXIT_OK};
+
+/// The default output folder; when it exists, `waam-out-2`, `waam-out-3`, … are tried.
+pub const DEFAULT_OUT: &str = "waam-out";
+/// Frames of heat.gif during the build (one more after the cooldown).
+pub const GIF_FRAMES: usize = 24;
+/// Time between the frames of heat.gif, ms.
+pub const GIF_DELAY_MS: u32 = 250;
+
+/// The folder to write: `--out DIR` when it does not exist or is empty, else the first of
+/// `waam-out`, `waam-out-2`, … that does not exist. Never an existing, non-empty folder.
+pub fn output_dir(out: Option<&Path>) -> anyhow::Result<PathBuf> {
+    if let Some(dir) = out {
+        let empty = match std::fs::read_dir(dir) {
+            Ok(mut entries) => entries.next().is_none(),
+            Err(_) => !dir.exists(),
+        };
+        if !empty {
+            bail!(
+                "--out {}: exists and is not empty (choose a new folder; nothing is overwritten)",
+                dir.display()
+            );
+        }
+        return Ok(dir.to_path_buf());
+    }
+    let mut n = 1;
+    loop {
+        let dir = if n == 1 {
+            PathBuf::from(DEFAULT_OUT)
+        } else {
+            PathBuf::from(format!("{DEFAULT_OUT}-{n}"))
+        };
+        if !dir.exists() {
+            return Ok(dir);
+        }
+        n += 1;
+    }
+}
+
+pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
+    let started = Instant::now();
+    let part = Part::parse(DEFAULT_PART).context("the bundled sample part")?;
+    let opts = super::plan::options(&args)?;
+    let dir = output_dir(args.out.as_deref())?;
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let write = |name: &str, text: &str| -> anyhow::Result<()> {
+        let path = dir.join(name);
+        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))
+    };
+    write("part.yaml", DEFAULT_PART)?;
+    let settings = ProcessSettings::default();
+    let choice = TcpChoice {
+        explicit: None,
+        default: settings.tcp.isometry(),
+    };
+    let robot = Robot::from_urdf(BUNDLED_URDF, None, choice).context("the bundled robot")?;
+    let robot_name = robot.name.clone();
+    let cell = Cell { settings, robot };
+    let bag_dir = dir.join("recording");
+    let (recorder, mut planning) = record::start_planning(&bag_dir, None, &part, &opts)?;
+    let mut bar = super::plan::LazyBar::new(global.quiet);
+    let mut progress = |event: planner::Event| {
+        bar.update(event.stats());
+        planning.on_event(&event);
+    };
+    let report = if args.first {
+        planner::first(&part, &opts, &mut progress)?
+    } else {
+        planner::plan(&part, &opts, &mut progress)?
+    };
+    bar.finish();
+    let say = |line: String| {
+        if !global.quiet {
+            println!("{line}");
+        }
+    };
+    say(format!(
+        "planned the bundled sample part {:?}: {} blocks in {} layers, at most {} weld paths, {} blocks with t8/5 windows",
+        part.name,
+        part.len(),
+        part.layers(),
+        opts.max_fragments.unwrap_or(part.max_fragments),
+        part.windows().len()
+    ));
+    let Some(best) = &report.best else {
+        record::finish_planning(recorder, planning, &part, &report, None)?;
+        match &report.no_plan {
+            Some(reason) => println!("NO PLAN: {reason}"),
+            None => println!("NO PLAN: none found before the timeout"),
+        }
+        println!("recorded the search in {}", bag_dir.display());
+        return Ok(ExitCode::from(EXIT_NO));
+    };
+    let plan = best.plan(&part);
+    write("plan.yaml", &plan.to_yaml())?;
+    let proof = match (report.proven, args.first) {
+        (true, false) => "optimal (proven)",
+        (true, true) => "first found (not optimized)",
+        (false, _) => "best found before the timeout (optimality NOT proven)",
+    };
+    let starts: Vec<String> = best
+        .fragments
+        .iter()
+        .filter_map(|f| f.first())
+        .map(|&b| waam_part::BlockDisplay(part.block(b)).to_string())
+        .collect();
+    say(format!(
+        "  plan:  {} weld path(s), arc starts at {} — {proof}",
+        best.fragments.len(),
+        starts.join(" ")
+    ));
+    say(format!(
+        "         worst t8/5 margin {}, {} candidates checked in {:.1} s",
+        if best.margin.is_finite() {
+            format!("{:.2} s", best.margin)
+        } else {
+            "unbounded (no windows)".to_string()
+        },
+        report.stats.candidates,
+        report.stats.total_s
+    ));
+    if global.verbose > 0 || args.print_plan {
+        print!("{}", plan.to_yaml());
+    }
+    let found = Found {
+        fragments: best.fragments.clone(),
+        stats: report.stats.clone(),
+        proven: report.proven,
+        worst_margin_s: best.margin,
+    };
+    let motion = super::motion::plan_robot_motion(&part, found, &cell);
+    let messages = motion.as_ref().map(record::plan_messages).transpose()?;
+    record::finish_planning(recorder, planning, &part, &report, messages.as_ref())?;
+    let bag = Bag::open(&bag_dir).context("reading back the recording")?;
+    if let Some(m) = &motion {
+        super::motion::write_motion(&m.toolpath, &m.trajectory, &dir)?;
+        let s = MotionSummary::of(&m.toolpath);
+        say(format!(
+            "  robot: {robot_name}: {} poses, {} weld pass(es), {:.0} s of motion ({:.0} s arc on), joint trajectory validated",
+            s.poses, s.passes, s.duration_s, s.arc_on_s
+        ));
+    }
+    // Pictures.
+    let t85 = plot::temperature_curves(&part, &best.fragments);
+    plot::t85_png(&part, &t85, &dir.join("t85.png"))?;
+    plot::blocks::plan_png(&part, &best.fragments, &dir.join("plan3d.png"))?;
+    let build = plot::blocks::heat_build(&part, &best.fragments, GIF_FRAMES);
+    plot::blocks::heat_png(&part, &build, &dir.join("heat.png"))?;
+    plot::blocks::heat_gif(&part, &build, &dir.join("heat.gif"), GIF_DELAY_MS)?;
+    if motion.is_some() {
+        let text = std::fs::read_to_string(dir.join("toolpath.yaml"))?;
+        let tp: ToolpathFile = serde_yaml::from_str(&text).context("toolpath.yaml")?;
+        plot::toolpath_png(&tp, &dir.join("toolpath.png"))?;
+    }
+    let d = dir.display();
+    let mcap = bag.mcap_file.display();
+    say(format!(
+        "wrote {d}/ in {:.1} s:",
+        started.elapsed().as_secs_f64()
+    ));
+    say(format!(
+        "  part.yaml plan.yaml           the part and its weld order    waam check {d}/part.yaml {d}/plan.yaml"
+    ));
+    if motion.is_some() {
+        say("  toolpath.yaml trajectory.yaml torch poses, robot joint trajectory (for the robot controller)".into());
+    }
+    say(
+        "  plan3d.png                    3-D: blocks by weld path and order, arc starts numbered"
+            .into(),
+    );
+    say(
+        "  heat.png heat.gif             3-D: temperatures during the build, t8/5 vs windows"
+            .into(),
+    );
+    say(format!(
+        "  {:<30}t8/5 curves{}",
+        if motion.is_some() {
+            "t85.png toolpath.png"
+        } else {
+            "t85.png"
+        },
+        if motion.is_some() {
+            "; toolpath top and side view"
+        } else {
+            ""
+        }
+    ));
+    say(format!(
+        "  recording/                    rosbag2 bag, {} messages: open {mcap} in Foxglove; waam replay {d}/recording",
+        bag.messages.len()
+    ));
+    say(format!(
+        "redraw the pictures: waam plot {d}    print the block lists: waam plan --print-plan"
+    ));
+    let ok = motion.is_some();
+    Ok(ExitCode::from(if ok { EXIT_OK } else { EXIT_NO }))
+}
