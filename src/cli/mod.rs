@@ -83,6 +83,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Check(args) => check::run(args),
         Command::Export(args) => export::run(args),
         Command::Layer(args) => layer::run(args),
+        // No PART and nothing that asks for the plain planner: the first run's whole chain.
+        Command::Plan(args) if args.is_first_run() => first_run::run(args, &cli.global),
         Command::Plan(args) => plan::run(args, &cli.global),
         Command::Bench(args) => bench::run(args),
         Command::Replay(args) => replay::run(args),

@@ -114,9 +114,6 @@ pub fn options(args: &PlanArgs) -> anyhow::Result<Options> {
 }
 
 pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
-    if args.is_first_run() {
-        return super::first_run::run(args, global);
-    }
     let part = match &args.part {
         Some(path) => args.mesh.read_part_or_mesh(path)?,
         None => Part::parse(super::DEFAULT_PART).context("the bundled sample part")?,

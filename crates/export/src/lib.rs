@@ -138,14 +138,19 @@ impl fmt::Display for Format {
     }
 }
 
+/// A name that is not an export format.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("unknown format {0:?} (rapid, krl, inform, fanuc, gcode)")]
+pub struct UnknownFormat(pub String);
+
 impl FromStr for Format {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Format, String> {
+    type Err = UnknownFormat;
+    fn from_str(s: &str) -> Result<Format, UnknownFormat> {
         Format::ALL
             .iter()
             .find(|(_, n, _)| *n == s)
             .map(|(f, _, _)| *f)
-            .ok_or_else(|| format!("unknown format {s:?} (rapid, krl, inform, fanuc, gcode)"))
+            .ok_or_else(|| UnknownFormat(s.to_string()))
     }
 }
 

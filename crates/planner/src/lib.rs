@@ -29,6 +29,14 @@ pub use encoding::Acyclicity;
 pub use sat::Backend;
 use search::Search;
 
+/// A fresh SAT solver of the `backend`'s kind.
+pub fn new_solver(backend: sat::Backend) -> Box<dyn sat::SatSolver> {
+    match backend {
+        sat::Backend::Cadical => Box::new(cadical::Cadical::default()),
+        sat::Backend::Varisat => Box::new(sat::Varisat::default()),
+    }
+}
+
 /// How the planner searches.
 #[derive(Debug, Clone)]
 pub struct Options {

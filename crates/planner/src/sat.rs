@@ -1,8 +1,9 @@
 //! A small solver interface of our own, so that the encoding does not depend on one
 //! SAT backend: add clauses, solve under assumptions, read the model.
 //!
-//! Two backends: [`Varisat`] (pure Rust) and [`super::cadical::Cadical`] (CaDiCaL through
-//! pindakaas), which keeps cycles out inside its search and can be interrupted mid-solve.
+//! Two backends: [`Varisat`] (pure Rust) and `cadical::Cadical` (CaDiCaL through pindakaas),
+//! which keeps cycles out inside its search and can be interrupted mid-solve;
+//! [`crate::new_solver`] makes either.
 
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
@@ -60,14 +61,6 @@ impl Backend {
             .iter()
             .find(|(b, _, _)| *b == self)
             .map_or("", |(_, n, _)| n)
-    }
-
-    /// A fresh solver of this kind.
-    pub fn solver(self) -> Box<dyn SatSolver> {
-        match self {
-            Backend::Cadical => Box::new(super::cadical::Cadical::default()),
-            Backend::Varisat => Box::new(Varisat::default()),
-        }
     }
 }
 
@@ -247,7 +240,7 @@ mod tests {
     #[test]
     fn solves_under_assumptions() {
         for backend in [Backend::Varisat, Backend::Cadical] {
-            let mut s = backend.solver();
+            let mut s = crate::new_solver(backend);
             let (a, b) = (s.new_lit(), s.new_lit());
             s.add_clause(&[a, b]);
             s.add_clause(&[!a, b]);

@@ -56,7 +56,7 @@ impl<'p> Search<'p> {
         backend: Backend,
     ) -> Search<'p> {
         let started = Instant::now();
-        let mut solver = backend.solver();
+        let mut solver = crate::new_solver(backend);
         let enc = Encoding::new(part, graph, k, acyclicity, &mut solver);
         // Lazy acyclicity inside the search where the backend can (the paper's way); cuts
         // between solves otherwise. Hybrid needs no ranks when no cycle reaches a model.

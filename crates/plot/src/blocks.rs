@@ -107,6 +107,15 @@ fn mix(a: RGBColor, b: RGBColor, t: f64) -> RGBColor {
     RGBColor(m(a.0, b.0), m(a.1, b.1), m(a.2, b.2))
 }
 
+/// A drawing backend's complaint; the caller names the file in its `PlotError`.
+struct Reason(String);
+
+impl From<String> for Reason {
+    fn from(message: String) -> Self {
+        Reason(message)
+    }
+}
+
 /// Draws the blocks with a colour (`None`: not drawn) back to front; returns the pixel
 /// centre of each drawn block's top face.
 fn draw_blocks<DB: DrawingBackend>(
@@ -114,7 +123,7 @@ fn draw_blocks<DB: DrawingBackend>(
     part: &Part,
     view: &View,
     colours: &[Option<RGBColor>],
-) -> Result<Vec<Option<(i32, i32)>>, String> {
+) -> Result<Vec<Option<(i32, i32)>>, Reason> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     // The plate: the part's footprint, one block margin, at z = 0.
     let (mut x0, mut x1, mut y0, mut y1) = (i64::MAX, i64::MIN, i64::MAX, i64::MIN);
@@ -181,7 +190,7 @@ fn draw_axes<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     mm: [f64; 3],
     at: (i32, i32),
-) -> Result<(), String> {
+) -> Result<(), Reason> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     let unit = [1.0 / mm[0], 1.0 / mm[1], 1.0 / mm[2]];
     for (axis, name) in ["x", "y", "z"].iter().enumerate() {
@@ -239,7 +248,7 @@ pub fn plan_png(part: &Part, fragments: &[Vec<usize>], path: &Path) -> Result<()
             colours[b] = Some(path_colour(f, k, fragment.len()));
         }
     }
-    let tops = draw_blocks(&root, part, &view, &colours).map_err(&err)?;
+    let tops = draw_blocks(&root, part, &view, &colours).map_err(|r| err(r.0))?;
     // Arc starts: a numbered disc on the first block of every path.
     for (f, fragment) in fragments.iter().enumerate() {
         let Some(Some(c)) = fragment.first().map(|&b| tops[b]) else {
@@ -287,7 +296,7 @@ pub fn plan_png(part: &Part, fragments: &[Vec<usize>], path: &Path) -> Result<()
     }
     root.draw(&Text::new("first → last block", (x, y), (FONT, 13)))
         .map_err(|e| err(e.to_string()))?;
-    draw_axes(&root, part.block_mm, (x + 40, PLAN_SIZE.1 as i32 - 60)).map_err(&err)?;
+    draw_axes(&root, part.block_mm, (x + 40, PLAN_SIZE.1 as i32 - 60)).map_err(|r| err(r.0))?;
     root.present().map_err(|e| err(e.to_string()))?;
     Ok(())
 }
@@ -418,7 +427,7 @@ fn draw_frame<DB: DrawingBackend>(
     frame: &Frame,
     (w, h): (u32, u32),
     title_size: u32,
-) -> Result<(), String> {
+) -> Result<(), Reason> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     let caption = if frame.cooled {
         format!("after the cooldown, t = {:.0} s", frame.time_s)
@@ -475,7 +484,7 @@ fn draw_side<DB: DrawingBackend>(
     build: &HeatBuild,
     part: &Part,
     time_s: f64,
-) -> Result<(), String> {
+) -> Result<(), Reason> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     let (x, top, bar_h) = (20, 40, 180);
     area.draw(&Text::new("temperature (°C)", (x, 12), (FONT, 15)))
@@ -593,10 +602,10 @@ pub fn heat_png(part: &Part, build: &HeatBuild, path: &Path) -> Result<(), PlotE
     let (w, h) = main.dim_in_pixel();
     let panels = main.split_evenly((2, 2));
     for (panel, frame) in panels.iter().zip(pick) {
-        draw_frame(panel, part, build, frame, (w / 2, h / 2), 16).map_err(&err)?;
+        draw_frame(panel, part, build, frame, (w / 2, h / 2), 16).map_err(|r| err(r.0))?;
     }
     let end = build.frames.last().map_or(0.0, |f| f.time_s);
-    draw_side(&side, build, part, end).map_err(&err)?;
+    draw_side(&side, build, part, end).map_err(|r| err(r.0))?;
     root.present().map_err(|e| err(e.to_string()))?;
     Ok(())
 }
@@ -622,8 +631,8 @@ pub fn heat_gif(
             root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
             let (main, side) = root.split_horizontally(GIF_SIZE.0 - SIDE_W);
             let (w, h) = main.dim_in_pixel();
-            draw_frame(&main, part, build, frame, (w, h), 20).map_err(&err)?;
-            draw_side(&side, build, part, frame.time_s).map_err(&err)?;
+            draw_frame(&main, part, build, frame, (w, h), 20).map_err(|r| err(r.0))?;
+            draw_side(&side, build, part, frame.time_s).map_err(|r| err(r.0))?;
             root.present().map_err(|e| err(e.to_string()))?;
         }
     }
