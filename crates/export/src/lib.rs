@@ -46,11 +46,9 @@ const FK_TOL_DEG: f64 = 0.01;
 /// Why no program could be written.
 #[derive(Debug, Error)]
 pub enum ExportError {
-    #[error("cannot read {path}: {source}")]
-    Read {
-        path: String,
-        source: std::io::Error,
-    },
+    // `error`, not `source`: the message already carries it, so a chain prints it once.
+    #[error("cannot read {path}: {error}")]
+    Read { path: String, error: std::io::Error },
     #[error("{path}: {reason}")]
     Parse { path: String, reason: String },
     #[error("the toolpath has {toolpath} poses but the trajectory {trajectory} points: they are not one motion")]
@@ -368,9 +366,9 @@ pub struct Program {
 /// Reads `DIR/toolpath.yaml` and `DIR/trajectory.yaml`.
 pub fn read_motion_dir(dir: &Path) -> Result<(ToolpathFile, TrajectoryFile), ExportError> {
     fn read<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, ExportError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ExportError::Read {
+        let text = std::fs::read_to_string(path).map_err(|error| ExportError::Read {
             path: path.display().to_string(),
-            source,
+            error,
         })?;
         serde_yaml::from_str(&text).map_err(|e| ExportError::Parse {
             path: path.display().to_string(),
