@@ -112,6 +112,13 @@ fn rclpy_mesh_box_is_planned_and_the_latest_part_wins() {
     run_script("mesh_and_latest.py", &[]);
 }
 
+/// Two nodes side by side (`--ros-args -r __ns:=/cell1`, `-r __ns:=/cell2 -r __node:=...`),
+/// parameters listed, read, described, refused and set through the standard services.
+#[test]
+fn rclpy_two_cells_and_parameters_through_the_standard_services() {
+    run_script("cells_and_params.py", &[]);
+}
+
 #[test]
 fn rclpy_receives_dry_run_joint_states() {
     run_script("dry_run.py", &[]);

@@ -12,8 +12,8 @@ use ros2_client::action_msgs::GoalStatusEnum;
 use ros2_client::{ActionClient, ActionTypeName, Node, QosProfile, ServiceMapping};
 
 use super::controller::{Controller, ExecError};
+use super::names::NodeNames;
 use super::params::ExecutionParams;
-use super::ros::resolve_topic;
 use super::worker::Cancel;
 use waam_rosmsg::control_msgs::{
     FollowJointTrajectoryFeedback as Feedback, FollowJointTrajectoryGoal as Goal,
@@ -48,13 +48,13 @@ pub struct FjtController {
 }
 
 impl FjtController {
-    pub fn new(node: Arc<Mutex<Node>>, params: &ExecutionParams) -> Result<Self, super::NodeError> {
+    pub fn new(
+        node: Arc<Mutex<Node>>,
+        names: &NodeNames,
+        params: &ExecutionParams,
+    ) -> Result<Self, super::NodeError> {
         let mut guard = node.lock().unwrap_or_else(|e| e.into_inner());
-        let name = resolve_topic(
-            &params.controller_action,
-            guard.namespace(),
-            super::NODE_NAME,
-        )?;
+        let name = names.resolve(&params.controller_action)?;
         let client = guard
             .create_action_client::<Goal, FjtResult, Feedback>(
                 ServiceMapping::Enhanced,

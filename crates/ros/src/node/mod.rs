@@ -6,11 +6,15 @@
 //! decides what is published. Bad input of any kind ends as an ERROR status, never as a
 //! stopped node, and only a plan that passed validation and the thermal check is published.
 
+pub mod args;
 pub mod controller;
+pub mod declared;
 pub mod execute;
 pub mod fjt;
 pub mod io;
+pub mod names;
 pub mod once;
+pub mod param_server;
 pub mod params;
 pub mod pipeline;
 pub mod ros;
@@ -24,11 +28,12 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use futures::StreamExt;
-use ros2_client::{NodeName, NodeOptions};
+use ros2_client::NodeOptions;
 
 use crate::convert::PlanMessages;
 use controller::{spawn_executor, Controller, ExecCommand, SimController};
 use io::{Inputs, Level, Outputs};
+use names::NodeNames;
 use params::NodeParams;
 use pipeline::{PartInput, PlanFn, Planned, PlanningPipeline};
 use ros::RosEnv;
@@ -44,6 +49,8 @@ pub use crate::convert::NODE_NAME;
 /// How a run of the node is set up.
 pub struct RunOptions {
     pub params: NodeParams,
+    /// Name, namespace and remaps (`--ros-args -r`).
+    pub names: NodeNames,
     /// Follow each plan with the built-in simulated controller (publishes `/joint_states`).
     pub dry_run: bool,
     /// Record everything received and sent into this rosbag2 directory.
@@ -66,6 +73,8 @@ pub enum Mode {
 
 enum Event {
     Input(PartInput),
+    /// Parameters changed: plans from now on use this pipeline.
+    Pipeline(Box<PlanningPipeline>),
     Worker(WorkerEvent<Box<Planned>, pipeline::JobError>),
 }
 
@@ -93,7 +102,8 @@ pub enum NodeError {
 /// whether the last part was planned (and executed, when a controller is attached).
 pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<bool, NodeError> {
     let env = RosEnv::from_env()?;
-    let mut node = start_node(&env)?;
+    let names = &options.names;
+    let mut node = start_node(&env, names)?;
 
     let recorder = match &options.record {
         Some(dir) => Some(Recorder::create(dir).map_err(|source| NodeError::Record {
@@ -105,6 +115,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     let params = &options.params;
     let outputs = Arc::new(Outputs::new(
         &mut node,
+        names,
         &params.topics,
         options.dry_run,
         recorder.clone(),
@@ -126,7 +137,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     );
     let mut pipeline = PlanningPipeline::from_params(params, Arc::clone(&options.planner))?;
     pipeline.recorder = recorder.clone();
-    let mesh_settings = pipeline.mesh.clone();
+    let mut mesh_settings = pipeline.mesh.clone();
 
     let (events, event_rx) = channel::<Event>();
     let worker_events = events.clone();
@@ -134,9 +145,37 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
         let _ = worker_events.send(Event::Worker(e));
     });
 
+    let params_stop = Arc::new(AtomicBool::new(false));
+    let mut params_thread = None;
     let (once, linger) = match mode {
         Mode::Serve => {
-            let inputs = Inputs::new(&mut node, &params.topics)?;
+            // Parameter changes build the next pipeline here; a bad one is refused.
+            let planner = Arc::clone(&options.planner);
+            let rec = recorder.clone();
+            let to_loop = std::sync::Mutex::new(events.clone());
+            let store = param_server::ParamStore::new(
+                params.clone(),
+                Box::new(move |next: &NodeParams| {
+                    let mut pipeline = PlanningPipeline::from_params(next, Arc::clone(&planner))
+                        .map_err(|e| e.to_string())?;
+                    pipeline.recorder = rec.clone();
+                    let sent = to_loop
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .send(Event::Pipeline(Box::new(pipeline)));
+                    sent.map_err(|_| "the node is shutting down".to_string())
+                }),
+            );
+            params_thread = Some(
+                param_server::serve(
+                    &mut node,
+                    &names.fully_qualified(),
+                    store,
+                    Arc::clone(&params_stop),
+                )
+                .map_err(NodeError::Ros)?,
+            );
+            let inputs = Inputs::new(&mut node, names, &params.topics)?;
             outputs.log(
                 Level::Info,
                 &format!(
@@ -161,7 +200,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
             }
             // Record the part as if it had arrived on ~/part, so a replay finds it.
             if let (Some(r), PartInput::Document(text)) = (&recorder, &input) {
-                let topic = ros::resolve_topic(&params.topics.part, "/", NODE_NAME)?;
+                let topic = names.resolve(&params.topics.part)?;
                 let msg = waam_rosmsg::std_msgs::String { data: text.clone() };
                 if let Err(e) = r.record(&topic.to_string(), &waam_rosbag::Qos::reliable(10), &msg)
                 {
@@ -185,6 +224,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     } else if params.execution.enabled {
         Some(Box::new(fjt::FjtController::new(
             Arc::clone(&node),
+            names,
             &params.execution,
         )?))
     } else {
@@ -222,6 +262,11 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
             Err(RecvTimeoutError::Disconnected) => break,
         };
         match event {
+            Event::Pipeline(pipeline) => {
+                mesh_settings = pipeline.mesh.clone();
+                worker.set_pipeline(*pipeline);
+                outputs.log(Level::Info, "parameters changed: the next plan uses them");
+            }
             Event::Input(input) => {
                 let source = input.describe();
                 let settings = match &input {
@@ -289,6 +334,10 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
         let _ = thread.join();
     }
     worker.shutdown();
+    params_stop.store(true, Ordering::Relaxed);
+    if let Some(thread) = params_thread {
+        let _ = thread.join();
+    }
     if once && !stop.load(Ordering::Relaxed) {
         // Let subscribers fetch the latched outputs before the writers go away.
         let until = Instant::now() + linger;
@@ -306,14 +355,17 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     Ok(state.success)
 }
 
-/// Node `waam_planner` (with `/rosout`) on the environment's domain and discovery range,
-/// its spinner running on a thread of its own until the node is dropped.
-pub fn start_node(env: &RosEnv) -> Result<ros2_client::Node, NodeError> {
+/// The node `names` gives (with `/rosout`) on the environment's domain and discovery range,
+/// its spinner running on a thread of its own until the node is dropped. `ros2-client`'s
+/// parameter services are off: [`param_server`] serves the node's own.
+pub fn start_node(env: &RosEnv, names: &NodeNames) -> Result<ros2_client::Node, NodeError> {
     let mut node = env
         .context()?
         .new_node(
-            NodeName::new("/", NODE_NAME).expect("a valid node name"),
-            NodeOptions::new().enable_rosout(true),
+            names.node_name()?,
+            NodeOptions::new()
+                .enable_rosout(true)
+                .start_parameter_services(false),
         )
         .map_err(|e| NodeError::Ros(format!("cannot create the ROS 2 node: {e:?}")))?;
     let spinner = node

@@ -149,6 +149,11 @@ impl<P: Pipeline> Worker<P> {
         (job, superseded)
     }
 
+    /// Jobs from now on run `pipeline`; the job in progress keeps the one it started with.
+    pub fn set_pipeline(&mut self, pipeline: P) {
+        self.pipeline = Arc::new(pipeline);
+    }
+
     /// Whether `job` is the latest one (its results are wanted).
     pub fn is_current(&self, job: u64) -> bool {
         self.current.as_ref().is_some_and(|(id, _)| *id == job)
