@@ -377,6 +377,77 @@ fn weld_plan_raw_cdr_decodes_against_the_msg_files() {
     assert_eq!(plan["header"]["frame_id"], pose_array.header.frame_id);
 }
 
+/// `/tf_static`, as a peer receives its raw bytes, decodes against tf2_msgs/TFMessage.msg
+/// (no tf2_msgs wheel exists for rclpy) and ties the robot's base link (the frame of every
+/// plan message) to the part frame (the heat cloud's, at the plate pose) and the tip link to
+/// the TCP.
+#[test]
+fn tf_static_ties_the_base_to_the_part_and_the_tip_to_the_tcp() {
+    use std::time::Duration;
+    use waam_motion::robot::{Robot, TcpChoice};
+    use waam_motion::toolpath::ProcessSettings;
+    let Some(python) = ros_python() else { return };
+    let domain = fresh_domain_id();
+    let child = rust_peer::waam(&["node", "--ros-args", "-r", "__ns:=/cell7"], domain);
+    let raw = rust_peer::take_raw(
+        domain,
+        "rt/tf_static",
+        "tf2_msgs::msg::dds_::TFMessage_",
+        Duration::from_secs(30),
+    );
+    let mut child = child;
+    let _ = child.kill();
+    let _ = child.wait();
+    let file = tempfile::NamedTempFile::new().unwrap();
+    std::fs::write(file.path(), &raw).unwrap();
+    let out = Command::new(&python)
+        .arg(repo().join("tests/ros/decode_cdr.py"))
+        .arg(file.path())
+        .arg("tf2_msgs/msg/TFMessage")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "the /tf_static bytes do not decode: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let tf: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let settings = ProcessSettings::default();
+    let robot = Robot::from_urdf(
+        waam_pipeline::BUNDLED_URDF,
+        None,
+        TcpChoice {
+            explicit: None,
+            default: settings.tcp.isometry(),
+        },
+    )
+    .unwrap();
+    let find = |child: &str| -> serde_json::Value {
+        tf["transforms"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|t| t["child_frame_id"] == child)
+            .unwrap_or_else(|| panic!("no transform to {child} in {tf}"))
+            .clone()
+    };
+    let xyz = |t: &serde_json::Value| -> Vec<f64> {
+        let v = &t["transform"]["translation"];
+        ["x", "y", "z"]
+            .iter()
+            .map(|k| v[k].as_f64().unwrap())
+            .collect()
+    };
+    let part = find(waam_ros::planning::PART_FRAME);
+    assert_eq!(part["header"]["frame_id"], robot.base_link.as_str());
+    assert_eq!(xyz(&part), settings.plate.position_m.to_vec());
+    assert_eq!(part["transform"]["rotation"]["w"].as_f64(), Some(1.0));
+    let tcp = find(waam_ros::node::frames::TCP_FRAME);
+    assert_eq!(tcp["header"]["frame_id"], robot.tip_link.as_str());
+    let expected: Vec<f64> = robot.tcp.translation.vector.iter().copied().collect();
+    assert_eq!(xyz(&tcp), expected);
+}
+
 /// FollowJointTrajectory execution against a small action server in this test: no goal has
 /// more than `max_points_per_goal` points, the goals together are the whole trajectory, each
 /// arc switch happens at a goal boundary, and `~/arc_on` goes true/false once per fragment.

@@ -12,7 +12,12 @@ Node 2: `waam node --ros-args -r __ns:=/cell2 -r __node:=planner2 -r ~/status:=/
 3. mesh.block_mm is set to 12 x 6 x 2.5 mm: the next mesh (a 24 x 12 x 5 mm box, 16 blocks at
    the default pitch) is voxelized to 2 x 2 x 2 = 8 blocks.
 4. Node 2 plans a part on its own topics (its status remapped) while node 1 runs.
+5. Each node offers the URDF in use on <namespace>/robot_description (latched), and reports
+   its state and last result on /diagnostics at least once a second.
+(/tf_static is checked in tests/ros_node.rs from its raw bytes: no tf2_msgs wheel exists.)
 """
+
+import time
 
 import os
 
@@ -86,6 +91,16 @@ def test(peer, waam):
 
 
 def run(peer, waam, cell2):
+    heard = {}  # diagnostics: hardware id -> [(arrival time, status)]
+
+    def on_diagnostics(array):
+        for s in array.status:
+            heard.setdefault(s.hardware_id, []).append((time.monotonic(), s))
+
+    peer.node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics,
+                                  waamtest.INPUT_QOS)
+    peer.listen("/cell1/robot_description", String)
+    peer.listen("/cell2/robot_description", String)
     peer.listen(CELL1 + "/status", DiagnosticArray, qos=waamtest.INPUT_QOS)
     peer.listen(CELL2_STATUS, DiagnosticArray, qos=waamtest.INPUT_QOS)
     mesh = peer.publisher(CELL1 + "/part_mesh", Mesh)
@@ -160,6 +175,27 @@ def run(peer, waam, cell2):
     check(not any(v.get("part") == "s1-wall" for _, v in states(peer, CELL1 + "/status")),
           "node 1 saw node 2's part")
     check(waam.alive() and cell2.alive(), "a node exited")
+
+    # 5. robot_description and /diagnostics.
+    with open(os.path.join(REPO, "urdf", "waam_robot.urdf")) as f:
+        urdf = f.read()
+    for topic in ("/cell1/robot_description", "/cell2/robot_description"):
+        peer.spin_until(topic, lambda: peer.received[topic], 10)
+        check(peer.received[topic][-1].data == urdf, f"{topic} is not the bundled URDF")
+    start = time.monotonic()
+    peer.spin_for(3.5)
+    for node, job in ((CELL1, "part 1"), (CELL2, "part 1")):
+        times = [t for t, _ in heard.get(node, [])]
+        check(len(times) >= 3, f"{len(times)} /diagnostics from {node}: {list(heard)}")
+        recent = [t for t in times if t >= start]
+        gaps = [b - a for a, b in zip(times, times[1:])]
+        check(len(recent) >= 3 and max(gaps) < 1.3,
+              f"/diagnostics from {node}: {len(recent)} in 3.5 s, largest gap {max(gaps):.2f} s")
+        last = heard[node][-1][1]
+        values = {kv.key: kv.value for kv in last.values}
+        check(values.get("state") == "idle" and values.get("parts_planned") == "1"
+              and values.get("last_result", "").startswith(job + ": planned"),
+              f"/diagnostics of {node} say {last.message!r} {values}")
 
 
 waamtest.run(test, "node", "--params", "tests/ros/fast.params.yaml",

@@ -11,6 +11,8 @@ pub mod controller;
 pub mod declared;
 pub mod execute;
 pub mod fjt;
+pub mod frames;
+pub mod health;
 pub mod io;
 pub mod names;
 pub mod once;
@@ -137,6 +139,20 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     );
     let mut pipeline = PlanningPipeline::from_params(params, Arc::clone(&options.planner))?;
     pipeline.recorder = recorder.clone();
+    // The robot and the part frame for viewers, latched; the part frame moves with the
+    // process settings, so a parameter change publishes them again.
+    let urdf = frames::urdf_text(params).map_err(NodeError::Ros)?;
+    let cell_frames = frames::CellFrames::new(&mut node, names)?;
+    cell_frames.publish(&urdf, &pipeline, recorder.as_ref());
+    let diagnostics = io::Output::<waam_rosmsg::diagnostic_msgs::DiagnosticArray>::new(
+        &mut node,
+        names,
+        health::DIAGNOSTICS,
+        io::stream_qos(),
+        waam_rosbag::Qos::reliable(10),
+    )?;
+    let mut health = health::Health::new(names.fully_qualified());
+    let mut last_health: Option<Instant> = None;
     let mut mesh_settings = pipeline.mesh.clone();
 
     let (events, event_rx) = channel::<Event>();
@@ -256,6 +272,11 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     };
     let mut finished_once = false;
     while !stop.load(Ordering::Relaxed) && !finished_once {
+        if last_health.is_none_or(|t| t.elapsed() >= health::PERIOD) {
+            last_health = Some(Instant::now());
+            // Not recorded: a recording has the events on ~/status.
+            diagnostics.publish(&health.to_msg(Time::now()), None);
+        }
         let event = match event_rx.recv_timeout(Duration::from_millis(100)) {
             Ok(event) => event,
             Err(RecvTimeoutError::Timeout) => continue,
@@ -264,6 +285,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
         match event {
             Event::Pipeline(pipeline) => {
                 mesh_settings = pipeline.mesh.clone();
+                cell_frames.publish(&urdf, &pipeline, recorder.as_ref());
                 worker.set_pipeline(*pipeline);
                 outputs.log(Level::Info, "parameters changed: the next plan uses them");
             }
@@ -276,6 +298,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                     PartInput::Document(_) => Vec::new(),
                 };
                 let (job, cancelled) = worker.submit(input);
+                health.planning = Some(job);
                 state.status(Status::Received {
                     job,
                     source: source.clone(),
@@ -301,6 +324,23 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                     continue;
                 }
                 worker.finish(job);
+                health.planning = None;
+                match &result {
+                    Ok(p) => {
+                        health.planned += 1;
+                        let summary = format!(
+                            "planned {} ({} blocks, {} fragment(s))",
+                            p.part.name,
+                            p.part.len(),
+                            p.found.fragments.len()
+                        );
+                        health.last = Some((job, Ok(summary)));
+                    }
+                    Err(e) => {
+                        health.failed += 1;
+                        health.last = Some((job, Err(e.to_string())));
+                    }
+                }
                 let done = state.finished(job, result);
                 if once {
                     if let Some(done) = done {
@@ -499,7 +539,8 @@ pub fn publish_messages(outputs: &Outputs, m: &PlanMessages) {
 }
 
 /// Records the chosen plan's simulated block temperatures (PointCloud2 frames in the part
-/// frame `waam_part`, metres) so Foxglove can play the build's heat back.
+/// frame, metres, as the CLI records them; /tf_static ties it to the robot) so Foxglove can
+/// play the build's heat back.
 fn record_heat(recorder: &Recorder, planned: &Planned) {
     let graph = waam_part::graph::WeldGraph::new(&planned.part);
     let model = waam_thermal::ThermalModel::new(&planned.part, &graph);
@@ -508,7 +549,7 @@ fn record_heat(recorder: &Recorder, planned: &Planned) {
         &planned.part,
         &model,
         &planned.found.fragments,
-        "waam_part",
+        crate::planning::PART_FRAME,
         Time::now(),
         crate::heat::HeatOptions::default(),
     ) {
