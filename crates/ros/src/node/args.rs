@@ -29,8 +29,8 @@ pub struct RosArgs {
 pub struct RosArgsError(pub String);
 
 impl RosArgs {
-    /// Parses the arguments that followed `--ros-args` (a further `--ros-args` is allowed,
-    /// `--` ends them).
+    /// Parses the arguments that followed `--ros-args` (a further `--ros-args` is allowed;
+    /// a closing `--` may end them, with nothing after it: waam's own options go first).
     pub fn parse<S: AsRef<str>>(args: &[S]) -> Result<RosArgs, RosArgsError> {
         let err = |m: String| Err(RosArgsError(m));
         let mut out = RosArgs::default();
@@ -43,7 +43,13 @@ impl RosArgs {
             };
             match arg {
                 "--ros-args" => {}
-                "--" => break,
+                "--" => {
+                    if let Some(next) = it.next() {
+                        return err(format!(
+                            "{next:?} after `--`: give waam's own options before --ros-args"
+                        ));
+                    }
+                }
                 "-r" | "--remap" => {
                     let rule = value(arg)?;
                     let Some((lhs, to)) = rule.split_once(":=") else {
@@ -161,7 +167,6 @@ mod tests {
             "--log-level",
             "debug",
             "--",
-            "ignored",
         ])
         .unwrap();
         assert_eq!(a.namespace.as_deref(), Some("/cell1"));
@@ -191,6 +196,7 @@ mod tests {
         assert!(e(&["-p"]).contains("-p needs a value"));
         assert!(e(&["-p", "x"]).contains("NAME:=VALUE"));
         assert!(e(&["--bogus"]).contains("\"--bogus\""));
+        assert!(e(&["--", "--dry-run"]).contains("before --ros-args"));
         assert!(e(&["-r", "__node:=9lives"]).contains("node name"));
     }
 }
