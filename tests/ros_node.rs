@@ -448,6 +448,158 @@ fn tf_static_ties_the_base_to_the_part_and_the_tip_to_the_tcp() {
     assert_eq!(xyz(&tcp), expected);
 }
 
+/// `~/plan` (waam_interfaces/action/PlanPart) from an action client in this test: a goal
+/// gets feedback and a result with the plan; a long goal is cancelled within a second and the
+/// node answers the next goal; a goal without a part ends at once with the reason.
+#[test]
+fn plan_action_gives_feedback_and_a_result_and_cancels_within_a_second() {
+    use std::time::{Duration, Instant};
+
+    use ros2_client::action::{ActionClientQosPolicies, GoalStatusEnum};
+    use ros2_client::{ActionTypeName, Name, QosProfile, ServiceMapping};
+    use waam_ros::node::plan_action::{PlanPartFeedback, PlanPartGoal, PlanPartResult};
+
+    if ros_python().is_none() {
+        return;
+    }
+    let domain = fresh_domain_id();
+    let child = rust_peer::waam(&["node", "--ros-args", "-r", "__ns:=/cell3"], domain);
+    let context = rust_peer::context(domain);
+    let mut node = rust_peer::node(&context, "plan_client");
+    let service =
+        QosProfile::publisher_default().history(ros2_client::qos::History::KeepLast { depth: 10 });
+    let client = node
+        .create_action_client::<PlanPartGoal, PlanPartResult, PlanPartFeedback>(
+            ServiceMapping::Enhanced,
+            &Name::new("/cell3/waam_planner", "plan").unwrap(),
+            &ActionTypeName::new("waam_interfaces", "PlanPart"),
+            ActionClientQosPolicies {
+                goal_service: service.clone(),
+                result_service: service.clone(),
+                cancel_service: service.clone(),
+                feedback_subscription: service.clone(),
+                status_subscription: service
+                    .clone()
+                    .durability(ros2_client::qos::Durability::TransientLocal)
+                    .history(ros2_client::qos::History::KeepLast { depth: 1 }),
+            },
+        )
+        .unwrap();
+    let poll = |what: &str, limit: Duration, mut f: Box<dyn FnMut() -> bool + '_>| {
+        let start = Instant::now();
+        while !f() {
+            assert!(start.elapsed() < limit, "{what}: nothing within {limit:?}");
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        start.elapsed()
+    };
+    let part =
+        |name: &str| std::fs::read_to_string(repo().join("config/parts").join(name)).unwrap();
+    // The goal service is discovered when a goal is answered: resend until then.
+    let send = |goal: PlanPartGoal| {
+        let start = Instant::now();
+        loop {
+            let (req, id) = client.send_goal(goal.clone()).unwrap();
+            let until = Instant::now() + Duration::from_secs(2);
+            while Instant::now() < until {
+                if let Ok(Some(r)) = client.receive_goal_response(req) {
+                    assert!(r.accepted);
+                    return id;
+                }
+                std::thread::sleep(Duration::from_millis(10));
+            }
+            assert!(
+                start.elapsed() < Duration::from_secs(30),
+                "no answer to a goal"
+            );
+        }
+    };
+    let result = |id, limit: Duration| {
+        let req = client.request_result(id).unwrap();
+        let mut got = None;
+        poll(
+            "the result",
+            limit,
+            Box::new(|| {
+                got = client.receive_result(req).ok().flatten();
+                got.is_some()
+            }),
+        );
+        got.unwrap()
+    };
+
+    // 1. A long part (ex3, 168 blocks, best plan within 60 s) is cancelled after its first
+    //    planning feedback.
+    let long = send(PlanPartGoal {
+        part_document: part("ex3-h-column.yaml"),
+        timeout_s: 60.0,
+        ..PlanPartGoal::default()
+    });
+    let mut feedback = Vec::new();
+    poll(
+        "planning feedback of the long goal",
+        Duration::from_secs(60),
+        Box::new(|| {
+            while let Ok(Some(f)) = client.receive_feedback(long) {
+                feedback.push(f);
+            }
+            feedback
+                .iter()
+                .any(|f| f.stage == "planning" && f.candidates > 0)
+        }),
+    );
+    let cancel_sent = Instant::now();
+    client.cancel_goal(long).unwrap();
+    let (status, r) = result(long, Duration::from_secs(5));
+    let took = cancel_sent.elapsed();
+    assert_eq!(status, GoalStatusEnum::Canceled);
+    assert_eq!(r.outcome, PlanPartResult::CANCELLED, "{}", r.reason);
+    assert!(
+        took < Duration::from_secs(1),
+        "cancel answered after {took:?}"
+    );
+
+    // 2. The next goal: s1-wall, first feasible plan, k = 2, with feedback and the plan.
+    let next = send(PlanPartGoal {
+        part_document: part("s1-wall.yaml"),
+        max_fragments: 2,
+        first_feasible: true,
+        ..PlanPartGoal::default()
+    });
+    let (status, r) = result(next, Duration::from_secs(60));
+    assert_eq!(status, GoalStatusEnum::Succeeded, "{}", r.reason);
+    assert_eq!(r.outcome, PlanPartResult::PLANNED);
+    assert_eq!(r.plan.part_name, "s1-wall");
+    let blocks: usize = r.plan.fragments.iter().map(|f| f.blocks.len()).sum();
+    assert_eq!(blocks, 12);
+    assert!(!r.plan.fragments.is_empty() && r.plan.fragments.len() <= 2);
+    let mut stages = Vec::new();
+    poll(
+        "the last feedback of the second goal",
+        Duration::from_secs(5),
+        Box::new(|| {
+            while let Ok(Some(f)) = client.receive_feedback(next) {
+                stages.push((f.stage.clone(), f.best_margin_s, f.elapsed_s));
+            }
+            stages.iter().any(|s| s.0 == "planned")
+        }),
+    );
+    let last = stages.iter().find(|s| s.0 == "planned").unwrap();
+    assert_eq!(last.1, r.plan.worst_margin_s, "final feedback margin");
+    assert!(last.2 > 0.0);
+
+    // 3. A goal without a part ends at once with the reason.
+    let empty = send(PlanPartGoal::default());
+    let (status, r) = result(empty, Duration::from_secs(5));
+    assert_eq!(status, GoalStatusEnum::Aborted);
+    assert_eq!(r.outcome, PlanPartResult::BAD_INPUT);
+    assert!(r.reason.contains("part_document"), "{}", r.reason);
+
+    let mut child = child;
+    let _ = child.kill();
+    let _ = child.wait();
+}
+
 /// FollowJointTrajectory execution against a small action server in this test: no goal has
 /// more than `max_points_per_goal` points, the goals together are the whole trajectory, each
 /// arc switch happens at a goal boundary, and `~/arc_on` goes true/false once per fragment.

@@ -19,6 +19,7 @@ pub mod once;
 pub mod param_server;
 pub mod params;
 pub mod pipeline;
+pub mod plan_action;
 pub mod ros;
 pub mod status;
 pub mod worker;
@@ -77,6 +78,8 @@ enum Event {
     Input(PartInput),
     /// Parameters changed: plans from now on use this pipeline.
     Pipeline(Box<PlanningPipeline>),
+    /// A `~/plan` goal or cancel request.
+    Action(plan_action::Request),
     Worker(WorkerEvent<Box<Planned>, pipeline::JobError>),
 }
 
@@ -163,6 +166,8 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
 
     let params_stop = Arc::new(AtomicBool::new(false));
     let mut params_thread = None;
+    let mut action_thread = None;
+    let mut action_replies: Option<Sender<plan_action::Reply>> = None;
     let (once, linger) = match mode {
         Mode::Serve => {
             // Parameter changes build the next pipeline here; a bad one is refused.
@@ -186,7 +191,24 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                 param_server::serve(
                     &mut node,
                     &names.fully_qualified(),
+                    Arc::clone(&store),
+                    Arc::clone(&params_stop),
+                )
+                .map_err(NodeError::Ros)?,
+            );
+            let (reply_tx, reply_rx) = channel();
+            action_replies = Some(reply_tx);
+            let to_loop = std::sync::Mutex::new(events.clone());
+            action_thread = Some(
+                plan_action::serve(
+                    &mut node,
+                    names,
                     store,
+                    move |request| {
+                        let to_loop = to_loop.lock().unwrap_or_else(|e| e.into_inner());
+                        to_loop.send(Event::Action(request)).is_ok()
+                    },
+                    reply_rx,
                     Arc::clone(&params_stop),
                 )
                 .map_err(NodeError::Ros)?,
@@ -271,6 +293,26 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
         success: false,
     };
     let mut finished_once = false;
+    // `~/plan` goals by job: goal id and when it was accepted.
+    let mut goals: std::collections::HashMap<u64, (ros2_client::action::GoalId, Instant)> =
+        Default::default();
+    let reply = |r: plan_action::Reply| {
+        if let Some(tx) = &action_replies {
+            plan_action::send(tx, r);
+        }
+    };
+    let superseded = |goals: &mut std::collections::HashMap<_, _>, old: Option<u64>, job: u64| {
+        if let Some((goal, _)) = old.and_then(|old| goals.remove(&old)) {
+            reply(plan_action::Reply::Done(
+                goal,
+                ros2_client::action::GoalStatusEnum::Aborted,
+                plan_action::PlanPartResult::failed(
+                    plan_action::PlanPartResult::CANCELLED,
+                    format!("superseded by part {job}"),
+                ),
+            ));
+        }
+    };
     while !stop.load(Ordering::Relaxed) && !finished_once {
         if last_health.is_none_or(|t| t.elapsed() >= health::PERIOD) {
             last_health = Some(Instant::now());
@@ -289,15 +331,48 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                 worker.set_pipeline(*pipeline);
                 outputs.log(Level::Info, "parameters changed: the next plan uses them");
             }
-            Event::Input(input) => {
+            Event::Action(plan_action::Request::Cancel(goal)) => {
+                let Some(job) = goals.iter().find(|(_, g)| g.0 == goal).map(|(j, _)| *j) else {
+                    continue;
+                };
+                goals.remove(&job);
+                if worker.cancel(job) {
+                    health.planning = None;
+                    state.status(Status::Error {
+                        job: Some(job),
+                        reason: "cancelled by the ~/plan client".into(),
+                    });
+                    outputs.log(Level::Info, &format!("part {job}: goal cancelled"));
+                }
+                reply(plan_action::Reply::Done(
+                    goal,
+                    ros2_client::action::GoalStatusEnum::Canceled,
+                    plan_action::PlanPartResult::failed(
+                        plan_action::PlanPartResult::CANCELLED,
+                        "cancelled by the client",
+                    ),
+                ));
+            }
+            Event::Input(_) | Event::Action(plan_action::Request::Goal { .. }) => {
+                let (job_input, goal) = match event {
+                    Event::Input(input) => (pipeline::Job::from(input), None),
+                    Event::Action(plan_action::Request::Goal { goal, job }) => (job, Some(goal)),
+                    _ => unreachable!("matched above"),
+                };
+                let input = &job_input.input;
                 let source = input.describe();
-                let settings = match &input {
-                    PartInput::Mesh { name, .. } => {
-                        crate::planning::mesh_values(&mesh_settings, name)
-                    }
+                let settings = match input {
+                    PartInput::Mesh { name, .. } => crate::planning::mesh_values(
+                        job_input.mesh.as_ref().unwrap_or(&mesh_settings),
+                        name,
+                    ),
                     PartInput::Document(_) => Vec::new(),
                 };
-                let (job, cancelled) = worker.submit(input);
+                let (job, cancelled) = worker.submit(job_input);
+                superseded(&mut goals, cancelled, job);
+                if let Some(goal) = goal {
+                    goals.insert(job, (goal, Instant::now()));
+                }
                 health.planning = Some(job);
                 state.status(Status::Received {
                     job,
@@ -315,6 +390,20 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
             }
             Event::Worker(WorkerEvent::Progress { job, progress }) => {
                 if worker.is_current(job) {
+                    if let Some((goal, since)) = goals.get(&job) {
+                        let counts = progress.counts.unwrap_or_default();
+                        reply(plan_action::Reply::Feedback(
+                            *goal,
+                            plan_action::PlanPartFeedback {
+                                stage: progress.stage.to_string(),
+                                candidates: counts.candidates,
+                                feasible: counts.feasible,
+                                cuts: counts.cuts,
+                                best_margin_s: f64::NAN,
+                                elapsed_s: since.elapsed().as_secs_f64(),
+                            },
+                        ));
+                    }
                     state.progress(job, progress);
                 }
             }
@@ -325,6 +414,13 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                 }
                 worker.finish(job);
                 health.planning = None;
+                if let Some((goal, since)) = goals.remove(&job) {
+                    let (status, end) = goal_result(&result);
+                    if let Ok(p) = result_ok(&result) {
+                        reply(plan_action::Reply::Feedback(goal, final_feedback(p, since)));
+                    }
+                    reply(plan_action::Reply::Done(goal, status, end));
+                }
                 match &result {
                     Ok(p) => {
                         health.planned += 1;
@@ -375,7 +471,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     }
     worker.shutdown();
     params_stop.store(true, Ordering::Relaxed);
-    if let Some(thread) = params_thread {
+    for thread in [params_thread, action_thread].into_iter().flatten() {
         let _ = thread.join();
     }
     if once && !stop.load(Ordering::Relaxed) {
@@ -516,6 +612,57 @@ impl LoopState {
             done: Some(done_tx),
         });
         Some(done_rx)
+    }
+}
+
+type JobResult = Result<Box<Planned>, JobFailure<pipeline::JobError>>;
+
+fn result_ok(result: &JobResult) -> Result<&Planned, ()> {
+    result.as_deref().map_err(|_| ())
+}
+
+/// The last feedback of a goal that got a plan: the counters and margin of the run.
+fn final_feedback(p: &Planned, since: Instant) -> plan_action::PlanPartFeedback {
+    let s = &p.found.stats;
+    plan_action::PlanPartFeedback {
+        stage: "planned".into(),
+        candidates: s.candidates,
+        feasible: s.feasible,
+        cuts: s.cycle_cuts,
+        best_margin_s: p.found.worst_margin_s,
+        elapsed_s: since.elapsed().as_secs_f64(),
+    }
+}
+
+/// A `~/plan` goal's end from its job's.
+fn goal_result(
+    result: &JobResult,
+) -> (
+    ros2_client::action::GoalStatusEnum,
+    plan_action::PlanPartResult,
+) {
+    use plan_action::PlanPartResult as R;
+    use ros2_client::action::GoalStatusEnum as S;
+    match result {
+        Ok(planned) => {
+            let header = Header::new(Time::now(), planned.toolpath.frame.clone());
+            match PlanMessages::of_planned(planned, &header) {
+                Ok(m) => (
+                    S::Succeeded,
+                    R {
+                        outcome: R::PLANNED,
+                        reason: String::new(),
+                        plan: m.weld_plan,
+                    },
+                ),
+                Err(e) => (S::Aborted, R::failed(R::NO_PLAN, e.to_string())),
+            }
+        }
+        Err(JobFailure::Failed(pipeline::JobError::Pipeline(e))) => {
+            (S::Aborted, R::failed(R::BAD_INPUT, e.to_string()))
+        }
+        Err(JobFailure::Superseded) => (S::Aborted, R::failed(R::CANCELLED, "superseded")),
+        Err(e) => (S::Aborted, R::failed(R::NO_PLAN, e.to_string())),
     }
 }
 
