@@ -600,7 +600,8 @@ fn plan_action_gives_feedback_and_a_result_and_cancels_within_a_second() {
     let _ = child.wait();
 }
 
-/// FollowJointTrajectory execution against a small action server in this test: no goal has
+/// FollowJointTrajectory execution against a small action server in this test: the start
+/// service is called first; goals carry the mapped joint names and the tolerances; no goal has
 /// more than `max_points_per_goal` points, the goals together are the whole trajectory, each
 /// arc switch happens at a goal boundary, and `~/arc_on` goes true/false once per fragment.
 #[test]
@@ -612,6 +613,7 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
     use ros2_client::action::{GetResultResponse, SendGoalResponse};
     use ros2_client::action_msgs::GoalStatusEnum;
     use ros2_client::{ActionTypeName, MessageTypeName, Name, QosProfile, ServiceMapping};
+    use waam_ros::node::fjt::{TriggerRequest, TriggerResponse};
     use waam_rosmsg::control_msgs::{
         FollowJointTrajectoryFeedback as Feedback, FollowJointTrajectoryGoal as Goal,
         FollowJointTrajectoryResult as FjtResult,
@@ -653,6 +655,16 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
         )
         .unwrap();
     let arc = node.create_subscription::<Bool>(&arc_topic, None).unwrap();
+    // MotoROS2's "start trajectory mode" (std_srvs/Trigger), as fjt.params.yaml names it.
+    let start_mode = node
+        .create_server::<TriggerRequest, TriggerResponse>(
+            ServiceMapping::Enhanced,
+            &Name::new("/test_controller", "start_traj_mode").unwrap(),
+            &ros2_client::ServiceTypeName::new("std_srvs", "Trigger"),
+            service.clone(),
+            service.clone(),
+        )
+        .unwrap();
     let traj_topic = node
         .create_topic(
             &Name::new("/waam_planner/plan", "joint_trajectory").unwrap(),
@@ -670,7 +682,10 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
     enum Seen {
         Goal(JointTrajectory),
         Arc(bool),
+        StartMode,
     }
+    // Each goal's tolerances: (path, goal, goal time).
+    let mut tolerances = Vec::new();
     let seen = Arc::new(Mutex::new(Vec::<Seen>::new()));
 
     let child = rust_peer::waam(
@@ -698,7 +713,24 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
         if let Ok(Some((t, _))) = trajectory_sub.take() {
             trajectory = Some(t);
         }
+        if let Ok(Some((req, _))) = start_mode.receive_request() {
+            seen.lock().unwrap().push(Seen::StartMode);
+            start_mode
+                .send_response(
+                    req,
+                    TriggerResponse {
+                        success: true,
+                        message: String::new(),
+                    },
+                )
+                .unwrap();
+        }
         if let Ok(Some((req, goal))) = server.receive_goal() {
+            tolerances.push((
+                goal.goal.path_tolerance.clone(),
+                goal.goal.goal_tolerance.clone(),
+                goal.goal.goal_time_tolerance.as_secs_f64(),
+            ));
             seen.lock()
                 .unwrap()
                 .push(Seen::Goal(goal.goal.trajectory.clone()));
@@ -788,7 +820,18 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
             "goal {i} has {} points (cap {CAP})",
             g.points.len()
         );
-        assert_eq!(g.joint_names, trajectory.joint_names);
+        // The controller's names (execution.joint_names), in the URDF's joint order.
+        let mapped: Vec<String> = (1..=trajectory.joint_names.len())
+            .map(|j| format!("group_1/joint_{j}"))
+            .collect();
+        assert_eq!(g.joint_names, mapped, "goal {i}");
+        let (path, at_end, time) = &tolerances[i];
+        for (tolerance, expected) in [(path, 0.1), (at_end, 0.01)] {
+            let names: Vec<&String> = tolerance.iter().map(|t| &t.name).collect();
+            assert_eq!(names, mapped.iter().collect::<Vec<_>>(), "goal {i}");
+            assert!(tolerance.iter().all(|t| t.position == expected), "goal {i}");
+        }
+        assert_eq!(*time, 0.5, "goal {i}");
         let t: Vec<f64> = g
             .points
             .iter()
@@ -832,6 +875,15 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
     for (i, on) in arcs.iter().enumerate() {
         assert_eq!(*on, i % 2 == 0, "arc sequence {arcs:?}");
     }
+    assert!(
+        matches!(seen.first(), Some(Seen::StartMode)),
+        "the start service was not called before the first goal"
+    );
+    assert_eq!(
+        seen.iter().filter(|s| matches!(s, Seen::StartMode)).count(),
+        1,
+        "one start call per plan"
+    );
     let first_arc = seen.iter().position(|s| matches!(s, Seen::Arc(_))).unwrap();
     assert!(first_arc > 0, "the arc came on before any goal");
     assert!(

@@ -116,6 +116,8 @@ def run(peer, waam, cell2):
         "topics.markers", "topics.weld_plan", "topics.status", "topics.arc_on",
         "topics.joint_states", "execution.enabled", "execution.controller_action",
         "execution.max_points_per_goal", "execution.server_timeout_s", "execution.lead_in_s",
+        "execution.joint_names", "execution.goal_tolerance_rad", "execution.path_tolerance_rad",
+        "execution.goal_time_tolerance_s", "execution.start_service",
         "dry_run.time_scale", "dry_run.rate_hz", "use_sim_time",
     }
     check(names == expected, f"parameters listed: {sorted(names)}; missing "

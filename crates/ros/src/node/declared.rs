@@ -105,6 +105,22 @@ impl Kind for Vec<f64> {
     }
 }
 
+impl Kind for Vec<String> {
+    const TYPE: ParameterType = ParameterType::StringArray;
+    fn to_value(&self) -> ParameterValue {
+        ParameterValue::StringArray(self.clone())
+    }
+    fn from_value(v: &ParameterValue) -> Option<Vec<String>> {
+        match v {
+            ParameterValue::StringArray(a) => Some(a.clone()),
+            ParameterValue::DoubleArray(a) if a.is_empty() => Some(Vec::new()),
+            ParameterValue::IntegerArray(a) if a.is_empty() => Some(Vec::new()),
+            ParameterValue::BooleanArray(a) if a.is_empty() => Some(Vec::new()),
+            _ => None,
+        }
+    }
+}
+
 fn type_name(t: ParameterType) -> &'static str {
     match t {
         ParameterType::NotSet => "not set",
@@ -200,6 +216,17 @@ pub static DECLARED: &[Declared] = &[
     declare!("execution.lead_in_s", execution.lead_in_s: f64, AT_START,
         Range::Float(0.0, MAX_WAIT_S),
         "Seconds the first goal gives the robot to reach the trajectory's first point", ""),
+    declare!("execution.joint_names", execution.joint_names: Vec<String>, AT_START, Range::None,
+        "The controller's joint names in the URDF's joint order (MotoROS2: group_1/joint_1 ...); [] = the URDF's",
+        "[] or one distinct name per URDF joint"),
+    declare!("execution.goal_tolerance_rad", execution.goal_tolerance_rad: f64, AT_START,
+        Range::Float(0.0, MAX_WAIT_S), "Position tolerance at each goal's end, rad (0 = the controller's default)", ""),
+    declare!("execution.path_tolerance_rad", execution.path_tolerance_rad: f64, AT_START,
+        Range::Float(0.0, MAX_WAIT_S), "Position tolerance along each goal, rad (0 = the controller's default)", ""),
+    declare!("execution.goal_time_tolerance_s", execution.goal_time_tolerance_s: f64, AT_START,
+        Range::Float(0.0, MAX_WAIT_S), "Time a goal may take beyond its duration, s (0 = the controller's default)", ""),
+    declare!("execution.start_service", execution.start_service: String, AT_START, Range::None,
+        "std_srvs/Trigger service called before each plan runs (MotoROS2: /start_traj_mode); \"\" = none", ""),
     declare!("dry_run.time_scale", dry_run.time_scale: f64, AT_START, Range::Float(0.0, 1e6),
         "Simulated time runs this many times faster than real time", "> 0"),
     declare!("dry_run.rate_hz", dry_run.rate_hz: f64, AT_START, Range::Float(0.0, 1000.0),

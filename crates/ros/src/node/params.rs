@@ -98,6 +98,18 @@ pub struct ExecutionParams {
     pub server_timeout_s: f64,
     /// Seconds the first goal gives the robot to reach the trajectory's first point.
     pub lead_in_s: f64,
+    /// The controller's joint names, in the URDF's joint order (MotoROS2: `group_1/joint_1`
+    /// ...); [] = the URDF's names.
+    pub joint_names: Vec<String>,
+    /// Position tolerance at each goal's end, rad (0 = the controller's default).
+    pub goal_tolerance_rad: f64,
+    /// Position tolerance along each goal, rad (0 = the controller's default).
+    pub path_tolerance_rad: f64,
+    /// Time a goal may take beyond its duration, s (0 = the controller's default).
+    pub goal_time_tolerance_s: f64,
+    /// A std_srvs/Trigger service called before each plan runs (MotoROS2:
+    /// `/start_traj_mode`); "" = none.
+    pub start_service: String,
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -152,6 +164,11 @@ impl Default for ExecutionParams {
             max_points_per_goal: 200,
             server_timeout_s: 10.0,
             lead_in_s: 2.0,
+            joint_names: Vec::new(),
+            goal_tolerance_rad: 0.0,
+            path_tolerance_rad: 0.0,
+            goal_time_tolerance_s: 0.0,
+            start_service: String::new(),
         }
     }
 }
@@ -342,6 +359,31 @@ impl NodeParams {
             return Err(ParamRule(format!(
                 "execution.lead_in_s: expected seconds >= 0, got {}",
                 self.execution.lead_in_s
+            )));
+        }
+        for (key, v) in [
+            ("goal_tolerance_rad", self.execution.goal_tolerance_rad),
+            ("path_tolerance_rad", self.execution.path_tolerance_rad),
+            (
+                "goal_time_tolerance_s",
+                self.execution.goal_time_tolerance_s,
+            ),
+        ] {
+            if !(v.is_finite() && (0.0..=MAX_WAIT_S).contains(&v)) {
+                return Err(ParamRule(format!(
+                    "execution.{key}: expected a tolerance >= 0 (0 = the controller's default), got {v}"
+                )));
+            }
+        }
+        let names = &self.execution.joint_names;
+        if names.iter().any(|n| n.trim().is_empty())
+            || names
+                .iter()
+                .enumerate()
+                .any(|(i, n)| names[..i].contains(n))
+        {
+            return Err(ParamRule(format!(
+                "execution.joint_names: expected [] or distinct, non-empty names, got {names:?}"
             )));
         }
         if !finite_pos(self.dry_run.time_scale) {
