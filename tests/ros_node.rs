@@ -457,6 +457,7 @@ fn plan_action_gives_feedback_and_a_result_and_cancels_within_a_second() {
 
     use ros2_client::action::{ActionClientQosPolicies, GoalStatusEnum};
     use ros2_client::{ActionTypeName, Name, QosProfile, ServiceMapping};
+    use waam_ros::node::fjt::{TriggerRequest, TriggerResponse};
     use waam_ros::node::plan_action::{PlanPartFeedback, PlanPartGoal, PlanPartResult};
 
     if ros_python().is_none() {
@@ -594,6 +595,53 @@ fn plan_action_gives_feedback_and_a_result_and_cancels_within_a_second() {
     assert_eq!(status, GoalStatusEnum::Aborted);
     assert_eq!(r.outcome, PlanPartResult::BAD_INPUT);
     assert!(r.reason.contains("part_document"), "{}", r.reason);
+
+    // 4. `~/stop` (std_srvs/Trigger) stops a long goal's planning too.
+    let stop = node
+        .create_client::<TriggerRequest, TriggerResponse>(
+            ServiceMapping::Enhanced,
+            &Name::new("/cell3/waam_planner", "stop").unwrap(),
+            &ros2_client::ServiceTypeName::new("std_srvs", "Trigger"),
+            service.clone(),
+            service.clone(),
+        )
+        .unwrap();
+    let long = send(PlanPartGoal {
+        part_document: part("ex3-h-column.yaml"),
+        timeout_s: 60.0,
+        ..PlanPartGoal::default()
+    });
+    poll(
+        "planning feedback of the second long goal",
+        Duration::from_secs(60),
+        Box::new(|| matches!(client.receive_feedback(long), Ok(Some(f)) if f.stage == "planning")),
+    );
+    // Until the service is discovered a request may go unheard: ask again after a second.
+    let asked = Instant::now();
+    let answer = 'ask: loop {
+        assert!(
+            asked.elapsed() < Duration::from_secs(30),
+            "no answer of ~/stop"
+        );
+        stop.send_request(TriggerRequest::default()).unwrap();
+        let until = Instant::now() + Duration::from_secs(1);
+        while Instant::now() < until {
+            // The first answer is that of the first request heard: the one that stopped.
+            if let Ok(Some((_, r))) = stop.receive_response() {
+                break 'ask r;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    };
+    assert!(answer.success, "{}", answer.message);
+    assert!(
+        answer.message.contains("planning of part"),
+        "{}",
+        answer.message
+    );
+    let (status, r) = result(long, Duration::from_secs(2));
+    assert_eq!(status, GoalStatusEnum::Canceled);
+    assert!(r.reason.contains("~/stop"), "{}", r.reason);
 
     let mut child = child;
     let _ = child.kill();

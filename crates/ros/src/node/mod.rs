@@ -22,6 +22,7 @@ pub mod pipeline;
 pub mod plan_action;
 pub mod ros;
 pub mod status;
+pub mod stop_service;
 pub mod worker;
 
 use std::path::PathBuf;
@@ -80,6 +81,8 @@ enum Event {
     Pipeline(Box<PlanningPipeline>),
     /// A `~/plan` goal or cancel request.
     Action(plan_action::Request),
+    /// `~/stop`: stop planning and execution; say what was stopped.
+    Stop(Sender<String>),
     Worker(WorkerEvent<Box<Planned>, pipeline::JobError>),
 }
 
@@ -167,6 +170,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     let params_stop = Arc::new(AtomicBool::new(false));
     let mut params_thread = None;
     let mut action_thread = None;
+    let mut stop_thread = None;
     let mut action_replies: Option<Sender<plan_action::Reply>> = None;
     let (once, linger) = match mode {
         Mode::Serve => {
@@ -209,6 +213,19 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                         to_loop.send(Event::Action(request)).is_ok()
                     },
                     reply_rx,
+                    Arc::clone(&params_stop),
+                )
+                .map_err(NodeError::Ros)?,
+            );
+            let to_loop = std::sync::Mutex::new(events.clone());
+            stop_thread = Some(
+                stop_service::serve(
+                    &mut node,
+                    names,
+                    move |answer| {
+                        let to_loop = to_loop.lock().unwrap_or_else(|e| e.into_inner());
+                        to_loop.send(Event::Stop(answer)).is_ok()
+                    },
                     Arc::clone(&params_stop),
                 )
                 .map_err(NodeError::Ros)?,
@@ -330,6 +347,39 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                 cell_frames.publish(&urdf, &pipeline, recorder.as_ref());
                 worker.set_pipeline(*pipeline);
                 outputs.log(Level::Info, "parameters changed: the next plan uses them");
+            }
+            Event::Stop(answer) => {
+                let mut stopped = Vec::new();
+                if let Some(job) = worker.current() {
+                    worker.cancel(job);
+                    health.planning = None;
+                    if let Some((goal, _)) = goals.remove(&job) {
+                        reply(plan_action::Reply::Done(
+                            goal,
+                            ros2_client::action::GoalStatusEnum::Canceled,
+                            plan_action::PlanPartResult::failed(
+                                plan_action::PlanPartResult::CANCELLED,
+                                "stopped by ~/stop",
+                            ),
+                        ));
+                    }
+                    state.status(Status::Error {
+                        job: Some(job),
+                        reason: "stopped by ~/stop".into(),
+                    });
+                    stopped.push(format!("planning of part {job}"));
+                }
+                if let Some(cancel) = state.execution.take() {
+                    cancel.cancel(); // the executor cancels its goal and switches the arc off
+                    stopped.push("any execution in progress (goal cancelled, arc off)".to_string());
+                }
+                let message = if stopped.is_empty() {
+                    "nothing to stop".to_string()
+                } else {
+                    format!("stopped {}", stopped.join(" and "))
+                };
+                outputs.log(Level::Warn, &format!("~/stop: {message}"));
+                let _ = answer.send(message);
             }
             Event::Action(plan_action::Request::Cancel(goal)) => {
                 let Some(job) = goals.iter().find(|(_, g)| g.0 == goal).map(|(j, _)| *j) else {
@@ -471,7 +521,10 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     }
     worker.shutdown();
     params_stop.store(true, Ordering::Relaxed);
-    for thread in [params_thread, action_thread].into_iter().flatten() {
+    for thread in [params_thread, action_thread, stop_thread]
+        .into_iter()
+        .flatten()
+    {
         let _ = thread.join();
     }
     if once && !stop.load(Ordering::Relaxed) {

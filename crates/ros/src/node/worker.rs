@@ -179,6 +179,11 @@ impl<P: Pipeline> Worker<P> {
         self.pipeline = Arc::new(pipeline);
     }
 
+    /// The job in progress.
+    pub fn current(&self) -> Option<u64> {
+        self.current.as_ref().map(|(id, _)| *id)
+    }
+
     /// Cancels the job in progress, if it is `job`; its result will be dropped.
     pub fn cancel(&mut self, job: u64) -> bool {
         if self.is_current(job) {
