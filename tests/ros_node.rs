@@ -559,6 +559,7 @@ fn plan_action_gives_feedback_and_a_result_and_cancels_within_a_second() {
         took < Duration::from_secs(1),
         "cancel answered after {took:?}"
     );
+    eprintln!("cancel answered after {took:?}");
 
     // 2. The next goal: s1-wall, first feasible plan, k = 2, with feedback and the plan.
     let next = send(PlanPartGoal {

@@ -191,7 +191,8 @@ def run(peer, waam, cell2):
         check(len(times) >= 3, f"{len(times)} /diagnostics from {node}: {list(heard)}")
         recent = [t for t in times if t >= start]
         gaps = [b - a for a, b in zip(times, times[1:])]
-        check(len(recent) >= 3 and max(gaps) < 1.3,
+        # Once a second; 0.5 s of slack for a loaded machine's scheduling.
+        check(len(recent) >= 3 and max(gaps) < 1.5,
               f"/diagnostics from {node}: {len(recent)} in 3.5 s, largest gap {max(gaps):.2f} s")
         last = heard[node][-1][1]
         values = {kv.key: kv.value for kv in last.values}
