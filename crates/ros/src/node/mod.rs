@@ -411,13 +411,19 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                 };
                 let input = &job_input.input;
                 let source = input.describe();
-                let settings = match input {
+                let mut settings = match input {
                     PartInput::Mesh { name, .. } => crate::planning::mesh_values(
                         job_input.mesh.as_ref().unwrap_or(&mesh_settings),
                         name,
                     ),
                     PartInput::Document(_) => Vec::new(),
                 };
+                // The planner's settings too, so that `waam replay` plans the same way (a
+                // recording without them is taken to predate the planner's warm start).
+                settings.extend(crate::planning::settings(&waam_planner::Options {
+                    max_fragments: job_input.max_fragments,
+                    ..waam_planner::Options::default()
+                }));
                 let (job, cancelled) = worker.submit(job_input);
                 superseded(&mut goals, cancelled, job);
                 if let Some(goal) = goal {
@@ -449,7 +455,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                                 candidates: counts.candidates,
                                 feasible: counts.feasible,
                                 cuts: counts.cuts,
-                                best_margin_s: f64::NAN,
+                                best_margin_s: counts.best_margin_s.unwrap_or(f64::NAN),
                                 elapsed_s: since.elapsed().as_secs_f64(),
                             },
                         ));

@@ -271,6 +271,7 @@ pub fn sat_planner() -> Arc<PlanFn> {
                         candidates: s.candidates,
                         feasible: s.feasible,
                         cuts: s.cycle_cuts,
+                        best_margin_s: s.best_margin_s,
                     }),
                 });
             }

@@ -45,6 +45,8 @@ pub struct Counts {
     pub candidates: u64,
     pub feasible: u64,
     pub cuts: u64,
+    /// Worst-case t8/5 margin of the best plan so far, s (`None`: none yet, or no windows).
+    pub best_margin_s: Option<f64>,
 }
 
 /// How far a job has come: a stage name, a fraction of it when known, and a remark.
