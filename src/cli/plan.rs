@@ -110,6 +110,7 @@ pub fn options(args: &PlanArgs) -> anyhow::Result<Options> {
         max_fragments: args.max_fragments,
         cancel: None,
         solver: args.solver,
+        torch: None,
     })
 }
 

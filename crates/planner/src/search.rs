@@ -15,6 +15,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Instant;
 
+use waam_access::{Obstacle, TorchAccess};
 use waam_part::graph::WeldGraph;
 use waam_part::Part;
 use waam_thermal::{self as thermal, Phase, Simulation, Snapshot, ThermalModel, Violation};
@@ -44,6 +45,10 @@ pub struct Search<'p> {
     pub interrupted: bool,
     /// Cycle cuts the solver made inside its searches (counted into the statistics).
     inside_cuts: u64,
+    /// Torch access, checked at every deposit (None: not modelled).
+    torch: Option<TorchAccess>,
+    /// Torch-blocked deposits per block (to name the one blocked most often).
+    pub torch_blocked: Vec<usize>,
 }
 
 impl<'p> Search<'p> {
@@ -85,7 +90,14 @@ impl<'p> Search<'p> {
             spacing: (n / 1000).max(1),
             interrupted: false,
             inside_cuts: 0,
+            torch: None,
+            torch_blocked: vec![0; n],
         }
+    }
+
+    /// Checks torch access at every deposit of later candidates (None: no torch).
+    pub fn set_torch(&mut self, torch: Option<TorchAccess>) {
+        self.torch = torch;
     }
 
     /// Stops solves at `deadline` or on `cancel` (inside a solve where the backend can):
@@ -173,7 +185,10 @@ impl<'p> Search<'p> {
     }
 
     /// Simulates a candidate, resuming from the longest shared prefix, and on a violation
-    /// learns the (shortened) prefix clause.
+    /// learns the (shortened) prefix clause. With a torch, a deposit the torch cannot reach
+    /// is a violation too: the candidate is simulated up to it, and unless a window broke
+    /// before, the clause of the prefix ending in that deposit is learned (its check
+    /// depends only on the blocks deposited before it, so every plan with that prefix has it).
     pub fn judge(
         &mut self,
         fragments: &[Vec<usize>],
@@ -184,14 +199,18 @@ impl<'p> Search<'p> {
             .iter()
             .flat_map(|f| f.iter().enumerate().map(|(p, &b)| (b, p == 0)))
             .collect();
-        let result = self.simulate(&seq);
+        let blocked = self
+            .torch
+            .as_ref()
+            .and_then(|a| a.first_blocked(seq.iter().map(|&(b, _)| b)));
+        let result = self.simulate(&seq, blocked.map_or(seq.len(), |x| x.position));
         self.stats.simulator_s += t.elapsed().as_secs_f64();
-        match result? {
-            None => {
+        match (result?, blocked) {
+            (None, None) => {
                 self.stats.feasible += 1;
                 Ok(CandidateVerdict::Feasible)
             }
-            Some(v) => {
+            (Some(v), _) => {
                 self.violations[v.block] += 1;
                 let t = Instant::now();
                 let clause_len = self.learn(&seq, &v);
@@ -204,11 +223,32 @@ impl<'p> Search<'p> {
                     clause_len,
                 })
             }
+            (None, Some(x)) => {
+                self.torch_blocked[x.block] += 1;
+                let clause_len = self.learn_torch(&seq[..=x.position], x.block, x.obstacle);
+                Ok(CandidateVerdict::TorchBlocked {
+                    block: self.part.block(x.block),
+                    obstacle: match x.obstacle {
+                        Obstacle::Plate => None,
+                        Obstacle::Block(o) => Some(self.part.block(o)),
+                    },
+                    prefix_len: x.position + 1,
+                    clause_len,
+                })
+            }
         }
     }
 
-    /// The simulation of `seq` to its first violation (`None`: feasible).
-    fn simulate(&mut self, seq: &[(usize, bool)]) -> Result<Option<Violation>, thermal::NotCooled> {
+    /// The simulation of the first `len` deposits of `seq` to its first violation (`None`:
+    /// feasible); the cooldown only when that is all of `seq` (else the candidate stops
+    /// at a deposit the torch cannot reach).
+    fn simulate(
+        &mut self,
+        seq: &[(usize, bool)],
+        len: usize,
+    ) -> Result<Option<Violation>, thermal::NotCooled> {
+        let whole = len == seq.len();
+        let seq = &seq[..len];
         let keys = prefix_keys(seq);
         let (mut sim, at) = resume(&self.thermal, &self.cache, self.spacing, seq, &keys);
         self.stats.deposits_reused += at as u64;
@@ -220,6 +260,9 @@ impl<'p> Search<'p> {
             if (j + 1) % self.spacing == 0 {
                 self.cache.insert(keys[j], &sim);
             }
+        }
+        if !whole {
+            return Ok(None);
         }
         let before = sim.steps();
         let end = sim.finish()?.err();
@@ -267,10 +310,37 @@ impl<'p> Search<'p> {
             len = target_len;
             closed = target_closed;
         }
-        let prefix = fragments_of(&seq[..len]);
+        self.learn_clause(&fragments_of(&seq[..len]), closed)
+    }
+
+    /// Learns what rules out the plans in which the torch meets `obstacle` at the last
+    /// deposit of `prefix`, block `b` (the check depends only on the blocks deposited
+    /// before `b`, and more deposited blocks never clear the way); the clause length.
+    /// - The plate: every plan welds `b`, so no plan is left (the empty clause).
+    /// - A block `a` higher than `b`: every plan that welds `a` before `b` (that is, in an
+    ///   earlier fragment) — binary clauses `idx(b) <= idx(a)`, far shorter than the prefix.
+    /// - Otherwise (a steep torch meeting a block no higher than `b`): the plans that
+    ///   begin with `prefix`.
+    fn learn_torch(&mut self, prefix: &[(usize, bool)], b: usize, obstacle: Obstacle) -> usize {
+        match obstacle {
+            Obstacle::Plate => self.learn_clause(&[], false),
+            Obstacle::Block(a) if self.part.block(a)[2] > self.part.block(b)[2] => {
+                let clauses = self.enc.not_before(a, b);
+                for c in &clauses {
+                    self.stats.record_clause(c.len());
+                    self.solver.add_clause(c);
+                }
+                2
+            }
+            Obstacle::Block(_) => self.learn_clause(&fragments_of(prefix), false),
+        }
+    }
+
+    /// Learns the clause that rules out every plan beginning with `prefix`; its length.
+    fn learn_clause(&mut self, prefix: &[Vec<usize>], closed: bool) -> usize {
         let clause: Vec<Lit> = self
             .enc
-            .prefix_literals(&prefix, closed)
+            .prefix_literals(prefix, closed)
             .into_iter()
             .map(|l| !l)
             .collect();

@@ -202,7 +202,7 @@ impl CandidateRecorder {
 
     /// Call with every event of the planner: records one `PlanCandidate` per candidate
     /// with the planner's verdict on it (the broken window's block, kind, time and prefix,
-    /// and the learned clause's length).
+    /// or the block the torch cannot reach and its prefix; and the learned clause's length).
     pub fn on_event(&mut self, event: &Event) {
         let Event::Candidate { verdict, .. } = event else {
             return;
@@ -217,18 +217,37 @@ impl CandidateRecorder {
             verdict: PlanCandidate::FEASIBLE,
             ..Default::default()
         };
-        if let CandidateVerdict::Violated {
-            block,
-            kind,
-            time_s,
-            prefix_len,
-            clause_len,
-        } = *verdict
-        {
-            candidate.verdict = match kind {
-                ViolationKind::Min => PlanCandidate::TOO_SHORT,
-                ViolationKind::Max => PlanCandidate::TOO_LONG,
-            };
+        let (verdict, block, time_s, prefix_len, clause_len) = match *verdict {
+            CandidateVerdict::Feasible => (PlanCandidate::FEASIBLE, None, 0.0, 0, 0),
+            CandidateVerdict::Violated {
+                block,
+                kind,
+                time_s,
+                prefix_len,
+                clause_len,
+            } => {
+                let verdict = match kind {
+                    ViolationKind::Min => PlanCandidate::TOO_SHORT,
+                    ViolationKind::Max => PlanCandidate::TOO_LONG,
+                };
+                (verdict, Some(block), time_s, prefix_len, clause_len)
+            }
+            // The blocked block; no simulated time (the torch check is not a simulation).
+            CandidateVerdict::TorchBlocked {
+                block,
+                prefix_len,
+                clause_len,
+                ..
+            } => (
+                PlanCandidate::TORCH_BLOCKED,
+                Some(block),
+                0.0,
+                prefix_len,
+                clause_len,
+            ),
+        };
+        candidate.verdict = verdict;
+        if let Some(block) = block {
             candidate.block = match block_msg(block) {
                 Ok(b) => b,
                 Err(e) => {
@@ -382,6 +401,7 @@ mod tests {
             max_fragments: Some(4),
             cancel: None,
             solver: Backend::Varisat,
+            torch: None,
         };
         let values: Vec<(String, String)> = settings(&opts)
             .into_iter()
