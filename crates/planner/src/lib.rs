@@ -20,9 +20,9 @@ use std::time::{Duration, Instant};
 use serde::Serialize;
 use thiserror::Error;
 
+use waam_access::{TorchAccess, TorchSetup};
 use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
-use waam_access::{TorchAccess, TorchSetup};
 use waam_part::{Block, Part};
 use waam_thermal::{self as thermal, ThermalModel};
 
@@ -83,6 +83,8 @@ pub struct Stats {
     pub candidates: u64,
     /// Feasible plans found.
     pub feasible: u64,
+    /// Candidates with a deposit the torch cannot reach (0 without a torch).
+    pub torch_blocked: u64,
     pub sat_solves: u64,
     pub cycle_cuts: u64,
     pub first_feasible_s: Option<f64>,

@@ -225,6 +225,7 @@ impl<'p> Search<'p> {
             }
             (None, Some(x)) => {
                 self.torch_blocked[x.block] += 1;
+                self.stats.torch_blocked += 1;
                 let clause_len = self.learn_torch(&seq[..=x.position], x.block, x.obstacle);
                 Ok(CandidateVerdict::TorchBlocked {
                     block: self.part.block(x.block),

@@ -127,6 +127,8 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     let mut pipeline = PlanningPipeline::from_params(params, Arc::clone(&options.planner))?;
     pipeline.recorder = recorder.clone();
     let mesh_settings = pipeline.mesh.clone();
+    // The torch the planner checks, in every "received" status: a replay plans with it.
+    let torch_values = crate::planning::torch_values(pipeline.cell.settings.torch_setup());
 
     let (events, event_rx) = channel::<Event>();
     let worker_events = events.clone();
@@ -230,6 +232,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                     }
                     PartInput::Document(_) => Vec::new(),
                 };
+                let settings = [settings, torch_values.clone()].concat();
                 let (job, cancelled) = worker.submit(input);
                 state.status(Status::Received {
                     job,

@@ -99,6 +99,8 @@ pub struct PlanRequest<'a> {
     pub ctx: &'a JobContext,
     /// When recording: where the planner's verdict on every candidate goes.
     pub recorder: Option<&'a Recorder>,
+    /// The torch whose access the planner checks (the process settings'), if any.
+    pub torch: Option<waam_access::TorchSetup>,
 }
 
 /// The planner a pipeline calls. `Err` says why there is no plan.
@@ -191,6 +193,7 @@ impl Pipeline for PlanningPipeline {
             timeout_s: self.timeout_s,
             ctx,
             recorder: self.recorder.as_ref(),
+            torch: self.cell.settings.torch_setup(),
         })?;
         if cancelled() {
             return Err(JobError::Cancelled);
@@ -215,6 +218,7 @@ pub fn sat_planner() -> Arc<PlanFn> {
                 .filter(|t| !t.is_zero()),
             // A newer part stops this run (inside a solve with CaDiCaL); the worker then drops it.
             cancel: Some(ctx.cancel.flag()),
+            torch: request.torch,
             ..waam_planner::Options::default()
         };
         let mut candidates = request.recorder.map(CandidateRecorder::new);
