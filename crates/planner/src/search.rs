@@ -49,6 +49,9 @@ pub struct Search<'p> {
     torch: Option<TorchAccess>,
     /// Torch-blocked deposits per block (to name the one blocked most often).
     pub torch_blocked: Vec<usize>,
+    /// When simulations stop too (a stopped simulation gives no verdict).
+    deadline: Option<Instant>,
+    cancel: Option<Arc<AtomicBool>>,
 }
 
 impl<'p> Search<'p> {
@@ -92,6 +95,8 @@ impl<'p> Search<'p> {
             inside_cuts: 0,
             torch: None,
             torch_blocked: vec![0; n],
+            deadline: None,
+            cancel: None,
         }
     }
 
@@ -103,13 +108,24 @@ impl<'p> Search<'p> {
     /// Stops solves at `deadline` or on `cancel` (inside a solve where the backend can):
     /// [`Search::next_candidate`] then returns `None` and sets `interrupted`.
     pub fn set_interrupt(&mut self, deadline: Option<Instant>, cancel: Option<Arc<AtomicBool>>) {
-        self.solver.set_interrupt(deadline, cancel);
+        self.solver.set_interrupt(deadline, cancel.clone());
+        self.deadline = deadline;
+        self.cancel = cancel;
     }
 
-    /// Suggests the value of `lit` to the solver's decisions (a warm start's hint).
-    #[allow(dead_code)] // the hook for the warm start (a constructive plan as phases)
-    pub fn set_phase(&mut self, lit: Lit) {
-        self.solver.set_phase(lit);
+    /// Points the solver's decisions at `fragments` (a warm start): every move of the
+    /// plan true first, every other move false first. A hint only, never a constraint.
+    pub fn set_phases(&mut self, fragments: &[Vec<usize>]) {
+        let mut on = rustc_hash::FxHashSet::default();
+        for lit in self.enc.plan_literals(fragments) {
+            self.solver.set_phase(lit);
+            on.insert(lit);
+        }
+        for (_, _, e) in self.enc.edges() {
+            if !on.contains(&e) {
+                self.solver.set_phase(!e);
+            }
+        }
     }
 
     /// Judges later candidates by `model` (e.g. narrowed windows while optimizing).
@@ -185,14 +201,14 @@ impl<'p> Search<'p> {
     }
 
     /// Simulates a candidate, resuming from the longest shared prefix, and on a violation
-    /// learns the (shortened) prefix clause. With a torch, a deposit the torch cannot reach
-    /// is a violation too: the candidate is simulated up to it, and unless a window broke
-    /// before, the clause of the prefix ending in that deposit is learned (its check
-    /// depends only on the blocks deposited before it, so every plan with that prefix has it).
+    /// learns the (shortened) prefix clause. `None`: the deadline or a cancel stopped the
+    /// simulation before a verdict (`interrupted` is then set). With a torch, a deposit the
+    /// torch cannot reach is a violation too: the candidate is simulated up to it, and
+    /// unless a window broke before, [`Search::learn_torch`] rules out the plans with it.
     pub fn judge(
         &mut self,
         fragments: &[Vec<usize>],
-    ) -> Result<CandidateVerdict, thermal::NotCooled> {
+    ) -> Result<Option<CandidateVerdict>, thermal::NotCooled> {
         let t = Instant::now();
         self.stats.candidates += 1;
         let seq: Vec<(usize, bool)> = fragments
@@ -203,31 +219,40 @@ impl<'p> Search<'p> {
             .torch
             .as_ref()
             .and_then(|a| a.first_blocked(seq.iter().map(|&(b, _)| b)));
-        let result = self.simulate(&seq, blocked.map_or(seq.len(), |x| x.position));
+        let result = if self.thermal.has_windows() {
+            self.simulate(&seq, blocked.map_or(seq.len(), |x| x.position))
+        } else {
+            // Nothing to break: the simulation could only say "feasible".
+            Ok(Judged::Feasible)
+        };
         self.stats.simulator_s += t.elapsed().as_secs_f64();
         match (result?, blocked) {
-            (None, None) => {
-                self.stats.feasible += 1;
-                Ok(CandidateVerdict::Feasible)
+            (Judged::Interrupted, _) => {
+                self.interrupted = true;
+                Ok(None)
             }
-            (Some(v), _) => {
+            (Judged::Feasible, None) => {
+                self.stats.feasible += 1;
+                Ok(Some(CandidateVerdict::Feasible))
+            }
+            (Judged::Violated(v), _) => {
                 self.violations[v.block] += 1;
                 let t = Instant::now();
                 let clause_len = self.learn(&seq, &v);
                 self.stats.lookahead_s += t.elapsed().as_secs_f64();
-                Ok(CandidateVerdict::Violated {
+                Ok(Some(CandidateVerdict::Violated {
                     block: self.part.block(v.block),
                     kind: v.kind,
                     time_s: v.time_s,
                     prefix_len: v.prefix_len,
                     clause_len,
-                })
+                }))
             }
-            (None, Some(x)) => {
+            (Judged::Feasible, Some(x)) => {
                 self.torch_blocked[x.block] += 1;
                 self.stats.torch_blocked += 1;
                 let clause_len = self.learn_torch(&seq[..=x.position], x.block, x.obstacle);
-                Ok(CandidateVerdict::TorchBlocked {
+                Ok(Some(CandidateVerdict::TorchBlocked {
                     block: self.part.block(x.block),
                     obstacle: match x.obstacle {
                         Obstacle::Plate => None,
@@ -235,40 +260,55 @@ impl<'p> Search<'p> {
                     },
                     prefix_len: x.position + 1,
                     clause_len,
-                })
+                }))
             }
         }
     }
 
-    /// The simulation of the first `len` deposits of `seq` to its first violation (`None`:
-    /// feasible); the cooldown only when that is all of `seq` (else the candidate stops
-    /// at a deposit the torch cannot reach).
+    /// The simulation of the first `len` deposits of `seq` to its first violation; the
+    /// cooldown only when that is all of `seq` (else the candidate stops at a deposit the
+    /// torch cannot reach, and no violation before it is `Feasible` here).
     fn simulate(
         &mut self,
         seq: &[(usize, bool)],
         len: usize,
-    ) -> Result<Option<Violation>, thermal::NotCooled> {
+    ) -> Result<Judged, thermal::NotCooled> {
         let whole = len == seq.len();
         let seq = &seq[..len];
         let keys = prefix_keys(seq);
-        let (mut sim, at) = resume(&self.thermal, &self.cache, self.spacing, seq, &keys);
+        let (sim, at) = resume(&self.thermal, &self.cache, self.spacing, seq, &keys);
+        let mut sim = sim.with_deadline(self.deadline);
+        if let Some(cancel) = &self.cancel {
+            sim = sim.with_cancel(Arc::clone(cancel));
+        }
         self.stats.deposits_reused += at as u64;
         for (j, &(b, new)) in seq.iter().enumerate().skip(at) {
             self.stats.deposits_simulated += 1;
-            if let Err(v) = sim.deposit(b, new) {
-                return Ok(Some(v));
+            let deposited = sim.deposit(b, new);
+            // A stopped simulation's state is incomplete: no verdict, nothing cached.
+            if sim.cancelled() {
+                return Ok(Judged::Interrupted);
+            }
+            if let Err(v) = deposited {
+                return Ok(Judged::Violated(v));
             }
             if (j + 1) % self.spacing == 0 {
                 self.cache.insert(keys[j], &sim);
             }
         }
         if !whole {
-            return Ok(None);
+            return Ok(Judged::Feasible);
         }
         let before = sim.steps();
-        let end = sim.finish()?.err();
+        let end = sim.finish();
         self.stats.cooldown_steps += sim.steps() - before;
-        Ok(end)
+        if sim.cancelled() {
+            return Ok(Judged::Interrupted);
+        }
+        Ok(match end? {
+            Ok(()) => Judged::Feasible,
+            Err(v) => Judged::Violated(v),
+        })
     }
 
     /// Learns the clause of the violating prefix, shortened where every alternative
@@ -423,6 +463,14 @@ impl<'p> Search<'p> {
         }
         (true, cost)
     }
+}
+
+/// What a simulation of a candidate found.
+enum Judged {
+    Feasible,
+    Violated(Violation),
+    /// Stopped by the deadline or a cancel before a verdict.
+    Interrupted,
 }
 
 /// Fragments of block indices from a deposit sequence.
