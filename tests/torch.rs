@@ -166,16 +166,19 @@ fn every_plan_returned_with_the_typical_torch_passes_the_independent_clearance_c
             continue;
         };
         assert_eq!(clearance(&part, &best.fragments, &points), None, "{name}");
-        // The best plan without a torch is weldable here, so the torch costs no margin.
+        // The torch never makes a plan better; when the best plan without it is weldable
+        // (the independent check), it costs no margin either.
         let free = planner::plan(&part, &Options::default(), &mut |_| {}).unwrap();
         let free = free.best.unwrap();
-        assert_eq!(clearance(&part, &free.fragments, &points), None, "{name}");
-        assert!(
-            best.margin == free.margin || (best.margin - free.margin).abs() < 1e-9,
-            "{name}: {} against {}",
-            best.margin,
-            free.margin
-        );
+        assert!(best.margin <= free.margin + 1e-9, "{name}");
+        if clearance(&part, &free.fragments, &points).is_none() {
+            assert!(
+                best.margin == free.margin || (best.margin - free.margin).abs() < 1e-9,
+                "{name}: {} against {}",
+                best.margin,
+                free.margin
+            );
+        }
     }
     // Every feasible plan of the small parts, not only the best.
     for name in ["s1-wall", "s2-corner", "s5-ledge", "s7-pad"] {
