@@ -347,3 +347,44 @@ proptest! {
         }
     }
 }
+
+/// A recording of a run with the torch has one PlanCandidate per candidate, the blocked ones
+/// as TORCH_BLOCKED naming the block, and the torch among the planner settings.
+#[test]
+fn a_recording_marks_torch_blocked_candidates() {
+    use waam_rosbag::Bag;
+    use waam_rosmsg::waam_interfaces::PlanCandidate;
+
+    let dir = scratch("torch-record").join("session");
+    let path = root().join("tests/data/torch-two-towers.yaml");
+    let run = waam(&[
+        "-q",
+        "plan",
+        path.to_str().unwrap(),
+        "--torch",
+        "--json",
+        "--record",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(run.status.code(), Some(1), "{}", stderr(&run));
+    let json: serde_json::Value = serde_json::from_str(&stdout(&run)).unwrap();
+    assert_eq!(json["no_plan"]["kind"], "torch_cannot_reach", "{json}");
+    let blocked = json["stats"]["torch_blocked"].as_u64().unwrap();
+    assert!(blocked > 0);
+    let bag = Bag::open(&dir).unwrap();
+    let candidates: Vec<PlanCandidate> = bag.decode::<PlanCandidate>().unwrap();
+    assert_eq!(
+        candidates.len() as u64,
+        json["stats"]["candidates"].as_u64().unwrap()
+    );
+    let torch: Vec<&PlanCandidate> = candidates
+        .iter()
+        .filter(|c| c.verdict == PlanCandidate::TORCH_BLOCKED)
+        .collect();
+    assert_eq!(torch.len() as u64, blocked);
+    // The blocked block is the first of a tower welded second: at z = 0.
+    assert!(
+        torch.iter().all(|c| c.block.z == 0 && c.prefix_len > 8),
+        "{torch:?}"
+    );
+}
