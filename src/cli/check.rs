@@ -5,6 +5,8 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use serde_json::json;
+use waam_access::{Obstacle, TorchAccess};
+use waam_motion::toolpath::ProcessSettings;
 use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
 use waam_part::BlockDisplay;
@@ -12,11 +14,13 @@ use waam_thermal::{self as thermal, ThermalModel};
 
 use super::{EXIT_NO, EXIT_OK};
 
-/// Check a plan against a part: validity rules first, then the thermal t8/5 windows.
+/// Check a plan against a part: validity rules first, then the thermal t8/5 windows, and
+/// with --torch or --process the torch's access.
 ///
 /// Prints VALID or INVALID with the first broken rule, then FEASIBLE or INFEASIBLE with
-/// the first violated window, then every t8/5 crossing of every windowed block.
-/// Exit code 0: valid and feasible; 1: invalid or infeasible; 2: bad input.
+/// the first violated window, then every t8/5 crossing of every windowed block; with a
+/// torch, TORCH OK or TORCH BLOCKED with the first block the torch cannot reach.
+/// Exit code 0: valid, feasible (and reachable); 1: invalid, infeasible or blocked; 2: bad input.
 #[derive(Debug, clap::Args)]
 pub struct CheckArgs {
     /// The part file (YAML, shared part format), or an STL mesh with --pitch.
@@ -28,10 +32,29 @@ pub struct CheckArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Also check torch access at every deposit, with the bundled process settings' torch
+    /// (a typical GMAW torch) or --process's.
+    #[arg(long)]
+    pub torch: bool,
+    /// Process settings (YAML, see config/process.yaml) whose torch and angles to check
+    /// access with (implies --torch unless the file says `torch: null`).
+    #[arg(long, value_name = "FILE")]
+    pub process: Option<PathBuf>,
 }
 
 pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
     let part = args.mesh.read_part_or_mesh(&args.part)?;
+    let torch = match &args.process {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read process settings {}", path.display()))?;
+            ProcessSettings::from_yaml(&text)
+                .with_context(|| format!("in process settings {}", path.display()))?
+                .torch_setup()
+        }
+        None if args.torch => ProcessSettings::default().torch_setup(),
+        None => None,
+    };
     let bytes = std::fs::read(&args.plan)
         .with_context(|| format!("cannot read plan {}", args.plan.display()))?;
     let is_json = args.plan.extension().is_some_and(|e| e == "json");
@@ -64,6 +87,12 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
     let outcome = thermal::simulate(&model, &fragments)
         .with_context(|| format!("simulating plan {}", args.plan.display()))?;
     let feasible = outcome.violation.is_none();
+    let blocked = torch
+        .map(|t| TorchAccess::new(&part, &t).first_blocked(fragments.iter().flatten().copied()));
+    let obstacle = |o: Obstacle| match o {
+        Obstacle::Plate => json!("plate"),
+        Obstacle::Block(i) => json!(part.block(i)),
+    };
     if args.json {
         let violation = outcome.violation.as_ref().map(|v| {
             json!({
@@ -92,6 +121,14 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
             "crossings": crossings,
             "steps": outcome.steps,
             "time_s": outcome.time_s,
+            "torch": blocked.map(|b| json!({
+                "reachable": b.is_none(),
+                "blocked": b.map(|x| json!({
+                    "block": part.block(x.block),
+                    "deposit": x.position + 1,
+                    "obstacle": obstacle(x.obstacle),
+                })),
+            })),
         });
         println!("{out}");
     } else {
@@ -146,6 +183,30 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
                 w.max_s
             );
         }
+        match (&blocked, &torch) {
+            (Some(None), Some(t)) => println!("TORCH OK: every block reachable ({})", t.describe()),
+            (Some(Some(x)), Some(t)) => println!(
+                "TORCH BLOCKED: the torch cannot reach block {} (deposit {} of {}): {} stands \
+                 in its way ({})",
+                BlockDisplay(part.block(x.block)),
+                x.position + 1,
+                part.len(),
+                match x.obstacle {
+                    Obstacle::Plate => "the plate".to_string(),
+                    Obstacle::Block(i) => format!(
+                        "block {}, deposited before it,",
+                        BlockDisplay(part.block(i))
+                    ),
+                },
+                t.describe()
+            ),
+            _ => {}
+        }
     }
-    Ok(ExitCode::from(if feasible { EXIT_OK } else { EXIT_NO }))
+    let reachable = !matches!(blocked, Some(Some(_)));
+    Ok(ExitCode::from(if feasible && reachable {
+        EXIT_OK
+    } else {
+        EXIT_NO
+    }))
 }

@@ -13,6 +13,8 @@ use waam_part::Part;
 use waam_planner::{self as planner, Acyclicity, Backend, Options, Stats};
 
 use super::{record, GlobalArgs, EXIT_NO, EXIT_OK};
+use waam_access::TorchSetup;
+use waam_motion::toolpath::ProcessSettings;
 use waam_pipeline::Found;
 
 /// Plan the weld order of a part: at most k weld paths covering every block, moving
@@ -81,6 +83,15 @@ pub struct PlanArgs {
     /// --robot and the options of its motion (also recorded with --record).
     #[command(flatten)]
     pub robot: super::motion::OptionalRobotArgs,
+    /// Check torch access at every deposit: plans that weld a block after something that
+    /// stands in the torch's way are ruled out. The torch is the process settings' (the
+    /// bundled typical GMAW torch: a nozzle 18 mm across, its end 12 mm above the bead,
+    /// tilted by the travel angle; or --process's). On by default with --robot.
+    #[arg(long, conflicts_with = "no_torch")]
+    pub torch: bool,
+    /// With --robot: plan without the torch access check.
+    #[arg(long, requires = "robot")]
+    pub no_torch: bool,
     /// With --robot and --out: also write the motion as a robot program in this format
     /// into DIR (default cell settings; `waam export` takes others).
     #[arg(long, value_name = "FORMAT", requires_all = ["robot", "out"], value_parser = super::export::format_parser())]
@@ -99,7 +110,19 @@ impl PlanArgs {
     }
 }
 
-/// The planner options of the command line.
+/// The torch the planner checks: with --robot the process settings' (unless --no-torch),
+/// with --torch the process settings' or the bundled ones', else none.
+pub fn torch(args: &PlanArgs, settings: Option<&ProcessSettings>) -> Option<TorchSetup> {
+    if args.no_torch || !(args.torch || args.robot.robot.is_some()) {
+        return None;
+    }
+    match settings {
+        Some(s) => s.torch_setup(),
+        None => ProcessSettings::default().torch_setup(),
+    }
+}
+
+/// The planner options of the command line (without the torch: see [`torch`]).
 pub fn options(args: &PlanArgs) -> anyhow::Result<Options> {
     Ok(Options {
         acyclicity: args.acyclicity,
@@ -115,6 +138,7 @@ pub fn options(args: &PlanArgs) -> anyhow::Result<Options> {
         max_fragments: args.max_fragments,
         cancel: None,
         solver: args.solver,
+        torch: None,
         warm_start: !args.no_warm_start,
     })
 }
@@ -124,7 +148,10 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         Some(path) => args.mesh.read_part_or_mesh(path)?,
         None => Part::parse(super::DEFAULT_PART).context("the bundled sample part")?,
     };
-    let opts = options(&args)?;
+    let mut opts = options(&args)?;
+    // The robot before planning: a bad URDF fails at once, not after the search.
+    let robot = args.robot.robot_args().map(|a| a.load()).transpose()?;
+    opts.torch = torch(&args, robot.as_ref().map(|c| &c.settings));
     if !args.json && !global.quiet {
         eprintln!(
             "part {:?}: {} blocks, {} layers, max_fragments {}, {} windowed blocks",
@@ -135,11 +162,12 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
             part.windows().len()
         );
     }
+    if let (Some(t), false) = (&opts.torch, args.json || global.quiet) {
+        eprintln!("torch access checked: {}", t.describe());
+    }
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
-    // The robot before planning: a bad URDF fails at once, not after the search.
-    let robot = args.robot.robot_args().map(|a| a.load()).transpose()?;
     let mut session = match &args.record {
         Some(dir) => Some(record::start_planning(
             dir,
@@ -315,6 +343,12 @@ fn print_stats(s: &Stats) {
     let first = s
         .first_feasible_s
         .map_or("-".to_string(), |t| format!("{t:.4} s"));
+    if s.torch_blocked > 0 {
+        eprintln!(
+            "torch: {} of the candidates weld a block the torch cannot reach",
+            s.torch_blocked
+        );
+    }
     eprintln!(
         "stats: {} candidates, {} feasible, first feasible {first}, total {:.4} s \
          (encode {:.4} s, SAT {:.4} s, acyclicity {:.4} s [{} cuts], simulator {:.4} s, \
@@ -380,8 +414,13 @@ impl LazyBar {
             (_, Some(m)) => format!("best margin {m:.2} s"),
             (_, None) => "a feasible plan".to_string(),
         };
+        let torch = if s.torch_blocked > 0 {
+            format!(", {} torch-blocked", s.torch_blocked)
+        } else {
+            String::new()
+        };
         bar.set_message(format!(
-            "{} candidates, {} feasible, {} learned clauses, {} cycle cuts; {best}",
+            "{} candidates, {} feasible{torch}, {} learned clauses, {} cycle cuts; {best}",
             s.candidates, s.feasible, s.learned_clauses, s.cycle_cuts
         ));
     }

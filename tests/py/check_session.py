@@ -76,7 +76,7 @@ def check_content(type_name, msg, topic):
     elif type_name == "rcl_interfaces/msg/Log":
         check(int(msg.level) in (10, 20, 30, 40, 50), f"{where}: level {msg.level}")
     elif type_name == "waam_interfaces/msg/PlanCandidate":
-        check(int(msg.verdict) in range(5), f"{where}: verdict {msg.verdict}")
+        check(int(msg.verdict) in range(6), f"{where}: verdict {msg.verdict}")
         check(msg.index >= 1, f"{where}: index {msg.index}")
     elif type_name == "sensor_msgs/msg/PointCloud2":
         names = [f.name for f in msg.fields]

@@ -409,6 +409,16 @@ impl Encoding {
         lits
     }
 
+    /// Binary clauses that hold exactly for the plans that weld block `b` in the same or an
+    /// earlier fragment than block `a`: `idx(a) <= i -> idx(b) <= i` for every i. When `a`
+    /// is higher than `b` (a fragment never moves down), they rule out exactly the plans
+    /// that weld `a` before `b`.
+    pub fn not_before(&self, a: usize, b: usize) -> Vec<[Lit; 2]> {
+        (0..self.k - 1)
+            .map(|i| [!self.le[a][i], self.le[b][i]])
+            .collect()
+    }
+
     /// The literals of a complete plan (its edges and its numbered starts).
     pub fn plan_literals(&self, fragments: &[Vec<usize>]) -> Vec<Lit> {
         let mut lits = Vec::new();

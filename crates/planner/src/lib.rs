@@ -21,6 +21,7 @@ use std::time::{Duration, Instant};
 use serde::Serialize;
 use thiserror::Error;
 
+use waam_access::{TorchAccess, TorchSetup};
 use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
 use waam_part::{Block, Part};
@@ -54,6 +55,9 @@ pub struct Options {
     pub cancel: Option<Arc<AtomicBool>>,
     /// The SAT solver.
     pub solver: Backend,
+    /// Check torch access at every deposit (None: the torch is not modelled, as the
+    /// shared specs and their counts assume).
+    pub torch: Option<TorchSetup>,
     /// Start from a plan built layer by layer ([`constructive`]): judged first, and the
     /// solver's phases point at it. Plans and proofs are the same with or without it.
     pub warm_start: bool,
@@ -68,6 +72,7 @@ impl Default for Options {
             max_fragments: None,
             cancel: None,
             solver: Backend::default(),
+            torch: None,
             warm_start: true,
         }
     }
@@ -83,6 +88,8 @@ pub struct Stats {
     pub candidates: u64,
     /// Feasible plans found.
     pub feasible: u64,
+    /// Candidates with a deposit the torch cannot reach (0 without a torch).
+    pub torch_blocked: u64,
     pub sat_solves: u64,
     pub cycle_cuts: u64,
     pub first_feasible_s: Option<f64>,
@@ -121,6 +128,17 @@ pub enum CandidateVerdict {
         /// Simulated time of the violation, s.
         time_s: f64,
         /// Blocks deposited up to the violation.
+        prefix_len: usize,
+        /// Literals in the clause learned from it.
+        clause_len: usize,
+    },
+    /// The torch cannot reach a block: what stands before it (or the plate) is in the way.
+    TorchBlocked {
+        /// The block that cannot be welded.
+        block: Block,
+        /// The deposited block in the torch's way (None: the plate).
+        obstacle: Option<Block>,
+        /// Blocks deposited up to and including the blocked one.
         prefix_len: usize,
         /// Literals in the clause learned from it.
         clause_len: usize,
@@ -171,6 +189,23 @@ pub enum NoPlan {
         block: Block,
         times: usize,
     },
+    /// Valid plans exist, but in every one the torch cannot reach a block past what stands
+    /// (no candidate broke a window first).
+    TorchCannotReach {
+        /// The block the torch could not reach most often among the candidates, and how often.
+        block: Block,
+        times: usize,
+    },
+    /// Valid plans exist, but every one breaks a t8/5 window or has a block the torch
+    /// cannot reach.
+    WindowsOrTorch {
+        /// The window broken most often, and how often.
+        window: Block,
+        window_times: usize,
+        /// The block the torch could not reach most often, and how often.
+        torch: Block,
+        torch_times: usize,
+    },
 }
 
 impl std::fmt::Display for NoPlan {
@@ -199,6 +234,25 @@ impl std::fmt::Display for NoPlan {
                 "valid plans exist, but every one breaks a t8/5 window; the window of block \
                  [{},{},{}] broke most often ({times} of the candidates)",
                 block[0], block[1], block[2]
+            ),
+            NoPlan::TorchCannotReach { block, times } => write!(
+                f,
+                "torch cannot reach: every valid plan welds a block after something that stands \
+                 in the torch's way; most often block [{},{},{}] ({times} of the candidates)",
+                block[0], block[1], block[2]
+            ),
+            NoPlan::WindowsOrTorch {
+                window,
+                window_times,
+                torch,
+                torch_times,
+            } => write!(
+                f,
+                "valid plans exist, but every one breaks a t8/5 window or welds a block the \
+                 torch cannot reach; the window of block [{},{},{}] broke most often \
+                 ({window_times} of the candidates), the torch could not reach block \
+                 [{},{},{}] most often ({torch_times})",
+                window[0], window[1], window[2], torch[0], torch[1], torch[2]
             ),
         }
     }
@@ -301,6 +355,7 @@ fn new_search<'p>(
         opts.timeout.and_then(|t| started.checked_add(t)),
         opts.cancel.clone(),
     );
+    search.set_torch(opts.torch.map(|t| TorchAccess::new(part, &t)));
     search
 }
 
@@ -452,14 +507,29 @@ fn search_plans(
     let no_plan = match (&best, proven) {
         (None, true) if !any_valid => Some(no_valid_plan(part, &graph, k, opts, started)),
         (None, true) => {
-            let (block, times) = search
-                .violations
-                .iter()
-                .enumerate()
-                .max_by_key(|&(i, &t)| (t, std::cmp::Reverse(i)))
-                .map(|(i, &t)| (part.block(i), t))
-                .expect("a part has blocks");
-            Some(NoPlan::AllBreakWindows { block, times })
+            let most = |counts: &[usize]| {
+                counts
+                    .iter()
+                    .enumerate()
+                    .max_by_key(|&(i, &t)| (t, std::cmp::Reverse(i)))
+                    .map(|(i, &t)| (part.block(i), t))
+                    .expect("a part has blocks")
+            };
+            let (block, times) = most(&search.violations);
+            let (torch, torch_times) = most(&search.torch_blocked);
+            Some(match (times, torch_times) {
+                (_, 0) => NoPlan::AllBreakWindows { block, times },
+                (0, _) => NoPlan::TorchCannotReach {
+                    block: torch,
+                    times: torch_times,
+                },
+                _ => NoPlan::WindowsOrTorch {
+                    window: block,
+                    window_times: times,
+                    torch,
+                    torch_times,
+                },
+            })
         }
         _ => None,
     };

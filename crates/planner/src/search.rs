@@ -15,6 +15,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Instant;
 
+use waam_access::{Obstacle, TorchAccess};
 use waam_part::graph::WeldGraph;
 use waam_part::Part;
 use waam_thermal::{self as thermal, Phase, Simulation, Snapshot, ThermalModel, Violation};
@@ -44,6 +45,10 @@ pub struct Search<'p> {
     pub interrupted: bool,
     /// Cycle cuts the solver made inside its searches (counted into the statistics).
     inside_cuts: u64,
+    /// Torch access, checked at every deposit (None: not modelled).
+    torch: Option<TorchAccess>,
+    /// Torch-blocked deposits per block (to name the one blocked most often).
+    pub torch_blocked: Vec<usize>,
     /// When simulations stop too (a stopped simulation gives no verdict).
     deadline: Option<Instant>,
     cancel: Option<Arc<AtomicBool>>,
@@ -88,9 +93,16 @@ impl<'p> Search<'p> {
             spacing: (n / 1000).max(1),
             interrupted: false,
             inside_cuts: 0,
+            torch: None,
+            torch_blocked: vec![0; n],
             deadline: None,
             cancel: None,
         }
+    }
+
+    /// Checks torch access at every deposit of later candidates (None: no torch).
+    pub fn set_torch(&mut self, torch: Option<TorchAccess>) {
+        self.torch = torch;
     }
 
     /// Stops solves at `deadline` or on `cancel` (inside a solve where the backend can):
@@ -190,34 +202,40 @@ impl<'p> Search<'p> {
 
     /// Simulates a candidate, resuming from the longest shared prefix, and on a violation
     /// learns the (shortened) prefix clause. `None`: the deadline or a cancel stopped the
-    /// simulation before a verdict (`interrupted` is then set).
+    /// simulation before a verdict (`interrupted` is then set). With a torch, a deposit the
+    /// torch cannot reach is a violation too: the candidate is simulated up to it, and
+    /// unless a window broke before, [`Search::learn_torch`] rules out the plans with it.
     pub fn judge(
         &mut self,
         fragments: &[Vec<usize>],
     ) -> Result<Option<CandidateVerdict>, thermal::NotCooled> {
         let t = Instant::now();
         self.stats.candidates += 1;
-        if !self.thermal.has_windows() {
-            // Nothing to break: the simulation could only say "feasible".
-            self.stats.feasible += 1;
-            return Ok(Some(CandidateVerdict::Feasible));
-        }
         let seq: Vec<(usize, bool)> = fragments
             .iter()
             .flat_map(|f| f.iter().enumerate().map(|(p, &b)| (b, p == 0)))
             .collect();
-        let result = self.simulate(&seq);
+        let blocked = self
+            .torch
+            .as_ref()
+            .and_then(|a| a.first_blocked(seq.iter().map(|&(b, _)| b)));
+        let result = if self.thermal.has_windows() {
+            self.simulate(&seq, blocked.map_or(seq.len(), |x| x.position))
+        } else {
+            // Nothing to break: the simulation could only say "feasible".
+            Ok(Judged::Feasible)
+        };
         self.stats.simulator_s += t.elapsed().as_secs_f64();
-        match result? {
-            Judged::Interrupted => {
+        match (result?, blocked) {
+            (Judged::Interrupted, _) => {
                 self.interrupted = true;
                 Ok(None)
             }
-            Judged::Feasible => {
+            (Judged::Feasible, None) => {
                 self.stats.feasible += 1;
                 Ok(Some(CandidateVerdict::Feasible))
             }
-            Judged::Violated(v) => {
+            (Judged::Violated(v), _) => {
                 self.violations[v.block] += 1;
                 let t = Instant::now();
                 let clause_len = self.learn(&seq, &v);
@@ -230,11 +248,33 @@ impl<'p> Search<'p> {
                     clause_len,
                 }))
             }
+            (Judged::Feasible, Some(x)) => {
+                self.torch_blocked[x.block] += 1;
+                self.stats.torch_blocked += 1;
+                let clause_len = self.learn_torch(&seq[..=x.position], x.block, x.obstacle);
+                Ok(Some(CandidateVerdict::TorchBlocked {
+                    block: self.part.block(x.block),
+                    obstacle: match x.obstacle {
+                        Obstacle::Plate => None,
+                        Obstacle::Block(o) => Some(self.part.block(o)),
+                    },
+                    prefix_len: x.position + 1,
+                    clause_len,
+                }))
+            }
         }
     }
 
-    /// The simulation of `seq` to its first violation.
-    fn simulate(&mut self, seq: &[(usize, bool)]) -> Result<Judged, thermal::NotCooled> {
+    /// The simulation of the first `len` deposits of `seq` to its first violation; the
+    /// cooldown only when that is all of `seq` (else the candidate stops at a deposit the
+    /// torch cannot reach, and no violation before it is `Feasible` here).
+    fn simulate(
+        &mut self,
+        seq: &[(usize, bool)],
+        len: usize,
+    ) -> Result<Judged, thermal::NotCooled> {
+        let whole = len == seq.len();
+        let seq = &seq[..len];
         let keys = prefix_keys(seq);
         let (sim, at) = resume(&self.thermal, &self.cache, self.spacing, seq, &keys);
         let mut sim = sim.with_deadline(self.deadline);
@@ -255,6 +295,9 @@ impl<'p> Search<'p> {
             if (j + 1) % self.spacing == 0 {
                 self.cache.insert(keys[j], &sim);
             }
+        }
+        if !whole {
+            return Ok(Judged::Feasible);
         }
         let before = sim.steps();
         let end = sim.finish();
@@ -308,10 +351,37 @@ impl<'p> Search<'p> {
             len = target_len;
             closed = target_closed;
         }
-        let prefix = fragments_of(&seq[..len]);
+        self.learn_clause(&fragments_of(&seq[..len]), closed)
+    }
+
+    /// Learns what rules out the plans in which the torch meets `obstacle` at the last
+    /// deposit of `prefix`, block `b` (the check depends only on the blocks deposited
+    /// before `b`, and more deposited blocks never clear the way); the clause length.
+    /// - The plate: every plan welds `b`, so no plan is left (the empty clause).
+    /// - A block `a` higher than `b`: every plan that welds `a` before `b` (that is, in an
+    ///   earlier fragment) — binary clauses `idx(b) <= idx(a)`, far shorter than the prefix.
+    /// - Otherwise (a steep torch meeting a block no higher than `b`): the plans that
+    ///   begin with `prefix`.
+    fn learn_torch(&mut self, prefix: &[(usize, bool)], b: usize, obstacle: Obstacle) -> usize {
+        match obstacle {
+            Obstacle::Plate => self.learn_clause(&[], false),
+            Obstacle::Block(a) if self.part.block(a)[2] > self.part.block(b)[2] => {
+                let clauses = self.enc.not_before(a, b);
+                for c in &clauses {
+                    self.stats.record_clause(c.len());
+                    self.solver.add_clause(c);
+                }
+                2
+            }
+            Obstacle::Block(_) => self.learn_clause(&fragments_of(prefix), false),
+        }
+    }
+
+    /// Learns the clause that rules out every plan beginning with `prefix`; its length.
+    fn learn_clause(&mut self, prefix: &[Vec<usize>], closed: bool) -> usize {
         let clause: Vec<Lit> = self
             .enc
-            .prefix_literals(&prefix, closed)
+            .prefix_literals(prefix, closed)
             .into_iter()
             .map(|l| !l)
             .collect();

@@ -33,8 +33,9 @@ pub enum RecordError {
 pub const SETTING: &str = "planner.";
 
 /// The planner's settings as status values: `planner.acyclicity`, `planner.lookahead_budget`,
-/// `planner.solver`, `planner.max_fragments` (absent: the part's own) and
-/// `planner.timeout_s` (absent: none).
+/// `planner.solver`, `planner.max_fragments` (absent: the part's own),
+/// `planner.timeout_s` (absent: none) and `planner.torch` (the torch setup as JSON; absent:
+/// no torch check).
 pub fn settings(opts: &Options) -> Vec<KeyValue> {
     let mut values = vec![
         KeyValue::new(format!("{SETTING}acyclicity"), opts.acyclicity.name()),
@@ -51,7 +52,19 @@ pub fn settings(opts: &Options) -> Vec<KeyValue> {
             t.as_secs_f64(),
         ));
     }
+    values.extend(torch_values(opts.torch));
     values
+}
+
+/// The torch setup as the status value `planner.torch` (JSON), none without a torch.
+pub fn torch_values(torch: Option<waam_access::TorchSetup>) -> Vec<KeyValue> {
+    torch
+        .map(|t| {
+            let json = serde_json::to_string(&t).expect("a torch setup serializes");
+            KeyValue::new(format!("{SETTING}torch"), json)
+        })
+        .into_iter()
+        .collect()
 }
 
 /// Planner settings from recorded status values; settings not recorded keep `base`'s.
@@ -87,6 +100,14 @@ pub fn options_from(
             }
             "max_fragments" => {
                 opts.max_fragments = Some(value.parse().map_err(|_| bad("not a count"))?)
+            }
+            "torch" => {
+                let setup: waam_access::TorchSetup =
+                    serde_json::from_str(value).map_err(|_| bad("not a torch setup (JSON)"))?;
+                setup
+                    .validate()
+                    .map_err(|e| bad(&format!("not a usable torch setup: {e}")))?;
+                opts.torch = Some(setup);
             }
             // Replay plans to the end: a timeout makes no reproducible plan.
             "timeout_s" => {}
@@ -211,7 +232,7 @@ impl CandidateRecorder {
 
     /// Call with every event of the planner: records one `PlanCandidate` per candidate
     /// with the planner's verdict on it (the broken window's block, kind, time and prefix,
-    /// and the learned clause's length).
+    /// or the block the torch cannot reach and its prefix; and the learned clause's length).
     pub fn on_event(&mut self, event: &Event) {
         let Event::Candidate { verdict, .. } = event else {
             return;
@@ -226,18 +247,37 @@ impl CandidateRecorder {
             verdict: PlanCandidate::FEASIBLE,
             ..Default::default()
         };
-        if let CandidateVerdict::Violated {
-            block,
-            kind,
-            time_s,
-            prefix_len,
-            clause_len,
-        } = *verdict
-        {
-            candidate.verdict = match kind {
-                ViolationKind::Min => PlanCandidate::TOO_SHORT,
-                ViolationKind::Max => PlanCandidate::TOO_LONG,
-            };
+        let (verdict, block, time_s, prefix_len, clause_len) = match *verdict {
+            CandidateVerdict::Feasible => (PlanCandidate::FEASIBLE, None, 0.0, 0, 0),
+            CandidateVerdict::Violated {
+                block,
+                kind,
+                time_s,
+                prefix_len,
+                clause_len,
+            } => {
+                let verdict = match kind {
+                    ViolationKind::Min => PlanCandidate::TOO_SHORT,
+                    ViolationKind::Max => PlanCandidate::TOO_LONG,
+                };
+                (verdict, Some(block), time_s, prefix_len, clause_len)
+            }
+            // The blocked block; no simulated time (the torch check is not a simulation).
+            CandidateVerdict::TorchBlocked {
+                block,
+                prefix_len,
+                clause_len,
+                ..
+            } => (
+                PlanCandidate::TORCH_BLOCKED,
+                Some(block),
+                0.0,
+                prefix_len,
+                clause_len,
+            ),
+        };
+        candidate.verdict = verdict;
+        if let Some(block) = block {
             candidate.block = match block_msg(block) {
                 Ok(b) => b,
                 Err(e) => {
@@ -391,6 +431,11 @@ mod tests {
             max_fragments: Some(4),
             cancel: None,
             solver: Backend::Varisat,
+            torch: Some(waam_access::TorchSetup::new(
+                waam_access::Torch::default(),
+                10.0,
+                5.0,
+            )),
             warm_start: false,
         };
         let values: Vec<(String, String)> = settings(&opts)
@@ -412,6 +457,12 @@ mod tests {
         assert!(!options_from(&old, &Options::default()).unwrap().warm_start);
         assert_eq!(back.solver, Backend::Varisat);
         assert_eq!(back.timeout, None, "replay never plans under a timeout");
+        assert_eq!(back.torch, opts.torch);
+        let none = options_from(&[], &Options::default()).unwrap();
+        assert_eq!(none.torch, None);
+        let bad = [("planner.torch".to_string(), "{\"tilt_deg\": 3}".to_string())];
+        let err = options_from(&bad, &Options::default()).unwrap_err();
+        assert!(err.to_string().contains("planner.torch"), "{err}");
         let bad = [("planner.acyclicity".to_string(), "sideways".to_string())];
         let err = options_from(&bad, &Options::default())
             .unwrap_err()

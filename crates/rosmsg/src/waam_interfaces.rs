@@ -164,4 +164,5 @@ impl PlanCandidate {
     pub const TOO_SHORT: u8 = 2;
     pub const TOO_LONG: u8 = 3;
     pub const NOT_COOLED: u8 = 4;
+    pub const TORCH_BLOCKED: u8 = 5;
 }

@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::robot::{xyz_rpy, Solver};
+use waam_access::{Torch, TorchSetup};
 
 /// A process-settings file that cannot be used, naming the key.
 #[derive(Debug, Error)]
@@ -70,6 +71,8 @@ pub struct ProcessSettings {
     /// Inverse kinematics: `auto` (analytic OPW where the arm fits, else numeric) or
     /// `numeric` (damped least squares only).
     pub ik_solver: Solver,
+    /// The torch whose access the planner checks at every deposit (`null`: none).
+    pub torch: Option<Torch>,
 }
 
 impl Default for ProcessSettings {
@@ -97,11 +100,18 @@ impl Default for ProcessSettings {
             path_tolerance_mm: 0.2,
             path_tolerance_deg: 0.5,
             ik_solver: Solver::Auto,
+            torch: Some(Torch::default()),
         }
     }
 }
 
 impl ProcessSettings {
+    /// The torch held at the settings' travel and work angles, if there is a torch.
+    pub fn torch_setup(&self) -> Option<TorchSetup> {
+        self.torch
+            .map(|t| TorchSetup::new(t, self.travel_angle_deg, self.work_angle_deg))
+    }
+
     /// Reads a settings file's text; missing keys take their defaults.
     pub fn from_yaml(text: &str) -> Result<ProcessSettings, SettingsError> {
         let s: ProcessSettings = if text.trim().is_empty() {
@@ -162,6 +172,10 @@ impl ProcessSettings {
                 &format!("must be a number >= 0, got {}", self.clearance_mm),
             ));
         }
+        if let Some(t) = &self.torch {
+            t.validate()
+                .map_err(|e| SettingsError::Yaml(e.to_string()))?;
+        }
         let s = self.joint_speed_scale;
         if !(s.is_finite() && s > 0.0 && s <= 1.0) {
             return Err(bad(
@@ -203,5 +217,23 @@ mod tests {
         assert!(e.to_string().contains("magic"), "{e}");
         let s = ProcessSettings::from_yaml("weld_speed_mm_s: 8\n").unwrap();
         assert_eq!(s.weld_speed_mm_s, Some(8.0));
+        let e = ProcessSettings::from_yaml("torch:\n  nozzle_diameter_mm: -1\n").unwrap_err();
+        assert!(e.to_string().contains("torch.nozzle_diameter_mm"), "{e}");
+        let e = ProcessSettings::from_yaml("torch:\n  nozle_diameter_mm: 9\n").unwrap_err();
+        assert!(e.to_string().contains("nozle_diameter_mm"), "{e}");
+    }
+
+    #[test]
+    fn the_torch_defaults_to_a_typical_gmaw_torch_and_null_turns_it_off() {
+        let s = ProcessSettings::default();
+        let setup = s.torch_setup().unwrap();
+        assert_eq!(setup.torch.nozzle_diameter_mm, 18.0);
+        assert_eq!(setup.torch.nozzle_standoff_mm, 12.0);
+        assert!((setup.tilt_deg - s.travel_angle_deg).abs() < 1e-9);
+        let s = ProcessSettings::from_yaml("torch: null\n").unwrap();
+        assert_eq!(s.torch_setup(), None);
+        let s = ProcessSettings::from_yaml("torch:\n  nozzle_diameter_mm: 16\n").unwrap();
+        assert_eq!(s.torch.unwrap().nozzle_diameter_mm, 16.0);
+        assert_eq!(s.torch.unwrap().nozzle_standoff_mm, 12.0);
     }
 }

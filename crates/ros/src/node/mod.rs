@@ -160,6 +160,8 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     let mut health = health::Health::new(names.fully_qualified());
     let mut last_health: Option<Instant> = None;
     let mut mesh_settings = pipeline.mesh.clone();
+    // The torch the planner checks, in every "received" status: a replay plans with it.
+    let torch_values = crate::planning::torch_values(pipeline.cell.settings.torch_setup());
 
     let (events, event_rx) = channel::<Event>();
     let worker_events = events.clone();
@@ -424,6 +426,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                     max_fragments: job_input.max_fragments,
                     ..waam_planner::Options::default()
                 }));
+                settings.extend(torch_values.iter().cloned());
                 let (job, cancelled) = worker.submit(job_input);
                 superseded(&mut goals, cancelled, job);
                 if let Some(goal) = goal {

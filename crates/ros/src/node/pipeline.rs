@@ -127,6 +127,8 @@ pub struct PlanRequest<'a> {
     pub ctx: &'a JobContext,
     /// When recording: where the planner's verdict on every candidate goes.
     pub recorder: Option<&'a Recorder>,
+    /// The torch whose access the planner checks (the process settings'), if any.
+    pub torch: Option<waam_access::TorchSetup>,
 }
 
 /// The planner a pipeline calls. `Err` says why there is no plan.
@@ -223,6 +225,7 @@ impl Pipeline for PlanningPipeline {
             first_feasible: job.first_feasible,
             ctx,
             recorder: self.recorder.as_ref(),
+            torch: self.cell.settings.torch_setup(),
         })?;
         if cancelled() {
             return Err(JobError::Cancelled);
@@ -248,6 +251,7 @@ pub fn sat_planner() -> Arc<PlanFn> {
             // A newer part or a cancelled goal stops this run (inside a solve with CaDiCaL);
             // the worker then drops it. The first feasible plan stops it too when asked.
             cancel: Some(ctx.cancel.flag()),
+            torch: request.torch,
             ..waam_planner::Options::default()
         };
         let mut candidates = request.recorder.map(CandidateRecorder::new);
