@@ -290,9 +290,34 @@ fn parity_part(side: usize) -> std::path::PathBuf {
     path
 }
 
+/// A 10,000-block tube with three t8/5 windows (a copy of shared/parts/scale/tube-24x28.yaml):
+/// no plan is found in minutes.
+fn hard_part() -> std::path::PathBuf {
+    root().join("tests/data/tube-24x28.yaml")
+}
+
+#[test]
+fn a_checkerboard_surplus_is_no_valid_plan_at_once() {
+    // Two same-colour corners missing: no single path covers the layer (a counting
+    // argument CDCL cannot make in short), but the layer bound says so at once.
+    let t = Instant::now();
+    let out = waam(&["plan", parity_part(20).to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(
+        stdout(&out).contains("alone needs 2 weld paths") && stdout(&out).contains("checkerboard"),
+        "{}",
+        stdout(&out)
+    );
+    assert!(
+        t.elapsed() < Duration::from_secs(5),
+        "took {:?}",
+        t.elapsed()
+    );
+}
+
 #[test]
 fn a_timeout_holds_inside_one_long_solve() {
-    let part = parity_part(20);
+    let part = hard_part();
     let t = Instant::now();
     let out = waam(&[
         "plan",
@@ -314,7 +339,7 @@ fn a_timeout_holds_inside_one_long_solve() {
 
 #[test]
 fn a_cancel_stops_a_solve_within_a_second() {
-    let part = Part::parse(&std::fs::read_to_string(parity_part(20)).unwrap()).unwrap();
+    let part = Part::parse(&std::fs::read_to_string(hard_part()).unwrap()).unwrap();
     let cancel = Arc::new(AtomicBool::new(false));
     let opts = Options {
         cancel: Some(Arc::clone(&cancel)),

@@ -195,35 +195,6 @@ impl Layer {
         }
     }
 
-    /// The fewest paths that can cover the layer: per component of its moves, the dead
-    /// ends (two per path at most) and the colour surplus (one per path at most).
-    fn fewest_paths(&self, graph: &WeldGraph) -> usize {
-        let n = self.part.len();
-        let mut seen = vec![false; n];
-        let mut total = 0;
-        for s in 0..n {
-            if seen[s] {
-                continue;
-            }
-            seen[s] = true;
-            let (mut stack, mut ends, mut count) = (vec![s], 0usize, [0i64; 2]);
-            while let Some(i) = stack.pop() {
-                count[usize::from(self.colour[i])] += 1;
-                if graph.successors(i).len() == 1 {
-                    ends += 1;
-                }
-                for &j in graph.successors(i) {
-                    if !std::mem::replace(&mut seen[j as usize], true) {
-                        stack.push(j as usize);
-                    }
-                }
-            }
-            let surplus = (count[0] - count[1]).unsigned_abs() as usize;
-            total += ends.div_ceil(2).max(surplus).max(1);
-        }
-        total
-    }
-
     /// The layer's paths (global indices, in order): the first starting at `arriving`
     /// when it can, ends where `ends` allows when they can. Paths beyond the arriving
     /// one each take one of `new_fragments_left`.
@@ -237,7 +208,8 @@ impl Layer {
     ) -> Option<Vec<Vec<usize>>> {
         let graph = WeldGraph::new(&self.part);
         let most = new_fragments_left + usize::from(arriving.is_some());
-        for paths in self.fewest_paths(&graph)..=most {
+        let fewest = crate::layer_path_bound(&self.part, &graph)[0].1;
+        for paths in fewest..=most {
             let mut search = Search::new(&self.part, &graph, paths, Acyclicity::Lazy, 0, backend);
             // (start at the arriving block?, steer the ends?), best first.
             let mut tries = Vec::new();

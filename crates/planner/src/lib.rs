@@ -223,8 +223,9 @@ impl std::fmt::Display for NoPlan {
                 if let Some((z, paths, ends)) = layer {
                     write!(
                         f,
-                        " (layer z = {z} alone needs {paths} weld paths: it has {ends} dead ends, \
-                         and each weld path ends at two at most)"
+                        " (layer z = {z} alone needs {paths} weld paths: a weld path crosses \
+                         a layer in one piece, which ends at two of its {ends} dead ends at \
+                         most and alternates between the colours of a checkerboard)"
                     )?;
                 }
                 Ok(())
@@ -683,7 +684,9 @@ fn no_valid_plan(
 
 /// Per layer: (z, a lower bound on the weld paths through it, its dead ends). A weld path
 /// crosses a layer in one piece, so each piece of a layer (a component of its sideways
-/// moves) needs a path, and every dead end (a block with one sideways neighbour) ends one.
+/// moves) needs a path, every dead end (a block with one sideways neighbour) ends one, and
+/// since a path alternates between the two colours of a checkerboard (x + y even or odd),
+/// it covers at most one block more of one colour than of the other.
 pub fn layer_path_bound(part: &Part, graph: &WeldGraph) -> Vec<(i64, usize, usize)> {
     let n = part.len();
     let z = |i: usize| part.block(i)[2];
@@ -701,11 +704,13 @@ pub fn layer_path_bound(part: &Part, graph: &WeldGraph) -> Vec<(i64, usize, usiz
             continue;
         }
         comp[s] = s;
-        let (mut stack, mut ends) = (vec![s], 0usize);
+        let (mut stack, mut ends, mut colours) = (vec![s], 0usize, [0usize; 2]);
         while let Some(i) = stack.pop() {
             if sideways(i).count() == 1 {
                 ends += 1;
             }
+            let [x, y, _] = part.block(i);
+            colours[((x + y) & 1) as usize] += 1;
             for j in sideways(i) {
                 if comp[j] == usize::MAX {
                     comp[j] = s;
@@ -713,7 +718,7 @@ pub fn layer_path_bound(part: &Part, graph: &WeldGraph) -> Vec<(i64, usize, usiz
                 }
             }
         }
-        let paths = ends.div_ceil(2).max(1);
+        let paths = ends.div_ceil(2).max(colours[0].abs_diff(colours[1])).max(1);
         match out.last_mut() {
             Some(last) if last.0 == z(s) => {
                 last.1 += paths;
