@@ -508,3 +508,108 @@ fn node_time_limits_beyond_a_week_are_refused_by_key() {
         assert!(err.contains(key), "{text}: {err}");
     }
 }
+
+const ROBOT_URDF: &str = include_str!("../urdf/waam_robot.urdf");
+
+fn load_robot(text: &str) -> Result<waam_motion::robot::Robot, waam_motion::robot::RobotError> {
+    use waam_motion::robot::{Robot, TcpChoice};
+    let choice = TcpChoice {
+        explicit: None,
+        default: nalgebra::Isometry3::identity(),
+    };
+    Robot::from_urdf(text, None, choice)
+}
+
+/// Issue #18, P2: a joint origin of 1e200 m panicked inside rs-opw-kinematics ("joint 2
+/// offset must be finite"); now the URDF is refused, naming the joint and the limit.
+#[test]
+fn a_urdf_origin_of_1e200_is_refused_by_joint() {
+    let from = r#"origin xyz="0.150 0 0.4865""#;
+    assert!(ROBOT_URDF.contains(from));
+    for big in ["1e200", "1e308", "-5e4"] {
+        let text = ROBOT_URDF.replace(from, &format!(r#"origin xyz="{big} 0 0.4865""#));
+        let err = load_robot(&text).unwrap_err().to_string();
+        assert!(
+            err.starts_with("joint '") && err.contains("beyond 1000 m"),
+            "{big}: {err}"
+        );
+    }
+    let text = ROBOT_URDF.replace(
+        r#"0.4865" rpy="0 0 0""#,
+        r#"0.4865" rpy="1e300 0 0""#,
+    );
+    let err = load_robot(&text).unwrap_err().to_string();
+    assert!(err.contains("rpy"), "{err}");
+}
+
+/// Issue #18, C1: a URDF nested 30,000 elements deep overflowed the stack in urdf-rs;
+/// now it is refused before urdf-rs parses it.
+#[test]
+fn a_urdf_nested_30000_deep_is_refused() {
+    let deep = format!(
+        "<robot name=\"r\"><link name=\"a\">{}{}</link></robot>",
+        "<visual>".repeat(30_000),
+        "</visual>".repeat(30_000)
+    );
+    let t = Instant::now();
+    let err = load_robot(&deep).unwrap_err().to_string();
+    assert!(err.contains("more than 64 deep"), "{err}");
+    assert!(t.elapsed().as_secs_f64() < 2.0, "{:?}", t.elapsed());
+}
+
+/// Issue #18: a joint whose parent link does not exist was accepted and the chain cut.
+#[test]
+fn a_urdf_joint_with_a_missing_parent_link_is_refused() {
+    let from = r#"<parent link="link_2"/>"#;
+    assert!(ROBOT_URDF.contains(from), "the test's anchor moved");
+    let text = ROBOT_URDF.replacen(from, r#"<parent link="link_two"/>"#, 1);
+    let err = load_robot(&text).unwrap_err().to_string();
+    assert!(
+        err.contains("parent link 'link_two' is not a link of the URDF"),
+        "{err}"
+    );
+}
+
+const PAPER_LAYER: &str = include_str!("../config/layers/paper-16mm.yaml");
+
+fn layer_error(from: &str, to: &str) -> String {
+    assert!(PAPER_LAYER.contains(from), "the test's anchor moved: {from}");
+    let text = PAPER_LAYER.replace(from, to);
+    waam_layer::Layer::parse(&text).unwrap_err().to_string()
+}
+
+/// Issue #18, P3: a speed or time step of 1e-300 overflowed the step count in
+/// `Layer::check_size`; now it is refused, naming the keys to raise and the limit.
+#[test]
+fn a_layer_speed_or_time_step_of_1e_300_is_refused() {
+    for (from, to, key) in [
+        (
+            "weld_speed_mm_s: 10.0",
+            "weld_speed_mm_s: 1.0e-300",
+            "weld_speed_mm_s",
+        ),
+        ("time_step_s: 0.1", "time_step_s: 1.0e-300", "time_step_s"),
+        (
+            "transit_speed_mm_s: 50.0",
+            "transit_speed_mm_s: 1.0e-300",
+            "transit_speed_mm_s",
+        ),
+    ] {
+        let err = layer_error(from, to);
+        assert!(
+            err.contains(key) && err.contains("more than 20000"),
+            "{to}: {err}"
+        );
+    }
+}
+
+/// Issue #18, W1: `peak_k_s: 1e308` made every trail's objective infinite and the search
+/// printed "objective inf … PROVEN OPTIMAL" with no moves; a wall 1e-300 mm wide ended in
+/// a Cholesky message. Both are refused at the input, by key.
+#[test]
+fn a_layer_peak_of_1e308_or_a_wall_of_1e_300_is_refused_by_key() {
+    let err = layer_error("peak_k_s: 8000.0", "peak_k_s: 1.0e308");
+    assert!(err.contains("source.peak_k_s") && err.contains("1e7"), "{err}");
+    let err = layer_error("wall_width_mm: 2.0", "wall_width_mm: 1.0e-300");
+    assert!(err.contains("wall_width_mm") && err.contains("min 0.1"), "{err}");
+}
