@@ -534,10 +534,7 @@ fn a_urdf_origin_of_1e200_is_refused_by_joint() {
             "{big}: {err}"
         );
     }
-    let text = ROBOT_URDF.replace(
-        r#"0.4865" rpy="0 0 0""#,
-        r#"0.4865" rpy="1e300 0 0""#,
-    );
+    let text = ROBOT_URDF.replace(r#"0.4865" rpy="0 0 0""#, r#"0.4865" rpy="1e300 0 0""#);
     let err = load_robot(&text).unwrap_err().to_string();
     assert!(err.contains("rpy"), "{err}");
 }
@@ -573,7 +570,10 @@ fn a_urdf_joint_with_a_missing_parent_link_is_refused() {
 const PAPER_LAYER: &str = include_str!("../config/layers/paper-16mm.yaml");
 
 fn layer_error(from: &str, to: &str) -> String {
-    assert!(PAPER_LAYER.contains(from), "the test's anchor moved: {from}");
+    assert!(
+        PAPER_LAYER.contains(from),
+        "the test's anchor moved: {from}"
+    );
     let text = PAPER_LAYER.replace(from, to);
     waam_layer::Layer::parse(&text).unwrap_err().to_string()
 }
@@ -609,7 +609,66 @@ fn a_layer_speed_or_time_step_of_1e_300_is_refused() {
 #[test]
 fn a_layer_peak_of_1e308_or_a_wall_of_1e_300_is_refused_by_key() {
     let err = layer_error("peak_k_s: 8000.0", "peak_k_s: 1.0e308");
-    assert!(err.contains("source.peak_k_s") && err.contains("1e7"), "{err}");
+    assert!(
+        err.contains("source.peak_k_s") && err.contains("1e7"),
+        "{err}"
+    );
     let err = layer_error("wall_width_mm: 2.0", "wall_width_mm: 1.0e-300");
-    assert!(err.contains("wall_width_mm") && err.contains("min 0.1"), "{err}");
+    assert!(
+        err.contains("wall_width_mm") && err.contains("min 0.1"),
+        "{err}"
+    );
+}
+
+fn waam(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_waam"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// Issue #18, P4: a toolpath pose at .inf, 1e308 or .nan tripped a plotters assertion in
+/// `waam plot`; now it is a one-line error naming the pose, exit 2.
+#[test]
+fn a_toolpath_pose_at_inf_or_nan_is_refused_by_plot_naming_the_pose() {
+    for bad in [".inf", "1.0e308", ".nan", "-.inf"] {
+        let dir = tempfile::tempdir().unwrap();
+        let yaml = format!(
+            "frame: world\nposes:\n\
+             - {{time: 0.0, position: [0.1, 0.2, 0.3], orientation: [0, 0, 0, 1], arc_on: false, fragment: 0}}\n\
+             - {{time: 1.0, position: [0.1, {bad}, 0.3], orientation: [0, 0, 0, 1], arc_on: true, fragment: 0}}\n"
+        );
+        std::fs::write(dir.path().join("toolpath.yaml"), yaml).unwrap();
+        let t = Instant::now();
+        let out = waam(&["plot", dir.path().to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{bad}: {err}");
+        assert!(err.contains("toolpath pose 1:"), "{bad}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{bad}: {err}");
+        assert!(t.elapsed().as_secs() < 10, "{bad}: {:?}", t.elapsed());
+    }
+}
+
+/// Issue #18, H3: `block_time_s: 1e308` made `waam plot` loop for ever in plotters' axis
+/// code; now the time axis is checked first and the error names the thermal keys.
+#[test]
+fn a_block_time_of_1e308_makes_plot_refuse_the_time_axis() {
+    let dir = tempfile::tempdir().unwrap();
+    let part = "name: h3\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nblocks: [[0,0,0],[1,0,0]]\n\
+                t85: [{block: [1,0,0], min_s: 0, max_s: 100}]\nthermal: {block_time_s: 1.0e308}\n";
+    std::fs::write(dir.path().join("part.yaml"), part).unwrap();
+    std::fs::write(
+        dir.path().join("plan.yaml"),
+        "fragments:\n  - [[0,0,0],[1,0,0]]\n",
+    )
+    .unwrap();
+    let t = Instant::now();
+    let out = waam(&["plot", dir.path().to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("time (s) axis") && err.contains("thermal.block_time_s = 1e308"),
+        "{err}"
+    );
+    assert!(t.elapsed().as_secs() < 20, "{:?}", t.elapsed());
 }

@@ -96,7 +96,9 @@ fn check_origin(xyz: &[f64; 3], rpy: &[f64; 3]) -> Result<(), String> {
         ));
     }
     if let Some(v) = rpy.iter().find(|v| v.abs() > MAX_ANGLE_RAD) {
-        return Err(format!("origin rpy {v:e} rad is beyond {MAX_ANGLE_RAD} rad"));
+        return Err(format!(
+            "origin rpy {v:e} rad is beyond {MAX_ANGLE_RAD} rad"
+        ));
     }
     Ok(())
 }
@@ -517,7 +519,8 @@ pub fn parse_xyz_rpy(text: &str) -> Result<Isometry3<f64>, PoseParseError> {
             v.len()
         )));
     }
-    if v[..3].iter().any(|x| x.abs() > MAX_OFFSET_M) || v[3..].iter().any(|x| x.abs() > MAX_ANGLE_RAD)
+    if v[..3].iter().any(|x| x.abs() > MAX_OFFSET_M)
+        || v[3..].iter().any(|x| x.abs() > MAX_ANGLE_RAD)
     {
         return Err(PoseParseError(format!(
             "\"{text}\": x y z within ±{MAX_OFFSET_M} m and angles within ±{MAX_ANGLE_RAD} rad"

@@ -216,7 +216,11 @@ impl OpwModel {
         };
         // rs-opw-kinematics panics on a non-finite parameter: refuse it here instead.
         let lengths = [a1, a2, b, c1, c2, c3];
-        if lengths.iter().chain(&parameters.offsets).any(|v| !v.is_finite()) {
+        if lengths
+            .iter()
+            .chain(&parameters.offsets)
+            .any(|v| !v.is_finite())
+        {
             return Err(OpwUnsupported(
                 "the chain's lengths or offsets are not finite".into(),
             ));
