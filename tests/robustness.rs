@@ -672,3 +672,25 @@ fn a_block_time_of_1e308_makes_plot_refuse_the_time_axis() {
     );
     assert!(t.elapsed().as_secs() < 20, "{:?}", t.elapsed());
 }
+
+/// Issue #18: a YAML document nested 100,000 deep took 14–22 s to reject (18 s in the
+/// node, a minute here for `{a: {a: …}}`); now every reader refuses it at once.
+#[test]
+fn yaml_nested_100000_deep_is_refused_within_a_second_by_every_reader() {
+    let flow = format!("name: {}{}", "[".repeat(100_000), "]".repeat(100_000));
+    let maps = format!("name: {}1{}", "{a: ".repeat(100_000), "}".repeat(100_000));
+    for deep in [&flow, &maps] {
+        let t = Instant::now();
+        let part = Part::parse(deep).unwrap_err().to_string();
+        assert!(part.contains("more than 128 levels deep"), "{part}");
+        let plan = Plan::from_bytes(deep.as_bytes(), false).unwrap_err();
+        assert!(plan.to_string().contains("more than 128"), "{plan}");
+        let layer = waam_layer::Layer::parse(deep).unwrap_err().to_string();
+        assert!(layer.contains("more than 128"), "{layer}");
+        let settings = waam_motion::toolpath::ProcessSettings::from_yaml(deep).unwrap_err();
+        assert!(settings.to_string().contains("more than 128"), "{settings}");
+        let params = waam_ros::node::params::NodeParams::parse(deep).unwrap_err();
+        assert!(params.to_string().contains("more than 128"), "{params}");
+        assert!(t.elapsed().as_secs_f64() < 1.0, "{:?}", t.elapsed());
+    }
+}

@@ -209,6 +209,7 @@ impl NodeParams {
             where_: String::new(),
             msg,
         };
+        waam_part::yaml::check_depth(text).map_err(|e| invalid(format!("not valid YAML: {e}")))?;
         let doc: serde_yaml::Value =
             serde_yaml::from_str(text).map_err(|e| invalid(format!("not valid YAML: {e}")))?;
         let serde_yaml::Value::Mapping(nodes) = doc else {
