@@ -694,3 +694,82 @@ fn yaml_nested_100000_deep_is_refused_within_a_second_by_every_reader() {
         assert!(t.elapsed().as_secs_f64() < 1.0, "{:?}", t.elapsed());
     }
 }
+
+/// Issue #18, C2: resolution and travel settings that would need more poses than memory
+/// holds are refused by key.
+#[test]
+fn process_settings_that_would_exhaust_memory_are_refused_by_key() {
+    use waam_motion::toolpath::ProcessSettings;
+    for (text, key) in [
+        ("max_step_mm: 1.0e-9\n", "max_step_mm"),
+        ("max_step_deg: 1.0e-9\n", "max_step_deg"),
+        ("approach_mm: 1.0e308\n", "approach_mm"),
+        ("clearance_mm: 1.0e308\n", "clearance_mm"),
+        ("path_tolerance_mm: 1.0e-300\n", "path_tolerance_mm"),
+        ("plate: {position_m: [1.0e300, 0, 0]}\n", "plate"),
+    ] {
+        let err = ProcessSettings::from_yaml(text).unwrap_err().to_string();
+        assert!(err.starts_with(key), "{text}: {err}");
+    }
+}
+
+/// Issue #18, C2: the 81-byte two-block part with 1e308 mm blocks grew memory until
+/// allocation failed in `plan --robot` / `motion`; now the motion is refused before the
+/// toolpath is built, naming the limit.
+#[test]
+fn a_part_of_1e308_mm_blocks_is_refused_before_its_toolpath_is_built() {
+    use waam_motion::robot::{Robot, TcpChoice};
+    use waam_motion::toolpath::ProcessSettings;
+    let part = Part::parse(
+        "name: c2\nblock_mm: [1e308, 1e308, 1e308]\nmax_fragments: 1\nblocks: [[0,0,0],[1,0,0]]\n",
+    );
+    let Ok(part) = part else {
+        // Refusing the part itself is as good.
+        return;
+    };
+    let choice = TcpChoice {
+        explicit: None,
+        default: nalgebra::Isometry3::identity(),
+    };
+    let robot = Robot::from_urdf(ROBOT_URDF, None, choice).unwrap();
+    let t = Instant::now();
+    let err = waam_motion::plan_motion(&part, &[vec![0, 1]], &ProcessSettings::default(), &robot)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("max_poses") || err.contains("not a finite point"),
+        "{err}"
+    );
+    assert!(t.elapsed().as_secs() < 2, "{:?}", t.elapsed());
+}
+
+/// Issue #18: `substeps: 1000000000` was blamed on `transit_time_s`.
+#[test]
+fn a_billion_substeps_is_blamed_on_substeps() {
+    let err = Part::parse(
+        "name: s\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nblocks: [[0,0,0]]\n\
+         thermal: {substeps: 1000000000}\n",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.starts_with("thermal.substeps:"), "{err}");
+}
+
+/// Issue #18: `plan --max-fragments 0` said "every plan breaks a window" (exit 1); it is
+/// bad input (exit 2) naming the option.
+#[test]
+fn max_fragments_zero_is_bad_input() {
+    let out = waam(&[
+        "plan",
+        "config/parts/s1-wall.yaml",
+        "--max-fragments",
+        "0",
+        "-q",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--max-fragments") && err.contains("at least 1"),
+        "{err}"
+    );
+}
