@@ -409,7 +409,7 @@ impl Layer {
         let steps: f64 = (0..self.segments.len())
             .map(|s| (self.length(s) / weld_step).round().max(1.0))
             .sum();
-        if !(steps <= MAX_STEPS as f64) {
+        if steps.is_nan() || steps > MAX_STEPS as f64 {
             return Err(rule(format!(
                 "process: the layer needs {steps:.3e} weld time steps, more than {MAX_STEPS}; \
                  raise weld_speed_mm_s ({:e}) or time_step_s ({:e})",
@@ -423,7 +423,7 @@ impl Layer {
             hi = [hi[0].max(n.x), hi[1].max(n.y)];
         }
         let transit = (dist(lo, hi) / (p.transit_speed_mm_s * p.time_step_s)).ceil();
-        if !(transit <= MAX_STEPS as f64) {
+        if transit.is_nan() || transit > MAX_STEPS as f64 {
             return Err(rule(format!(
                 "process: a deadheading move across the layer takes {transit:.3e} time steps, \
                  more than {MAX_STEPS}; raise transit_speed_mm_s ({:e}) or time_step_s ({:e})",

@@ -11,7 +11,6 @@
 use std::mem::MaybeUninit;
 
 use thiserror::Error;
-use unsafe_libyaml as sys;
 
 /// The deepest nesting accepted: serde_yaml's own recursion limit.
 pub const MAX_YAML_DEPTH: usize = 128;
@@ -26,43 +25,43 @@ pub struct YamlTooDeep {
 /// Refuses YAML (or JSON) text nested deeper than [`MAX_YAML_DEPTH`], reading no further
 /// than the point where it gets too deep.
 pub fn check_depth(text: &str) -> Result<(), YamlTooDeep> {
-    let mut parser = MaybeUninit::<sys::yaml_parser_t>::uninit();
+    let mut parser = MaybeUninit::<unsafe_libyaml::yaml_parser_t>::uninit();
     // SAFETY: the libyaml calls below follow serde_yaml's own use of them
     // (serde_yaml/src/libyaml/parser.rs): the parser is initialised before use and
     // deleted exactly once; each event is deleted after it is read; `text` outlives the
     // parser, which only reads it.
     unsafe {
         let parser = parser.as_mut_ptr();
-        if sys::yaml_parser_initialize(parser).fail {
+        if unsafe_libyaml::yaml_parser_initialize(parser).fail {
             // Out of memory for a parser: let serde_yaml meet (and report) the same.
             return Ok(());
         }
-        sys::yaml_parser_set_encoding(parser, sys::YAML_UTF8_ENCODING);
-        sys::yaml_parser_set_input_string(parser, text.as_ptr(), text.len() as u64);
+        unsafe_libyaml::yaml_parser_set_encoding(parser, unsafe_libyaml::YAML_UTF8_ENCODING);
+        unsafe_libyaml::yaml_parser_set_input_string(parser, text.as_ptr(), text.len() as u64);
         let mut depth = 0usize;
         let result = loop {
-            let mut event = MaybeUninit::<sys::yaml_event_t>::uninit();
+            let mut event = MaybeUninit::<unsafe_libyaml::yaml_event_t>::uninit();
             let event = event.as_mut_ptr();
-            if sys::yaml_parser_parse(parser, event).fail {
+            if unsafe_libyaml::yaml_parser_parse(parser, event).fail {
                 break Ok(());
             }
             let (kind, line) = ((*event).type_, (*event).start_mark.line as usize + 1);
-            sys::yaml_event_delete(event);
+            unsafe_libyaml::yaml_event_delete(event);
             match kind {
-                sys::YAML_SEQUENCE_START_EVENT | sys::YAML_MAPPING_START_EVENT => {
+                unsafe_libyaml::YAML_SEQUENCE_START_EVENT
+                | unsafe_libyaml::YAML_MAPPING_START_EVENT => {
                     depth += 1;
                     if depth > MAX_YAML_DEPTH {
                         break Err(YamlTooDeep { line });
                     }
                 }
-                sys::YAML_SEQUENCE_END_EVENT | sys::YAML_MAPPING_END_EVENT => {
-                    depth = depth.saturating_sub(1)
-                }
-                sys::YAML_STREAM_END_EVENT => break Ok(()),
+                unsafe_libyaml::YAML_SEQUENCE_END_EVENT
+                | unsafe_libyaml::YAML_MAPPING_END_EVENT => depth = depth.saturating_sub(1),
+                unsafe_libyaml::YAML_STREAM_END_EVENT => break Ok(()),
                 _ => {}
             }
         };
-        sys::yaml_parser_delete(parser);
+        unsafe_libyaml::yaml_parser_delete(parser);
         result
     }
 }

@@ -109,7 +109,11 @@ pub fn toolpath_png(tp: &ToolpathFile, path: &Path) -> Result<(), PlotError> {
         return Err(PlotError::Empty);
     }
     for (index, p) in tp.poses.iter().enumerate() {
-        if let Some(v) = p.position.iter().find(|v| !(v.abs() <= MAX_TOOLPATH_M)) {
+        if let Some(v) = p
+            .position
+            .iter()
+            .find(|v| v.is_nan() || v.abs() > MAX_TOOLPATH_M)
+        {
             return Err(PlotError::Pose {
                 index,
                 reason: format!(

@@ -126,7 +126,7 @@ pub enum ToolpathError {
 /// changes nowhere else). Travel lines are bounded by the passes' bounding box.
 fn check_pose_budget(passes: &[WeldPass], s: &ProcessSettings) -> Result<(), ToolpathError> {
     let (poses, longest) = pose_bound(passes, s);
-    if !(poses <= s.max_poses as f64) {
+    if poses.is_nan() || poses > s.max_poses as f64 {
         return Err(ToolpathError::TooManyPoses {
             poses,
             max: s.max_poses,
