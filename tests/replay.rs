@@ -205,3 +205,20 @@ fn replay_plans_with_the_recorded_settings() {
     assert_eq!(code, 0, "{report}");
     assert_eq!(report["identical"], 1);
 }
+
+/// Issue #18: a truncated recording that kept a part but none of its outcomes left
+/// nothing to compare, and replay exited 0 as if it had passed; now it is exit 2.
+#[test]
+fn a_recording_with_nothing_to_compare_is_not_a_pass() {
+    let tmp = tempfile::tempdir().unwrap();
+    let recorded = tmp.path().join("recorded");
+    record_plan(&recorded);
+    let parts_only = tmp.path().join("parts_only");
+    copy_bag(&recorded, &parts_only, |topic, data| {
+        (topic == topics::PART).then(|| data.to_vec())
+    });
+    let (code, report) = replay(&parts_only, &[]);
+    assert_eq!(code, 2, "{report}");
+    assert_eq!(report["skipped"], 1, "{report}");
+    assert_eq!(report["identical"], 0, "{report}");
+}

@@ -508,3 +508,268 @@ fn node_time_limits_beyond_a_week_are_refused_by_key() {
         assert!(err.contains(key), "{text}: {err}");
     }
 }
+
+const ROBOT_URDF: &str = include_str!("../urdf/waam_robot.urdf");
+
+fn load_robot(text: &str) -> Result<waam_motion::robot::Robot, waam_motion::robot::RobotError> {
+    use waam_motion::robot::{Robot, TcpChoice};
+    let choice = TcpChoice {
+        explicit: None,
+        default: nalgebra::Isometry3::identity(),
+    };
+    Robot::from_urdf(text, None, choice)
+}
+
+/// Issue #18, P2: a joint origin of 1e200 m panicked inside rs-opw-kinematics ("joint 2
+/// offset must be finite"); now the URDF is refused, naming the joint and the limit.
+#[test]
+fn a_urdf_origin_of_1e200_is_refused_by_joint() {
+    let from = r#"origin xyz="0.150 0 0.4865""#;
+    assert!(ROBOT_URDF.contains(from));
+    for big in ["1e200", "1e308", "-5e4"] {
+        let text = ROBOT_URDF.replace(from, &format!(r#"origin xyz="{big} 0 0.4865""#));
+        let err = load_robot(&text).unwrap_err().to_string();
+        assert!(
+            err.starts_with("joint '") && err.contains("beyond 1000 m"),
+            "{big}: {err}"
+        );
+    }
+    let text = ROBOT_URDF.replace(r#"0.4865" rpy="0 0 0""#, r#"0.4865" rpy="1e300 0 0""#);
+    let err = load_robot(&text).unwrap_err().to_string();
+    assert!(err.contains("rpy"), "{err}");
+}
+
+/// Issue #18, C1: a URDF nested 30,000 elements deep overflowed the stack in urdf-rs;
+/// now it is refused before urdf-rs parses it.
+#[test]
+fn a_urdf_nested_30000_deep_is_refused() {
+    let deep = format!(
+        "<robot name=\"r\"><link name=\"a\">{}{}</link></robot>",
+        "<visual>".repeat(30_000),
+        "</visual>".repeat(30_000)
+    );
+    let t = Instant::now();
+    let err = load_robot(&deep).unwrap_err().to_string();
+    assert!(err.contains("more than 64 deep"), "{err}");
+    assert!(t.elapsed().as_secs_f64() < 2.0, "{:?}", t.elapsed());
+}
+
+/// Issue #18: a joint whose parent link does not exist was accepted and the chain cut.
+#[test]
+fn a_urdf_joint_with_a_missing_parent_link_is_refused() {
+    let from = r#"<parent link="link_2"/>"#;
+    assert!(ROBOT_URDF.contains(from), "the test's anchor moved");
+    let text = ROBOT_URDF.replacen(from, r#"<parent link="link_two"/>"#, 1);
+    let err = load_robot(&text).unwrap_err().to_string();
+    assert!(
+        err.contains("parent link 'link_two' is not a link of the URDF"),
+        "{err}"
+    );
+}
+
+const PAPER_LAYER: &str = include_str!("../config/layers/paper-16mm.yaml");
+
+fn layer_error(from: &str, to: &str) -> String {
+    assert!(
+        PAPER_LAYER.contains(from),
+        "the test's anchor moved: {from}"
+    );
+    let text = PAPER_LAYER.replace(from, to);
+    waam_layer::Layer::parse(&text).unwrap_err().to_string()
+}
+
+/// Issue #18, P3: a speed or time step of 1e-300 overflowed the step count in
+/// `Layer::check_size`; now it is refused, naming the keys to raise and the limit.
+#[test]
+fn a_layer_speed_or_time_step_of_1e_300_is_refused() {
+    for (from, to, key) in [
+        (
+            "weld_speed_mm_s: 10.0",
+            "weld_speed_mm_s: 1.0e-300",
+            "weld_speed_mm_s",
+        ),
+        ("time_step_s: 0.1", "time_step_s: 1.0e-300", "time_step_s"),
+        (
+            "transit_speed_mm_s: 50.0",
+            "transit_speed_mm_s: 1.0e-300",
+            "transit_speed_mm_s",
+        ),
+    ] {
+        let err = layer_error(from, to);
+        assert!(
+            err.contains(key) && err.contains("more than 20000"),
+            "{to}: {err}"
+        );
+    }
+}
+
+/// Issue #18, W1: `peak_k_s: 1e308` made every trail's objective infinite and the search
+/// printed "objective inf … PROVEN OPTIMAL" with no moves; a wall 1e-300 mm wide ended in
+/// a Cholesky message. Both are refused at the input, by key.
+#[test]
+fn a_layer_peak_of_1e308_or_a_wall_of_1e_300_is_refused_by_key() {
+    let err = layer_error("peak_k_s: 8000.0", "peak_k_s: 1.0e308");
+    assert!(
+        err.contains("source.peak_k_s") && err.contains("1e7"),
+        "{err}"
+    );
+    let err = layer_error("wall_width_mm: 2.0", "wall_width_mm: 1.0e-300");
+    assert!(
+        err.contains("wall_width_mm") && err.contains("min 0.1"),
+        "{err}"
+    );
+}
+
+fn waam(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_waam"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// Issue #18, P4: a toolpath pose at .inf, 1e308 or .nan tripped a plotters assertion in
+/// `waam plot`; now it is a one-line error naming the pose, exit 2.
+#[test]
+fn a_toolpath_pose_at_inf_or_nan_is_refused_by_plot_naming_the_pose() {
+    for bad in [".inf", "1.0e308", ".nan", "-.inf"] {
+        let dir = tempfile::tempdir().unwrap();
+        let yaml = format!(
+            "frame: world\nposes:\n\
+             - {{time: 0.0, position: [0.1, 0.2, 0.3], orientation: [0, 0, 0, 1], arc_on: false, fragment: 0}}\n\
+             - {{time: 1.0, position: [0.1, {bad}, 0.3], orientation: [0, 0, 0, 1], arc_on: true, fragment: 0}}\n"
+        );
+        std::fs::write(dir.path().join("toolpath.yaml"), yaml).unwrap();
+        let t = Instant::now();
+        let out = waam(&["plot", dir.path().to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{bad}: {err}");
+        assert!(err.contains("toolpath pose 1:"), "{bad}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{bad}: {err}");
+        assert!(t.elapsed().as_secs() < 10, "{bad}: {:?}", t.elapsed());
+    }
+}
+
+/// Issue #18, H3: `block_time_s: 1e308` made `waam plot` loop for ever in plotters' axis
+/// code; now the time axis is checked first and the error names the thermal keys.
+#[test]
+fn a_block_time_of_1e308_makes_plot_refuse_the_time_axis() {
+    let dir = tempfile::tempdir().unwrap();
+    let part = "name: h3\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nblocks: [[0,0,0],[1,0,0]]\n\
+                t85: [{block: [1,0,0], min_s: 0, max_s: 100}]\nthermal: {block_time_s: 1.0e308}\n";
+    std::fs::write(dir.path().join("part.yaml"), part).unwrap();
+    std::fs::write(
+        dir.path().join("plan.yaml"),
+        "fragments:\n  - [[0,0,0],[1,0,0]]\n",
+    )
+    .unwrap();
+    let t = Instant::now();
+    let out = waam(&["plot", dir.path().to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("time (s) axis") && err.contains("thermal.block_time_s = 1e308"),
+        "{err}"
+    );
+    assert!(t.elapsed().as_secs() < 20, "{:?}", t.elapsed());
+}
+
+/// Issue #18: a YAML document nested 100,000 deep took 14–22 s to reject (18 s in the
+/// node, a minute here for `{a: {a: …}}`); now every reader refuses it at once.
+#[test]
+fn yaml_nested_100000_deep_is_refused_within_a_second_by_every_reader() {
+    let flow = format!("name: {}{}", "[".repeat(100_000), "]".repeat(100_000));
+    let maps = format!("name: {}1{}", "{a: ".repeat(100_000), "}".repeat(100_000));
+    for deep in [&flow, &maps] {
+        let t = Instant::now();
+        let part = Part::parse(deep).unwrap_err().to_string();
+        assert!(part.contains("more than 128 levels deep"), "{part}");
+        let plan = Plan::from_bytes(deep.as_bytes(), false).unwrap_err();
+        assert!(plan.to_string().contains("more than 128"), "{plan}");
+        let layer = waam_layer::Layer::parse(deep).unwrap_err().to_string();
+        assert!(layer.contains("more than 128"), "{layer}");
+        let settings = waam_motion::toolpath::ProcessSettings::from_yaml(deep).unwrap_err();
+        assert!(settings.to_string().contains("more than 128"), "{settings}");
+        let params = waam_ros::node::params::NodeParams::parse(deep).unwrap_err();
+        assert!(params.to_string().contains("more than 128"), "{params}");
+        assert!(t.elapsed().as_secs_f64() < 1.0, "{:?}", t.elapsed());
+    }
+}
+
+/// Issue #18, C2: resolution and travel settings that would need more poses than memory
+/// holds are refused by key.
+#[test]
+fn process_settings_that_would_exhaust_memory_are_refused_by_key() {
+    use waam_motion::toolpath::ProcessSettings;
+    for (text, key) in [
+        ("max_step_mm: 1.0e-9\n", "max_step_mm"),
+        ("max_step_deg: 1.0e-9\n", "max_step_deg"),
+        ("approach_mm: 1.0e308\n", "approach_mm"),
+        ("clearance_mm: 1.0e308\n", "clearance_mm"),
+        ("path_tolerance_mm: 1.0e-300\n", "path_tolerance_mm"),
+        ("plate: {position_m: [1.0e300, 0, 0]}\n", "plate"),
+    ] {
+        let err = ProcessSettings::from_yaml(text).unwrap_err().to_string();
+        assert!(err.starts_with(key), "{text}: {err}");
+    }
+}
+
+/// Issue #18, C2: the 81-byte two-block part with 1e308 mm blocks grew memory until
+/// allocation failed in `plan --robot` / `motion`; now the motion is refused before the
+/// toolpath is built, naming the limit.
+#[test]
+fn a_part_of_1e308_mm_blocks_is_refused_before_its_toolpath_is_built() {
+    use waam_motion::robot::{Robot, TcpChoice};
+    use waam_motion::toolpath::ProcessSettings;
+    let part = Part::parse(
+        "name: c2\nblock_mm: [1e308, 1e308, 1e308]\nmax_fragments: 1\nblocks: [[0,0,0],[1,0,0]]\n",
+    );
+    let Ok(part) = part else {
+        // Refusing the part itself is as good.
+        return;
+    };
+    let choice = TcpChoice {
+        explicit: None,
+        default: nalgebra::Isometry3::identity(),
+    };
+    let robot = Robot::from_urdf(ROBOT_URDF, None, choice).unwrap();
+    let t = Instant::now();
+    let err = waam_motion::plan_motion(&part, &[vec![0, 1]], &ProcessSettings::default(), &robot)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("max_poses") || err.contains("not a finite point"),
+        "{err}"
+    );
+    assert!(t.elapsed().as_secs() < 2, "{:?}", t.elapsed());
+}
+
+/// Issue #18: `substeps: 1000000000` was blamed on `transit_time_s`.
+#[test]
+fn a_billion_substeps_is_blamed_on_substeps() {
+    let err = Part::parse(
+        "name: s\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nblocks: [[0,0,0]]\n\
+         thermal: {substeps: 1000000000}\n",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.starts_with("thermal.substeps:"), "{err}");
+}
+
+/// Issue #18: `plan --max-fragments 0` said "every plan breaks a window" (exit 1); it is
+/// bad input (exit 2) naming the option.
+#[test]
+fn max_fragments_zero_is_bad_input() {
+    let out = waam(&[
+        "plan",
+        "config/parts/s1-wall.yaml",
+        "--max-fragments",
+        "0",
+        "-q",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--max-fragments") && err.contains("at least 1"),
+        "{err}"
+    );
+}

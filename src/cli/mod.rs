@@ -109,6 +109,16 @@ pub fn solver_parser() -> impl clap::builder::TypedValueParser<Value = Backend> 
 /// The bundled sample part (`config/parts/ex3-h-column.yaml`), planned when no part is named.
 pub const DEFAULT_PART: &str = include_str!("../../config/parts/ex3-h-column.yaml");
 
+/// clap's parser of a count that must be at least 1 (`--max-fragments 0` is bad input,
+/// exit 2, not a search that finds no plan).
+pub fn at_least_one(text: &str) -> Result<usize, String> {
+    match text.parse::<usize>() {
+        Ok(0) => Err("must be at least 1".into()),
+        Ok(n) => Ok(n),
+        Err(e) => Err(e.to_string()),
+    }
+}
+
 /// clap's parser of the planner's acyclicity methods, each listed with its help line.
 pub fn acyclicity_parser() -> impl clap::builder::TypedValueParser<Value = Acyclicity> {
     use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser as _};

@@ -51,7 +51,7 @@ pub struct PlanArgs {
     #[arg(long, value_name = "SECONDS")]
     pub timeout: Option<f64>,
     /// Override the part's max_fragments (k).
-    #[arg(long, value_name = "K")]
+    #[arg(long, value_name = "K", value_parser = super::at_least_one)]
     pub max_fragments: Option<usize>,
     /// How cycles are excluded: lazily by cuts between solves, or eagerly by a rank order.
     #[arg(long, value_parser = super::acyclicity_parser(), default_value = "lazy")]

@@ -41,7 +41,7 @@ pub struct ReplayArgs {
     #[arg(long)]
     pub plans_only: bool,
     /// Re-plan with this max_fragments (k) instead of the recorded setting (or the part's own).
-    #[arg(long, value_name = "K")]
+    #[arg(long, value_name = "K", value_parser = super::at_least_one)]
     pub max_fragments: Option<usize>,
     /// How cycles are excluded (as `waam plan --acyclicity`), instead of the recorded setting.
     #[arg(long, value_parser = super::acyclicity_parser())]
@@ -259,6 +259,16 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
                 ""
             }
         );
+    }
+    if identical + different == 0 {
+        // A truncated recording can leave parts without outcomes: nothing was checked, so
+        // this is not a pass.
+        eprintln!(
+            "error: {}: nothing to compare: all {} part(s) skipped",
+            args.bag.display(),
+            reports.len()
+        );
+        return Ok(ExitCode::from(EXIT_BAD_INPUT));
     }
     Ok(ExitCode::from(if different > 0 {
         EXIT_NO

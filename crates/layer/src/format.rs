@@ -19,6 +19,12 @@ pub const MAX_COORD_MM: f64 = 10_000.0;
 pub const MAX_STEPS: usize = 20_000;
 /// Largest number of segments.
 pub const MAX_SEGMENTS: usize = 2_000;
+/// Narrowest wall accepted (mm): the mesh merges points closer than 1e-5 mm, so walls
+/// far thinner than a bead degenerate (and the FEM factorization fails).
+pub const MIN_WALL_WIDTH_MM: f64 = 0.1;
+/// Largest torch heating rate accepted (K/s); the paper's is 8000. Near f64's range the
+/// temperatures overflow and every trail's objective becomes infinite.
+pub const MAX_PEAK_K_S: f64 = 1e7;
 
 /// A layer file that breaks a rule of the format.
 #[derive(Debug, Error, PartialEq)]
@@ -139,6 +145,7 @@ impl Layer {
         if text.trim().is_empty() {
             return Err(rule("the layer file is empty: expected a YAML mapping"));
         }
+        waam_part::yaml::check_depth(text).map_err(|e| LayerError::Yaml(e.to_string()))?;
         let raw: RawLayer =
             serde_yaml::from_str(text).map_err(|e| LayerError::Yaml(format!("{e}")))?;
         let layer = Layer::from_raw(raw)?;
@@ -152,6 +159,12 @@ impl Layer {
             return Err(rule("name: must not be empty"));
         }
         positive("wall_width_mm", raw.wall_width_mm)?;
+        if raw.wall_width_mm < MIN_WALL_WIDTH_MM {
+            return Err(rule(format!(
+                "wall_width_mm: {:e} mm is not a weld bead width (min {MIN_WALL_WIDTH_MM})",
+                raw.wall_width_mm
+            )));
+        }
         if raw.wall_width_mm > 1000.0 {
             return Err(rule(format!(
                 "wall_width_mm: {} mm is not a weld bead width (max 1000)",
@@ -251,6 +264,12 @@ impl Layer {
         }
         let s = &raw.source;
         non_negative("source.peak_k_s", s.peak_k_s)?;
+        if s.peak_k_s > MAX_PEAK_K_S {
+            return Err(rule(format!(
+                "source.peak_k_s: {:e} K/s is beyond {MAX_PEAK_K_S:e} K/s (the temperatures would overflow)",
+                s.peak_k_s
+            )));
+        }
         if s.radii_mm.is_empty() {
             return Err(rule("source.radii_mm: give at least one ring radius"));
         }
@@ -382,12 +401,33 @@ impl Layer {
         Ok(())
     }
 
+    /// Bounds the time steps before anything is sized by them. Counted in f64: a tiny
+    /// speed or time step makes the counts overflow any integer (1e-300 did).
     fn check_size(&self) -> Result<(), LayerError> {
-        let steps: usize = (0..self.segments.len()).map(|s| self.weld_steps(s)).sum();
-        if steps > MAX_STEPS {
+        let p = &self.process;
+        let weld_step = p.weld_speed_mm_s * p.time_step_s;
+        let steps: f64 = (0..self.segments.len())
+            .map(|s| (self.length(s) / weld_step).round().max(1.0))
+            .sum();
+        if steps.is_nan() || steps > MAX_STEPS as f64 {
             return Err(rule(format!(
-                "process: the layer needs {steps} weld time steps, more than {MAX_STEPS}; \
-                 raise weld_speed_mm_s or time_step_s"
+                "process: the layer needs {steps:.3e} weld time steps, more than {MAX_STEPS}; \
+                 raise weld_speed_mm_s ({:e}) or time_step_s ({:e})",
+                p.weld_speed_mm_s, p.time_step_s
+            )));
+        }
+        // The longest deadheading move crosses the layer's bounding box.
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for n in &self.nodes {
+            lo = [lo[0].min(n.x), lo[1].min(n.y)];
+            hi = [hi[0].max(n.x), hi[1].max(n.y)];
+        }
+        let transit = (dist(lo, hi) / (p.transit_speed_mm_s * p.time_step_s)).ceil();
+        if transit.is_nan() || transit > MAX_STEPS as f64 {
+            return Err(rule(format!(
+                "process: a deadheading move across the layer takes {transit:.3e} time steps, \
+                 more than {MAX_STEPS}; raise transit_speed_mm_s ({:e}) or time_step_s ({:e})",
+                p.transit_speed_mm_s, p.time_step_s
             )));
         }
         Ok(())

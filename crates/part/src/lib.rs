@@ -13,6 +13,7 @@ pub mod graph;
 mod params;
 pub mod plan;
 pub mod writer;
+pub mod yaml;
 
 pub use params::{ThermalParams, ThermalParamsError, MAX_STEPS};
 
@@ -99,6 +100,7 @@ impl Part {
 
     /// Parses part-file text.
     pub fn parse(text: &str) -> Result<Part, PartError> {
+        yaml::check_depth(text).map_err(|e| PartError::Yaml(e.to_string()))?;
         let doc: Value = serde_yaml::from_str(text).map_err(|e| PartError::Yaml(e.to_string()))?;
         let map = match doc {
             Value::Mapping(map) => map,

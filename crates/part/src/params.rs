@@ -12,6 +12,9 @@ pub struct ThermalParamsError(pub String);
 
 /// The most Euler steps one phase (a block, a transit, the cooldown) may take.
 pub const MAX_STEPS: u64 = 1_000_000_000;
+/// The most Euler steps per block (the spec's default is 20).
+pub const MAX_SUBSTEPS: u64 = 1_000_000;
+
 /// The constants of the model: the part's `thermal:` keys.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ThermalParams {
@@ -108,6 +111,15 @@ impl ThermalParams {
         // The spec sets no bound, but a step count beyond a billion is a typo, not a
         // simulation anyone can wait for: name the key rather than run for ever.
         let dt = p.dt();
+        // substeps alone sets the steps of every block: blame it, not the durations it
+        // multiplies (a billion substeps was reported as a too long transit_time_s).
+        if u64::from(p.substeps) > MAX_SUBSTEPS {
+            return Err(ThermalParamsError(format!(
+                "thermal.substeps: {} Euler steps per block is more than {MAX_SUBSTEPS}; \
+                 the simulation would not end",
+                p.substeps
+            )));
+        }
         for (key, seconds) in [
             ("transit_time_s", p.transit_time_s),
             ("max_cooldown_s", p.max_cooldown_s),
@@ -116,7 +128,8 @@ impl ThermalParams {
             if seconds / dt > MAX_STEPS as f64 {
                 return Err(ThermalParamsError(format!(
                     "thermal.{key}: {seconds} s is more than {MAX_STEPS} Euler steps of \
-                     dt = {dt} s (block_time_s / substeps); the simulation would not end"
+                     dt = {dt} s (block_time_s {} s / substeps {}); the simulation would not end",
+                    p.block_time_s, p.substeps
                 )));
             }
         }

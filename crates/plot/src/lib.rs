@@ -31,6 +31,51 @@ pub enum PlotError {
     Draw { file: String, reason: String },
     #[error("the toolpath has no poses")]
     Empty,
+    #[error("toolpath pose {index}: {reason}")]
+    Pose { index: usize, reason: String },
+    #[error("cannot draw {file}: the {what} axis would run from {lo:e} to {hi:e}{hint}; a plot shows at most ±{MAX_AXIS:e} with a span of at least {MIN_RELATIVE_SPAN:e} of that")]
+    Axis {
+        file: String,
+        what: &'static str,
+        lo: f64,
+        hi: f64,
+        hint: String,
+    },
+}
+
+/// Largest axis value a plot accepts. plotters' tick code loops for ever on ranges near
+/// f64's limits (or narrower than the spacing of floats there), so ranges are checked
+/// before it sees them.
+pub const MAX_AXIS: f64 = 1e12;
+/// Smallest axis span relative to its largest value.
+pub const MIN_RELATIVE_SPAN: f64 = 1e-9;
+/// Largest toolpath coordinate drawn (m): far beyond any cell, far inside [`MAX_AXIS`] mm.
+pub const MAX_TOOLPATH_M: f64 = 1e6;
+
+/// Checks an axis range before plotters sees it (see [`MAX_AXIS`]).
+fn check_axis(
+    path: &Path,
+    what: &'static str,
+    lo: f64,
+    hi: f64,
+    hint: String,
+) -> Result<(), PlotError> {
+    let most = lo.abs().max(hi.abs());
+    if lo.is_finite()
+        && hi.is_finite()
+        && most <= MAX_AXIS
+        && hi - lo >= MIN_RELATIVE_SPAN * most
+        && hi > lo
+    {
+        return Ok(());
+    }
+    Err(PlotError::Axis {
+        file: path.display().to_string(),
+        what,
+        lo,
+        hi,
+        hint,
+    })
 }
 
 fn font() {
@@ -63,6 +108,21 @@ pub fn toolpath_png(tp: &ToolpathFile, path: &Path) -> Result<(), PlotError> {
     if tp.poses.is_empty() {
         return Err(PlotError::Empty);
     }
+    for (index, p) in tp.poses.iter().enumerate() {
+        if let Some(v) = p
+            .position
+            .iter()
+            .find(|v| v.is_nan() || v.abs() > MAX_TOOLPATH_M)
+        {
+            return Err(PlotError::Pose {
+                index,
+                reason: format!(
+                    "position {:?} has {v}, not a finite coordinate within ±{MAX_TOOLPATH_M:e} m",
+                    p.position
+                ),
+            });
+        }
+    }
     font();
     let err = draw_err(path);
     let mm: Vec<[f64; 3]> = tp
@@ -89,6 +149,8 @@ pub fn toolpath_png(tp: &ToolpathFile, path: &Path) -> Result<(), PlotError> {
         (&right, (0, 2), "Toolpath, side view", "z (mm)"),
     ] {
         let (xr, yr) = span(a, b);
+        check_axis(path, "x (mm)", xr.start, xr.end, String::new())?;
+        check_axis(path, "y/z (mm)", yr.start, yr.end, String::new())?;
         let mut chart = ChartBuilder::on(area)
             .caption(format!("{title} ({})", tp.frame), (FONT, 24))
             .margin(15)
@@ -258,15 +320,23 @@ pub fn temperature_curves(part: &Part, fragments: &[Vec<usize>]) -> Vec<Curve> {
 /// Draws `t85.png`: each windowed block's temperature over time, with the 800 °C and
 /// 500 °C lines between which its t8/5 time is counted.
 pub fn t85_png(part: &Part, curves: &[Curve], path: &Path) -> Result<(), PlotError> {
-    font();
-    let err = draw_err(path);
-    let root = BitMapBackend::new(path, T85_SIZE).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
     let t_end = curves
         .iter()
         .flat_map(|c| c.samples.last().map(|s| s.0))
         .fold(1.0, f64::max);
     let (y0, y1) = (part.thermal.ambient_c.min(0.0), 1600.0);
+    let p = &part.thermal;
+    let hint = format!(
+        " (thermal.block_time_s = {:e} s, transit_time_s = {:e} s)",
+        p.block_time_s, p.transit_time_s
+    );
+    check_axis(path, "time (s)", 0.0, t_end * 1.02, hint)?;
+    let hint = format!(" (thermal.ambient_c = {:e} °C)", p.ambient_c);
+    check_axis(path, "temperature (°C)", y0, y1, hint)?;
+    font();
+    let err = draw_err(path);
+    let root = BitMapBackend::new(path, T85_SIZE).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
     let title = if curves.is_empty() {
         format!("{}: no t8/5 windows", part.name)
     } else {

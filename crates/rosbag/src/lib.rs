@@ -68,9 +68,25 @@ impl BagError {
     fn mcap(path: &Path, error: mcap::McapError) -> BagError {
         BagError::Mcap {
             path: path.to_path_buf(),
-            reason: error.to_string(),
+            reason: with_causes(&error),
         }
     }
+}
+
+/// An error's message followed by its causes: mcap's I/O error says only "I/O error from
+/// writing, or reading a compression stream", and the cause ("No space left on device")
+/// is what a user needs.
+fn with_causes(error: &dyn std::error::Error) -> String {
+    let mut text = error.to_string();
+    let mut cause = error.source();
+    while let Some(c) = cause {
+        let more = c.to_string();
+        if !text.contains(&more) {
+            text = format!("{text}: {more}");
+        }
+        cause = c.source();
+    }
+    text
 }
 
 #[cfg(test)]

@@ -5,13 +5,112 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use mcap::read::{ChunkFlattener, Options};
+use mcap::read::Options;
 use mcap::records::Record;
+use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
 use super::metadata::relative_file_paths;
 use super::qos::{self, Qos};
 use super::BagError;
 use waam_rosmsg::{from_cdr, RosMessage};
+
+/// The largest record (or decompressed chunk record) read, bytes. A flipped bit in a
+/// length field or a chunk of zeros that compresses 30,000:1 must not make the reader
+/// allocate exabytes (it aborted) or gigabytes; no message we record comes near this.
+pub const MAX_RECORD_BYTES: usize = 256 << 20;
+/// The most message bytes a bag may decompress to in all (the messages are kept in memory).
+pub const MAX_MESSAGE_BYTES: u64 = 1 << 30;
+/// The largest `metadata.yaml` read (ours are a few kB).
+pub const MAX_METADATA_BYTES: u64 = 16 << 20;
+/// The largest bag file read (it is read into memory whole).
+pub const MAX_FILE_BYTES: u64 = 1 << 30;
+
+/// The length of `path` when it is a regular file (after symlinks). A FIFO blocked the
+/// reader for ever and a device such as /dev/zero was read up to gigabytes: refused.
+fn regular_file(path: &Path) -> Result<u64, BagError> {
+    let meta = std::fs::metadata(path).map_err(|source| BagError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    if !meta.is_file() {
+        return Err(BagError::Corrupt {
+            path: path.to_path_buf(),
+            reason: "not a regular file (a FIFO, device or directory is not read)".into(),
+        });
+    }
+    Ok(meta.len())
+}
+
+/// `dir.join(relative)` when it stays inside `dir` (after resolving `..` and symlinks):
+/// a `metadata.yaml` must not make the reader open files elsewhere.
+fn inside(dir: &Path, relative: &str, metadata: &Path) -> Result<PathBuf, BagError> {
+    let refuse = |why: &str| BagError::Corrupt {
+        path: metadata.to_path_buf(),
+        reason: format!("relative_file_paths: {relative:?} {why}"),
+    };
+    let rel = Path::new(relative);
+    if rel.is_absolute()
+        || rel.components().any(|c| {
+            !matches!(
+                c,
+                std::path::Component::Normal(_) | std::path::Component::CurDir
+            )
+        })
+    {
+        return Err(refuse("must name a file inside the bag folder"));
+    }
+    let joined = dir.join(rel);
+    // Symlinks inside the folder may not lead out of it either.
+    if let (Ok(real), Ok(root)) = (joined.canonicalize(), dir.canonicalize()) {
+        if !real.starts_with(&root) {
+            return Err(refuse("leads out of the bag folder"));
+        }
+    }
+    Ok(joined)
+}
+
+/// Every record of an MCAP file in file order, chunks unpacked, as `mcap`'s
+/// `ChunkFlattener` yields them, but with [`MAX_RECORD_BYTES`] as the record length limit
+/// (ChunkFlattener sets none, and mcap then sizes buffers by untrusted lengths).
+struct Records<'a> {
+    rest: &'a [u8],
+    reader: LinearReader,
+}
+
+impl<'a> Records<'a> {
+    fn new(bytes: &'a [u8]) -> Records<'a> {
+        let options = LinearReaderOptions::default()
+            .with_skip_end_magic(true)
+            .with_record_length_limit(MAX_RECORD_BYTES);
+        Records {
+            rest: bytes,
+            reader: LinearReader::new_with_options(options),
+        }
+    }
+}
+
+impl Iterator for Records<'_> {
+    type Item = mcap::McapResult<Record<'static>>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        while let Some(event) = self.reader.next_event() {
+            match event {
+                Ok(LinearReadEvent::ReadRequest(need)) => {
+                    // Never more than the file holds: a length field cannot size a buffer.
+                    let len = need.min(self.rest.len());
+                    self.reader.insert(len).copy_from_slice(&self.rest[..len]);
+                    self.reader.notify_read(len);
+                    self.rest = &self.rest[len..];
+                }
+                Ok(LinearReadEvent::Record { data, opcode }) => {
+                    return Some(mcap::parse_record(opcode, data).map(Record::into_owned))
+                }
+                Err(e) => return Some(Err(e)),
+            }
+        }
+        None
+    }
+}
 
 /// One topic (MCAP channel) of a bag.
 #[derive(Debug, Clone, PartialEq)]
@@ -73,6 +172,15 @@ impl Bag {
     /// metadata is missing) or a single `.mcap` file.
     pub fn open(path: &Path) -> Result<Bag, BagError> {
         let file = mcap_file_of(path)?;
+        let len = regular_file(&file)?;
+        if len > MAX_FILE_BYTES {
+            return Err(BagError::Corrupt {
+                path: file,
+                reason: format!(
+                    "{len} bytes: bags are read in memory, up to {MAX_FILE_BYTES} bytes"
+                ),
+            });
+        }
         let bytes = std::fs::read(&file).map_err(|source| BagError::Io {
             path: file.clone(),
             source,
@@ -98,9 +206,8 @@ impl Bag {
         let mut schemas: HashMap<u16, (String, String, Arc<str>)> = HashMap::new();
         let mut topic_of_channel: HashMap<u16, usize> = HashMap::new();
         let mut footer = false;
-        let records = ChunkFlattener::new_with_options(bytes, Options::IgnoreEndMagic.into())
-            .map_err(|e| BagError::mcap(file, e))?;
-        for record in records {
+        let mut message_bytes = 0u64;
+        for record in Records::new(bytes) {
             let record = match record {
                 Ok(r) => r,
                 // Not a cut: a chunk this build cannot decompress (rosbag2 may write lz4).
@@ -177,6 +284,15 @@ impl Bag {
                             ),
                         }
                     })?;
+                    message_bytes += data.len() as u64;
+                    if message_bytes > MAX_MESSAGE_BYTES {
+                        return Err(BagError::Corrupt {
+                            path: file.to_path_buf(),
+                            reason: format!(
+                                "the messages decompress to more than {MAX_MESSAGE_BYTES} bytes"
+                            ),
+                        });
+                    }
                     bag.topics[topic].count += 1;
                     bag.messages.push(RecordedMessage {
                         topic,
@@ -273,13 +389,19 @@ pub fn mcap_file_of(path: &Path) -> Result<PathBuf, BagError> {
         return Ok(path.to_path_buf());
     }
     let metadata = path.join("metadata.yaml");
+    if metadata.exists() && regular_file(&metadata)? > MAX_METADATA_BYTES {
+        return Err(BagError::Corrupt {
+            path: metadata,
+            reason: format!("larger than {MAX_METADATA_BYTES} bytes"),
+        });
+    }
     if let Ok(text) = std::fs::read_to_string(&metadata) {
         let files = relative_file_paths(&text).map_err(|e| BagError::Corrupt {
             path: metadata.clone(),
             reason: e.to_string(),
         })?;
         return match files.as_slice() {
-            [one] => Ok(path.join(one)),
+            [one] => inside(path, one, &metadata),
             [] => Err(BagError::Corrupt {
                 path: metadata,
                 reason: "relative_file_paths is empty".into(),

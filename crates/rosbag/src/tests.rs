@@ -269,3 +269,152 @@ fn a_chunk_compression_we_cannot_read_is_an_error_not_a_truncation() {
     let err = Bag::from_bytes(&dir, &bytes).unwrap_err();
     assert!(err.to_string().contains("lz4x"), "{err}");
 }
+
+/// A small finished recording with a few zstd chunks, as bytes.
+fn small_recording() -> Vec<u8> {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("flips");
+    let mut w = BagWriter::create(&dir, BagOptions::default()).unwrap();
+    w.write(
+        topics::PART,
+        &Qos::reliable(10),
+        T0,
+        &RosString::from("name: a\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nblocks: [[0,0,0]]\n"),
+    )
+    .unwrap();
+    for i in 0..6 {
+        w.write(
+            topics::WELD_PLAN,
+            &Qos::latched(),
+            T0 + 10 + i,
+            &plan(i as i32),
+        )
+        .unwrap();
+        if i % 2 == 1 {
+            w.flush().unwrap();
+        }
+    }
+    let summary = w.finish().unwrap();
+    std::fs::read(summary.mcap_file).unwrap()
+}
+
+/// Issue #18, C3: one bit flipped in a zstd chunk made the reader abort ("memory
+/// allocation of ~7e18 bytes failed") or panic ("capacity overflow"). A seeded sample of
+/// 2,000 single-bit flips over the whole file (chunks, summary, footer): `Bag::from_bytes`
+/// returns (a bag, maybe marked truncated, or an error), never panics or aborts.
+#[test]
+fn no_single_bit_flip_makes_the_reader_panic_or_abort() {
+    let clean = small_recording();
+    assert!(Bag::from_bytes(std::path::Path::new("x.mcap"), &clean).is_ok());
+    let bits = clean.len() * 8;
+    let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+    let mut panics = Vec::new();
+    for _ in 0..2000 {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        let bit = (seed % bits as u64) as usize;
+        let mut bytes = clean.clone();
+        bytes[bit / 8] ^= 1 << (bit % 8);
+        let read = std::panic::catch_unwind(|| {
+            let _ = Bag::from_bytes(std::path::Path::new("x.mcap"), &bytes);
+        });
+        if read.is_err() {
+            panics.push(bit);
+        }
+    }
+    assert!(panics.is_empty(), "bits {panics:?} of {bits} panic");
+}
+
+/// Issue #18, C3: a chunk of 1.5 GiB of zeros, compressed to a few kB, aborted the reader;
+/// now the record length limit refuses it before anything is allocated.
+#[test]
+fn a_chunk_that_decompresses_to_gigabytes_is_refused_without_allocating_them() {
+    let big: u64 = 3 << 29; // 1.5 GiB
+                            // The chunk's records: a Message record claiming the whole chunk, then zeros.
+    let mut head = vec![0x05];
+    head.extend_from_slice(&(big - 9).to_le_bytes());
+    let zeros = std::io::Read::take(std::io::repeat(0), big - 9);
+    let mut compressed = Vec::new();
+    zstd::stream::copy_encode(std::io::Read::chain(&head[..], zeros), &mut compressed, 1).unwrap();
+    assert!(compressed.len() < 200_000, "{}", compressed.len());
+    let mut chunk = Vec::new();
+    chunk.extend_from_slice(&T0.to_le_bytes());
+    chunk.extend_from_slice(&T0.to_le_bytes());
+    chunk.extend_from_slice(&big.to_le_bytes());
+    chunk.extend_from_slice(&0u32.to_le_bytes());
+    chunk.extend_from_slice(&4u32.to_le_bytes());
+    chunk.extend_from_slice(b"zstd");
+    chunk.extend_from_slice(&(compressed.len() as u64).to_le_bytes());
+    chunk.extend_from_slice(&compressed);
+    let mut file = mcap::MAGIC.to_vec();
+    let header = [4u32.to_le_bytes().as_slice(), b"ros2", &0u32.to_le_bytes()].concat();
+    file.push(0x01);
+    file.extend_from_slice(&(header.len() as u64).to_le_bytes());
+    file.extend_from_slice(&header);
+    file.push(0x06);
+    file.extend_from_slice(&(chunk.len() as u64).to_le_bytes());
+    file.extend_from_slice(&chunk);
+    let bag = Bag::from_bytes(std::path::Path::new("zeros.mcap"), &file).unwrap();
+    assert!(bag.messages.is_empty());
+    let reason = bag.truncated.expect("the chunk is not read").reason;
+    assert!(reason.contains("exceeds limit"), "{reason}");
+}
+
+/// Issue #18: paths in `metadata.yaml` that climb out of the bag folder were opened, and
+/// a FIFO blocked `bag info` for ever: both are refused.
+#[test]
+fn metadata_paths_stay_in_the_bag_folder_and_special_files_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("bag");
+    let mut w = BagWriter::create(&dir, BagOptions::default()).unwrap();
+    w.write(topics::ARC_ON, &Qos::reliable(1), T0, &Bool { data: true })
+        .unwrap();
+    w.finish().unwrap();
+    let yaml = std::fs::read_to_string(dir.join("metadata.yaml")).unwrap();
+    assert!(Bag::open(&dir).is_ok());
+    std::fs::copy(dir.join("bag_0.mcap"), tmp.path().join("outside.mcap")).unwrap();
+    for bad in ["../outside.mcap", "/etc/passwd", "sub/../../outside.mcap"] {
+        let edited = yaml.replace("- bag_0.mcap", &format!("- {bad}"));
+        assert_ne!(edited, yaml);
+        std::fs::write(dir.join("metadata.yaml"), &edited).unwrap();
+        let err = Bag::open(&dir).unwrap_err().to_string();
+        assert!(err.contains("relative_file_paths"), "{bad}: {err}");
+    }
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink(tmp.path().join("outside.mcap"), dir.join("link.mcap")).unwrap();
+        let edited = yaml.replace("- bag_0.mcap", "- link.mcap");
+        std::fs::write(dir.join("metadata.yaml"), edited).unwrap();
+        let err = Bag::open(&dir).unwrap_err().to_string();
+        assert!(err.contains("leads out of the bag folder"), "{err}");
+        // A FIFO named by the metadata, and /dev/zero given directly.
+        let fifo = dir.join("fifo.mcap");
+        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+        // SAFETY: mkfifo with a valid NUL-terminated path.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        let edited = yaml.replace("- bag_0.mcap", "- fifo.mcap");
+        std::fs::write(dir.join("metadata.yaml"), edited).unwrap();
+        let t = std::time::Instant::now();
+        let err = Bag::open(&dir).unwrap_err().to_string();
+        assert!(err.contains("not a regular file"), "{err}");
+        let err = Bag::open(std::path::Path::new("/dev/zero"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("not a regular file"), "{err}");
+        assert!(t.elapsed().as_secs() < 2);
+    }
+}
+
+/// Issue #18: a full disk was reported as "I/O error from writing, or reading a
+/// compression stream", without "No space left on device".
+#[test]
+fn an_mcap_io_error_keeps_its_cause() {
+    let io = std::io::Error::from_raw_os_error(28); // ENOSPC
+    let err = BagError::mcap(std::path::Path::new("b.mcap"), mcap::McapError::Io(io));
+    let text = err.to_string();
+    assert!(
+        text.contains("I/O error") && text.contains("No space left on device"),
+        "{text}"
+    );
+}

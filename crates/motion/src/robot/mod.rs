@@ -17,6 +17,17 @@ use std::f64::consts::PI;
 use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
 use thiserror::Error;
 
+/// Largest joint offset or TCP distance accepted (m). A welding cell is a few metres; far
+/// larger numbers are typing errors, and numbers near f64's range overflow in the
+/// kinematics (and panic inside rs-opw-kinematics).
+pub const MAX_OFFSET_M: f64 = 1000.0;
+/// Largest angle accepted in an origin or a joint limit (rad): more than a few turns is a
+/// typing error, and sin/cos of huge angles carry no precision.
+pub const MAX_ANGLE_RAD: f64 = 1000.0;
+/// Deepest element nesting accepted in a URDF. Real ones nest 4–6 deep; urdf-rs parses
+/// recursively, so a file nested tens of thousands deep would overflow the stack.
+pub const MAX_URDF_DEPTH: usize = 64;
+
 /// A URDF that cannot serve as a welding robot, naming the link or joint at fault.
 #[derive(Debug, Error)]
 pub enum RobotError {
@@ -36,6 +47,60 @@ pub enum RobotError {
     Joint { joint: String, reason: String },
     #[error("the chain from '{base}' to '{tip}' has no movable joint")]
     NoJoints { base: String, tip: String },
+    #[error("joint '{joint}': its {role} link '{link}' is not a link of the URDF")]
+    MissingLink {
+        joint: String,
+        role: &'static str,
+        link: String,
+    },
+    #[error("the URDF nests elements more than {MAX_URDF_DEPTH} deep (line {line})")]
+    TooDeep { line: usize },
+}
+
+/// Refuses XML nested deeper than [`MAX_URDF_DEPTH`] before urdf-rs's recursive parser sees
+/// it. quick-xml reads as a stream, so the check itself needs no stack.
+fn check_depth(text: &str) -> Result<(), RobotError> {
+    use quick_xml::events::Event;
+    let mut reader = quick_xml::Reader::from_str(text);
+    let mut depth = 0usize;
+    loop {
+        match reader.read_event() {
+            Ok(Event::Start(_)) => {
+                depth += 1;
+                if depth > MAX_URDF_DEPTH {
+                    let at = reader.buffer_position() as usize;
+                    let line = 1 + text.as_bytes()[..at.min(text.len())]
+                        .iter()
+                        .filter(|&&b| b == b'\n')
+                        .count();
+                    return Err(RobotError::TooDeep { line });
+                }
+            }
+            Ok(Event::End(_)) => depth = depth.saturating_sub(1),
+            Ok(Event::Eof) => return Ok(()),
+            Ok(_) => {}
+            // Not well-formed: urdf-rs says why, and it has not nested deep before here.
+            Err(_) => return Ok(()),
+        }
+    }
+}
+
+/// A joint origin's numbers: finite and within [`MAX_OFFSET_M`] / [`MAX_ANGLE_RAD`].
+fn check_origin(xyz: &[f64; 3], rpy: &[f64; 3]) -> Result<(), String> {
+    if xyz.iter().chain(rpy).any(|v| !v.is_finite()) {
+        return Err("origin has a non-finite value".into());
+    }
+    if let Some(v) = xyz.iter().find(|v| v.abs() > MAX_OFFSET_M) {
+        return Err(format!(
+            "origin xyz {v:e} m is beyond {MAX_OFFSET_M} m (a typing error?)"
+        ));
+    }
+    if let Some(v) = rpy.iter().find(|v| v.abs() > MAX_ANGLE_RAD) {
+        return Err(format!(
+            "origin rpy {v:e} rad is beyond {MAX_ANGLE_RAD} rad"
+        ));
+    }
+    Ok(())
 }
 
 /// How a movable joint moves.
@@ -132,12 +197,25 @@ impl Robot {
 
     /// Reads URDF text; see [`Robot::from_urdf_file`].
     pub fn from_urdf(text: &str, tip: Option<&str>, tcp: TcpChoice) -> Result<Robot, RobotError> {
+        check_depth(text)?;
         let urdf = urdf_rs::read_from_string(text).map_err(|e| RobotError::Urdf(e.to_string()))?;
         if urdf.links.is_empty() {
             return Err(RobotError::NoLinks);
         }
+        let links: std::collections::HashSet<&str> =
+            urdf.links.iter().map(|l| l.name.as_str()).collect();
         let mut parent_joint: HashMap<&str, &urdf_rs::Joint> = HashMap::new();
         for j in &urdf.joints {
+            // A joint hanging from a link nobody defined would silently cut the chain there.
+            for (role, link) in [("parent", &j.parent.link), ("child", &j.child.link)] {
+                if !links.contains(link.as_str()) {
+                    return Err(RobotError::MissingLink {
+                        joint: j.name.clone(),
+                        role,
+                        link: link.clone(),
+                    });
+                }
+            }
             if parent_joint.insert(j.child.link.as_str(), j).is_some() {
                 return Err(RobotError::TwoParents(j.child.link.clone()));
             }
@@ -209,10 +287,7 @@ impl Robot {
                 reason,
             };
             let o = &j.origin;
-            let values = o.xyz.0.iter().chain(o.rpy.0.iter());
-            if values.into_iter().any(|v| !v.is_finite()) {
-                return Err(bad("origin has a non-finite value".into()));
-            }
+            check_origin(&o.xyz.0, &o.rpy.0).map_err(bad)?;
             let origin = Isometry3::from_parts(
                 Translation3::new(o.xyz.0[0], o.xyz.0[1], o.xyz.0[2]),
                 UnitQuaternion::from_euler_angles(o.rpy.0[0], o.rpy.0[1], o.rpy.0[2]),
@@ -250,6 +325,15 @@ impl Robot {
                         "needs finite position limits lower < upper, got lower={lo} upper={hi}"
                     )));
                 }
+                let most = match kind {
+                    JointKind::Revolute => MAX_ANGLE_RAD,
+                    JointKind::Prismatic => MAX_OFFSET_M,
+                };
+                if lo.abs() > most || hi.abs() > most {
+                    return Err(bad(format!(
+                        "position limits lower={lo} upper={hi} reach beyond ±{most}"
+                    )));
+                }
                 (lo, hi)
             };
             let velocity = j.limit.velocity;
@@ -275,6 +359,12 @@ impl Robot {
             return Err(RobotError::NoJoints { base, tip });
         }
         let tcp = match tcp.explicit {
+            Some(t) if t.translation.vector.norm() > MAX_OFFSET_M => {
+                return Err(RobotError::Urdf(format!(
+                    "the TCP is {} m from the tip link, beyond {MAX_OFFSET_M} m",
+                    t.translation.vector.norm()
+                )))
+            }
             Some(t) => t,
             None if tip == "tcp" => Isometry3::identity(),
             None => tcp.default,
@@ -427,6 +517,13 @@ pub fn parse_xyz_rpy(text: &str) -> Result<Isometry3<f64>, PoseParseError> {
         return Err(PoseParseError(format!(
             "expected 6 finite numbers \"x y z roll pitch yaw\" (m, rad), got {} value(s)",
             v.len()
+        )));
+    }
+    if v[..3].iter().any(|x| x.abs() > MAX_OFFSET_M)
+        || v[3..].iter().any(|x| x.abs() > MAX_ANGLE_RAD)
+    {
+        return Err(PoseParseError(format!(
+            "\"{text}\": x y z within ±{MAX_OFFSET_M} m and angles within ±{MAX_ANGLE_RAD} rad"
         )));
     }
     Ok(xyz_rpy(&[v[0], v[1], v[2]], &[v[3], v[4], v[5]]))

@@ -214,6 +214,17 @@ impl OpwModel {
             sign_corrections: [1, sign2, sign3, sign4, 1, 1],
             dof: 6,
         };
+        // rs-opw-kinematics panics on a non-finite parameter: refuse it here instead.
+        let lengths = [a1, a2, b, c1, c2, c3];
+        if lengths
+            .iter()
+            .chain(&parameters.offsets)
+            .any(|v| !v.is_finite())
+        {
+            return Err(OpwUnsupported(
+                "the chain's lengths or offsets are not finite".into(),
+            ));
+        }
         let kinematics = OPWKinematics::new(parameters);
         let flange0 = from_glam(&kinematics.forward(&[0.0; 6]));
         let tool = flange0.inverse() * base.inverse() * robot.tip_pose(&[0.0; 6]);

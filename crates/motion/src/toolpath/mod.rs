@@ -104,6 +104,91 @@ pub enum ToolpathError {
     EmptyPass(usize),
     #[error("weld pass {pass} point {point} is not a finite point")]
     BadPoint { pass: usize, point: usize },
+    #[error(
+        "the toolpath would need about {poses:.2e} poses, more than max_poses = {max} \
+         (its longest move, {what}, is {longest_mm:.3e} mm at max_step_mm = {step_mm}); \
+         raise max_step_mm or max_poses in the process settings, or check the part's size"
+    )]
+    TooManyPoses {
+        poses: f64,
+        max: usize,
+        what: &'static str,
+        longest_mm: f64,
+        step_mm: f64,
+    },
+}
+
+/// An upper bound of the poses [`build`] emits, computed in f64 before anything is
+/// allocated (block_mm near f64's range or a tiny max_step_mm asked for more poses than
+/// memory holds). A straight line gets at most length / max_step_mm + 1 poses, plus
+/// its turn / max_step_deg where the torch turns: on the travel lines (6 a pass) and on the
+/// two weld steps around each point where the pass changes direction (the torch heading
+/// changes nowhere else). Travel lines are bounded by the passes' bounding box.
+fn check_pose_budget(passes: &[WeldPass], s: &ProcessSettings) -> Result<(), ToolpathError> {
+    let (poses, longest) = pose_bound(passes, s);
+    if poses.is_nan() || poses > s.max_poses as f64 {
+        return Err(ToolpathError::TooManyPoses {
+            poses,
+            max: s.max_poses,
+            what: longest.1,
+            longest_mm: longest.0,
+            step_mm: s.max_step_mm,
+        });
+    }
+    Ok(())
+}
+
+/// The bound of [`check_pose_budget`], and the longest move (mm, what).
+fn pose_bound(passes: &[WeldPass], s: &ProcessSettings) -> (f64, (f64, &'static str)) {
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    let mut lines = 2.0;
+    let mut turning_lines = 2.0;
+    let mut weld_mm = 0.0;
+    let mut longest = (0.0f64, "a weld step");
+    for pass in passes {
+        let pts = &pass.points_mm;
+        lines += pts.len() as f64 + 6.0;
+        turning_lines += 6.0;
+        let direction = |i: usize| {
+            let d = pts[i + 1] - pts[i];
+            let h = Vector3::new(d.x, d.y, 0.0);
+            (h.norm() > 1e-9).then(|| h.normalize())
+        };
+        for i in 0..pts.len().saturating_sub(1) {
+            let d = (pts[i + 1] - pts[i]).norm();
+            weld_mm += d;
+            if d > longest.0 {
+                longest = (d, "a weld step");
+            }
+            let turns = i > 0
+                && match (direction(i - 1), direction(i)) {
+                    (Some(a), Some(b)) => (a - b).norm() > 1e-9,
+                    (None, None) => false,
+                    _ => true,
+                };
+            if turns || i == 0 {
+                turning_lines += 2.0;
+            }
+        }
+        for p in &pass.points_mm {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+    }
+    let diagonal = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt();
+    let travel = diagonal + s.clearance_mm + 2.0 * s.approach_mm;
+    if travel > longest.0 {
+        longest = (travel, "a transit across the part");
+    }
+    let travel_mm = 4.0 * travel * passes.len() as f64;
+    // Every torch orientation is the vertical torch tilted by at most |travel| + |work|
+    // angle, so two of them differ by at most twice that.
+    let turn_deg = (2.0 * (s.travel_angle_deg.abs() + s.work_angle_deg.abs())).min(180.0);
+    let poses =
+        (weld_mm + travel_mm) / s.max_step_mm + lines + turning_lines * turn_deg / s.max_step_deg;
+    (poses, longest)
 }
 
 /// A waypoint in the part frame while building.
@@ -276,6 +361,7 @@ pub fn build(
             return Err(ToolpathError::BadPoint { pass: f, point: p });
         }
     }
+    check_pose_budget(passes, settings)?;
     let s = settings;
     let mut b = Builder {
         s,
@@ -608,5 +694,67 @@ mod tests {
             "b",
         );
         assert_eq!(e, Err(ToolpathError::EmptyPass(1)));
+    }
+
+    /// The pose budget (issue #18, C2) bounds what `build` emits, and is not far above
+    /// it on ordinary passes (so it refuses absurd inputs, not large parts).
+    #[test]
+    fn the_pose_bound_holds_and_is_not_wildly_loose() {
+        let ring = WeldPass {
+            points_mm: (0..40)
+                .map(|i| {
+                    let a = i as f64 * std::f64::consts::TAU / 40.0;
+                    Point3::new(30.0 * a.cos(), 30.0 * a.sin(), 2.5 + 0.1 * i as f64)
+                })
+                .collect(),
+        };
+        let up_and_back = WeldPass {
+            points_mm: vec![
+                Point3::new(0.0, 0.0, 2.5),
+                Point3::new(6.0, 0.0, 2.5),
+                Point3::new(6.0, 0.0, 5.0),
+                Point3::new(0.0, 0.0, 5.0),
+                Point3::new(0.0, 6.0, 5.0),
+            ],
+        };
+        for (passes, step_deg) in [
+            (vec![straight(50), straight(3)], 5.0),
+            (vec![ring.clone(), up_and_back.clone()], 5.0),
+            (vec![ring, up_and_back, straight(7)], 0.5),
+        ] {
+            let s = ProcessSettings {
+                max_step_deg: step_deg,
+                ..ProcessSettings::default()
+            };
+            let tp = build(&passes, &s, WeldTiming::PerPoint(1.0), "b").unwrap();
+            let (bound, _) = pose_bound(&passes, &s);
+            let n = tp.poses.len() as f64;
+            assert!(bound >= n && bound < 60.0 * n, "{n} poses, bound {bound}");
+            let tight = ProcessSettings {
+                max_poses: tp.poses.len() - 1,
+                ..s
+            };
+            let e = build(&passes, &tight, WeldTiming::PerPoint(1.0), "b").unwrap_err();
+            assert!(matches!(e, ToolpathError::TooManyPoses { .. }), "{e}");
+        }
+        // Blocks of 1e308 mm: refused at once, naming the keys.
+        let huge = WeldPass {
+            points_mm: vec![
+                Point3::new(0.5e308, 0.0, 0.0),
+                Point3::new(1.5e308, 0.0, 0.0),
+            ],
+        };
+        let e = build(
+            &[huge],
+            &ProcessSettings::default(),
+            WeldTiming::PerPoint(1.0),
+            "b",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("max_poses = 2000000") && e.contains("max_step_mm"),
+            "{e}"
+        );
     }
 }

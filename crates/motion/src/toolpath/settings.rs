@@ -5,8 +5,17 @@ use nalgebra::Isometry3;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::robot::{xyz_rpy, Solver};
+use crate::robot::{xyz_rpy, Solver, MAX_OFFSET_M};
 use waam_access::{Torch, TorchSetup};
+
+/// Longest approach, clearance (mm): 10 m is beyond any cell; near f64's range the
+/// toolpath would need more poses than memory holds.
+pub const MAX_TRAVEL_MM: f64 = 10_000.0;
+/// Finest toolpath resolution (mm, degrees) and path tolerance (mm, degrees).
+pub const MIN_STEP: f64 = 0.01;
+pub const MIN_TOLERANCE: f64 = 0.001;
+/// Default of `max_poses`: about 250 MB of toolpath and trajectory.
+pub const DEFAULT_MAX_POSES: usize = 2_000_000;
 
 /// A process-settings file that cannot be used, naming the key.
 #[derive(Debug, Error)]
@@ -73,6 +82,9 @@ pub struct ProcessSettings {
     pub ik_solver: Solver,
     /// The torch whose access the planner checks at every deposit (`null`: none).
     pub torch: Option<Torch>,
+    /// The most toolpath poses built; a toolpath estimated to need more is refused
+    /// before it is built (memory), naming the move and the keys.
+    pub max_poses: usize,
 }
 
 impl Default for ProcessSettings {
@@ -101,6 +113,7 @@ impl Default for ProcessSettings {
             path_tolerance_deg: 0.5,
             ik_solver: Solver::Auto,
             torch: Some(Torch::default()),
+            max_poses: DEFAULT_MAX_POSES,
         }
     }
 }
@@ -117,6 +130,7 @@ impl ProcessSettings {
         let s: ProcessSettings = if text.trim().is_empty() {
             ProcessSettings::default()
         } else {
+            waam_part::yaml::check_depth(text).map_err(|e| SettingsError::Yaml(e.to_string()))?;
             serde_yaml::from_str(text).map_err(|e| SettingsError::Yaml(e.to_string()))?
         };
         s.validate()?;
@@ -135,6 +149,16 @@ impl ProcessSettings {
         }
         if !finite(&self.tcp.position_m) || !finite(&self.tcp.rpy_deg) {
             return Err(bad("tcp", "every value must be a finite number"));
+        }
+        for (key, pose) in [("plate", &self.plate), ("tcp", &self.tcp)] {
+            if pose.position_m.iter().any(|v| v.abs() > MAX_OFFSET_M)
+                || pose.rpy_deg.iter().any(|v| v.abs() > 3600.0)
+            {
+                return Err(bad(
+                    key,
+                    &format!("position_m within ±{MAX_OFFSET_M} m and rpy_deg within ±3600"),
+                ));
+            }
         }
         let angle = |key, v: f64| {
             if v.is_finite() && v.abs() < 60.0 {
@@ -175,6 +199,36 @@ impl ProcessSettings {
         if let Some(t) = &self.torch {
             t.validate()
                 .map_err(|e| SettingsError::Yaml(e.to_string()))?;
+        }
+        for (key, v, lo, hi) in [
+            ("approach_mm", self.approach_mm, 0.0, MAX_TRAVEL_MM),
+            ("clearance_mm", self.clearance_mm, 0.0, MAX_TRAVEL_MM),
+            ("max_step_mm", self.max_step_mm, MIN_STEP, f64::MAX),
+            ("max_step_deg", self.max_step_deg, MIN_STEP, f64::MAX),
+            (
+                "path_tolerance_mm",
+                self.path_tolerance_mm,
+                MIN_TOLERANCE,
+                f64::MAX,
+            ),
+            (
+                "path_tolerance_deg",
+                self.path_tolerance_deg,
+                MIN_TOLERANCE,
+                f64::MAX,
+            ),
+        ] {
+            if v < lo || v > hi {
+                return Err(bad(
+                    key,
+                    &format!(
+                        "{v:e} is outside {lo}..={hi:e} (the toolpath would not fit in memory)"
+                    ),
+                ));
+            }
+        }
+        if self.max_poses == 0 {
+            return Err(bad("max_poses", "must be at least 1"));
         }
         let s = self.joint_speed_scale;
         if !(s.is_finite() && s > 0.0 && s <= 1.0) {

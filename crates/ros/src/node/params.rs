@@ -288,6 +288,7 @@ impl NodeParams {
             where_: String::new(),
             msg,
         };
+        waam_part::yaml::check_depth(text).map_err(|e| invalid(format!("not valid YAML: {e}")))?;
         let merged = sections(text, "/waam_planner").map_err(invalid)?;
         let params: NodeParams = serde_yaml::from_value(serde_yaml::Value::Mapping(merged))
             .map_err(|e| invalid(format!("ros__parameters: {e}")))?;
