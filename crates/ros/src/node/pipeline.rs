@@ -10,6 +10,7 @@ use std::sync::Arc;
 use super::params::NodeParams;
 use super::worker::{JobContext, Pipeline};
 use crate::planning::CandidateRecorder;
+use waam_motion::robot::limits::{JointLimitsFile, LimitsError};
 use waam_motion::robot::{xyz_rpy, Robot, RobotError, TcpChoice};
 use waam_motion::toolpath::{ProcessSettings, SettingsError};
 use waam_part::{Part, Window};
@@ -53,6 +54,13 @@ pub enum SetupError {
     BundledRobot(RobotError),
     #[error("robot.urdf {path}: {source}")]
     Robot { path: String, source: RobotError },
+    #[error("robot.joint_limits: cannot read {path}: {source}")]
+    ReadLimits {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("robot.joint_limits {path}: {source}")]
+    Limits { path: String, source: LimitsError },
     #[error("mesh.block_mm: expected three lengths")]
     MeshBlock,
 }
@@ -148,6 +156,18 @@ impl PlanningPipeline {
                     source,
                 },
             )?
+        };
+        let robot = if params.robot.joint_limits.is_empty() {
+            robot
+        } else {
+            let path = params.robot.joint_limits.clone();
+            let text = std::fs::read_to_string(&path).map_err(|source| SetupError::ReadLimits {
+                path: path.clone(),
+                source,
+            })?;
+            JointLimitsFile::from_yaml(&text)
+                .and_then(|file| robot.with_limits(&file))
+                .map_err(|source| SetupError::Limits { path, source })?
         };
         Ok(PlanningPipeline {
             cell: Cell { settings, robot },
