@@ -114,7 +114,7 @@ pub enum TrajectoryError {
     },
     #[error("{at}: the weld would need joint {joint} at {needed:.4} {unit}, over its limit of {limit:.4} {unit}; a weld is never slowed down (a slower weld is a different weld): lower the weld speed or raise the limit")]
     WeldTooFast {
-        at: At,
+        at: Box<At>,
         joint: String,
         needed: f64,
         limit: f64,
@@ -138,8 +138,8 @@ impl TrajectoryError {
             TrajectoryError::Unreachable(at)
             | TrajectoryError::Discontinuous(at)
             | TrajectoryError::BranchSwitch { at, .. }
-            | TrajectoryError::Strays { at, .. }
-            | TrajectoryError::WeldTooFast { at, .. } => Some(at),
+            | TrajectoryError::Strays { at, .. } => Some(at),
+            TrajectoryError::WeldTooFast { at, .. } => Some(&mut **at),
             TrajectoryError::Violation(_) | TrajectoryError::TransitTooLong { .. } => None,
         }
     }
@@ -525,7 +525,7 @@ fn time_parameterize(
                 })
                 .expect("a robot has joints");
             return Err(TrajectoryError::WeldTooFast {
-                at: at(tp, k),
+                at: Box::new(at(tp, k)),
                 joint: joint.name.clone(),
                 needed: (path[k][j] - path[k - 1][j]).abs() / nominal,
                 limit: joint.velocity * scale,
@@ -544,9 +544,10 @@ fn time_parameterize(
                 break;
             }
             // Where only weld steps are involved, nothing may give: an error.
+            let free = |m: usize| m >= 1 && m < n && !fixed[m];
             let stuck = over
                 .iter()
-                .find(|&&k| fixed[k] && !(k > 1 && !fixed[k - 1]) && !(k + 1 < n && !fixed[k + 1]));
+                .find(|&&k| fixed[k] && !free(k - 1) && !free(k + 1));
             if let Some(&k) = stuck.or(if round == MAX_ACCEL_ROUNDS {
                 over.first()
             } else {
@@ -563,7 +564,7 @@ fn time_parameterize(
                     )));
                 }
                 return Err(TrajectoryError::WeldTooFast {
-                    at: at(tp, k),
+                    at: Box::new(at(tp, k)),
                     joint: joint.name.clone(),
                     needed: r * limit,
                     limit,
