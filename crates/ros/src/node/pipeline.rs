@@ -350,6 +350,31 @@ mod tests {
     }
 
     #[test]
+    fn the_joint_limits_parameter_sets_the_robots_limits() {
+        let planner: Arc<PlanFn> =
+            Arc::new(|_: &PlanRequest| Err(JobError::Other("no planner in this test".into())));
+        let mut params = NodeParams::default();
+        params.robot.joint_limits = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/joint_limits.yaml"
+        )
+        .into();
+        let p = PlanningPipeline::from_params(&params, planner.clone()).unwrap();
+        assert_eq!(p.cell.robot.joints[0].acceleration, Some(2.0));
+        assert_eq!(p.cell.robot.joints[0].velocity, 1.5);
+        assert_eq!(pipeline().cell.robot.joints[0].acceleration, None);
+        params.robot.joint_limits = "/nonexistent/joint_limits.yaml".into();
+        let err = PlanningPipeline::from_params(&params, planner)
+            .err()
+            .unwrap();
+        assert!(
+            err.to_string()
+                .starts_with("robot.joint_limits: cannot read"),
+            "{err}"
+        );
+    }
+
+    #[test]
     fn unchecked_plans_are_refused() {
         let part = Part::parse(
             "name: w\nblock_mm: [6, 6, 2.5]\nmax_fragments: 2\nlayers:\n  - |\n    ##\n  - |\n    ##\n",
