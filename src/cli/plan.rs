@@ -61,6 +61,11 @@ pub struct PlanArgs {
     /// Learn the plain violating prefix (as the paper) instead of proven shorter clauses.
     #[arg(long)]
     pub no_shortening: bool,
+    /// Do not start from a plan built layer by layer (one SAT solve per layer, joined by
+    /// up moves): the solver searches from scratch. Answers are the same; only the time
+    /// to find them differs.
+    #[arg(long)]
+    pub no_warm_start: bool,
     /// Record the run as a rosbag2 bag (MCAP) in the new directory DIR: the part, every
     /// candidate's verdict (broken window, prefix, learned clause), the plan, the simulated
     /// heat of the build and, with --robot, the motion as the node publishes it.
@@ -110,6 +115,7 @@ pub fn options(args: &PlanArgs) -> anyhow::Result<Options> {
         max_fragments: args.max_fragments,
         cancel: None,
         solver: args.solver,
+        warm_start: !args.no_warm_start,
     })
 }
 
@@ -369,9 +375,14 @@ impl LazyBar {
             bar.enable_steady_tick(Duration::from_millis(120));
             bar
         });
+        let best = match (s.feasible, s.best_margin_s) {
+            (0, _) => "no feasible plan yet".to_string(),
+            (_, Some(m)) => format!("best margin {m:.2} s"),
+            (_, None) => "a feasible plan".to_string(),
+        };
         bar.set_message(format!(
-            "{} candidates, {} feasible, {} learned clauses",
-            s.candidates, s.feasible, s.learned_clauses
+            "{} candidates, {} feasible, {} learned clauses, {} cycle cuts; {best}",
+            s.candidates, s.feasible, s.learned_clauses, s.cycle_cuts
         ));
     }
 

@@ -151,7 +151,7 @@ fn parse_triple(text: &str) -> Result<[f64; 3], String> {
         .map_err(|_| format!("expected 3 numbers \"X Y Z\", got {}", v.len()))
 }
 
-fn parse_pitch(text: &str) -> Result<[f64; 3], String> {
+pub fn parse_pitch(text: &str) -> Result<[f64; 3], String> {
     let p = parse_triple(text)?;
     if p.iter().any(|&x| x <= 0.0) {
         return Err(format!("every pitch must be > 0, got {text:?}"));

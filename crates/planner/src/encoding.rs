@@ -421,6 +421,24 @@ impl Encoding {
         lits
     }
 
+    /// Literal: block `v` starts fragment `i`.
+    pub fn starts_fragment(&self, v: usize, i: usize) -> Lit {
+        self.sz[v][i]
+    }
+
+    /// Literal: a weld path ends at block `v`.
+    pub fn ends_at(&self, v: usize) -> Lit {
+        self.end[v]
+    }
+
+    /// Every edge literal `e(u,v)`, as (u, v, e).
+    pub fn edges(&self) -> impl Iterator<Item = (usize, usize, Lit)> + '_ {
+        self.out
+            .iter()
+            .enumerate()
+            .flat_map(|(u, out)| out.iter().map(move |&(v, e)| (u, v as usize, e)))
+    }
+
     /// Number of incoming-edge literals (for statistics).
     pub fn edge_count(&self) -> usize {
         self.inc.iter().map(Vec::len).sum()

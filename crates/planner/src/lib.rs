@@ -9,6 +9,7 @@
 //! by its margin, so the next one found is strictly better, until none is left.
 
 pub mod cadical;
+pub mod constructive;
 pub mod encoding;
 pub mod sat;
 mod search;
@@ -53,6 +54,9 @@ pub struct Options {
     pub cancel: Option<Arc<AtomicBool>>,
     /// The SAT solver.
     pub solver: Backend,
+    /// Start from a plan built layer by layer ([`constructive`]): judged first, and the
+    /// solver's phases point at it. Plans and proofs are the same with or without it.
+    pub warm_start: bool,
 }
 
 impl Default for Options {
@@ -64,6 +68,7 @@ impl Default for Options {
             max_fragments: None,
             cancel: None,
             solver: Backend::default(),
+            warm_start: true,
         }
     }
 }
@@ -95,6 +100,8 @@ pub struct Stats {
     pub deposits_reused: u64,
     /// Euler steps of cooldowns after complete candidates.
     pub cooldown_steps: u64,
+    /// Worst-case t8/5 margin of the best plan so far, s (None: no plan yet, or no windows).
+    pub best_margin_s: Option<f64>,
     pub learned_clauses: u64,
     pub clause_len_min: Option<usize>,
     pub clause_len_max: Option<usize>,
@@ -321,9 +328,58 @@ fn search_plans(
     let mut best: Option<Found> = None;
     let mut proven = true;
     let mut any_valid = false;
+    // The windows are narrowed to the best plan's margin once the search is among plans
+    // of its fragment count (a plan with fewer fragments is better whatever its margin).
+    let mut narrowed_to_best = false;
+    if opts.warm_start {
+        let limits = constructive::Limits {
+            deadline: opts.timeout.and_then(|t| started.checked_add(t)),
+            cancel: opts.cancel.clone(),
+        };
+        if let Some(warm) = constructive::layered_plan(part, &graph, k, opts.solver, &limits) {
+            any_valid = true;
+            search.set_phases(&warm);
+            // Stopped before a verdict: the loop below sees the timeout.
+            if let Some(verdict) = search.judge(&warm)? {
+                tracing::info!(
+                "warm start: a plan of {} weld path(s) built layer by layer in {:.2} s: {verdict:?}",
+                warm.len(),
+                started.elapsed().as_secs_f64()
+            );
+                progress(Event::Candidate {
+                    fragments: &warm,
+                    verdict,
+                    stats: &search.stats,
+                });
+                if let CandidateVerdict::Feasible = verdict {
+                    search
+                        .stats
+                        .first_feasible_s
+                        .get_or_insert(started.elapsed().as_secs_f64());
+                    search.block_plan(&warm);
+                    let margin = margin_under(&base, &warm)?;
+                    search.stats.best_margin_s = Some(margin).filter(|m| m.is_finite());
+                    best = Some(Found {
+                        margin,
+                        fragments: warm,
+                    });
+                }
+            }
+        }
+    }
     // Fewest fragments first: f = 1, 2, ... under an assumption (all of k when not optimizing).
     let levels: Vec<usize> = if optimize { (1..=k).collect() } else { vec![k] };
     'levels: for f in levels {
+        if let Some(b) = best.as_ref().filter(|b| b.fragments.len() <= f) {
+            // Every plan with fewer fragments is ruled out (or the first will do).
+            if !optimize || b.margin.is_infinite() {
+                break 'levels;
+            }
+            if !narrowed_to_best {
+                search.set_thermal(base.narrowed(b.margin + 1e-6));
+                narrowed_to_best = true;
+            }
+        }
         let assume: Vec<_> = search.enc.at_most_fragments(f).into_iter().collect();
         loop {
             if timed_out(opts, started) {
@@ -338,7 +394,10 @@ fn search_plans(
                 break;
             };
             any_valid = true;
-            let verdict = search.judge(&candidate)?;
+            let Some(verdict) = search.judge(&candidate)? else {
+                proven = false;
+                break 'levels;
+            };
             progress(Event::Candidate {
                 fragments: &candidate,
                 verdict,
@@ -351,7 +410,12 @@ fn search_plans(
                     .stats
                     .first_feasible_s
                     .get_or_insert(started.elapsed().as_secs_f64());
-                if best.as_ref().is_none_or(|b| margin > b.margin) {
+                let better = best.as_ref().is_none_or(|b| {
+                    candidate.len() < b.fragments.len()
+                        || (candidate.len() == b.fragments.len() && margin > b.margin)
+                });
+                if better {
+                    search.stats.best_margin_s = Some(margin).filter(|m| m.is_finite());
                     best = Some(Found {
                         fragments: candidate.clone(),
                         margin,
@@ -362,10 +426,12 @@ fn search_plans(
                 }
                 search.block_plan(&candidate);
                 // Only strictly better plans from now on (margins compared to 1 µs).
+                let margin = best.as_ref().map_or(margin, |b| b.margin);
                 search.set_thermal(base.narrowed(margin + 1e-6));
+                narrowed_to_best = true;
             }
         }
-        if best.is_some() {
+        if best.as_ref().is_some_and(|b| b.fragments.len() <= f) {
             break;
         }
     }
@@ -393,6 +459,9 @@ fn search_plans(
 }
 
 fn margin_under(model: &ThermalModel, fragments: &[Vec<usize>]) -> Result<f64, PlanError> {
+    if !model.has_windows() {
+        return Ok(f64::INFINITY);
+    }
     let outcome = thermal::simulate(model, fragments)?;
     Ok(model.margin(&outcome.crossings))
 }
@@ -463,7 +532,9 @@ fn enumerate_from(
     let mut search = new_search(part, graph, k, opts, opts.lookahead_budget, started);
     let (mut feasible, mut complete) = (0u64, true);
     while let Some(candidate) = search.next_candidate(&[]) {
-        let verdict = search.judge(&candidate)?;
+        let Some(verdict) = search.judge(&candidate)? else {
+            break; // stopped: `interrupted` marks the count incomplete
+        };
         if let CandidateVerdict::Feasible = verdict {
             feasible += 1;
             search

@@ -44,6 +44,9 @@ pub struct Search<'p> {
     pub interrupted: bool,
     /// Cycle cuts the solver made inside its searches (counted into the statistics).
     inside_cuts: u64,
+    /// When simulations stop too (a stopped simulation gives no verdict).
+    deadline: Option<Instant>,
+    cancel: Option<Arc<AtomicBool>>,
 }
 
 impl<'p> Search<'p> {
@@ -85,19 +88,32 @@ impl<'p> Search<'p> {
             spacing: (n / 1000).max(1),
             interrupted: false,
             inside_cuts: 0,
+            deadline: None,
+            cancel: None,
         }
     }
 
     /// Stops solves at `deadline` or on `cancel` (inside a solve where the backend can):
     /// [`Search::next_candidate`] then returns `None` and sets `interrupted`.
     pub fn set_interrupt(&mut self, deadline: Option<Instant>, cancel: Option<Arc<AtomicBool>>) {
-        self.solver.set_interrupt(deadline, cancel);
+        self.solver.set_interrupt(deadline, cancel.clone());
+        self.deadline = deadline;
+        self.cancel = cancel;
     }
 
-    /// Suggests the value of `lit` to the solver's decisions (a warm start's hint).
-    #[allow(dead_code)] // the hook for the warm start (a constructive plan as phases)
-    pub fn set_phase(&mut self, lit: Lit) {
-        self.solver.set_phase(lit);
+    /// Points the solver's decisions at `fragments` (a warm start): every move of the
+    /// plan true first, every other move false first. A hint only, never a constraint.
+    pub fn set_phases(&mut self, fragments: &[Vec<usize>]) {
+        let mut on = rustc_hash::FxHashSet::default();
+        for lit in self.enc.plan_literals(fragments) {
+            self.solver.set_phase(lit);
+            on.insert(lit);
+        }
+        for (_, _, e) in self.enc.edges() {
+            if !on.contains(&e) {
+                self.solver.set_phase(!e);
+            }
+        }
     }
 
     /// Judges later candidates by `model` (e.g. narrowed windows while optimizing).
@@ -173,13 +189,19 @@ impl<'p> Search<'p> {
     }
 
     /// Simulates a candidate, resuming from the longest shared prefix, and on a violation
-    /// learns the (shortened) prefix clause.
+    /// learns the (shortened) prefix clause. `None`: the deadline or a cancel stopped the
+    /// simulation before a verdict (`interrupted` is then set).
     pub fn judge(
         &mut self,
         fragments: &[Vec<usize>],
-    ) -> Result<CandidateVerdict, thermal::NotCooled> {
+    ) -> Result<Option<CandidateVerdict>, thermal::NotCooled> {
         let t = Instant::now();
         self.stats.candidates += 1;
+        if !self.thermal.has_windows() {
+            // Nothing to break: the simulation could only say "feasible".
+            self.stats.feasible += 1;
+            return Ok(Some(CandidateVerdict::Feasible));
+        }
         let seq: Vec<(usize, bool)> = fragments
             .iter()
             .flat_map(|f| f.iter().enumerate().map(|(p, &b)| (b, p == 0)))
@@ -187,44 +209,63 @@ impl<'p> Search<'p> {
         let result = self.simulate(&seq);
         self.stats.simulator_s += t.elapsed().as_secs_f64();
         match result? {
-            None => {
-                self.stats.feasible += 1;
-                Ok(CandidateVerdict::Feasible)
+            Judged::Interrupted => {
+                self.interrupted = true;
+                Ok(None)
             }
-            Some(v) => {
+            Judged::Feasible => {
+                self.stats.feasible += 1;
+                Ok(Some(CandidateVerdict::Feasible))
+            }
+            Judged::Violated(v) => {
                 self.violations[v.block] += 1;
                 let t = Instant::now();
                 let clause_len = self.learn(&seq, &v);
                 self.stats.lookahead_s += t.elapsed().as_secs_f64();
-                Ok(CandidateVerdict::Violated {
+                Ok(Some(CandidateVerdict::Violated {
                     block: self.part.block(v.block),
                     kind: v.kind,
                     time_s: v.time_s,
                     prefix_len: v.prefix_len,
                     clause_len,
-                })
+                }))
             }
         }
     }
 
-    /// The simulation of `seq` to its first violation (`None`: feasible).
-    fn simulate(&mut self, seq: &[(usize, bool)]) -> Result<Option<Violation>, thermal::NotCooled> {
+    /// The simulation of `seq` to its first violation.
+    fn simulate(&mut self, seq: &[(usize, bool)]) -> Result<Judged, thermal::NotCooled> {
         let keys = prefix_keys(seq);
-        let (mut sim, at) = resume(&self.thermal, &self.cache, self.spacing, seq, &keys);
+        let (sim, at) = resume(&self.thermal, &self.cache, self.spacing, seq, &keys);
+        let mut sim = sim.with_deadline(self.deadline);
+        if let Some(cancel) = &self.cancel {
+            sim = sim.with_cancel(Arc::clone(cancel));
+        }
         self.stats.deposits_reused += at as u64;
         for (j, &(b, new)) in seq.iter().enumerate().skip(at) {
             self.stats.deposits_simulated += 1;
-            if let Err(v) = sim.deposit(b, new) {
-                return Ok(Some(v));
+            let deposited = sim.deposit(b, new);
+            // A stopped simulation's state is incomplete: no verdict, nothing cached.
+            if sim.cancelled() {
+                return Ok(Judged::Interrupted);
+            }
+            if let Err(v) = deposited {
+                return Ok(Judged::Violated(v));
             }
             if (j + 1) % self.spacing == 0 {
                 self.cache.insert(keys[j], &sim);
             }
         }
         let before = sim.steps();
-        let end = sim.finish()?.err();
+        let end = sim.finish();
         self.stats.cooldown_steps += sim.steps() - before;
-        Ok(end)
+        if sim.cancelled() {
+            return Ok(Judged::Interrupted);
+        }
+        Ok(match end? {
+            Ok(()) => Judged::Feasible,
+            Err(v) => Judged::Violated(v),
+        })
     }
 
     /// Learns the clause of the violating prefix, shortened where every alternative
@@ -352,6 +393,14 @@ impl<'p> Search<'p> {
         }
         (true, cost)
     }
+}
+
+/// What a simulation of a candidate found.
+enum Judged {
+    Feasible,
+    Violated(Violation),
+    /// Stopped by the deadline or a cancel before a verdict.
+    Interrupted,
 }
 
 /// Fragments of block indices from a deposit sequence.

@@ -40,6 +40,7 @@ pub fn settings(opts: &Options) -> Vec<KeyValue> {
         KeyValue::new(format!("{SETTING}acyclicity"), opts.acyclicity.name()),
         KeyValue::new(format!("{SETTING}lookahead_budget"), opts.lookahead_budget),
         KeyValue::new(format!("{SETTING}solver"), opts.solver.name()),
+        KeyValue::new(format!("{SETTING}warm_start"), opts.warm_start),
     ];
     if let Some(k) = opts.max_fragments {
         values.push(KeyValue::new(format!("{SETTING}max_fragments"), k));
@@ -59,6 +60,13 @@ pub fn options_from(
     base: &Options,
 ) -> Result<Options, RecordedSettingError> {
     let mut opts = base.clone();
+    // Recorded before the warm start existed: the run had none.
+    if !values
+        .iter()
+        .any(|(k, _)| *k == format!("{SETTING}warm_start"))
+    {
+        opts.warm_start = false;
+    }
     for (key, value) in values {
         let Some(name) = key.strip_prefix(SETTING) else {
             continue;
@@ -73,6 +81,7 @@ pub fn options_from(
                 opts.acyclicity = value.parse().map_err(|_| bad("not an acyclicity method"))?
             }
             "solver" => opts.solver = value.parse().map_err(|_| bad("not a SAT solver"))?,
+            "warm_start" => opts.warm_start = value.parse().map_err(|_| bad("not true/false"))?,
             "lookahead_budget" => {
                 opts.lookahead_budget = value.parse().map_err(|_| bad("not a count"))?
             }
@@ -382,6 +391,7 @@ mod tests {
             max_fragments: Some(4),
             cancel: None,
             solver: Backend::Varisat,
+            warm_start: false,
         };
         let values: Vec<(String, String)> = settings(&opts)
             .into_iter()
@@ -392,6 +402,14 @@ mod tests {
         assert_eq!(back.acyclicity, Acyclicity::Eager);
         assert_eq!(back.lookahead_budget, 7);
         assert_eq!(back.max_fragments, Some(4));
+        assert!(!back.warm_start);
+        // A recording from before the warm start replays without one.
+        let old: Vec<_> = values
+            .iter()
+            .filter(|(k, _)| k != "planner.warm_start")
+            .cloned()
+            .collect();
+        assert!(!options_from(&old, &Options::default()).unwrap().warm_start);
         assert_eq!(back.solver, Backend::Varisat);
         assert_eq!(back.timeout, None, "replay never plans under a timeout");
         let bad = [("planner.acyclicity".to_string(), "sideways".to_string())];

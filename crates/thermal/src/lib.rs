@@ -13,6 +13,7 @@
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
+use std::time::Instant;
 
 use thiserror::Error;
 
@@ -174,6 +175,12 @@ impl ThermalModel {
         self.windows[i]
     }
 
+    /// True when some block has a t8/5 window. Without one no plan can break a window, so
+    /// every valid plan is feasible with an infinite margin.
+    pub fn has_windows(&self) -> bool {
+        self.windows.iter().any(Option::is_some)
+    }
+
     /// The same model with every window narrowed by `margin` seconds on both sides: a
     /// plan keeps these windows exactly when every t8/5 value keeps that margin.
     pub fn narrowed(&self, margin: f64) -> ThermalModel {
@@ -295,6 +302,7 @@ pub struct Simulation<'m> {
     threads: usize,
     parallel_min: usize,
     cancel: Option<Arc<AtomicBool>>,
+    deadline: Option<Instant>,
     cancelled: bool,
 }
 
@@ -328,6 +336,7 @@ impl<'m> Simulation<'m> {
             threads: default_threads(),
             parallel_min: PARALLEL_MIN_SLOTS,
             cancel: None,
+            deadline: None,
             cancelled: false,
         }
     }
@@ -355,6 +364,13 @@ impl<'m> Simulation<'m> {
     /// [`Simulation::finish`] then return `Ok` early and [`Simulation::cancelled`] is true.
     pub fn with_cancel(mut self, flag: Arc<AtomicBool>) -> Self {
         self.cancel = Some(flag);
+        self
+    }
+
+    /// Stops stepping, as a cancel does, once `deadline` has passed (checked every few
+    /// hundred steps).
+    pub fn with_deadline(mut self, deadline: Option<Instant>) -> Self {
+        self.deadline = deadline;
         self
     }
 
@@ -593,8 +609,13 @@ impl<'m> Simulation<'m> {
             if let Some(c) = &self.cancel {
                 if c.load(Ordering::Relaxed) {
                     self.cancelled = true;
-                    return Ok(());
                 }
+            }
+            if self.steps % 256 == 0 && self.deadline.is_some_and(|d| Instant::now() >= d) {
+                self.cancelled = true;
+            }
+            if self.cancelled {
+                return Ok(());
             }
             self.step();
             self.steps += 1;

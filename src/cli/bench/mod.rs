@@ -14,6 +14,8 @@ use waam_thermal::{Simulation, ThermalModel};
 
 use super::{read_part, EXIT_OK};
 
+mod scale;
+
 /// Measure the simulator (block-steps per second on a ~10,000-block part) and the planner
 /// (time to the first feasible plan and to all feasible plans of every part in a folder).
 #[derive(Debug, clap::Args)]
@@ -63,6 +65,9 @@ pub enum BenchWhat {
         #[arg(long, value_parser = super::acyclicity_parser(), default_value = "lazy")]
         acyclicity: waam_planner::Acyclicity,
     },
+    /// Planner on parts shaped like real work (plates, solids, tubes, meshes): time to the
+    /// first feasible plan (and with --best to the best), each part file or STL in DIR.
+    Scale(scale::ScaleArgs),
     /// Planner: first feasible plan and all feasible plans of each part file in DIR.
     Planner {
         /// A folder of part files (e.g. ../shared/parts).
@@ -104,6 +109,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
             all_up_to,
             json,
         } => bench_planner(&dir, all_up_to, json),
+        BenchWhat::Scale(args) => scale::run(args),
         BenchWhat::Large {
             timeout,
             only,

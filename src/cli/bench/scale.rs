@@ -1,0 +1,289 @@
+//! `waam bench scale DIR`: the planner on parts shaped like real work, each part file (or
+//! STL mesh) in a folder: time to the first feasible plan and to the best, proven or not.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context};
+use serde::Serialize;
+use waam_part::graph::WeldGraph;
+use waam_part::Part;
+use waam_planner::{self as planner, Backend, Options, Report};
+use waam_thermal::ThermalModel;
+
+use crate::cli::plan::LazyBar;
+use crate::cli::voxelize::{parse_pitch, MeshArgs};
+use crate::cli::EXIT_OK;
+
+/// Planner on every part in a folder: blocks, k, windows, time to the first feasible plan,
+/// time to the best plan, proven or not, as a table (and as JSON with --json FILE).
+#[derive(Debug, clap::Args)]
+pub struct ScaleArgs {
+    /// A folder of part files (.yaml) and STL meshes (.stl), e.g. ../shared/parts/scale.
+    pub dir: PathBuf,
+    /// Stop each run (first plan, then best plan) after this many seconds.
+    #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
+    pub timeout: f64,
+    /// Also search for the best plan (fewest weld paths, then largest t8/5 margin) with
+    /// the same timeout; by default only the first feasible plan is timed.
+    #[arg(long)]
+    pub best: bool,
+    /// The pitch of one mesh: "NAME.stl=X Y Z" (repeatable); others take --pitch.
+    #[arg(long = "mesh-pitch", value_name = "NAME=X Y Z", value_parser = parse_mesh_pitch)]
+    pub mesh_pitch: Vec<(String, [f64; 3])>,
+    /// Only the parts whose file name contains this.
+    #[arg(long)]
+    pub only: Option<String>,
+    /// The SAT solver.
+    #[arg(long, value_parser = crate::cli::solver_parser(), default_value = Backend::default().name())]
+    pub solver: Backend,
+    /// Search from scratch, without the layer-by-layer warm start.
+    #[arg(long)]
+    pub no_warm_start: bool,
+    /// Write the rows as a JSON array to FILE as well.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    #[command(flatten, next_help_heading = "Meshes (every .stl in DIR)")]
+    pub mesh: MeshArgs,
+}
+
+fn parse_mesh_pitch(s: &str) -> Result<(String, [f64; 3]), String> {
+    let (name, pitch) = s
+        .split_once('=')
+        .ok_or_else(|| format!("expected NAME.stl=\"X Y Z\", got {s:?}"))?;
+    Ok((name.trim().to_string(), parse_pitch(pitch)?))
+}
+
+/// One part's row.
+#[derive(Debug, Serialize)]
+struct Row {
+    part: String,
+    file: String,
+    blocks: usize,
+    layers: i64,
+    k: usize,
+    windows: usize,
+    first: Run,
+    best: Option<Run>,
+}
+
+/// One planner run on a part.
+#[derive(Debug, Serialize)]
+struct Run {
+    /// Seconds to the first feasible plan (None: none found).
+    first_feasible_s: Option<f64>,
+    total_s: f64,
+    found: bool,
+    proven: bool,
+    fragments: Option<usize>,
+    /// Worst-case t8/5 margin of the plan (None: no windows, or no plan).
+    margin_s: Option<f64>,
+    /// The plan passed the independent check (valid, and feasible in a fresh simulation).
+    checked: Option<bool>,
+    candidates: u64,
+    learned_clauses: u64,
+    clause_len_mean: Option<f64>,
+    sat_s: f64,
+    simulator_s: f64,
+    /// Seconds the warm start took (0: none).
+    warm_start_s: f64,
+}
+
+pub fn run(args: ScaleArgs) -> anyhow::Result<ExitCode> {
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(&args.dir)
+        .with_context(|| format!("cannot read folder {}", args.dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("yaml") || e.eq_ignore_ascii_case("stl"))
+        })
+        .filter(|p| {
+            args.only.as_ref().is_none_or(|o| {
+                p.file_name()
+                    .is_some_and(|n| n.to_string_lossy().contains(o.as_str()))
+            })
+        })
+        .collect();
+    paths.sort();
+    if paths.is_empty() {
+        bail!(
+            "{}: no part files (.yaml) or meshes (.stl)",
+            args.dir.display()
+        );
+    }
+    let timeout =
+        Duration::try_from_secs_f64(args.timeout).context("--timeout: expected seconds >= 0")?;
+    let stop = crate::cli::node::stop_on_signal()?;
+    println!(
+        "{:<22} {:>7} {:>3} {:>4} {:>10} {:>6} {:>9} {:>10} {:>9} {:>7}",
+        "part",
+        "blocks",
+        "k",
+        "win",
+        "first (s)",
+        "cands",
+        "paths",
+        "best (s)",
+        "proven",
+        "checked"
+    );
+    let mut rows = Vec::new();
+    for path in &paths {
+        let part = match read(path, &args) {
+            Ok(part) => part,
+            Err(e) => {
+                println!("{:<22} skipped: {e:#}", file_name(path));
+                continue;
+            }
+        };
+        let opts = Options {
+            timeout: Some(timeout),
+            cancel: Some(Arc::clone(&stop)),
+            solver: args.solver,
+            warm_start: !args.no_warm_start,
+            ..Options::default()
+        };
+        let first = timed(&part, &opts, false, &stop)?;
+        let best = if args.best && !stop.load(Ordering::Relaxed) {
+            Some(timed(&part, &opts, true, &stop)?)
+        } else {
+            None
+        };
+        let row = Row {
+            part: part.name.clone(),
+            file: file_name(path),
+            blocks: part.len(),
+            layers: part.layers(),
+            k: part.max_fragments,
+            windows: part.windows().len(),
+            first,
+            best,
+        };
+        print_row(&row);
+        rows.push(row);
+        if stop.load(Ordering::Relaxed) {
+            println!("stopped (Ctrl-C)");
+            break;
+        }
+    }
+    if let Some(file) = &args.json {
+        std::fs::write(file, serde_json::to_string_pretty(&rows)?)
+            .with_context(|| format!("cannot write {}", file.display()))?;
+    }
+    Ok(ExitCode::from(EXIT_OK))
+}
+
+fn file_name(path: &Path) -> String {
+    path.file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+}
+
+/// A part file, or a mesh voxelized at its own pitch (or --pitch).
+fn read(path: &Path, args: &ScaleArgs) -> anyhow::Result<Part> {
+    let name = file_name(path);
+    let mut mesh = args.mesh.clone();
+    if let Some((_, pitch)) = args.mesh_pitch.iter().find(|(n, _)| *n == name) {
+        mesh.pitch = Some(*pitch);
+    }
+    mesh.read_part_or_mesh(path)
+}
+
+/// One planner run (first plan, or best with `optimize`), its plan checked independently.
+fn timed(part: &Part, opts: &Options, optimize: bool, stop: &AtomicBool) -> anyhow::Result<Run> {
+    let mut bar = LazyBar::new(false);
+    let mut warm_start_s = 0.0;
+    let started = Instant::now();
+    let mut progress = |event: planner::Event| {
+        if warm_start_s == 0.0 && event.stats().candidates == 1 {
+            warm_start_s = started.elapsed().as_secs_f64();
+        }
+        bar.update(event.stats());
+    };
+    let report: Report = if optimize {
+        planner::plan(part, opts, &mut progress)?
+    } else {
+        planner::first(part, opts, &mut progress)?
+    };
+    bar.finish();
+    let s = &report.stats;
+    let checked = match &report.best {
+        Some(best) if !stop.load(Ordering::Relaxed) => Some(check(part, &best.fragments)?),
+        _ => None,
+    };
+    Ok(Run {
+        first_feasible_s: s.first_feasible_s,
+        total_s: s.total_s,
+        found: report.best.is_some(),
+        proven: report.proven,
+        fragments: report.best.as_ref().map(|b| b.fragments.len()),
+        margin_s: report
+            .best
+            .as_ref()
+            .map(|b| b.margin)
+            .filter(|m| m.is_finite()),
+        checked,
+        candidates: s.candidates,
+        learned_clauses: s.learned_clauses,
+        clause_len_mean: s.clause_len_mean,
+        sat_s: s.sat_s,
+        simulator_s: s.simulator_s,
+        warm_start_s: if opts.warm_start { warm_start_s } else { 0.0 },
+    })
+}
+
+/// What `waam check` asks of a plan: valid by the part's rules, and no window broken in a
+/// simulation of its own.
+fn check(part: &Part, fragments: &[Vec<usize>]) -> anyhow::Result<bool> {
+    let graph = WeldGraph::new(part);
+    if waam_part::plan::Plan::from_indices(part, fragments)
+        .validate(part, &graph)
+        .is_err()
+    {
+        return Ok(false);
+    }
+    let model = ThermalModel::new(part, &graph);
+    if !model.has_windows() {
+        return Ok(true);
+    }
+    let outcome = waam_thermal::simulate(&model, fragments)?;
+    Ok(outcome.violation.is_none())
+}
+
+fn print_row(row: &Row) {
+    let secs = |r: &Run| {
+        r.first_feasible_s
+            .map_or_else(|| format!("none {:.0}", r.total_s), |t| format!("{t:.2}"))
+    };
+    let (best_s, proven) = match &row.best {
+        Some(b) => (
+            if b.found {
+                format!("{:.2}", b.total_s)
+            } else {
+                "-".into()
+            },
+            if b.proven { "yes" } else { "no" }.to_string(),
+        ),
+        None => ("-".into(), "-".into()),
+    };
+    let run = row.best.as_ref().unwrap_or(&row.first);
+    println!(
+        "{:<22} {:>7} {:>3} {:>4} {:>10} {:>6} {:>9} {:>10} {:>9} {:>7}",
+        row.file,
+        row.blocks,
+        row.k,
+        row.windows,
+        secs(&row.first),
+        row.first.candidates,
+        run.fragments.map_or("-".into(), |f| f.to_string()),
+        best_s,
+        proven,
+        match run.checked {
+            Some(true) => "ok",
+            Some(false) => "FAILED",
+            None => "-",
+        }
+    );
+}
