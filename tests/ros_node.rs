@@ -112,6 +112,13 @@ fn rclpy_mesh_box_is_planned_and_the_latest_part_wins() {
     run_script("mesh_and_latest.py", &[]);
 }
 
+/// Two nodes side by side (`--ros-args -r __ns:=/cell1`, `-r __ns:=/cell2 -r __node:=...`),
+/// parameters listed, read, described, refused and set through the standard services.
+#[test]
+fn rclpy_two_cells_and_parameters_through_the_standard_services() {
+    run_script("cells_and_params.py", &[]);
+}
+
 #[test]
 fn rclpy_receives_dry_run_joint_states() {
     run_script("dry_run.py", &[]);
@@ -370,7 +377,280 @@ fn weld_plan_raw_cdr_decodes_against_the_msg_files() {
     assert_eq!(plan["header"]["frame_id"], pose_array.header.frame_id);
 }
 
-/// FollowJointTrajectory execution against a small action server in this test: no goal has
+/// `/tf_static`, as a peer receives its raw bytes, decodes against tf2_msgs/TFMessage.msg
+/// (no tf2_msgs wheel exists for rclpy) and ties the robot's base link (the frame of every
+/// plan message) to the part frame (the heat cloud's, at the plate pose) and the tip link to
+/// the TCP.
+#[test]
+fn tf_static_ties_the_base_to_the_part_and_the_tip_to_the_tcp() {
+    use std::time::Duration;
+    use waam_motion::robot::{Robot, TcpChoice};
+    use waam_motion::toolpath::ProcessSettings;
+    let Some(python) = ros_python() else { return };
+    let domain = fresh_domain_id();
+    let child = rust_peer::waam(&["node", "--ros-args", "-r", "__ns:=/cell7"], domain);
+    let raw = rust_peer::take_raw(
+        domain,
+        "rt/tf_static",
+        "tf2_msgs::msg::dds_::TFMessage_",
+        Duration::from_secs(30),
+    );
+    let mut child = child;
+    let _ = child.kill();
+    let _ = child.wait();
+    let file = tempfile::NamedTempFile::new().unwrap();
+    std::fs::write(file.path(), &raw).unwrap();
+    let out = Command::new(&python)
+        .arg(repo().join("tests/ros/decode_cdr.py"))
+        .arg(file.path())
+        .arg("tf2_msgs/msg/TFMessage")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "the /tf_static bytes do not decode: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let tf: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let settings = ProcessSettings::default();
+    let robot = Robot::from_urdf(
+        waam_pipeline::BUNDLED_URDF,
+        None,
+        TcpChoice {
+            explicit: None,
+            default: settings.tcp.isometry(),
+        },
+    )
+    .unwrap();
+    let find = |child: &str| -> serde_json::Value {
+        tf["transforms"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|t| t["child_frame_id"] == child)
+            .unwrap_or_else(|| panic!("no transform to {child} in {tf}"))
+            .clone()
+    };
+    let xyz = |t: &serde_json::Value| -> Vec<f64> {
+        let v = &t["transform"]["translation"];
+        ["x", "y", "z"]
+            .iter()
+            .map(|k| v[k].as_f64().unwrap())
+            .collect()
+    };
+    let part = find(waam_ros::planning::PART_FRAME);
+    assert_eq!(part["header"]["frame_id"], robot.base_link.as_str());
+    assert_eq!(xyz(&part), settings.plate.position_m.to_vec());
+    assert_eq!(part["transform"]["rotation"]["w"].as_f64(), Some(1.0));
+    let tcp = find(waam_ros::node::frames::TCP_FRAME);
+    assert_eq!(tcp["header"]["frame_id"], robot.tip_link.as_str());
+    let expected: Vec<f64> = robot.tcp.translation.vector.iter().copied().collect();
+    assert_eq!(xyz(&tcp), expected);
+}
+
+/// `~/plan` (waam_interfaces/action/PlanPart) from an action client in this test: a goal
+/// gets feedback and a result with the plan; a long goal is cancelled within a second and the
+/// node answers the next goal; a goal without a part ends at once with the reason.
+#[test]
+fn plan_action_gives_feedback_and_a_result_and_cancels_within_a_second() {
+    use std::time::{Duration, Instant};
+
+    use ros2_client::action::{ActionClientQosPolicies, GoalStatusEnum};
+    use ros2_client::{ActionTypeName, Name, QosProfile, ServiceMapping};
+    use waam_ros::node::fjt::{TriggerRequest, TriggerResponse};
+    use waam_ros::node::plan_action::{PlanPartFeedback, PlanPartGoal, PlanPartResult};
+
+    if ros_python().is_none() {
+        return;
+    }
+    let domain = fresh_domain_id();
+    let child = rust_peer::waam(&["node", "--ros-args", "-r", "__ns:=/cell3"], domain);
+    let context = rust_peer::context(domain);
+    let mut node = rust_peer::node(&context, "plan_client");
+    let service =
+        QosProfile::publisher_default().history(ros2_client::qos::History::KeepLast { depth: 10 });
+    let client = node
+        .create_action_client::<PlanPartGoal, PlanPartResult, PlanPartFeedback>(
+            ServiceMapping::Enhanced,
+            &Name::new("/cell3/waam_planner", "plan").unwrap(),
+            &ActionTypeName::new("waam_interfaces", "PlanPart"),
+            ActionClientQosPolicies {
+                goal_service: service.clone(),
+                result_service: service.clone(),
+                cancel_service: service.clone(),
+                feedback_subscription: service.clone(),
+                status_subscription: service
+                    .clone()
+                    .durability(ros2_client::qos::Durability::TransientLocal)
+                    .history(ros2_client::qos::History::KeepLast { depth: 1 }),
+            },
+        )
+        .unwrap();
+    let poll = |what: &str, limit: Duration, mut f: Box<dyn FnMut() -> bool + '_>| {
+        let start = Instant::now();
+        while !f() {
+            assert!(start.elapsed() < limit, "{what}: nothing within {limit:?}");
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        start.elapsed()
+    };
+    let part =
+        |name: &str| std::fs::read_to_string(repo().join("config/parts").join(name)).unwrap();
+    // The goal service is discovered when a goal is answered: resend until then.
+    let send = |goal: PlanPartGoal| {
+        let start = Instant::now();
+        loop {
+            let (req, id) = client.send_goal(goal.clone()).unwrap();
+            let until = Instant::now() + Duration::from_secs(2);
+            while Instant::now() < until {
+                if let Ok(Some(r)) = client.receive_goal_response(req) {
+                    assert!(r.accepted);
+                    return id;
+                }
+                std::thread::sleep(Duration::from_millis(10));
+            }
+            assert!(
+                start.elapsed() < Duration::from_secs(30),
+                "no answer to a goal"
+            );
+        }
+    };
+    let result = |id, limit: Duration| {
+        let req = client.request_result(id).unwrap();
+        let mut got = None;
+        poll(
+            "the result",
+            limit,
+            Box::new(|| {
+                got = client.receive_result(req).ok().flatten();
+                got.is_some()
+            }),
+        );
+        got.unwrap()
+    };
+
+    // 1. A long part (ex3, 168 blocks, best plan within 60 s) is cancelled after its first
+    //    planning feedback.
+    let long = send(PlanPartGoal {
+        part_document: part("ex3-h-column.yaml"),
+        timeout_s: 60.0,
+        ..PlanPartGoal::default()
+    });
+    let mut feedback = Vec::new();
+    poll(
+        "planning feedback of the long goal",
+        Duration::from_secs(60),
+        Box::new(|| {
+            while let Ok(Some(f)) = client.receive_feedback(long) {
+                feedback.push(f);
+            }
+            feedback
+                .iter()
+                .any(|f| f.stage == "planning" && f.candidates > 0)
+        }),
+    );
+    let cancel_sent = Instant::now();
+    client.cancel_goal(long).unwrap();
+    let (status, r) = result(long, Duration::from_secs(5));
+    let took = cancel_sent.elapsed();
+    assert_eq!(status, GoalStatusEnum::Canceled);
+    assert_eq!(r.outcome, PlanPartResult::CANCELLED, "{}", r.reason);
+    assert!(
+        took < Duration::from_secs(1),
+        "cancel answered after {took:?}"
+    );
+    eprintln!("cancel answered after {took:?}");
+
+    // 2. The next goal: s1-wall, first feasible plan, k = 2, with feedback and the plan.
+    let next = send(PlanPartGoal {
+        part_document: part("s1-wall.yaml"),
+        max_fragments: 2,
+        first_feasible: true,
+        ..PlanPartGoal::default()
+    });
+    let (status, r) = result(next, Duration::from_secs(60));
+    assert_eq!(status, GoalStatusEnum::Succeeded, "{}", r.reason);
+    assert_eq!(r.outcome, PlanPartResult::PLANNED);
+    assert_eq!(r.plan.part_name, "s1-wall");
+    let blocks: usize = r.plan.fragments.iter().map(|f| f.blocks.len()).sum();
+    assert_eq!(blocks, 12);
+    assert!(!r.plan.fragments.is_empty() && r.plan.fragments.len() <= 2);
+    let mut stages = Vec::new();
+    poll(
+        "the last feedback of the second goal",
+        Duration::from_secs(5),
+        Box::new(|| {
+            while let Ok(Some(f)) = client.receive_feedback(next) {
+                stages.push((f.stage.clone(), f.best_margin_s, f.elapsed_s));
+            }
+            stages.iter().any(|s| s.0 == "planned")
+        }),
+    );
+    let last = stages.iter().find(|s| s.0 == "planned").unwrap();
+    assert_eq!(last.1, r.plan.worst_margin_s, "final feedback margin");
+    assert!(last.2 > 0.0);
+
+    // 3. A goal without a part ends at once with the reason.
+    let empty = send(PlanPartGoal::default());
+    let (status, r) = result(empty, Duration::from_secs(5));
+    assert_eq!(status, GoalStatusEnum::Aborted);
+    assert_eq!(r.outcome, PlanPartResult::BAD_INPUT);
+    assert!(r.reason.contains("part_document"), "{}", r.reason);
+
+    // 4. `~/stop` (std_srvs/Trigger) stops a long goal's planning too.
+    let stop = node
+        .create_client::<TriggerRequest, TriggerResponse>(
+            ServiceMapping::Enhanced,
+            &Name::new("/cell3/waam_planner", "stop").unwrap(),
+            &ros2_client::ServiceTypeName::new("std_srvs", "Trigger"),
+            service.clone(),
+            service.clone(),
+        )
+        .unwrap();
+    let long = send(PlanPartGoal {
+        part_document: part("ex3-h-column.yaml"),
+        timeout_s: 60.0,
+        ..PlanPartGoal::default()
+    });
+    poll(
+        "planning feedback of the second long goal",
+        Duration::from_secs(60),
+        Box::new(|| matches!(client.receive_feedback(long), Ok(Some(f)) if f.stage == "planning")),
+    );
+    // Until the service is discovered a request may go unheard: ask again after a second.
+    let asked = Instant::now();
+    let answer = 'ask: loop {
+        assert!(
+            asked.elapsed() < Duration::from_secs(30),
+            "no answer of ~/stop"
+        );
+        stop.send_request(TriggerRequest::default()).unwrap();
+        let until = Instant::now() + Duration::from_secs(1);
+        while Instant::now() < until {
+            // The first answer is that of the first request heard: the one that stopped.
+            if let Ok(Some((_, r))) = stop.receive_response() {
+                break 'ask r;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    };
+    assert!(answer.success, "{}", answer.message);
+    assert!(
+        answer.message.contains("planning of part"),
+        "{}",
+        answer.message
+    );
+    let (status, r) = result(long, Duration::from_secs(2));
+    assert_eq!(status, GoalStatusEnum::Canceled);
+    assert!(r.reason.contains("~/stop"), "{}", r.reason);
+
+    let mut child = child;
+    let _ = child.kill();
+    let _ = child.wait();
+}
+
+/// FollowJointTrajectory execution against a small action server in this test: the start
+/// service is called first; goals carry the mapped joint names and the tolerances; no goal has
 /// more than `max_points_per_goal` points, the goals together are the whole trajectory, each
 /// arc switch happens at a goal boundary, and `~/arc_on` goes true/false once per fragment.
 #[test]
@@ -382,6 +662,7 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
     use ros2_client::action::{GetResultResponse, SendGoalResponse};
     use ros2_client::action_msgs::GoalStatusEnum;
     use ros2_client::{ActionTypeName, MessageTypeName, Name, QosProfile, ServiceMapping};
+    use waam_ros::node::fjt::{TriggerRequest, TriggerResponse};
     use waam_rosmsg::control_msgs::{
         FollowJointTrajectoryFeedback as Feedback, FollowJointTrajectoryGoal as Goal,
         FollowJointTrajectoryResult as FjtResult,
@@ -423,6 +704,16 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
         )
         .unwrap();
     let arc = node.create_subscription::<Bool>(&arc_topic, None).unwrap();
+    // MotoROS2's "start trajectory mode" (std_srvs/Trigger), as fjt.params.yaml names it.
+    let start_mode = node
+        .create_server::<TriggerRequest, TriggerResponse>(
+            ServiceMapping::Enhanced,
+            &Name::new("/test_controller", "start_traj_mode").unwrap(),
+            &ros2_client::ServiceTypeName::new("std_srvs", "Trigger"),
+            service.clone(),
+            service.clone(),
+        )
+        .unwrap();
     let traj_topic = node
         .create_topic(
             &Name::new("/waam_planner/plan", "joint_trajectory").unwrap(),
@@ -440,7 +731,10 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
     enum Seen {
         Goal(JointTrajectory),
         Arc(bool),
+        StartMode,
     }
+    // Each goal's tolerances: (path, goal, goal time).
+    let mut tolerances = Vec::new();
     let seen = Arc::new(Mutex::new(Vec::<Seen>::new()));
 
     let child = rust_peer::waam(
@@ -468,7 +762,24 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
         if let Ok(Some((t, _))) = trajectory_sub.take() {
             trajectory = Some(t);
         }
+        if let Ok(Some((req, _))) = start_mode.receive_request() {
+            seen.lock().unwrap().push(Seen::StartMode);
+            start_mode
+                .send_response(
+                    req,
+                    TriggerResponse {
+                        success: true,
+                        message: String::new(),
+                    },
+                )
+                .unwrap();
+        }
         if let Ok(Some((req, goal))) = server.receive_goal() {
+            tolerances.push((
+                goal.goal.path_tolerance.clone(),
+                goal.goal.goal_tolerance.clone(),
+                goal.goal.goal_time_tolerance.as_secs_f64(),
+            ));
             seen.lock()
                 .unwrap()
                 .push(Seen::Goal(goal.goal.trajectory.clone()));
@@ -558,7 +869,18 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
             "goal {i} has {} points (cap {CAP})",
             g.points.len()
         );
-        assert_eq!(g.joint_names, trajectory.joint_names);
+        // The controller's names (execution.joint_names), in the URDF's joint order.
+        let mapped: Vec<String> = (1..=trajectory.joint_names.len())
+            .map(|j| format!("group_1/joint_{j}"))
+            .collect();
+        assert_eq!(g.joint_names, mapped, "goal {i}");
+        let (path, at_end, time) = &tolerances[i];
+        for (tolerance, expected) in [(path, 0.1), (at_end, 0.01)] {
+            let names: Vec<&String> = tolerance.iter().map(|t| &t.name).collect();
+            assert_eq!(names, mapped.iter().collect::<Vec<_>>(), "goal {i}");
+            assert!(tolerance.iter().all(|t| t.position == expected), "goal {i}");
+        }
+        assert_eq!(*time, 0.5, "goal {i}");
         let t: Vec<f64> = g
             .points
             .iter()
@@ -602,6 +924,15 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
     for (i, on) in arcs.iter().enumerate() {
         assert_eq!(*on, i % 2 == 0, "arc sequence {arcs:?}");
     }
+    assert!(
+        matches!(seen.first(), Some(Seen::StartMode)),
+        "the start service was not called before the first goal"
+    );
+    assert_eq!(
+        seen.iter().filter(|s| matches!(s, Seen::StartMode)).count(),
+        1,
+        "one start call per plan"
+    );
     let first_arc = seen.iter().position(|s| matches!(s, Seen::Arc(_))).unwrap();
     assert!(first_arc > 0, "the arc came on before any goal");
     assert!(

@@ -7,6 +7,9 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use clap::Args;
+use waam_ros::node::args::RosArgs;
+use waam_ros::node::declared::value_from_yaml;
+use waam_ros::node::names::NodeNames;
 use waam_ros::node::params::NodeParams;
 use waam_ros::node::pipeline::sat_planner;
 use waam_ros::node::{Mode, RunOptions};
@@ -16,8 +19,11 @@ use waam_ros::node::{Mode, RunOptions};
 /// Takes parts on `~/part` (std_msgs/String, a part document) and `~/part_mesh`
 /// (shape_msgs/Mesh in metres), plans each off the executor (a newer part cancels the one in
 /// progress) and publishes the joint trajectory, poses, path, markers and weld plan on
-/// `~/plan/*` (Reliable, TransientLocal) and its state on `~/status`. Honours ROS_DOMAIN_ID
-/// and ROS_AUTOMATIC_DISCOVERY_RANGE (or ROS_LOCALHOST_ONLY). Stops on Ctrl-C / SIGTERM.
+/// `~/plan/*` (Reliable, TransientLocal) and its state on `~/status`. Every setting of the
+/// parameters file is a ROS parameter (`ros2 param list/get/set/describe/dump`); a change
+/// applies from the next plan. Honours ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE (or
+/// ROS_LOCALHOST_ONLY) and `--ros-args` as `ros2 run` and `ros2 launch` pass them. Stops on
+/// Ctrl-C / SIGTERM.
 #[derive(Debug, Args)]
 pub struct NodeArgs {
     /// ROS 2 parameters file (`waam_planner: ros__parameters: ...`); default: the bundled
@@ -31,6 +37,12 @@ pub struct NodeArgs {
     /// Record everything the node receives and sends into this rosbag2 directory (MCAP).
     #[arg(long, value_name = "DIR")]
     pub record: Option<PathBuf>,
+    /// ROS 2 arguments, as rcl reads them (everything after --ros-args, up to `--`):
+    /// `-r __ns:=/cell1` namespace, `-r __node:=NAME` node name, `-r FROM:=TO` topic remap,
+    /// `-p NAME:=VALUE` parameter (e.g. `-p planner.timeout_s:=30.0`), `--params-file FILE`
+    /// (applied after --params, before -p).
+    #[arg(long = "ros-args", num_args = 0.., allow_hyphen_values = true, value_name = "ARG")]
+    pub ros_args: Option<Vec<String>>,
 }
 
 /// Reads the parameters file, or the bundled defaults.
@@ -50,10 +62,41 @@ pub fn stop_on_signal() -> anyhow::Result<Arc<AtomicBool>> {
     Ok(stop)
 }
 
+/// The node's names and parameters: defaults, `--params`, each `--params-file`, each `-p`.
+pub fn ros_setup(
+    params_file: Option<&Path>,
+    ros_args: &[String],
+) -> anyhow::Result<(NodeNames, NodeParams)> {
+    let ros = RosArgs::parse(ros_args)?;
+    for ignored in &ros.ignored {
+        tracing::warn!("--ros-args {ignored}: accepted but not acted on by this node");
+    }
+    let names = ros.names();
+    let files: Vec<PathBuf> = params_file
+        .map(Path::to_path_buf)
+        .into_iter()
+        .chain(ros.params_files.iter().cloned())
+        .collect();
+    let mut overrides = Vec::new();
+    for (node, name, text) in &ros.params {
+        if node.as_deref().is_some_and(|n| n != names.name) {
+            continue; // for another node of the launch
+        }
+        let value = value_from_yaml(text).map_err(|e| anyhow::anyhow!("-p {name}: {e}"))?;
+        overrides.push((name.clone(), value));
+    }
+    let params = NodeParams::load(&files, &names.fully_qualified(), &overrides)?;
+    Ok((names, params))
+}
+
 pub fn run(args: NodeArgs) -> anyhow::Result<ExitCode> {
-    let params = load_params(args.params.as_deref())?;
+    let (names, params) = ros_setup(
+        args.params.as_deref(),
+        args.ros_args.as_deref().unwrap_or_default(),
+    )?;
     let options = RunOptions {
         params,
+        names,
         dry_run: args.dry_run,
         record: args.record,
         planner: sat_planner(),

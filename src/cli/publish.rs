@@ -75,6 +75,7 @@ pub fn run(args: PublishArgs) -> anyhow::Result<ExitCode> {
     }
     let options = RunOptions {
         params,
+        names: Default::default(),
         dry_run: args.dry_run,
         record: args.record,
         planner,

@@ -10,36 +10,14 @@
 import os
 
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import Point
-from shape_msgs.msg import Mesh, MeshTriangle
+from shape_msgs.msg import Mesh
 from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory
 
 import waamtest
-from waamtest import REPO, check
+from waamtest import REPO, box_mesh, check
 
 NS = "/waam_planner"
-
-
-def box_mesh(sx, sy, sz):
-    """A closed, outward-facing box with one corner at the origin (metres)."""
-    v = [(x * sx, y * sy, z * sz) for z in (0, 1) for y in (0, 1) for x in (0, 1)]
-    # Vertex index = x + 2y + 4z; two triangles per face, counter-clockwise from outside.
-    faces = [
-        (0, 2, 3, 1),  # bottom (z=0), normal -z
-        (4, 5, 7, 6),  # top, +z
-        (0, 1, 5, 4),  # y=0, -y
-        (2, 6, 7, 3),  # y=1, +y
-        (0, 4, 6, 2),  # x=0, -x
-        (1, 3, 7, 5),  # x=1, +x
-    ]
-    tris = []
-    for a, b, c, d in faces:
-        tris += [(a, b, c), (a, c, d)]
-    return Mesh(
-        vertices=[Point(x=x, y=y, z=z) for x, y, z in v],
-        triangles=[MeshTriangle(vertex_indices=list(t)) for t in tris],
-    )
 
 
 def all_status(peer):

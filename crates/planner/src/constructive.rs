@@ -60,13 +60,35 @@ pub fn layered_plan(
         if limits.stopped() {
             return None;
         }
-        let layer = Layer::new(part, range.clone());
         // Where the weld path arriving from below would start this layer.
         let arriving = plan
             .last()
             .and_then(|f| graph.above(*f.last()?))
             .filter(|b| range.contains(b))
             .map(|b| b - range.start);
+        // A layer like the one below, entered above its path's end: that path walked
+        // back (a serpentine up a wall), with no solve.
+        if let (Some(below), Some(_)) = (l.checked_sub(1).map(|b| &layers[b]), arriving) {
+            let same = below.len() == range.len()
+                && part.blocks()[below.clone()]
+                    .iter()
+                    .zip(&part.blocks()[range.clone()])
+                    .all(|(a, b)| a[..2] == b[..2]);
+            let last = plan.last().expect("arriving from a weld path");
+            if same && last.len() >= below.len() {
+                let walked = &last[last.len() - below.len()..];
+                if walked.iter().all(|b| below.contains(b)) {
+                    let back: Vec<usize> = walked
+                        .iter()
+                        .rev()
+                        .map(|b| b - below.start + range.start)
+                        .collect();
+                    plan.last_mut().expect("checked").extend(back);
+                    continue;
+                }
+            }
+        }
+        let layer = Layer::new(part, range.clone());
         // Ends whose block above can start the next layer's single path.
         let ends: Option<Vec<bool>> = layers.get(l + 1).map(|next| {
             let next = Layer::new(part, next.clone());

@@ -331,6 +331,20 @@ fn search_plans(
     // The windows are narrowed to the best plan's margin once the search is among plans
     // of its fragment count (a plan with fewer fragments is better whatever its margin).
     let mut narrowed_to_best = false;
+    // A layer that alone needs more weld paths than allowed: no plan, proven at once.
+    if layer_path_bound(part, &graph)
+        .iter()
+        .any(|&(_, paths, _)| paths > k)
+    {
+        let mut stats = search.stats;
+        stats.total_s = started.elapsed().as_secs_f64();
+        return Ok(Report {
+            best: None,
+            proven: true,
+            no_plan: Some(no_valid_plan(part, &graph, k, opts, started)),
+            stats,
+        });
+    }
     if opts.warm_start {
         let limits = constructive::Limits {
             deadline: opts.timeout.and_then(|t| started.checked_add(t)),

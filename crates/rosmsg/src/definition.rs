@@ -48,6 +48,14 @@ const DEFINITIONS: &[(&str, &str)] = &[
         include_str!("defs/geometry_msgs/Quaternion.msg"),
     ),
     (
+        "geometry_msgs/Transform",
+        include_str!("defs/geometry_msgs/Transform.msg"),
+    ),
+    (
+        "geometry_msgs/TransformStamped",
+        include_str!("defs/geometry_msgs/TransformStamped.msg"),
+    ),
+    (
         "geometry_msgs/Vector3",
         include_str!("defs/geometry_msgs/Vector3.msg"),
     ),
@@ -84,6 +92,10 @@ const DEFINITIONS: &[(&str, &str)] = &[
     ),
     ("std_msgs/Header", include_str!("defs/std_msgs/Header.msg")),
     ("std_msgs/String", include_str!("defs/std_msgs/String.msg")),
+    (
+        "tf2_msgs/TFMessage",
+        include_str!("defs/tf2_msgs/TFMessage.msg"),
+    ),
     (
         "trajectory_msgs/JointTrajectory",
         include_str!("defs/trajectory_msgs/JointTrajectory.msg"),

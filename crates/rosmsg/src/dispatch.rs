@@ -3,12 +3,15 @@
 
 use super::builtin_interfaces::{Duration, Time};
 use super::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
-use super::geometry_msgs::{Point, Pose, PoseArray, PoseStamped, Quaternion, Vector3};
+use super::geometry_msgs::{
+    Point, Pose, PoseArray, PoseStamped, Quaternion, Transform, TransformStamped, Vector3,
+};
 use super::nav_msgs::Path;
 use super::rcl_interfaces::Log;
 use super::sensor_msgs::{CompressedImage, JointState, PointCloud2, PointField};
 use super::shape_msgs::{Mesh, MeshTriangle};
 use super::std_msgs::{Bool, ColorRGBA, Header, String as RosString};
+use super::tf2_msgs::TFMessage;
 use super::trajectory_msgs::{JointTrajectory, JointTrajectoryPoint};
 use super::visualization_msgs::{Marker, MarkerArray, MeshFile, UVCoordinate};
 use super::waam_interfaces::{
@@ -52,6 +55,9 @@ pub fn visit_type<V: TypeVisitor>(type_name: &str, visitor: V) -> Option<V::Outp
             PoseArray,
             PoseStamped,
             Vector3,
+            Transform,
+            TransformStamped,
+            TFMessage,
             Path,
             JointTrajectory,
             JointTrajectoryPoint,

@@ -92,3 +92,28 @@ ros_message!(
     "geometry_msgs/msg/Vector3",
     "RIHS01_cc12fe83e4c02719f1ce8070bfd14aecd40f75a96696a67a2a1f37f7dbb0765d"
 );
+
+/// A rigid transform: translation (m) and rotation.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Transform {
+    pub translation: Vector3,
+    pub rotation: Quaternion,
+}
+ros_message!(
+    Transform,
+    "geometry_msgs/msg/Transform",
+    "RIHS01_beb83fbe698636351461f6f35d1abb20010c43d55374d81bd041f1ba2581fddc"
+);
+
+/// The transform from `header.frame_id` to `child_frame_id` (what TF carries).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct TransformStamped {
+    pub header: Header,
+    pub child_frame_id: String,
+    pub transform: Transform,
+}
+ros_message!(
+    TransformStamped,
+    "geometry_msgs/msg/TransformStamped",
+    "RIHS01_0a241f87d04668d94099cbb5ba11691d5ad32c2f29682e4eb5653424bd275206"
+);

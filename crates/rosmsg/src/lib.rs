@@ -20,6 +20,7 @@ pub mod rcl_interfaces;
 pub mod sensor_msgs;
 pub mod shape_msgs;
 pub mod std_msgs;
+pub mod tf2_msgs;
 pub mod trajectory_msgs;
 pub mod visualization_msgs;
 pub mod waam_interfaces;

@@ -7,12 +7,15 @@ use sha2::{Digest, Sha256};
 use super::builtin_interfaces::{Duration, Time};
 use super::definition::{self, fields, msg_text, split_type_name, DELIMITER};
 use super::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
-use super::geometry_msgs::{Point, Pose, PoseArray, PoseStamped, Quaternion, Vector3};
+use super::geometry_msgs::{
+    Point, Pose, PoseArray, PoseStamped, Quaternion, Transform, TransformStamped, Vector3,
+};
 use super::nav_msgs::Path;
 use super::rcl_interfaces::Log;
 use super::sensor_msgs::{CompressedImage, JointState, PointCloud2, PointField};
 use super::shape_msgs::{Mesh, MeshTriangle};
 use super::std_msgs::{Bool, ColorRGBA, Header, String as RosString};
+use super::tf2_msgs::TFMessage;
 use super::trajectory_msgs::{JointTrajectory, JointTrajectoryPoint};
 use super::visualization_msgs::{Marker, MarkerArray, MeshFile, UVCoordinate};
 use super::waam_interfaces::{
@@ -109,6 +112,9 @@ macro_rules! for_all_types {
         $f::<PoseArray>();
         $f::<PoseStamped>();
         $f::<Vector3>();
+        $f::<Transform>();
+        $f::<TransformStamped>();
+        $f::<TFMessage>();
         $f::<Path>();
         $f::<JointTrajectory>();
         $f::<JointTrajectoryPoint>();

@@ -75,6 +75,10 @@ impl From<&str> for ExecError {
 pub trait Controller: Send {
     /// Runs one goal to its end; `Err` with the reason when it fails or is cancelled.
     fn execute(&mut self, goal: TrajectoryMsg, cancel: &Cancel) -> Result<(), ExecError>;
+    /// Called once before a plan's first goal (a controller's trajectory mode).
+    fn prepare(&mut self, _cancel: &Cancel) -> Result<(), ExecError> {
+        Ok(())
+    }
     /// Called while no goal runs, about every `idle_period()`.
     fn idle(&mut self) {}
     fn idle_period(&self) -> Duration {
@@ -126,6 +130,9 @@ pub fn run_plan(
     let mut arc_is_on = false;
     let mut sent = 0;
     let result = (|| {
+        controller
+            .prepare(cancel)
+            .map_err(|e| format!("before the first goal: {e}"))?;
         for step in &steps {
             if cancel.is_cancelled() {
                 return Err(ExecError("cancelled".to_string()));

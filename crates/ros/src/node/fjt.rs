@@ -12,12 +12,12 @@ use ros2_client::action_msgs::GoalStatusEnum;
 use ros2_client::{ActionClient, ActionTypeName, Node, QosProfile, ServiceMapping};
 
 use super::controller::{Controller, ExecError};
+use super::names::NodeNames;
 use super::params::ExecutionParams;
-use super::ros::resolve_topic;
 use super::worker::Cancel;
 use waam_rosmsg::control_msgs::{
     FollowJointTrajectoryFeedback as Feedback, FollowJointTrajectoryGoal as Goal,
-    FollowJointTrajectoryResult as FjtResult,
+    FollowJointTrajectoryResult as FjtResult, JointTolerance,
 };
 use waam_rosmsg::trajectory_msgs::JointTrajectory as TrajectoryMsg;
 
@@ -39,22 +39,46 @@ fn action_qos() -> ActionClientQosPolicies {
     }
 }
 
+/// std_srvs/Trigger request: an empty message, which carries one placeholder byte in CDR.
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
+pub struct TriggerRequest {
+    pub structure_needs_at_least_one_member: u8,
+}
+impl ros2_client::Message for TriggerRequest {}
+
+/// std_srvs/Trigger response.
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
+pub struct TriggerResponse {
+    pub success: bool,
+    pub message: String,
+}
+impl ros2_client::Message for TriggerResponse {}
+
+type Trigger = ros2_client::Client<TriggerRequest, TriggerResponse>;
+
 /// Runs goals on a FollowJointTrajectory action server.
 pub struct FjtController {
     client: Client,
     node: Arc<Mutex<Node>>,
     action: String,
     server_timeout: Duration,
+    /// The controller's joint names in the URDF's joint order; empty: the URDF's.
+    joint_names: Vec<String>,
+    goal_tolerance: f64,
+    path_tolerance: f64,
+    goal_time_tolerance: f64,
+    /// Called before each plan runs (MotoROS2's trajectory mode), with its name.
+    start: Option<(Trigger, String)>,
 }
 
 impl FjtController {
-    pub fn new(node: Arc<Mutex<Node>>, params: &ExecutionParams) -> Result<Self, super::NodeError> {
+    pub fn new(
+        node: Arc<Mutex<Node>>,
+        names: &NodeNames,
+        params: &ExecutionParams,
+    ) -> Result<Self, super::NodeError> {
         let mut guard = node.lock().unwrap_or_else(|e| e.into_inner());
-        let name = resolve_topic(
-            &params.controller_action,
-            guard.namespace(),
-            super::NODE_NAME,
-        )?;
+        let name = names.resolve(&params.controller_action)?;
         let client = guard
             .create_action_client::<Goal, FjtResult, Feedback>(
                 ServiceMapping::Enhanced,
@@ -65,13 +89,68 @@ impl FjtController {
             .map_err(|e| {
                 super::NodeError::Ros(format!("cannot create action client {name}: {e:?}"))
             })?;
+        let start = if params.start_service.is_empty() {
+            None
+        } else {
+            let service = names.resolve(&params.start_service)?;
+            let qos = QosProfile::publisher_default()
+                .history(ros2_client::qos::History::KeepLast { depth: 10 });
+            let client = guard
+                .create_client::<TriggerRequest, TriggerResponse>(
+                    ServiceMapping::Enhanced,
+                    &service,
+                    &ros2_client::ServiceTypeName::new("std_srvs", "Trigger"),
+                    qos.clone(),
+                    qos,
+                )
+                .map_err(|e| {
+                    super::NodeError::Ros(format!("cannot create service client {service}: {e:?}"))
+                })?;
+            Some((client, service.to_string()))
+        };
         drop(guard);
         Ok(FjtController {
             client,
             node,
             action: name.to_string(),
             server_timeout: Duration::from_secs_f64(params.server_timeout_s),
+            joint_names: params.joint_names.clone(),
+            goal_tolerance: params.goal_tolerance_rad,
+            path_tolerance: params.path_tolerance_rad,
+            goal_time_tolerance: params.goal_time_tolerance_s,
+            start,
         })
+    }
+
+    /// The controller's names for the goal's joints `urdf` (in the URDF's joint order).
+    fn map_names(&self, urdf: &[String]) -> Result<Vec<String>, ExecError> {
+        if self.joint_names.is_empty() {
+            return Ok(urdf.to_vec());
+        }
+        if self.joint_names.len() != urdf.len() {
+            return Err(ExecError(format!(
+                "execution.joint_names has {} names, the robot {} joints ({})",
+                self.joint_names.len(),
+                urdf.len(),
+                urdf.join(", ")
+            )));
+        }
+        Ok(self.joint_names.clone())
+    }
+
+    /// Per-joint tolerances (`value` 0 = the controller's default: no entry at all).
+    fn tolerances(names: &[String], value: f64) -> Vec<JointTolerance> {
+        if value == 0.0 {
+            return Vec::new();
+        }
+        names
+            .iter()
+            .map(|name| JointTolerance {
+                name: name.clone(),
+                position: value,
+                ..JointTolerance::default()
+            })
+            .collect()
     }
 
     /// Waits until the action's goal and result services have a server (bounded).
@@ -129,13 +208,56 @@ fn poll_until<T>(
 }
 
 impl Controller for FjtController {
+    fn prepare(&mut self, cancel: &Cancel) -> Result<(), ExecError> {
+        let Some((client, service)) = &self.start else {
+            return Ok(());
+        };
+        let node = self.node.lock().unwrap_or_else(|e| e.into_inner());
+        let found = futures::executor::block_on(async {
+            futures::select! {
+                _ = client.wait_for_service(&node).fuse() => true,
+                _ = sleep(self.server_timeout).fuse() => false,
+            }
+        });
+        drop(node);
+        if !found {
+            return Err(ExecError(format!(
+                "no service {service} after {:.1} s",
+                self.server_timeout.as_secs_f64()
+            )));
+        }
+        let request = client
+            .send_request(TriggerRequest::default())
+            .map_err(|e| format!("cannot call {service}: {e:?}"))?;
+        let deadline = Instant::now() + self.server_timeout;
+        let response = poll_until(deadline, cancel, || {
+            Ok(match client.receive_response() {
+                Ok(Some((id, r))) if id == request => Some(r),
+                _ => None,
+            })
+        })?;
+        match response {
+            Some(r) if r.success => Ok(()),
+            Some(r) => Err(ExecError(format!("{service} refused: {}", r.message))),
+            None => Err(ExecError(format!("{service} did not answer"))),
+        }
+    }
+
     fn execute(&mut self, trajectory: TrajectoryMsg, cancel: &Cancel) -> Result<(), ExecError> {
         self.wait_for_server()?;
         let duration = trajectory
             .points
             .last()
             .map_or(0.0, |p| p.time_from_start.as_secs_f64());
+        let mut trajectory = trajectory;
+        trajectory.joint_names = self.map_names(&trajectory.joint_names)?;
+        let names = &trajectory.joint_names;
         let goal = Goal {
+            path_tolerance: Self::tolerances(names, self.path_tolerance),
+            goal_tolerance: Self::tolerances(names, self.goal_tolerance),
+            goal_time_tolerance: waam_rosmsg::builtin_interfaces::Duration::from_secs_f64(
+                self.goal_time_tolerance,
+            ),
             trajectory,
             ..Goal::default()
         };

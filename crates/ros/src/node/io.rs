@@ -6,8 +6,9 @@ use std::sync::Arc;
 use ros2_client::rosout::RosoutRaw;
 use ros2_client::{Node, NodeLoggingHandle, Publisher, QosProfile, Subscription};
 
+use super::names::NodeNames;
 use super::params::TopicParams;
-use super::ros::{resolve_topic, RosEnvError};
+use super::ros::RosEnvError;
 use waam_rosbag::qos::Qos;
 use waam_rosbag::Recorder;
 use waam_rosmsg::builtin_interfaces::Time;
@@ -53,8 +54,14 @@ pub struct Output<M: RosMessage> {
 }
 
 impl<M: RosMessage + Clone> Output<M> {
-    fn new(node: &mut Node, name: &str, qos: QosProfile, offered: Qos) -> Result<Self, IoError> {
-        let full = resolve_topic(name, node.namespace(), node.base_name())?;
+    pub fn new(
+        node: &mut Node,
+        names: &NodeNames,
+        name: &str,
+        qos: QosProfile,
+        offered: Qos,
+    ) -> Result<Self, IoError> {
+        let full = names.resolve(name)?;
         let topic = node
             .create_topic(&full, M::message_type_name(), &qos)
             .map_err(|e| IoError::Create(full.to_string(), e.to_string()))?;
@@ -121,6 +128,7 @@ pub enum Level {
 impl Outputs {
     pub fn new(
         node: &mut Node,
+        names: &NodeNames,
         topics: &TopicParams,
         dry_run: bool,
         recorder: Option<Recorder>,
@@ -128,19 +136,27 @@ impl Outputs {
         Ok(Outputs {
             joint_trajectory: Output::new(
                 node,
+                names,
                 &topics.joint_trajectory,
                 latched_qos(),
                 Qos::latched(),
             )?,
-            poses: Output::new(node, &topics.poses, latched_qos(), Qos::latched())?,
-            path: Output::new(node, &topics.path, latched_qos(), Qos::latched())?,
-            markers: Output::new(node, &topics.markers, latched_qos(), Qos::latched())?,
-            weld_plan: Output::new(node, &topics.weld_plan, latched_qos(), Qos::latched())?,
-            status: Output::new(node, &topics.status, latched_qos(), Qos::latched())?,
-            arc_on: Output::new(node, &topics.arc_on, stream_qos(), Qos::reliable(10))?,
+            poses: Output::new(node, names, &topics.poses, latched_qos(), Qos::latched())?,
+            path: Output::new(node, names, &topics.path, latched_qos(), Qos::latched())?,
+            markers: Output::new(node, names, &topics.markers, latched_qos(), Qos::latched())?,
+            weld_plan: Output::new(
+                node,
+                names,
+                &topics.weld_plan,
+                latched_qos(),
+                Qos::latched(),
+            )?,
+            status: Output::new(node, names, &topics.status, latched_qos(), Qos::latched())?,
+            arc_on: Output::new(node, names, &topics.arc_on, stream_qos(), Qos::reliable(10))?,
             joint_states: if dry_run {
                 Some(Output::new(
                     node,
+                    names,
                     &topics.joint_states,
                     stream_qos(),
                     Qos::reliable(10),
@@ -206,9 +222,13 @@ pub struct Inputs {
 }
 
 impl Inputs {
-    pub fn new(node: &mut Node, topics: &TopicParams) -> Result<Inputs, IoError> {
-        let (part_topic, part) = subscribe::<RosString>(node, &topics.part)?;
-        let (mesh_topic, mesh) = subscribe::<Mesh>(node, &topics.part_mesh)?;
+    pub fn new(
+        node: &mut Node,
+        names: &NodeNames,
+        topics: &TopicParams,
+    ) -> Result<Inputs, IoError> {
+        let (part_topic, part) = subscribe::<RosString>(node, names, &topics.part)?;
+        let (mesh_topic, mesh) = subscribe::<Mesh>(node, names, &topics.part_mesh)?;
         Ok(Inputs {
             part_topic,
             part,
@@ -220,9 +240,10 @@ impl Inputs {
 
 fn subscribe<M: RosMessage + 'static>(
     node: &mut Node,
+    names: &NodeNames,
     name: &str,
 ) -> Result<(String, Subscription<M>), IoError> {
-    let full = resolve_topic(name, node.namespace(), node.base_name())?;
+    let full = names.resolve(name)?;
     let topic = node
         .create_topic(&full, M::message_type_name(), &input_qos())
         .map_err(|e| IoError::Create(full.to_string(), e.to_string()))?;

@@ -6,15 +6,23 @@
 //! decides what is published. Bad input of any kind ends as an ERROR status, never as a
 //! stopped node, and only a plan that passed validation and the thermal check is published.
 
+pub mod args;
 pub mod controller;
+pub mod declared;
 pub mod execute;
 pub mod fjt;
+pub mod frames;
+pub mod health;
 pub mod io;
+pub mod names;
 pub mod once;
+pub mod param_server;
 pub mod params;
 pub mod pipeline;
+pub mod plan_action;
 pub mod ros;
 pub mod status;
+pub mod stop_service;
 pub mod worker;
 
 use std::path::PathBuf;
@@ -24,11 +32,12 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use futures::StreamExt;
-use ros2_client::{NodeName, NodeOptions};
+use ros2_client::NodeOptions;
 
 use crate::convert::PlanMessages;
 use controller::{spawn_executor, Controller, ExecCommand, SimController};
 use io::{Inputs, Level, Outputs};
+use names::NodeNames;
 use params::NodeParams;
 use pipeline::{PartInput, PlanFn, Planned, PlanningPipeline};
 use ros::RosEnv;
@@ -44,6 +53,8 @@ pub use crate::convert::NODE_NAME;
 /// How a run of the node is set up.
 pub struct RunOptions {
     pub params: NodeParams,
+    /// Name, namespace and remaps (`--ros-args -r`).
+    pub names: NodeNames,
     /// Follow each plan with the built-in simulated controller (publishes `/joint_states`).
     pub dry_run: bool,
     /// Record everything received and sent into this rosbag2 directory.
@@ -66,6 +77,12 @@ pub enum Mode {
 
 enum Event {
     Input(PartInput),
+    /// Parameters changed: plans from now on use this pipeline.
+    Pipeline(Box<PlanningPipeline>),
+    /// A `~/plan` goal or cancel request.
+    Action(plan_action::Request),
+    /// `~/stop`: stop planning and execution; say what was stopped.
+    Stop(Sender<String>),
     Worker(WorkerEvent<Box<Planned>, pipeline::JobError>),
 }
 
@@ -93,7 +110,8 @@ pub enum NodeError {
 /// whether the last part was planned (and executed, when a controller is attached).
 pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<bool, NodeError> {
     let env = RosEnv::from_env()?;
-    let mut node = start_node(&env)?;
+    let names = &options.names;
+    let mut node = start_node(&env, names)?;
 
     let recorder = match &options.record {
         Some(dir) => Some(Recorder::create(dir).map_err(|source| NodeError::Record {
@@ -105,6 +123,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     let params = &options.params;
     let outputs = Arc::new(Outputs::new(
         &mut node,
+        names,
         &params.topics,
         options.dry_run,
         recorder.clone(),
@@ -126,7 +145,21 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     );
     let mut pipeline = PlanningPipeline::from_params(params, Arc::clone(&options.planner))?;
     pipeline.recorder = recorder.clone();
-    let mesh_settings = pipeline.mesh.clone();
+    // The robot and the part frame for viewers, latched; the part frame moves with the
+    // process settings, so a parameter change publishes them again.
+    let urdf = frames::urdf_text(params).map_err(NodeError::Ros)?;
+    let cell_frames = frames::CellFrames::new(&mut node, names)?;
+    cell_frames.publish(&urdf, &pipeline, recorder.as_ref());
+    let diagnostics = io::Output::<waam_rosmsg::diagnostic_msgs::DiagnosticArray>::new(
+        &mut node,
+        names,
+        health::DIAGNOSTICS,
+        io::stream_qos(),
+        waam_rosbag::Qos::reliable(10),
+    )?;
+    let mut health = health::Health::new(names.fully_qualified());
+    let mut last_health: Option<Instant> = None;
+    let mut mesh_settings = pipeline.mesh.clone();
 
     let (events, event_rx) = channel::<Event>();
     let worker_events = events.clone();
@@ -134,9 +167,70 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
         let _ = worker_events.send(Event::Worker(e));
     });
 
+    let params_stop = Arc::new(AtomicBool::new(false));
+    let mut params_thread = None;
+    let mut action_thread = None;
+    let mut stop_thread = None;
+    let mut action_replies: Option<Sender<plan_action::Reply>> = None;
     let (once, linger) = match mode {
         Mode::Serve => {
-            let inputs = Inputs::new(&mut node, &params.topics)?;
+            // Parameter changes build the next pipeline here; a bad one is refused.
+            let planner = Arc::clone(&options.planner);
+            let rec = recorder.clone();
+            let to_loop = std::sync::Mutex::new(events.clone());
+            let store = param_server::ParamStore::new(
+                params.clone(),
+                Box::new(move |next: &NodeParams| {
+                    let mut pipeline = PlanningPipeline::from_params(next, Arc::clone(&planner))
+                        .map_err(|e| e.to_string())?;
+                    pipeline.recorder = rec.clone();
+                    let sent = to_loop
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .send(Event::Pipeline(Box::new(pipeline)));
+                    sent.map_err(|_| "the node is shutting down".to_string())
+                }),
+            );
+            params_thread = Some(
+                param_server::serve(
+                    &mut node,
+                    &names.fully_qualified(),
+                    Arc::clone(&store),
+                    Arc::clone(&params_stop),
+                )
+                .map_err(NodeError::Ros)?,
+            );
+            let (reply_tx, reply_rx) = channel();
+            action_replies = Some(reply_tx);
+            let to_loop = std::sync::Mutex::new(events.clone());
+            action_thread = Some(
+                plan_action::serve(
+                    &mut node,
+                    names,
+                    store,
+                    move |request| {
+                        let to_loop = to_loop.lock().unwrap_or_else(|e| e.into_inner());
+                        to_loop.send(Event::Action(request)).is_ok()
+                    },
+                    reply_rx,
+                    Arc::clone(&params_stop),
+                )
+                .map_err(NodeError::Ros)?,
+            );
+            let to_loop = std::sync::Mutex::new(events.clone());
+            stop_thread = Some(
+                stop_service::serve(
+                    &mut node,
+                    names,
+                    move |answer| {
+                        let to_loop = to_loop.lock().unwrap_or_else(|e| e.into_inner());
+                        to_loop.send(Event::Stop(answer)).is_ok()
+                    },
+                    Arc::clone(&params_stop),
+                )
+                .map_err(NodeError::Ros)?,
+            );
+            let inputs = Inputs::new(&mut node, names, &params.topics)?;
             outputs.log(
                 Level::Info,
                 &format!(
@@ -161,7 +255,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
             }
             // Record the part as if it had arrived on ~/part, so a replay finds it.
             if let (Some(r), PartInput::Document(text)) = (&recorder, &input) {
-                let topic = ros::resolve_topic(&params.topics.part, "/", NODE_NAME)?;
+                let topic = names.resolve(&params.topics.part)?;
                 let msg = waam_rosmsg::std_msgs::String { data: text.clone() };
                 if let Err(e) = r.record(&topic.to_string(), &waam_rosbag::Qos::reliable(10), &msg)
                 {
@@ -185,6 +279,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     } else if params.execution.enabled {
         Some(Box::new(fjt::FjtController::new(
             Arc::clone(&node),
+            names,
             &params.execution,
         )?))
     } else {
@@ -215,22 +310,126 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
         success: false,
     };
     let mut finished_once = false;
+    // `~/plan` goals by job: goal id and when it was accepted.
+    let mut goals: std::collections::HashMap<u64, (ros2_client::action::GoalId, Instant)> =
+        Default::default();
+    let reply = |r: plan_action::Reply| {
+        if let Some(tx) = &action_replies {
+            plan_action::send(tx, r);
+        }
+    };
+    let superseded = |goals: &mut std::collections::HashMap<_, _>, old: Option<u64>, job: u64| {
+        if let Some((goal, _)) = old.and_then(|old| goals.remove(&old)) {
+            reply(plan_action::Reply::Done(
+                goal,
+                ros2_client::action::GoalStatusEnum::Aborted,
+                plan_action::PlanPartResult::failed(
+                    plan_action::PlanPartResult::CANCELLED,
+                    format!("superseded by part {job}"),
+                ),
+            ));
+        }
+    };
     while !stop.load(Ordering::Relaxed) && !finished_once {
+        if last_health.is_none_or(|t| t.elapsed() >= health::PERIOD) {
+            last_health = Some(Instant::now());
+            // Not recorded: a recording has the events on ~/status.
+            diagnostics.publish(&health.to_msg(Time::now()), None);
+        }
         let event = match event_rx.recv_timeout(Duration::from_millis(100)) {
             Ok(event) => event,
             Err(RecvTimeoutError::Timeout) => continue,
             Err(RecvTimeoutError::Disconnected) => break,
         };
         match event {
-            Event::Input(input) => {
-                let source = input.describe();
-                let settings = match &input {
-                    PartInput::Mesh { name, .. } => {
-                        crate::planning::mesh_values(&mesh_settings, name)
+            Event::Pipeline(pipeline) => {
+                mesh_settings = pipeline.mesh.clone();
+                cell_frames.publish(&urdf, &pipeline, recorder.as_ref());
+                worker.set_pipeline(*pipeline);
+                outputs.log(Level::Info, "parameters changed: the next plan uses them");
+            }
+            Event::Stop(answer) => {
+                let mut stopped = Vec::new();
+                if let Some(job) = worker.current() {
+                    worker.cancel(job);
+                    health.planning = None;
+                    if let Some((goal, _)) = goals.remove(&job) {
+                        reply(plan_action::Reply::Done(
+                            goal,
+                            ros2_client::action::GoalStatusEnum::Canceled,
+                            plan_action::PlanPartResult::failed(
+                                plan_action::PlanPartResult::CANCELLED,
+                                "stopped by ~/stop",
+                            ),
+                        ));
                     }
+                    state.status(Status::Error {
+                        job: Some(job),
+                        reason: "stopped by ~/stop".into(),
+                    });
+                    stopped.push(format!("planning of part {job}"));
+                }
+                if let Some(cancel) = state.execution.take() {
+                    cancel.cancel(); // the executor cancels its goal and switches the arc off
+                    stopped.push("any execution in progress (goal cancelled, arc off)".to_string());
+                }
+                let message = if stopped.is_empty() {
+                    "nothing to stop".to_string()
+                } else {
+                    format!("stopped {}", stopped.join(" and "))
+                };
+                outputs.log(Level::Warn, &format!("~/stop: {message}"));
+                let _ = answer.send(message);
+            }
+            Event::Action(plan_action::Request::Cancel(goal)) => {
+                let Some(job) = goals.iter().find(|(_, g)| g.0 == goal).map(|(j, _)| *j) else {
+                    continue;
+                };
+                goals.remove(&job);
+                if worker.cancel(job) {
+                    health.planning = None;
+                    state.status(Status::Error {
+                        job: Some(job),
+                        reason: "cancelled by the ~/plan client".into(),
+                    });
+                    outputs.log(Level::Info, &format!("part {job}: goal cancelled"));
+                }
+                reply(plan_action::Reply::Done(
+                    goal,
+                    ros2_client::action::GoalStatusEnum::Canceled,
+                    plan_action::PlanPartResult::failed(
+                        plan_action::PlanPartResult::CANCELLED,
+                        "cancelled by the client",
+                    ),
+                ));
+            }
+            Event::Input(_) | Event::Action(plan_action::Request::Goal { .. }) => {
+                let (job_input, goal) = match event {
+                    Event::Input(input) => (pipeline::Job::from(input), None),
+                    Event::Action(plan_action::Request::Goal { goal, job }) => (job, Some(goal)),
+                    _ => unreachable!("matched above"),
+                };
+                let input = &job_input.input;
+                let source = input.describe();
+                let mut settings = match input {
+                    PartInput::Mesh { name, .. } => crate::planning::mesh_values(
+                        job_input.mesh.as_ref().unwrap_or(&mesh_settings),
+                        name,
+                    ),
                     PartInput::Document(_) => Vec::new(),
                 };
-                let (job, cancelled) = worker.submit(input);
+                // The planner's settings too, so that `waam replay` plans the same way (a
+                // recording without them is taken to predate the planner's warm start).
+                settings.extend(crate::planning::settings(&waam_planner::Options {
+                    max_fragments: job_input.max_fragments,
+                    ..waam_planner::Options::default()
+                }));
+                let (job, cancelled) = worker.submit(job_input);
+                superseded(&mut goals, cancelled, job);
+                if let Some(goal) = goal {
+                    goals.insert(job, (goal, Instant::now()));
+                }
+                health.planning = Some(job);
                 state.status(Status::Received {
                     job,
                     source: source.clone(),
@@ -247,6 +446,20 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
             }
             Event::Worker(WorkerEvent::Progress { job, progress }) => {
                 if worker.is_current(job) {
+                    if let Some((goal, since)) = goals.get(&job) {
+                        let counts = progress.counts.unwrap_or_default();
+                        reply(plan_action::Reply::Feedback(
+                            *goal,
+                            plan_action::PlanPartFeedback {
+                                stage: progress.stage.to_string(),
+                                candidates: counts.candidates,
+                                feasible: counts.feasible,
+                                cuts: counts.cuts,
+                                best_margin_s: counts.best_margin_s.unwrap_or(f64::NAN),
+                                elapsed_s: since.elapsed().as_secs_f64(),
+                            },
+                        ));
+                    }
                     state.progress(job, progress);
                 }
             }
@@ -256,6 +469,30 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                     continue;
                 }
                 worker.finish(job);
+                health.planning = None;
+                if let Some((goal, since)) = goals.remove(&job) {
+                    let (status, end) = goal_result(&result);
+                    if let Ok(p) = result_ok(&result) {
+                        reply(plan_action::Reply::Feedback(goal, final_feedback(p, since)));
+                    }
+                    reply(plan_action::Reply::Done(goal, status, end));
+                }
+                match &result {
+                    Ok(p) => {
+                        health.planned += 1;
+                        let summary = format!(
+                            "planned {} ({} blocks, {} fragment(s))",
+                            p.part.name,
+                            p.part.len(),
+                            p.found.fragments.len()
+                        );
+                        health.last = Some((job, Ok(summary)));
+                    }
+                    Err(e) => {
+                        health.failed += 1;
+                        health.last = Some((job, Err(e.to_string())));
+                    }
+                }
                 let done = state.finished(job, result);
                 if once {
                     if let Some(done) = done {
@@ -289,6 +526,13 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
         let _ = thread.join();
     }
     worker.shutdown();
+    params_stop.store(true, Ordering::Relaxed);
+    for thread in [params_thread, action_thread, stop_thread]
+        .into_iter()
+        .flatten()
+    {
+        let _ = thread.join();
+    }
     if once && !stop.load(Ordering::Relaxed) {
         // Let subscribers fetch the latched outputs before the writers go away.
         let until = Instant::now() + linger;
@@ -306,14 +550,17 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     Ok(state.success)
 }
 
-/// Node `waam_planner` (with `/rosout`) on the environment's domain and discovery range,
-/// its spinner running on a thread of its own until the node is dropped.
-pub fn start_node(env: &RosEnv) -> Result<ros2_client::Node, NodeError> {
+/// The node `names` gives (with `/rosout`) on the environment's domain and discovery range,
+/// its spinner running on a thread of its own until the node is dropped. `ros2-client`'s
+/// parameter services are off: [`param_server`] serves the node's own.
+pub fn start_node(env: &RosEnv, names: &NodeNames) -> Result<ros2_client::Node, NodeError> {
     let mut node = env
         .context()?
         .new_node(
-            NodeName::new("/", NODE_NAME).expect("a valid node name"),
-            NodeOptions::new().enable_rosout(true),
+            names.node_name()?,
+            NodeOptions::new()
+                .enable_rosout(true)
+                .start_parameter_services(false),
         )
         .map_err(|e| NodeError::Ros(format!("cannot create the ROS 2 node: {e:?}")))?;
     let spinner = node
@@ -427,6 +674,57 @@ impl LoopState {
     }
 }
 
+type JobResult = Result<Box<Planned>, JobFailure<pipeline::JobError>>;
+
+fn result_ok(result: &JobResult) -> Result<&Planned, ()> {
+    result.as_deref().map_err(|_| ())
+}
+
+/// The last feedback of a goal that got a plan: the counters and margin of the run.
+fn final_feedback(p: &Planned, since: Instant) -> plan_action::PlanPartFeedback {
+    let s = &p.found.stats;
+    plan_action::PlanPartFeedback {
+        stage: "planned".into(),
+        candidates: s.candidates,
+        feasible: s.feasible,
+        cuts: s.cycle_cuts,
+        best_margin_s: p.found.worst_margin_s,
+        elapsed_s: since.elapsed().as_secs_f64(),
+    }
+}
+
+/// A `~/plan` goal's end from its job's.
+fn goal_result(
+    result: &JobResult,
+) -> (
+    ros2_client::action::GoalStatusEnum,
+    plan_action::PlanPartResult,
+) {
+    use plan_action::PlanPartResult as R;
+    use ros2_client::action::GoalStatusEnum as S;
+    match result {
+        Ok(planned) => {
+            let header = Header::new(Time::now(), planned.toolpath.frame.clone());
+            match PlanMessages::of_planned(planned, &header) {
+                Ok(m) => (
+                    S::Succeeded,
+                    R {
+                        outcome: R::PLANNED,
+                        reason: String::new(),
+                        plan: m.weld_plan,
+                    },
+                ),
+                Err(e) => (S::Aborted, R::failed(R::NO_PLAN, e.to_string())),
+            }
+        }
+        Err(JobFailure::Failed(pipeline::JobError::Pipeline(e))) => {
+            (S::Aborted, R::failed(R::BAD_INPUT, e.to_string()))
+        }
+        Err(JobFailure::Superseded) => (S::Aborted, R::failed(R::CANCELLED, "superseded")),
+        Err(e) => (S::Aborted, R::failed(R::NO_PLAN, e.to_string())),
+    }
+}
+
 /// Publishes every output of a plan, all with the same header (recording them too).
 pub fn publish_plan(outputs: &Outputs, planned: &Planned) {
     let header = Header::new(Time::now(), planned.toolpath.frame.clone());
@@ -447,7 +745,8 @@ pub fn publish_messages(outputs: &Outputs, m: &PlanMessages) {
 }
 
 /// Records the chosen plan's simulated block temperatures (PointCloud2 frames in the part
-/// frame `waam_part`, metres) so Foxglove can play the build's heat back.
+/// frame, metres, as the CLI records them; /tf_static ties it to the robot) so Foxglove can
+/// play the build's heat back.
 fn record_heat(recorder: &Recorder, planned: &Planned) {
     let graph = waam_part::graph::WeldGraph::new(&planned.part);
     let model = waam_thermal::ThermalModel::new(&planned.part, &graph);
@@ -456,7 +755,7 @@ fn record_heat(recorder: &Recorder, planned: &Planned) {
         &planned.part,
         &model,
         &planned.found.fragments,
-        "waam_part",
+        crate::planning::PART_FRAME,
         Time::now(),
         crate::heat::HeatOptions::default(),
     ) {

@@ -22,8 +22,9 @@ pub fn publish_once(
     stop: &AtomicBool,
 ) -> Result<(), super::NodeError> {
     let env = RosEnv::from_env()?;
-    let mut node = super::start_node(&env)?;
-    let outputs = Outputs::new(&mut node, topics, false, None)?;
+    let names = super::names::NodeNames::default();
+    let mut node = super::start_node(&env, &names)?;
+    let outputs = Outputs::new(&mut node, &names, topics, false, None)?;
     if let Some(m) = messages {
         super::publish_messages(&outputs, m);
     }

@@ -21,6 +21,9 @@ pub enum ParamsError {
     },
     #[error("parameters file{where_}: {msg}")]
     Invalid { where_: String, msg: String },
+    /// A `-p NAME:=VALUE` the node cannot take.
+    #[error("-p {msg}")]
+    Override { name: String, msg: String },
 }
 
 /// Everything `waam node` can be told through its parameters.
@@ -98,6 +101,18 @@ pub struct ExecutionParams {
     pub server_timeout_s: f64,
     /// Seconds the first goal gives the robot to reach the trajectory's first point.
     pub lead_in_s: f64,
+    /// The controller's joint names, in the URDF's joint order (MotoROS2: `group_1/joint_1`
+    /// ...); [] = the URDF's names.
+    pub joint_names: Vec<String>,
+    /// Position tolerance at each goal's end, rad (0 = the controller's default).
+    pub goal_tolerance_rad: f64,
+    /// Position tolerance along each goal, rad (0 = the controller's default).
+    pub path_tolerance_rad: f64,
+    /// Time a goal may take beyond its duration, s (0 = the controller's default).
+    pub goal_time_tolerance_s: f64,
+    /// A std_srvs/Trigger service called before each plan runs (MotoROS2:
+    /// `/start_traj_mode`); "" = none.
+    pub start_service: String,
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -152,6 +167,11 @@ impl Default for ExecutionParams {
             max_points_per_goal: 200,
             server_timeout_s: 10.0,
             lead_in_s: 2.0,
+            joint_names: Vec::new(),
+            goal_tolerance_rad: 0.0,
+            path_tolerance_rad: 0.0,
+            goal_time_tolerance_s: 0.0,
+            start_service: String::new(),
         }
     }
 }
@@ -169,8 +189,33 @@ impl Default for DryRunParams {
 /// every duration stays far inside what `Duration` and `Instant` can hold.
 pub const MAX_WAIT_S: f64 = 7.0 * 24.0 * 3600.0;
 
-/// The node names a parameters file may address this node by.
-const NODE_KEYS: [&str; 3] = [crate::convert::NODE_NAME, "/waam_planner", "/**"];
+/// Whether a parameters-file node key addresses the node `fqn` (`/ns/name`): its name
+/// (`waam_planner`, as this project's files have always said), its full name, or an rcl
+/// wildcard (`/**`, `/cell1/*`).
+pub fn key_matches(key: &str, fqn: &str) -> bool {
+    let base = fqn.rsplit('/').next().unwrap_or(fqn);
+    if key == base || key == fqn {
+        return true;
+    }
+    let Some(pattern) = key.strip_prefix('/') else {
+        return false;
+    };
+    let pattern: Vec<&str> = pattern.split('/').collect();
+    let name: Vec<&str> = fqn.trim_start_matches('/').split('/').collect();
+    glob(&pattern, &name)
+}
+
+/// Token glob: `*` one token, `**` any number of tokens.
+fn glob(pattern: &[&str], name: &[&str]) -> bool {
+    match (pattern.first(), name.first()) {
+        (None, None) => true,
+        (Some(&"**"), _) => {
+            glob(&pattern[1..], name) || (!name.is_empty() && glob(pattern, &name[1..]))
+        }
+        (Some(&p), Some(&n)) if p == "*" || p == n => glob(&pattern[1..], &name[1..]),
+        _ => false,
+    }
+}
 
 /// A parameter out of its range (the message names it and its value).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -190,66 +235,63 @@ impl From<&str> for ParamRule {
 }
 
 impl NodeParams {
-    /// Reads a parameters file.
+    /// Reads a parameters file for the node `/waam_planner`.
     pub fn from_file(path: &Path) -> Result<NodeParams, ParamsError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ParamsError::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        NodeParams::parse(&text).map_err(|e| match e {
-            ParamsError::Invalid { where_, msg } => ParamsError::Invalid {
-                where_: format!(" {}{where_}", path.display()),
-                msg,
-            },
-            other => other,
-        })
+        NodeParams::load(&[path.to_path_buf()], "/waam_planner", &[])
     }
 
-    /// Parses parameters-file text: the sections of every node key that names this node are
-    /// merged, later ones winning, as rcl does.
+    /// The defaults, then each file's sections for the node `fqn` in order, then `overrides`
+    /// (`-p NAME:=VALUE`), as rcl layers `--params-file` and `-p`.
+    pub fn load(
+        files: &[PathBuf],
+        fqn: &str,
+        overrides: &[(String, ros2_client::ParameterValue)],
+    ) -> Result<NodeParams, ParamsError> {
+        let mut merged = serde_yaml::Mapping::new();
+        for path in files {
+            let text = std::fs::read_to_string(path).map_err(|source| ParamsError::Read {
+                path: path.clone(),
+                source,
+            })?;
+            let found = sections(&text, fqn).map_err(|msg| ParamsError::Invalid {
+                where_: format!(" {}", path.display()),
+                msg,
+            })?;
+            merge(&mut merged, &found);
+        }
+        let invalid = |where_: String, msg: String| ParamsError::Invalid { where_, msg };
+        let mut params: NodeParams = serde_yaml::from_value(serde_yaml::Value::Mapping(merged))
+            .map_err(|e| invalid(format!(" {}", join(files)), format!("ros__parameters: {e}")))?;
+        params
+            .check()
+            .map_err(|e| invalid(format!(" {}", join(files)), e.0))?;
+        for (name, value) in overrides {
+            super::declared::set(&mut params, name, value, false).map_err(|msg| {
+                ParamsError::Override {
+                    name: name.clone(),
+                    msg,
+                }
+            })?;
+        }
+        params.check().map_err(|e| ParamsError::Override {
+            name: overrides
+                .iter()
+                .map(|(n, _)| n.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+            msg: e.0,
+        })?;
+        Ok(params)
+    }
+
+    /// Parses parameters-file text for the node `/waam_planner`: the sections of every node
+    /// key that names it are merged, later ones winning, as rcl does.
     pub fn parse(text: &str) -> Result<NodeParams, ParamsError> {
         let invalid = |msg: String| ParamsError::Invalid {
             where_: String::new(),
             msg,
         };
-        let doc: serde_yaml::Value =
-            serde_yaml::from_str(text).map_err(|e| invalid(format!("not valid YAML: {e}")))?;
-        let serde_yaml::Value::Mapping(nodes) = doc else {
-            return Err(invalid(
-                "expected a mapping from node name to ros__parameters".into(),
-            ));
-        };
-        let mut merged = serde_yaml::Mapping::new();
-        let mut found = false;
-        for (key, section) in &nodes {
-            let Some(name) = key.as_str().filter(|k| NODE_KEYS.contains(k)) else {
-                continue; // parameters for other nodes of the same launch
-            };
-            found = true;
-            let section = section.as_mapping().ok_or_else(|| {
-                invalid(format!("'{name}' must be a mapping with 'ros__parameters'"))
-            })?;
-            for (k, v) in section {
-                if k.as_str() != Some("ros__parameters") {
-                    return Err(invalid(format!(
-                        "'{name}': unknown key {:?} (only 'ros__parameters')",
-                        k.as_str().unwrap_or("?")
-                    )));
-                }
-                let serde_yaml::Value::Mapping(params) = v else {
-                    return Err(invalid(format!(
-                        "'{name}.ros__parameters' must be a mapping"
-                    )));
-                };
-                merge(&mut merged, params);
-            }
-        }
-        if !found {
-            return Err(invalid(format!(
-                "no section for this node: expected one of {}",
-                NODE_KEYS.join(", ")
-            )));
-        }
+        let merged = sections(text, "/waam_planner").map_err(invalid)?;
         let params: NodeParams = serde_yaml::from_value(serde_yaml::Value::Mapping(merged))
             .map_err(|e| invalid(format!("ros__parameters: {e}")))?;
         params.check().map_err(|e| invalid(e.0))?;
@@ -262,7 +304,7 @@ impl NodeParams {
     }
 
     /// Rules serde cannot express: ranges and list lengths.
-    fn check(&self) -> Result<(), ParamRule> {
+    pub fn check(&self) -> Result<(), ParamRule> {
         let finite_pos = |v: f64| v.is_finite() && v > 0.0;
         if !(self.planner.timeout_s.is_finite()
             && (0.0..=MAX_WAIT_S).contains(&self.planner.timeout_s))
@@ -322,6 +364,31 @@ impl NodeParams {
                 self.execution.lead_in_s
             )));
         }
+        for (key, v) in [
+            ("goal_tolerance_rad", self.execution.goal_tolerance_rad),
+            ("path_tolerance_rad", self.execution.path_tolerance_rad),
+            (
+                "goal_time_tolerance_s",
+                self.execution.goal_time_tolerance_s,
+            ),
+        ] {
+            if !(v.is_finite() && (0.0..=MAX_WAIT_S).contains(&v)) {
+                return Err(ParamRule(format!(
+                    "execution.{key}: expected a tolerance >= 0 (0 = the controller's default), got {v}"
+                )));
+            }
+        }
+        let names = &self.execution.joint_names;
+        if names.iter().any(|n| n.trim().is_empty())
+            || names
+                .iter()
+                .enumerate()
+                .any(|(i, n)| names[..i].contains(n))
+        {
+            return Err(ParamRule(format!(
+                "execution.joint_names: expected [] or distinct, non-empty names, got {names:?}"
+            )));
+        }
         if !finite_pos(self.dry_run.time_scale) {
             return Err(ParamRule(format!(
                 "dry_run.time_scale: expected a factor > 0, got {}",
@@ -336,6 +403,57 @@ impl NodeParams {
         }
         Ok(())
     }
+}
+
+fn join(files: &[PathBuf]) -> String {
+    let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+    names.join(", ")
+}
+
+/// The `ros__parameters` of every section of `text` whose key addresses the node `fqn`,
+/// merged in file order.
+fn sections(text: &str, fqn: &str) -> Result<serde_yaml::Mapping, String> {
+    let doc: serde_yaml::Value =
+        serde_yaml::from_str(text).map_err(|e| format!("not valid YAML: {e}"))?;
+    let serde_yaml::Value::Mapping(nodes) = doc else {
+        return Err("expected a mapping from node name to ros__parameters".into());
+    };
+    let mut merged = serde_yaml::Mapping::new();
+    let mut found = false;
+    for (key, section) in &nodes {
+        let Some(name) = key.as_str().filter(|k| key_matches(k, fqn)) else {
+            continue; // parameters for other nodes of the same launch
+        };
+        found = true;
+        let section = section
+            .as_mapping()
+            .ok_or_else(|| format!("'{name}' must be a mapping with 'ros__parameters'"))?;
+        for (k, v) in section {
+            if k.as_str() != Some("ros__parameters") {
+                return Err(format!(
+                    "'{name}': unknown key {:?} (only 'ros__parameters')",
+                    k.as_str().unwrap_or("?")
+                ));
+            }
+            let serde_yaml::Value::Mapping(params) = v else {
+                return Err(format!("'{name}.ros__parameters' must be a mapping"));
+            };
+            merge(&mut merged, params);
+        }
+    }
+    if !found {
+        let base = fqn.rsplit('/').next().unwrap_or(fqn);
+        return Err(format!(
+            "no section for this node: expected one of {base}, {fqn}, /** (or an rcl wildcard)"
+        ));
+    }
+    // rcl's node-wide `use_sim_time` is declared by every node; only `false` is honoured.
+    if let Some(v) = merged.remove("use_sim_time") {
+        if v != serde_yaml::Value::Bool(false) {
+            return Err("use_sim_time: this node runs on wall-clock time only (false)".into());
+        }
+    }
+    Ok(merged)
 }
 
 /// Deep-merges `from` into `into` (nested mappings merge, everything else replaces).
@@ -373,6 +491,66 @@ mod tests {
     }
 
     #[test]
+    fn node_keys_match_as_rcl_does() {
+        for key in [
+            "waam_planner",
+            "/cell1/waam_planner",
+            "/**",
+            "/cell1/*",
+            "/**/waam_planner",
+        ] {
+            assert!(key_matches(key, "/cell1/waam_planner"), "{key}");
+        }
+        for key in ["/waam_planner", "/cell2/*", "/*", "other"] {
+            assert!(!key_matches(key, "/cell1/waam_planner"), "{key}");
+        }
+    }
+
+    #[test]
+    fn files_then_overrides() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = dir.path().join("a.yaml");
+        let b = dir.path().join("b.yaml");
+        std::fs::write(
+            &a,
+            "/**:\n  ros__parameters:\n    planner: {timeout_s: 5.0}\n    use_sim_time: false\n",
+        )
+        .unwrap();
+        std::fs::write(
+            &b,
+            "/cell1/waam_planner:\n  ros__parameters:\n    planner: {default_max_fragments: 3}\n",
+        )
+        .unwrap();
+        let p = NodeParams::load(
+            &[a.clone(), b.clone()],
+            "/cell1/waam_planner",
+            &[(
+                "mesh.block_mm".into(),
+                ros2_client::ParameterValue::IntegerArray(vec![12, 6, 2]),
+            )],
+        )
+        .unwrap();
+        assert_eq!(p.planner.timeout_s, 5.0);
+        assert_eq!(p.planner.default_max_fragments, 3);
+        assert_eq!(p.mesh.block_mm, vec![12.0, 6.0, 2.0]);
+        let e = NodeParams::load(
+            &[a],
+            "/cell1/waam_planner",
+            &[(
+                "mesh.block_mm".into(),
+                ros2_client::ParameterValue::IntegerArray(vec![1]),
+            )],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("mesh.block_mm"), "{e}");
+        let e = NodeParams::load(&[b], "/cell2/waam_planner", &[])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("no section"), "{e}");
+    }
+
+    #[test]
     fn errors_name_the_key() {
         let err = |text: &str| NodeParams::parse(text).unwrap_err().to_string();
         let e = err("waam_planner:\n  ros__parameters:\n    planer: {timeout_s: 1}\n");
@@ -386,6 +564,8 @@ mod tests {
         let e = err("waam_planner:\n  ros__parameters:\n    robot: {tcp: [0, 0]}\n");
         assert!(e.contains("robot.tcp"), "{e}");
         let e = err("someone_else:\n  ros__parameters: {}\n");
+        assert!(e.contains("no section for this node"), "{e}");
+        let e = err("/cell1/*:\n  ros__parameters: {}\n");
         assert!(e.contains("no section for this node"), "{e}");
         let e = err("waam_planner:\n  params: {}\n");
         assert!(e.contains("only 'ros__parameters'"), "{e}");

@@ -98,11 +98,39 @@ pub fn mesh_settings(params: &NodeParams) -> Result<MeshSettings, SetupError> {
     })
 }
 
+/// One part to plan, with the settings of its request (a `~/plan` goal) over the node's.
+#[derive(Clone)]
+pub struct Job {
+    pub input: PartInput,
+    /// Voxelizing a mesh; `None`: the node's.
+    pub mesh: Option<MeshSettings>,
+    /// k over the part's own.
+    pub max_fragments: Option<usize>,
+    /// Time limit (s); `None`: the node's.
+    pub timeout_s: Option<f64>,
+    /// Stop at the first feasible plan.
+    pub first_feasible: bool,
+}
+
+impl From<PartInput> for Job {
+    fn from(input: PartInput) -> Job {
+        Job {
+            input,
+            mesh: None,
+            max_fragments: None,
+            timeout_s: None,
+            first_feasible: false,
+        }
+    }
+}
+
 /// What a pipeline asks its planner.
 pub struct PlanRequest<'a> {
     pub part: &'a Part,
     /// Time limit, s (0 = none).
     pub timeout_s: f64,
+    /// Stop at the first feasible plan instead of the best within the limit.
+    pub first_feasible: bool,
     /// The job: cancel flag and progress.
     pub ctx: &'a JobContext,
     /// When recording: where the planner's verdict on every candidate goes.
@@ -185,14 +213,17 @@ impl PlanningPipeline {
 }
 
 impl Pipeline for PlanningPipeline {
-    type Input = PartInput;
+    type Input = Job;
     type Output = Box<Planned>;
     type Error = JobError;
 
-    fn run(&self, input: PartInput, ctx: &JobContext) -> Result<Box<Planned>, JobError> {
+    fn run(&self, job: Job, ctx: &JobContext) -> Result<Box<Planned>, JobError> {
         let cancelled = || ctx.cancel.is_cancelled();
-        ctx.progress("reading part", None, input.describe());
-        let part = self.part_of(input)?;
+        ctx.progress("reading part", None, job.input.describe());
+        let mut part = read_input(job.input, job.mesh.as_ref().unwrap_or(&self.mesh))?;
+        if let Some(k) = job.max_fragments {
+            part.max_fragments = k;
+        }
         if cancelled() {
             return Err(JobError::Cancelled);
         }
@@ -208,7 +239,8 @@ impl Pipeline for PlanningPipeline {
         );
         let found = (self.planner)(&PlanRequest {
             part: &part,
-            timeout_s: self.timeout_s,
+            timeout_s: job.timeout_s.unwrap_or(self.timeout_s),
+            first_feasible: job.first_feasible,
             ctx,
             recorder: self.recorder.as_ref(),
         })?;
@@ -233,7 +265,8 @@ pub fn sat_planner() -> Arc<PlanFn> {
             timeout: std::time::Duration::try_from_secs_f64(timeout_s)
                 .ok()
                 .filter(|t| !t.is_zero()),
-            // A newer part stops this run (inside a solve with CaDiCaL); the worker then drops it.
+            // A newer part or a cancelled goal stops this run (inside a solve with CaDiCaL);
+            // the worker then drops it. The first feasible plan stops it too when asked.
             cancel: Some(ctx.cancel.flag()),
             ..waam_planner::Options::default()
         };
@@ -244,14 +277,23 @@ pub fn sat_planner() -> Arc<PlanFn> {
                 c.on_event(&event);
             }
             let s = event.stats();
+            if request.first_feasible && s.feasible > 0 {
+                ctx.cancel.stop_early(); // the planner returns the plan it has
+            }
             if last.elapsed() >= std::time::Duration::from_millis(200) {
                 last = std::time::Instant::now();
                 let fraction = (timeout_s > 0.0).then(|| (s.total_s / timeout_s).min(1.0));
-                ctx.progress(
-                    "planning",
+                ctx.report(super::worker::Progress {
+                    stage: "planning",
                     fraction,
-                    format!("{} candidates, {} feasible", s.candidates, s.feasible),
-                );
+                    detail: format!("{} candidates, {} feasible", s.candidates, s.feasible),
+                    counts: Some(super::worker::Counts {
+                        candidates: s.candidates,
+                        feasible: s.feasible,
+                        cuts: s.cycle_cuts,
+                        best_margin_s: s.best_margin_s,
+                    }),
+                });
             }
         };
         let report = waam_planner::plan(part, &options, &mut progress)?;

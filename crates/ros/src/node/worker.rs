@@ -9,24 +9,44 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
-/// A cancellation flag shared between the node and one planning job.
+/// A cancellation flag shared between the node and one planning job, and the planner's stop
+/// flag: cancelling raises both; a job that has what it wants (the first feasible plan) raises
+/// only the stop flag and still delivers its result.
 #[derive(Debug, Clone, Default)]
-pub struct Cancel(Arc<AtomicBool>);
+pub struct Cancel {
+    cancelled: Arc<AtomicBool>,
+    stop: Arc<AtomicBool>,
+}
 
 impl Cancel {
     pub fn new() -> Cancel {
         Cancel::default()
     }
     pub fn cancel(&self) {
-        self.0.store(true, Ordering::Relaxed);
+        self.cancelled.store(true, Ordering::Relaxed);
+        self.stop.store(true, Ordering::Relaxed);
     }
     pub fn is_cancelled(&self) -> bool {
-        self.0.load(Ordering::Relaxed)
+        self.cancelled.load(Ordering::Relaxed)
     }
-    /// The flag itself, for planners that poll an `AtomicBool`.
+    /// Stops the planner (as its timeout does) without cancelling the job.
+    pub fn stop_early(&self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+    /// The stop flag, for planners that poll an `AtomicBool`.
     pub fn flag(&self) -> Arc<AtomicBool> {
-        Arc::clone(&self.0)
+        Arc::clone(&self.stop)
     }
+}
+
+/// The planner's counters at a progress report.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Counts {
+    pub candidates: u64,
+    pub feasible: u64,
+    pub cuts: u64,
+    /// Worst-case t8/5 margin of the best plan so far, s (`None`: none yet, or no windows).
+    pub best_margin_s: Option<f64>,
 }
 
 /// How far a job has come: a stage name, a fraction of it when known, and a remark.
@@ -35,6 +55,8 @@ pub struct Progress {
     pub stage: &'static str,
     pub fraction: Option<f64>,
     pub detail: String,
+    /// While planning: the planner's counters.
+    pub counts: Option<Counts>,
 }
 
 /// What a job hands to the pipeline: its cancel flag and a way to report progress.
@@ -46,11 +68,16 @@ pub struct JobContext {
 
 impl JobContext {
     pub fn progress(&self, stage: &'static str, fraction: Option<f64>, detail: impl Into<String>) {
-        (self.report)(Progress {
+        self.report(Progress {
             stage,
             fraction,
             detail: detail.into(),
+            counts: None,
         });
+    }
+
+    pub fn report(&self, progress: Progress) {
+        (self.report)(progress);
     }
 }
 
@@ -147,6 +174,27 @@ impl<P: Pipeline> Worker<P> {
             .expect("cannot start a planning thread");
         self.threads.push(thread);
         (job, superseded)
+    }
+
+    /// Jobs from now on run `pipeline`; the job in progress keeps the one it started with.
+    pub fn set_pipeline(&mut self, pipeline: P) {
+        self.pipeline = Arc::new(pipeline);
+    }
+
+    /// The job in progress.
+    pub fn current(&self) -> Option<u64> {
+        self.current.as_ref().map(|(id, _)| *id)
+    }
+
+    /// Cancels the job in progress, if it is `job`; its result will be dropped.
+    pub fn cancel(&mut self, job: u64) -> bool {
+        if self.is_current(job) {
+            if let Some((_, cancel)) = self.current.take() {
+                cancel.cancel();
+            }
+            return true;
+        }
+        false
     }
 
     /// Whether `job` is the latest one (its results are wanted).

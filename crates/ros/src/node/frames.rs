@@ -1,0 +1,105 @@
+//! What RViz and Foxglove need to draw robot, part, path and heat together: the URDF in use on
+//! `robot_description` (std_msgs/String, latched, as robot_state_publisher offers it) and, on
+//! `/tf_static`, the part frame and the TCP tied to the robot: base link → [`PART_FRAME`] (the
+//! plate pose of the process settings) and tip link → [`TCP_FRAME`].
+//!
+//! The robot's own links come from robot_state_publisher (this description + /joint_states).
+
+use nalgebra::Isometry3;
+use ros2_client::Node;
+
+use super::io::{latched_qos, IoError, Output};
+use super::names::NodeNames;
+use super::params::NodeParams;
+use super::pipeline::PlanningPipeline;
+use crate::planning::PART_FRAME;
+use waam_rosbag::qos::Qos;
+use waam_rosbag::Recorder;
+use waam_rosmsg::builtin_interfaces::Time;
+use waam_rosmsg::geometry_msgs::{Quaternion, Transform, TransformStamped, Vector3};
+use waam_rosmsg::std_msgs::{Header, String as RosString};
+use waam_rosmsg::tf2_msgs::TFMessage;
+
+/// The tool centre point: the frame the toolpath poses are the poses of.
+pub const TCP_FRAME: &str = "waam_tcp";
+
+/// Topic of the URDF (relative: `/<namespace>/robot_description`, as robot_state_publisher).
+pub const ROBOT_DESCRIPTION: &str = "robot_description";
+pub const TF_STATIC: &str = "/tf_static";
+
+/// The URDF text the parameters name (the bundled robot when `robot.urdf` is "").
+pub fn urdf_text(params: &NodeParams) -> Result<String, String> {
+    if params.robot.urdf.is_empty() {
+        Ok(waam_pipeline::BUNDLED_URDF.to_string())
+    } else {
+        std::fs::read_to_string(&params.robot.urdf)
+            .map_err(|e| format!("robot.urdf {}: {e}", params.robot.urdf))
+    }
+}
+
+/// base → part and tip → TCP of a pipeline's cell, stamped `stamp`.
+pub fn static_transforms(pipeline: &PlanningPipeline, stamp: Time) -> TFMessage {
+    let robot = &pipeline.cell.robot;
+    let plate = pipeline.cell.settings.plate.isometry();
+    TFMessage {
+        transforms: vec![
+            transform(stamp, &robot.base_link, PART_FRAME, &plate),
+            transform(stamp, &robot.tip_link, TCP_FRAME, &robot.tcp),
+        ],
+    }
+}
+
+fn transform(stamp: Time, parent: &str, child: &str, pose: &Isometry3<f64>) -> TransformStamped {
+    let t = pose.translation.vector;
+    let q = pose.rotation.coords;
+    TransformStamped {
+        header: Header::new(stamp, parent.to_string()),
+        child_frame_id: child.to_string(),
+        transform: Transform {
+            translation: Vector3 {
+                x: t.x,
+                y: t.y,
+                z: t.z,
+            },
+            rotation: Quaternion {
+                x: q.x,
+                y: q.y,
+                z: q.z,
+                w: q.w,
+            },
+        },
+    }
+}
+
+/// The publishers of the robot description and the static transforms.
+pub struct CellFrames {
+    description: Output<RosString>,
+    tf_static: Output<TFMessage>,
+}
+
+impl CellFrames {
+    pub fn new(node: &mut Node, names: &NodeNames) -> Result<CellFrames, IoError> {
+        Ok(CellFrames {
+            description: Output::new(
+                node,
+                names,
+                ROBOT_DESCRIPTION,
+                latched_qos(),
+                Qos::latched(),
+            )?,
+            tf_static: Output::new(node, names, TF_STATIC, latched_qos(), Qos::latched())?,
+        })
+    }
+
+    /// Publishes (and records) the URDF and the static transforms of `pipeline`'s cell.
+    pub fn publish(&self, urdf: &str, pipeline: &PlanningPipeline, recorder: Option<&Recorder>) {
+        self.description.publish(
+            &RosString {
+                data: urdf.to_string(),
+            },
+            recorder,
+        );
+        self.tf_static
+            .publish(&static_transforms(pipeline, Time::now()), recorder);
+    }
+}
