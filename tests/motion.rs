@@ -228,7 +228,13 @@ fn output_files_have_exactly_the_documented_keys() {
     let points = j["points"].as_sequence().unwrap();
     assert_eq!(
         keys(&points[0]),
-        ["arc_on", "positions", "time_from_start", "velocities"]
+        [
+            "accelerations",
+            "arc_on",
+            "positions",
+            "time_from_start",
+            "velocities"
+        ]
     );
     // The files round-trip: FK of the written joints reproduces the written poses.
     let tf: waam_motion::toolpath::ToolpathFile = serde_yaml::from_value(t).unwrap();

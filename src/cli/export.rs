@@ -82,6 +82,8 @@ pub fn run(args: ExportArgs) -> anyhow::Result<ExitCode> {
                 tcp: args.tcp.clone(),
                 tip: args.tip.clone(),
                 process: args.process.clone(),
+                // The program carries positions and timing, not limits.
+                limits: None,
             }
             .load()?;
             (cell.settings, Some(cell.robot))

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
+use waam_motion::robot::limits::JointLimitsFile;
 use waam_motion::robot::{parse_xyz_rpy, Robot, TcpChoice};
 use waam_motion::toolpath::{PoseKind, ProcessSettings, Toolpath};
 use waam_motion::trajectory::JointTrajectory;
@@ -39,6 +40,12 @@ pub struct RobotArgs {
     /// config/process.yaml, built in.
     #[arg(long, value_name = "FILE")]
     pub process: Option<PathBuf>,
+    /// Joint limits (MoveIt-style joint_limits.yaml): a joint's max_velocity replaces the
+    /// URDF's, its max_acceleration limits the trajectory's accelerations. Default: the
+    /// URDF's velocity limits, no acceleration limits. Welds keep their speed exactly: a
+    /// weld the limits would slow down is an error naming the block.
+    #[arg(long, value_name = "FILE")]
+    pub limits: Option<PathBuf>,
 }
 
 /// [`RobotArgs`] where the robot is optional (`waam layer plan`): each option but --robot
@@ -66,6 +73,10 @@ pub struct OptionalRobotArgs {
     /// angles, speeds, dwells.
     #[arg(long, value_name = "FILE", requires = "robot")]
     pub process: Option<PathBuf>,
+    /// With --robot: joint limits (MoveIt-style joint_limits.yaml: velocity and
+    /// acceleration); default: the URDF's velocity limits only.
+    #[arg(long, value_name = "FILE", requires = "robot")]
+    pub limits: Option<PathBuf>,
 }
 
 impl OptionalRobotArgs {
@@ -76,6 +87,7 @@ impl OptionalRobotArgs {
             tcp: self.tcp.clone(),
             tip: self.tip.clone(),
             process: self.process.clone(),
+            limits: self.limits.clone(),
         })
     }
 }
@@ -100,8 +112,15 @@ impl RobotArgs {
             explicit,
             default: settings.tcp.isometry(),
         };
-        let robot = Robot::from_urdf_file(&self.robot, self.tip.as_deref(), choice)
+        let mut robot = Robot::from_urdf_file(&self.robot, self.tip.as_deref(), choice)
             .with_context(|| format!("in robot {}", self.robot.display()))?;
+        if let Some(path) = &self.limits {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read joint limits {}", path.display()))?;
+            robot = JointLimitsFile::from_yaml(&text)
+                .and_then(|file| robot.with_limits(&file))
+                .with_context(|| format!("in joint limits {}", path.display()))?;
+        }
         match (&robot.opw_reason, robot.opw().is_some()) {
             (_, true) => tracing::info!(
                 "robot {}: {} -> {}, analytic OPW inverse kinematics",
@@ -234,6 +253,7 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
         }
     };
     // The plan's rules are checked above; its t8/5 windows are `waam check`'s business.
+    // The motion is timed to the thermal model all the same (waits at the approach points).
     let (toolpath, trajectory) = match args.robot.load()?.plan_motion(&part, &fragments) {
         Ok(motion) => motion,
         Err(e) => {

@@ -110,7 +110,8 @@ def run(peer, waam, cell2):
     listed = call(peer, ListParameters, CELL1 + "/list_parameters", ListParameters.Request())
     names = set(listed.result.names)
     expected = {
-        "process_file", "robot.urdf", "robot.tip_link", "robot.tcp", "planner.timeout_s",
+        "process_file", "robot.urdf", "robot.tip_link", "robot.tcp", "robot.joint_limits",
+        "planner.timeout_s",
         "planner.default_max_fragments", "mesh.block_mm", "mesh.t85_window_s", "topics.part",
         "topics.part_mesh", "topics.joint_trajectory", "topics.poses", "topics.path",
         "topics.markers", "topics.weld_plan", "topics.status", "topics.arc_on",

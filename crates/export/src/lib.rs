@@ -696,6 +696,7 @@ mod tests {
                 .map(|&(_, t, arc_on)| TrajectoryFilePoint {
                     positions: vec![],
                     velocities: vec![],
+                    accelerations: vec![],
                     time_from_start: t,
                     arc_on,
                 })

@@ -63,7 +63,7 @@ pub fn plan_layer_motion_at(
         }
     }
     let timing = WeldTiming::Speed(model.layer.process.weld_speed_mm_s);
-    plan_passes(&passes, timing, settings, robot).map_err(|mut e| {
+    plan_passes(&passes, timing, settings, robot, None).map_err(|mut e| {
         if let MotionError::Trajectory(t) = &mut e {
             if let Some(at) = t.at_mut() {
                 at.block = segments

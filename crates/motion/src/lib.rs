@@ -9,6 +9,7 @@
 
 use std::path::Path;
 
+pub mod clearance;
 pub mod robot;
 pub mod toolpath;
 pub mod trajectory;
@@ -27,6 +28,8 @@ pub enum MotionError {
     Toolpath(#[from] ToolpathError),
     #[error(transparent)]
     Trajectory(#[from] TrajectoryError),
+    #[error(transparent)]
+    Collision(#[from] clearance::Collision),
 }
 
 /// Toolpath and joint trajectory for a block plan (fragments of block indices). Errors
@@ -37,23 +40,39 @@ pub fn plan_motion(
     settings: &ProcessSettings,
     robot: &Robot,
 ) -> Result<(Toolpath, JointTrajectory), MotionError> {
+    plan_motion_timed(part, fragments, settings, robot, None)
+}
+
+/// [`plan_motion`] with the robot timed to a schedule: each weld path's arc strikes at
+/// `arc_on_at_s[f]` s after the first's (the thermal model's time line), the robot
+/// waiting at the approach point for it; a transit slower than that is an error.
+pub fn plan_motion_timed(
+    part: &Part,
+    fragments: &[Vec<usize>],
+    settings: &ProcessSettings,
+    robot: &Robot,
+    arc_on_at_s: Option<&[f64]>,
+) -> Result<(Toolpath, JointTrajectory), MotionError> {
     let passes = toolpath::passes_from_plan(part, fragments);
     let timing = match settings.weld_speed_mm_s {
         Some(v) => WeldTiming::Speed(v),
         None => WeldTiming::PerPoint(part.thermal.block_time_s),
     };
-    plan_passes(&passes, timing, settings, robot).map_err(|mut e| {
-        if let MotionError::Trajectory(t) = &mut e {
-            if let Some(at) = t.at_mut() {
-                let block = fragments
-                    .get(at.fragment)
-                    .and_then(|f| f.get(at.point))
-                    .map(|&b| format!("block {}", BlockDisplay(part.block(b))));
-                at.block = block;
+    let (tp, traj) =
+        plan_passes(&passes, timing, settings, robot, arc_on_at_s).map_err(|mut e| {
+            if let MotionError::Trajectory(t) = &mut e {
+                if let Some(at) = t.at_mut() {
+                    let block = fragments
+                        .get(at.fragment)
+                        .and_then(|f| f.get(at.point))
+                        .map(|&b| format!("block {}", BlockDisplay(part.block(b))));
+                    at.block = block;
+                }
             }
-        }
-        e
-    })
+            e
+        })?;
+    clearance::check_moves(part, fragments, &tp, &settings.plate.isometry())?;
+    Ok((tp, traj))
 }
 
 /// The torch speed while welding a block plan, m/s: the process settings' weld speed, else
@@ -65,16 +84,18 @@ pub fn weld_speed(part: &Part, settings: &ProcessSettings) -> f64 {
     }
 }
 
-/// Toolpath and joint trajectory for any weld passes (block plans, layer trails).
+/// Toolpath and joint trajectory for any weld passes (block plans, layer trails), timed
+/// to `arc_on_at_s` as in [`plan_motion_timed`] when given.
 pub fn plan_passes(
     passes: &[WeldPass],
     timing: WeldTiming,
     settings: &ProcessSettings,
     robot: &Robot,
+    arc_on_at_s: Option<&[f64]>,
 ) -> Result<(Toolpath, JointTrajectory), MotionError> {
     let robot = robot.clone().with_solver(settings.ik_solver);
     let mut tp = toolpath::build(passes, settings, timing, &robot.base_link)?;
-    let traj = trajectory::plan_trajectory(&robot, &mut tp, settings)?;
+    let traj = trajectory::plan_trajectory(&robot, &mut tp, settings, arc_on_at_s)?;
     Ok((tp, traj))
 }
 

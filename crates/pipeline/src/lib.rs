@@ -6,6 +6,12 @@
 //! them against the plan rules and every t8/5 window before anything goes further, and
 //! [`Cell::motion`] turns a checked plan into a [`Planned`] (toolpath and validated joint
 //! trajectory). Nothing here knows ROS: `waam-ros` turns a [`Planned`] into messages.
+//!
+//! One time line: the robot is timed to the thermal model (each weld path's arc strikes
+//! at the model's time, the robot waiting at the approach point; a transit too slow for
+//! `transit_time_s` is an error), and the plan is checked again on the time line the
+//! motion executes — dwells included — with the same model and t8/5 rules
+//! ([`check_executed`]). A plan that fails there is never returned.
 
 use nalgebra::Isometry3;
 use thiserror::Error;
@@ -14,12 +20,12 @@ use waam_mesh::{voxelize_indexed, Units, VoxelizeOptions, WindowRule};
 use waam_motion::robot::Robot;
 use waam_motion::toolpath::{ProcessSettings, Toolpath};
 use waam_motion::trajectory::JointTrajectory;
-use waam_motion::{plan_motion, weld_speed, MotionError};
+use waam_motion::{plan_motion_timed, weld_speed, MotionError};
 use waam_part::graph::WeldGraph;
 use waam_part::plan::{Invalid, Plan};
 use waam_part::{BlockDisplay, Part, PartError, Window};
 use waam_planner::Stats;
-use waam_thermal::{self as thermal, ThermalModel};
+use waam_thermal::{self as thermal, ThermalModel, Timeline};
 
 /// The robot the project ships (`urdf/waam_robot.urdf`), used when none is named.
 pub const BUNDLED_URDF: &str = include_str!("../../../urdf/waam_robot.urdf");
@@ -37,6 +43,17 @@ pub enum PipelineError {
     NotCooled(#[from] thermal::NotCooled),
     #[error("the planner's plan breaks the t8/5 window of block {0}")]
     Infeasible(BlockDisplay),
+    #[error("the plan breaks the t8/5 window of block {block} on the robot's executed time line ({kind} t8/5 {t85_s:.2} s, window [{min_s}, {max_s}] s, at {time_s:.2} s): the arc-on and arc-off dwells shift the deposits the thermal model assumed")]
+    InfeasibleExecuted {
+        block: BlockDisplay,
+        kind: &'static str,
+        t85_s: f64,
+        min_s: f64,
+        max_s: f64,
+        time_s: f64,
+    },
+    #[error("the executed time line cannot be simulated: {0}")]
+    Timeline(#[from] thermal::SimulateError),
     #[error("no robot motion for the plan: {0}")]
     Motion(#[from] MotionError),
 }
@@ -133,6 +150,48 @@ pub fn check_plan(part: &Part, fragments: &[Vec<usize>]) -> Result<(), PipelineE
     }
 }
 
+/// The thermal model's time line of a plan as arc-on times, s after the first weld path's:
+/// the schedule the robot is timed to.
+pub fn modelled_arc_on_s(part: &Part, fragments: &[Vec<usize>]) -> Vec<f64> {
+    let graph = WeldGraph::new(part);
+    let model = ThermalModel::new(part, &graph);
+    Timeline::modelled(&model, fragments)
+        .deposits
+        .iter()
+        .map(|d| d[0] as f64 * model.dt)
+        .collect()
+}
+
+/// Checks a plan on the time line its toolpath executes (deposits and arc-offs read from
+/// the poses, each rounded to the nearest Euler step), with the part's model and t8/5
+/// rules. Returns that time line.
+pub fn check_executed(
+    part: &Part,
+    fragments: &[Vec<usize>],
+    toolpath: &Toolpath,
+) -> Result<Timeline, PipelineError> {
+    let graph = WeldGraph::new(part);
+    let model = ThermalModel::new(part, &graph);
+    let times = toolpath.executed_times();
+    let timeline = Timeline::from_seconds(&times.deposits_s, &times.arc_off_s, model.dt)
+        .map_err(thermal::SimulateError::from)?;
+    let outcome = thermal::simulate_on(&model, fragments, &timeline)?;
+    match outcome.violation {
+        Some(v) => Err(PipelineError::InfeasibleExecuted {
+            block: BlockDisplay(part.block(v.block)),
+            kind: match v.kind {
+                thermal::ViolationKind::Min => "below min_s:",
+                thermal::ViolationKind::Max => "over max_s:",
+            },
+            t85_s: v.t85_s,
+            min_s: v.window.min_s,
+            max_s: v.window.max_s,
+            time_s: v.time_s,
+        }),
+        None => Ok(timeline),
+    }
+}
+
 /// A plan the planner found, before its check.
 #[derive(Debug, Clone)]
 pub struct Found {
@@ -158,6 +217,9 @@ pub struct Planned {
     /// TCP speeds, m/s.
     pub weld_speed: f64,
     pub transit_speed: f64,
+    /// The executed time line the plan was checked on (Euler steps from the first
+    /// deposit; the part's `block_time_s / substeps` each).
+    pub timeline: Timeline,
 }
 
 /// The cell a plan is welded in: process settings and robot.
@@ -168,11 +230,14 @@ pub struct Cell {
 }
 
 impl Cell {
-    /// Checks `found` ([`check_plan`]) and plans its motion.
+    /// Checks `found` ([`check_plan`]), plans its motion timed to the thermal model and
+    /// checks the plan again on the motion's executed time line ([`check_executed`]).
     pub fn motion(&self, part: Part, found: Found) -> Result<Planned, PipelineError> {
         check_plan(&part, &found.fragments)?;
         let (toolpath, trajectory) = self.plan_motion(&part, &found.fragments)?;
+        let timeline = check_executed(&part, &found.fragments, &toolpath)?;
         Ok(Planned {
+            timeline,
             plate: self.settings.plate.isometry(),
             weld_speed: weld_speed(&part, &self.settings),
             transit_speed: self.settings.transit_speed_mm_s / 1000.0,
@@ -184,12 +249,19 @@ impl Cell {
     }
 
     /// The toolpath and validated joint trajectory of fragments whose plan rules the caller
-    /// has checked (`waam motion` of a given plan).
+    /// has checked (`waam motion` of a given plan), timed to the thermal model's time line.
     pub fn plan_motion(
         &self,
         part: &Part,
         fragments: &[Vec<usize>],
     ) -> Result<(Toolpath, JointTrajectory), MotionError> {
-        plan_motion(part, fragments, &self.settings, &self.robot)
+        let schedule = modelled_arc_on_s(part, fragments);
+        plan_motion_timed(
+            part,
+            fragments,
+            &self.settings,
+            &self.robot,
+            Some(&schedule),
+        )
     }
 }

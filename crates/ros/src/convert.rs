@@ -86,6 +86,7 @@ pub fn trajectory_msg(trajectory: &JointTrajectory, header: &Header) -> Trajecto
             .map(|p| JointTrajectoryPoint {
                 positions: p.positions.clone(),
                 velocities: p.velocities.clone(),
+                accelerations: p.accelerations.clone(),
                 time_from_start: Duration::from_secs_f64(p.time_from_start),
                 ..JointTrajectoryPoint::default()
             })

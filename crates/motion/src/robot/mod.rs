@@ -9,6 +9,7 @@
 //! and a damped-least-squares solver otherwise; see [`ik`].
 
 pub mod ik;
+pub mod limits;
 pub mod opw;
 
 use std::collections::HashMap;
@@ -122,8 +123,10 @@ pub struct Joint {
     /// Position limits; infinite for a continuous joint.
     pub lower: f64,
     pub upper: f64,
-    /// Velocity limit (> 0).
+    /// Velocity limit (> 0): the URDF's, or a joint limits file's.
     pub velocity: f64,
+    /// Acceleration limit (> 0), from a joint limits file; `None`: unlimited.
+    pub acceleration: Option<f64>,
 }
 
 impl Joint {
@@ -353,6 +356,7 @@ impl Robot {
                 lower,
                 upper,
                 velocity,
+                acceleration: None,
             });
         }
         if joints.is_empty() {

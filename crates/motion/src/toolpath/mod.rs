@@ -489,6 +489,41 @@ pub fn build(
     })
 }
 
+/// When the torch deposits each block and switches the arc off, s from the start: the
+/// executed time line the thermal check runs on.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExecutedTimes {
+    /// Per pass, per point: the first point's at its arc-on marker (the arc strikes on
+    /// it), every later point's when the torch reaches it.
+    pub deposits_s: Vec<Vec<f64>>,
+    /// Per pass: its arc-off marker.
+    pub arc_off_s: Vec<f64>,
+}
+
+impl Toolpath {
+    /// The deposit and arc-off times of every pass, read from the poses.
+    pub fn executed_times(&self) -> ExecutedTimes {
+        let mut deposits_s: Vec<Vec<f64>> = Vec::new();
+        let mut arc_off_s = Vec::new();
+        for p in &self.poses {
+            match p.kind {
+                PoseKind::ArcOn => deposits_s.push(vec![p.time_s]),
+                PoseKind::Weld if p.at_point && p.point > 0 => {
+                    if let Some(d) = deposits_s.last_mut() {
+                        d.push(p.time_s);
+                    }
+                }
+                PoseKind::ArcOff => arc_off_s.push(p.time_s),
+                _ => {}
+            }
+        }
+        ExecutedTimes {
+            deposits_s,
+            arc_off_s,
+        }
+    }
+}
+
 /// `toolpath.yaml`: exactly these keys (SI units, quaternions [x, y, z, w]).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]

@@ -49,6 +49,7 @@ pub struct JointTrajectory {
 pub struct TrajectoryPoint {
     pub positions: Vec<f64>,
     pub velocities: Vec<f64>,
+    pub accelerations: Vec<f64>,
     pub time_from_start: f64,
     pub arc_on: bool,
 }
@@ -111,6 +112,21 @@ pub enum TrajectoryError {
         deviation_mm: f64,
         deviation_deg: f64,
     },
+    #[error("{at}: the weld would need joint {joint} at {needed:.4} {unit}, over its limit of {limit:.4} {unit}; a weld is never slowed down (a slower weld is a different weld): lower the weld speed or raise the limit")]
+    WeldTooFast {
+        at: Box<At>,
+        joint: String,
+        needed: f64,
+        limit: f64,
+        unit: &'static str,
+    },
+    #[error("the robot needs {needed_s:.3} s from the arc-off of weld path {fragment} to the arc-on of weld path {} but the thermal model allows {allowed_s:.3} s (transit_time_s): raise transit_time_s or the transit speed", .fragment + 1)]
+    TransitTooLong {
+        /// The weld path (from 1) whose arc-off starts the transit.
+        fragment: usize,
+        needed_s: f64,
+        allowed_s: f64,
+    },
     #[error("internal check failed, no trajectory returned: {0}")]
     Violation(String),
 }
@@ -123,7 +139,8 @@ impl TrajectoryError {
             | TrajectoryError::Discontinuous(at)
             | TrajectoryError::BranchSwitch { at, .. }
             | TrajectoryError::Strays { at, .. } => Some(at),
-            TrajectoryError::Violation(_) => None,
+            TrajectoryError::WeldTooFast { at, .. } => Some(&mut **at),
+            TrajectoryError::Violation(_) | TrajectoryError::TransitTooLong { .. } => None,
         }
     }
 }
@@ -335,10 +352,15 @@ fn split(tp: &mut Toolpath, k: usize) {
 /// Solves the toolpath's joint path (splitting steps where the TCP would stray), times
 /// it within the joint limits, and validates the result. The toolpath's times are
 /// updated to the trajectory's.
+///
+/// With `arc_on_at_s` (one time per pass, s after the first pass's arc-on: the thermal
+/// model's time line) the robot waits at each later pass's approach point until its
+/// arc-on time; a transit that cannot make it is [`TrajectoryError::TransitTooLong`].
 pub fn plan_trajectory(
     robot: &Robot,
     tp: &mut Toolpath,
     settings: &ProcessSettings,
+    arc_on_at_s: Option<&[f64]>,
 ) -> Result<JointTrajectory, TrajectoryError> {
     let (tol_mm, tol_deg) = (settings.path_tolerance_mm, settings.path_tolerance_deg);
     let mut path = joint_path(robot, tp)?;
@@ -364,66 +386,271 @@ pub fn plan_trajectory(
         }
         path = joint_path(robot, tp)?;
     }
-    let traj = time_parameterize(robot, tp, path, settings);
+    let waits = match arc_on_at_s {
+        Some(schedule) => Some(insert_waits(tp, &mut path, schedule)?),
+        None => None,
+    };
+    // A step between equal poses (a dwell, a wait) keeps the joints exactly still.
+    for k in 1..path.len() {
+        if tp.poses[k].pose == tp.poses[k - 1].pose {
+            path[k] = path[k - 1].clone();
+        }
+    }
+    let traj = time_parameterize(robot, tp, path, settings, waits)?;
     validate(robot, tp, &traj)?;
     Ok(traj)
 }
 
+/// The indices of the arc-on markers, one per pass.
+fn arc_ons(tp: &Toolpath) -> Vec<usize> {
+    (0..tp.poses.len())
+        .filter(|&k| tp.poses[k].kind == PoseKind::ArcOn)
+        .collect()
+}
+
+/// Where the robot waits for a pass's arc-on time: a copy of the pose before the pass's
+/// approach (its approach point), inserted after it. Returns, per pass from the second
+/// on, the wait step (the index of the copy) and the pass's arc-on time.
+fn insert_waits(
+    tp: &mut Toolpath,
+    path: &mut Vec<Vec<f64>>,
+    schedule: &[f64],
+) -> Result<Vec<(usize, f64)>, TrajectoryError> {
+    let passes = arc_ons(tp).len();
+    if schedule.len() != passes || schedule.iter().any(|t| !t.is_finite()) {
+        return Err(TrajectoryError::Violation(format!(
+            "{} arc-on times for {passes} weld passes",
+            schedule.len()
+        )));
+    }
+    let mut waits = Vec::new();
+    for (f, &at_s) in schedule.iter().enumerate().skip(1) {
+        let start = tp
+            .poses
+            .iter()
+            .position(|p| p.fragment == f && matches!(p.kind, PoseKind::Approach | PoseKind::ArcOn))
+            .expect("every pass has an arc-on marker");
+        let mut wait = tp.poses[start - 1].clone();
+        wait.kind = PoseKind::Transit;
+        wait.at_point = false;
+        wait.arc_on = false;
+        tp.poses.insert(start, wait);
+        path.insert(start, path[start - 1].clone());
+        waits.push((start, at_s));
+    }
+    Ok(waits)
+}
+
+/// Rounds of stretching before a trajectory that still exceeds an acceleration limit is
+/// an error.
+const MAX_ACCEL_ROUNDS: usize = 500;
+/// Relative margin kept below every limit, so that rounding never crosses one.
+const LIMIT_MARGIN: f64 = 1e-9;
+
+/// Joint velocities at the points: the mean of the two adjacent steps' velocities, zero
+/// at the ends and where the robot stands still (a dwell, a wait) on either side.
+fn point_velocities(path: &[Vec<f64>], dt: &[f64], still: &[bool]) -> Vec<Vec<f64>> {
+    let n = path.len();
+    let dof = path[0].len();
+    let seg = |k: usize, j: usize| (path[k][j] - path[k - 1][j]) / dt[k];
+    (0..n)
+        .map(|k| {
+            if k == 0 || k == n - 1 || still[k] || still[k + 1] {
+                vec![0.0; dof]
+            } else {
+                (0..dof)
+                    .map(|j| 0.5 * (seg(k, j) + seg(k + 1, j)))
+                    .collect()
+            }
+        })
+        .collect()
+}
+
+/// Per step `k` (from point k-1 to k), the largest ratio of a joint's acceleration
+/// `(v_k - v_{k-1}) / dt_k` to its limit, and that joint.
+fn accel_ratios(robot: &Robot, v: &[Vec<f64>], dt: &[f64]) -> Vec<(f64, usize)> {
+    (0..v.len())
+        .map(|k| {
+            if k == 0 {
+                return (0.0, 0);
+            }
+            let mut worst = (0.0, 0);
+            for (j, joint) in robot.joints.iter().enumerate() {
+                if let Some(a) = joint.acceleration {
+                    let r = (v[k][j] - v[k - 1][j]).abs() / dt[k] / a;
+                    if r > worst.0 {
+                        worst = (r, j);
+                    }
+                }
+            }
+            worst
+        })
+        .collect()
+}
+
+/// Times the joint path: every step takes its toolpath time; a move between welds takes
+/// longer where a joint would exceed its velocity or acceleration limit; a weld step
+/// (arc on) never does: that is an error naming the block. Then the robot waits at the
+/// approach points until the arc-on times of `waits`.
 fn time_parameterize(
     robot: &Robot,
     tp: &mut Toolpath,
     path: Vec<Vec<f64>>,
     settings: &ProcessSettings,
-) -> JointTrajectory {
+    waits: Option<Vec<(usize, f64)>>,
+) -> Result<JointTrajectory, TrajectoryError> {
     let n = path.len();
+    let dof = robot.dof();
     let scale = settings.joint_speed_scale;
-    let mut times = vec![0.0; n];
-    let mut slowed_welds = 0;
+    // Steps with the arc on (welds, dwells) keep their time exactly.
+    let fixed: Vec<bool> = (0..n).map(|k| k > 0 && tp.poses[k - 1].arc_on).collect();
+    let still: Vec<bool> = (0..=n)
+        .map(|k| k > 0 && k < n && path[k] == path[k - 1])
+        .collect();
+    let mut dt = vec![0.0; n];
     for k in 1..n {
         let nominal = tp.poses[k].time_s - tp.poses[k - 1].time_s;
         // A hair above the bound so that rounding never puts a step over the limit.
-        let needed = move_time(robot, &path[k - 1], &path[k]) / scale * (1.0 + 1e-9);
-        if needed > nominal && tp.poses[k - 1].arc_on {
-            slowed_welds += 1;
+        let needed = move_time(robot, &path[k - 1], &path[k]) / scale * (1.0 + LIMIT_MARGIN);
+        if fixed[k] && needed > nominal {
+            let (j, joint) = robot
+                .joints
+                .iter()
+                .enumerate()
+                .max_by(|a, b| {
+                    let r = |(j, jt): &(usize, &crate::robot::Joint)| {
+                        (path[k][*j] - path[k - 1][*j]).abs() / jt.velocity
+                    };
+                    r(a).total_cmp(&r(b))
+                })
+                .expect("a robot has joints");
+            return Err(TrajectoryError::WeldTooFast {
+                at: Box::new(at(tp, k)),
+                joint: joint.name.clone(),
+                needed: (path[k][j] - path[k - 1][j]).abs() / nominal,
+                limit: joint.velocity * scale,
+                unit: "rad/s",
+            });
         }
-        times[k] = times[k - 1] + nominal.max(needed).max(1e-6);
+        dt[k] = nominal.max(needed).max(1e-6);
     }
-    if slowed_welds > 0 {
-        tracing::warn!(
-            "{slowed_welds} weld step(s) slowed down to keep the joint velocity limits: \
-             the weld timing no longer matches the thermal model there"
-        );
+    if robot.joints.iter().any(|j| j.acceleration.is_some()) {
+        let mut round = 0;
+        loop {
+            let v = point_velocities(&path, &dt, &still);
+            let ratios = accel_ratios(robot, &v, &dt);
+            let over: Vec<usize> = (1..n).filter(|&k| ratios[k].0 > 1.0).collect();
+            if over.is_empty() {
+                break;
+            }
+            // Where only weld steps are involved, nothing may give: an error.
+            let free = |m: usize| m >= 1 && m < n && !fixed[m];
+            let stuck = over
+                .iter()
+                .find(|&&k| fixed[k] && !free(k - 1) && !free(k + 1));
+            if let Some(&k) = stuck.or(if round == MAX_ACCEL_ROUNDS {
+                over.first()
+            } else {
+                None
+            }) {
+                let (r, j) = ratios[k];
+                let joint = &robot.joints[j];
+                let limit = joint.acceleration.expect("a limited joint");
+                if !fixed[k] {
+                    return Err(TrajectoryError::Violation(format!(
+                        "point {k}: joint {} acceleration {:.4} rad/s² still over its limit after {MAX_ACCEL_ROUNDS} rounds",
+                        joint.name,
+                        r * limit
+                    )));
+                }
+                return Err(TrajectoryError::WeldTooFast {
+                    at: Box::new(at(tp, k)),
+                    joint: joint.name.clone(),
+                    needed: r * limit,
+                    limit,
+                    unit: "rad/s²",
+                });
+            }
+            for &k in &over {
+                let r = ratios[k].0 * (1.0 + LIMIT_MARGIN);
+                if !fixed[k] {
+                    // The velocity change over step k does not depend on step k's own
+                    // speed: stretching it by r brings this step to its limit.
+                    dt[k] *= r;
+                } else {
+                    for m in [k - 1, k + 1] {
+                        if m >= 1 && m < n && !fixed[m] {
+                            dt[m] *= r.sqrt();
+                        }
+                    }
+                }
+            }
+            round += 1;
+        }
     }
-    let dof = robot.dof();
-    let seg_vel = |k: usize| -> Vec<f64> {
-        let dt = times[k] - times[k - 1];
-        (0..dof)
-            .map(|j| (path[k][j] - path[k - 1][j]) / dt)
-            .collect()
-    };
+    if let Some(waits) = waits {
+        // Times so far, then each wait stretched so that its pass strikes the arc on time.
+        let mut times = vec![0.0; n];
+        for k in 1..n {
+            times[k] = times[k - 1] + dt[k];
+        }
+        let ons = arc_ons(tp);
+        let mut shift = 0.0;
+        for (f, &(w, at_s)) in waits.iter().enumerate() {
+            let pass = f + 1;
+            let actual = times[ons[pass]] + shift - times[ons[0]];
+            let deficit = at_s - actual;
+            if deficit < -1e-9 {
+                let off = (0..ons[pass])
+                    .rev()
+                    .find(|&k| tp.poses[k].kind == PoseKind::ArcOff)
+                    .expect("an arc-off before every later arc-on");
+                let gap = times[ons[pass]] - times[off];
+                return Err(TrajectoryError::TransitTooLong {
+                    fragment: pass,
+                    needed_s: gap,
+                    allowed_s: gap + deficit,
+                });
+            }
+            dt[w] += deficit.max(0.0);
+            shift += deficit.max(0.0);
+        }
+    }
+    let mut times = vec![0.0; n];
+    for k in 1..n {
+        times[k] = times[k - 1] + dt[k];
+    }
+    let v = point_velocities(&path, &dt, &still);
+    let seg_acc =
+        |k: usize| -> Vec<f64> { (0..dof).map(|j| (v[k][j] - v[k - 1][j]) / dt[k]).collect() };
     let mut points = Vec::with_capacity(n);
     for k in 0..n {
-        let velocities = if k == 0 || k == n - 1 {
+        let accelerations = if n == 1 {
             vec![0.0; dof]
+        } else if k == 0 {
+            seg_acc(1)
+        } else if k == n - 1 {
+            seg_acc(k)
         } else {
-            let (a, b) = (seg_vel(k), seg_vel(k + 1));
+            let (a, b) = (seg_acc(k), seg_acc(k + 1));
             (0..dof).map(|j| 0.5 * (a[j] + b[j])).collect()
         };
         tp.poses[k].time_s = times[k];
         points.push(TrajectoryPoint {
             positions: path[k].clone(),
-            velocities,
+            velocities: v[k].clone(),
+            accelerations,
             time_from_start: times[k],
             arc_on: tp.poses[k].arc_on,
         });
     }
-    JointTrajectory {
+    Ok(JointTrajectory {
         base_link: robot.base_link.clone(),
         tip_link: robot.tip_link.clone(),
         tcp_offset: robot.tcp,
         joint_names: robot.joint_names(),
         points,
-    }
+    })
 }
 
 /// Checks a trajectory against the robot and its toolpath: one point per pose at the
@@ -467,6 +694,14 @@ pub fn validate(
                     joint.name, pt.velocities[j]
                 ));
             }
+            if let Some(a) = joint.acceleration {
+                if pt.accelerations[j].abs() > a * (1.0 + 1e-6) {
+                    return fail(format!(
+                        "point {k}: joint {} acceleration {} over its limit",
+                        joint.name, pt.accelerations[j]
+                    ));
+                }
+            }
         }
         if k > 0 {
             let prev = &traj.points[k - 1];
@@ -479,6 +714,16 @@ pub fn validate(
                 {
                     return fail(format!(
                         "point {k}: joint {} jumps further than its limit allows in {dt} s",
+                        joint.name
+                    ));
+                }
+                let dv = (pt.velocities[j] - prev.velocities[j]).abs();
+                if joint
+                    .acceleration
+                    .is_some_and(|a| dv > a * dt * (1.0 + 1e-6))
+                {
+                    return fail(format!(
+                        "point {k}: joint {} changes speed faster than its acceleration limit",
                         joint.name
                     ));
                 }
@@ -511,6 +756,9 @@ pub struct TcpOffsetFile {
 pub struct TrajectoryFilePoint {
     pub positions: Vec<f64>,
     pub velocities: Vec<f64>,
+    /// Absent in files written before accelerations were: read as none.
+    #[serde(default)]
+    pub accelerations: Vec<f64>,
     pub time_from_start: f64,
     pub arc_on: bool,
 }
@@ -536,9 +784,10 @@ impl JointTrajectory {
         for p in &self.points {
             let _ = writeln!(
                 out,
-                "  - {{positions: {}, velocities: {}, time_from_start: {:?}, arc_on: {}}}",
+                "  - {{positions: {}, velocities: {}, accelerations: {}, time_from_start: {:?}, arc_on: {}}}",
                 list(&p.positions),
                 list(&p.velocities),
+                list(&p.accelerations),
                 p.time_from_start,
                 p.arc_on
             );
@@ -605,7 +854,7 @@ mod tests {
             frame: "base_link".into(),
             poses: vec![weld(a, 0.0, 0), weld(b, 1.0, 1)],
         };
-        let err = plan_trajectory(&r, &mut tp, &ProcessSettings::default()).unwrap_err();
+        let err = plan_trajectory(&r, &mut tp, &ProcessSettings::default(), None).unwrap_err();
         assert!(
             matches!(err, TrajectoryError::BranchSwitch { in_weld: true, .. }),
             "{err}"
@@ -630,7 +879,7 @@ mod tests {
             frame: "base_link".into(),
             poses,
         };
-        let traj = plan_trajectory(&r, &mut tp, &ProcessSettings::default()).unwrap();
+        let traj = plan_trajectory(&r, &mut tp, &ProcessSettings::default(), None).unwrap();
         let q5: Vec<f64> = traj.points.iter().map(|p| p.positions[4]).collect();
         assert!(q5.windows(2).all(|w| (w[1] - w[0]).abs() < 0.05), "{q5:?}");
     }

@@ -37,12 +37,14 @@ pub fn goal_msg(
         .map(|p| JointTrajectoryPoint {
             positions: p.positions.clone(),
             velocities: p.velocities.clone(),
+            accelerations: p.accelerations.clone(),
             time_from_start: RosDuration::from_secs_f64(p.time_from_start - t0),
             ..JointTrajectoryPoint::default()
         })
         .collect();
     if let Some(end) = out.last_mut() {
         end.velocities.iter_mut().for_each(|v| *v = 0.0);
+        end.accelerations.iter_mut().for_each(|a| *a = 0.0);
     }
     debug_assert_eq!(out.len(), last + 1 - first);
     TrajectoryMsg {

@@ -49,6 +49,9 @@ pub struct RobotParams {
     pub tip_link: String,
     /// TCP in the tip link: [x, y, z (m), roll, pitch, yaw (rad)]; [] = none (use `tcp` frame).
     pub tcp: Vec<f64>,
+    /// MoveIt-style joint_limits.yaml (velocity and acceleration limits); "" = the URDF's
+    /// velocity limits and no acceleration limits.
+    pub joint_limits: String,
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize)]

@@ -10,6 +10,7 @@ use std::sync::Arc;
 use super::params::NodeParams;
 use super::worker::{JobContext, Pipeline};
 use crate::planning::CandidateRecorder;
+use waam_motion::robot::limits::{JointLimitsFile, LimitsError};
 use waam_motion::robot::{xyz_rpy, Robot, RobotError, TcpChoice};
 use waam_motion::toolpath::{ProcessSettings, SettingsError};
 use waam_part::{Part, Window};
@@ -53,6 +54,13 @@ pub enum SetupError {
     BundledRobot(RobotError),
     #[error("robot.urdf {path}: {source}")]
     Robot { path: String, source: RobotError },
+    #[error("robot.joint_limits: cannot read {path}: {source}")]
+    ReadLimits {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("robot.joint_limits {path}: {source}")]
+    Limits { path: String, source: LimitsError },
     #[error("mesh.block_mm: expected three lengths")]
     MeshBlock,
 }
@@ -178,6 +186,18 @@ impl PlanningPipeline {
                     source,
                 },
             )?
+        };
+        let robot = if params.robot.joint_limits.is_empty() {
+            robot
+        } else {
+            let path = params.robot.joint_limits.clone();
+            let text = std::fs::read_to_string(&path).map_err(|source| SetupError::ReadLimits {
+                path: path.clone(),
+                source,
+            })?;
+            JointLimitsFile::from_yaml(&text)
+                .and_then(|file| robot.with_limits(&file))
+                .map_err(|source| SetupError::Limits { path, source })?
         };
         Ok(PlanningPipeline {
             cell: Cell { settings, robot },
@@ -373,6 +393,31 @@ mod tests {
             })
             .unwrap_err();
         assert!(err.to_string().starts_with("bad part mesh"), "{err}");
+    }
+
+    #[test]
+    fn the_joint_limits_parameter_sets_the_robots_limits() {
+        let planner: Arc<PlanFn> =
+            Arc::new(|_: &PlanRequest| Err(JobError::Other("no planner in this test".into())));
+        let mut params = NodeParams::default();
+        params.robot.joint_limits = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../config/joint_limits.yaml"
+        )
+        .into();
+        let p = PlanningPipeline::from_params(&params, planner.clone()).unwrap();
+        assert_eq!(p.cell.robot.joints[0].acceleration, Some(2.0));
+        assert_eq!(p.cell.robot.joints[0].velocity, 1.5);
+        assert_eq!(pipeline().cell.robot.joints[0].acceleration, None);
+        params.robot.joint_limits = "/nonexistent/joint_limits.yaml".into();
+        let err = PlanningPipeline::from_params(&params, planner)
+            .err()
+            .unwrap();
+        assert!(
+            err.to_string()
+                .starts_with("robot.joint_limits: cannot read"),
+            "{err}"
+        );
     }
 
     #[test]
