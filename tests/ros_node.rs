@@ -529,10 +529,10 @@ fn plan_action_gives_feedback_and_a_result_and_cancels_within_a_second() {
         got.unwrap()
     };
 
-    // 1. A long part (ex3, 168 blocks, best plan within 60 s) is cancelled after its first
-    //    planning feedback.
+    // 1. A long part (a 10,000-block tube with t8/5 windows: no plan within minutes) is
+    //    cancelled after its first planning feedback.
     let long = send(PlanPartGoal {
-        part_document: part("ex3-h-column.yaml"),
+        part_document: std::fs::read_to_string(repo().join("tests/data/tube-24x28.yaml")).unwrap(),
         timeout_s: 60.0,
         ..PlanPartGoal::default()
     });
