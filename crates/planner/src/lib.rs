@@ -224,8 +224,8 @@ impl std::fmt::Display for NoPlan {
                     write!(
                         f,
                         " (layer z = {z} alone needs {paths} weld paths: a weld path crosses \
-                         a layer in one piece, which ends at two of its {ends} dead ends at \
-                         most and alternates between the colours of a checkerboard)"
+                         a layer in one piece, which ends at two dead ends at most (the layer \
+                         has {ends}) and alternates between the colours of a checkerboard)"
                     )?;
                 }
                 Ok(())
@@ -379,6 +379,34 @@ fn search_plans(
     let started = Instant::now();
     let graph = WeldGraph::new(part);
     let k = max_fragments(part, opts);
+    // A layer that alone needs more weld paths than allowed: no plan, proven at once. How
+    // many a plan needs is searched for on small parts only (on large ones it is a long
+    // search of its own).
+    if let Some(layer) = layer_path_bound(part, &graph)
+        .into_iter()
+        .filter(|&(_, paths, _)| paths > k)
+        .max_by_key(|&(z, paths, _)| (paths, std::cmp::Reverse(z)))
+    {
+        const SEARCH_NEEDED_UP_TO: usize = 2_000;
+        let no_plan = if part.len() <= SEARCH_NEEDED_UP_TO {
+            no_valid_plan(part, &graph, k, opts, started)
+        } else {
+            NoPlan::NoValidPlan {
+                max_fragments: k,
+                needs_at_least: None,
+                layer: Some(layer),
+            }
+        };
+        return Ok(Report {
+            best: None,
+            proven: true,
+            no_plan: Some(no_plan),
+            stats: Stats {
+                total_s: started.elapsed().as_secs_f64(),
+                ..Stats::default()
+            },
+        });
+    }
     let mut search = new_search(part, &graph, k, opts, opts.lookahead_budget, started);
     let base = ThermalModel::new(part, &graph);
     let mut best: Option<Found> = None;
@@ -387,20 +415,6 @@ fn search_plans(
     // The windows are narrowed to the best plan's margin once the search is among plans
     // of its fragment count (a plan with fewer fragments is better whatever its margin).
     let mut narrowed_to_best = false;
-    // A layer that alone needs more weld paths than allowed: no plan, proven at once.
-    if layer_path_bound(part, &graph)
-        .iter()
-        .any(|&(_, paths, _)| paths > k)
-    {
-        let mut stats = search.stats;
-        stats.total_s = started.elapsed().as_secs_f64();
-        return Ok(Report {
-            best: None,
-            proven: true,
-            no_plan: Some(no_valid_plan(part, &graph, k, opts, started)),
-            stats,
-        });
-    }
     if opts.warm_start {
         let limits = constructive::Limits {
             deadline: opts.timeout.and_then(|t| started.checked_add(t)),

@@ -253,9 +253,11 @@ fn check(part: &Part, fragments: &[Vec<usize>]) -> anyhow::Result<bool> {
 }
 
 fn print_row(row: &Row) {
-    let secs = |r: &Run| {
-        r.first_feasible_s
-            .map_or_else(|| format!("none {:.0}", r.total_s), |t| format!("{t:.2}"))
+    // A time, "no plan" (proven: there is none), or "> T" (none found before the timeout).
+    let secs = |r: &Run| match (r.first_feasible_s, r.proven) {
+        (Some(t), _) => format!("{t:.2}"),
+        (None, true) => "no plan".to_string(),
+        (None, false) => format!("> {:.0}", r.total_s),
     };
     let (best_s, proven) = match &row.best {
         Some(b) => (
