@@ -7,7 +7,7 @@ use proptest::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-use waam_part::{Part, Window};
+use waam_part::Part;
 use waam_planner::{self as planner, Acyclicity, Backend, NoPlan, Options};
 
 /// (part, plans, feasible) from config/parts/COUNTS.md (a copy of shared/parts/COUNTS.md).
@@ -70,51 +70,9 @@ fn eager_acyclicity_and_plain_clauses_count_the_same() {
     }
 }
 
-/// A random small part: grown block by block from [0,0,0] inside a 4 x 3 x 3 grid, each
-/// new block face-adjacent to the part and standing on a block (or on the substrate), so
-/// most parts have plans; with random windows.
+/// A random small part: up to 12 blocks in a 4 x 3 x 3 grid, with random windows.
 fn small_part() -> impl Strategy<Value = Part> {
-    (
-        2usize..=12,
-        proptest::collection::vec(any::<u32>(), 12),
-        1usize..=3,
-        proptest::collection::vec((0usize..12, 0.0f64..4.0, 1.0f64..15.0), 0..4),
-    )
-        .prop_map(|(size, picks, k, windows)| {
-            let inside = |b: [i64; 3]| {
-                (0..4).contains(&b[0]) && (0..3).contains(&b[1]) && (0..3).contains(&b[2])
-            };
-            let mut blocks = vec![[0i64, 0, 0]];
-            for pick in picks.iter().take(size - 1) {
-                let mut frontier: Vec<[i64; 3]> = Vec::new();
-                for b in &blocks {
-                    for d in waam_part::graph::FACE_DIRS {
-                        let c = [b[0] + d[0], b[1] + d[1], b[2] + d[2]];
-                        let stands = c[2] == 0 || blocks.contains(&[c[0], c[1], c[2] - 1]);
-                        if inside(c) && stands && !blocks.contains(&c) && !frontier.contains(&c) {
-                            frontier.push(c);
-                        }
-                    }
-                }
-                if frontier.is_empty() {
-                    break;
-                }
-                blocks.push(frontier[*pick as usize % frontier.len()]);
-            }
-            let mut part = Part::from_blocks("random".into(), [6.0, 6.0, 2.5], [0.0; 3], k, blocks)
-                .expect("a grown part is valid");
-            for (b, lo, width) in windows {
-                let b = b % part.len();
-                part.set_window(
-                    b,
-                    Window {
-                        min_s: lo,
-                        max_s: lo + width,
-                    },
-                );
-            }
-            part
-        })
+    grown_part("random", [4, 3, 3], 12, 4)
 }
 
 proptest! {

@@ -274,47 +274,7 @@ fn waam_check_reports_torch_access_when_asked() {
 
 /// Small grown parts (at most 3 × 2 × 4 blocks) with tall stacks, some windows.
 fn tall_part() -> impl Strategy<Value = Part> {
-    (
-        2usize..=9,
-        proptest::collection::vec(any::<u32>(), 9),
-        1usize..=3,
-        proptest::collection::vec((0usize..9, 0.0f64..4.0, 1.0f64..15.0), 0..3),
-    )
-        .prop_map(|(size, picks, k, windows)| {
-            let inside = |b: [i64; 3]| {
-                (0..3).contains(&b[0]) && (0..2).contains(&b[1]) && (0..4).contains(&b[2])
-            };
-            let mut blocks = vec![[0i64, 0, 0]];
-            for pick in picks.iter().take(size - 1) {
-                let mut frontier: Vec<[i64; 3]> = Vec::new();
-                for b in &blocks {
-                    for d in waam_part::graph::FACE_DIRS {
-                        let c = [b[0] + d[0], b[1] + d[1], b[2] + d[2]];
-                        let stands = c[2] == 0 || blocks.contains(&[c[0], c[1], c[2] - 1]);
-                        if inside(c) && stands && !blocks.contains(&c) && !frontier.contains(&c) {
-                            frontier.push(c);
-                        }
-                    }
-                }
-                if frontier.is_empty() {
-                    break;
-                }
-                blocks.push(frontier[*pick as usize % frontier.len()]);
-            }
-            let mut part =
-                Part::from_blocks("tall".into(), [6.0, 6.0, 2.5], [0.0; 3], k, blocks).unwrap();
-            for (b, lo, width) in windows {
-                let b = b % part.len();
-                part.set_window(
-                    b,
-                    waam_part::Window {
-                        min_s: lo,
-                        max_s: lo + width,
-                    },
-                );
-            }
-            part
-        })
+    grown_part("tall", [3, 2, 4], 9, 3)
 }
 
 proptest! {

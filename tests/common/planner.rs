@@ -116,3 +116,55 @@ pub fn is_feasible(part: &Part, fragments: &[Vec<usize>]) -> bool {
         .violation
         .is_none()
 }
+
+/// A random small part named `name`: grown block by block from [0,0,0] inside a grid of
+/// `grid` blocks (x, y, z), up to `most` blocks, each new block face-adjacent to the part
+/// and standing on a block (or on the substrate), so most parts have plans; k in 1..=3 and
+/// fewer than `windows` random t8/5 windows.
+pub fn grown_part(
+    name: &'static str,
+    grid: [i64; 3],
+    most: usize,
+    windows: usize,
+) -> impl proptest::strategy::Strategy<Value = Part> {
+    use proptest::prelude::*;
+    (
+        2usize..=most,
+        proptest::collection::vec(any::<u32>(), most),
+        1usize..=3,
+        proptest::collection::vec((0usize..most, 0.0f64..4.0, 1.0f64..15.0), 0..windows),
+    )
+        .prop_map(move |(size, picks, k, windows)| {
+            let inside = |b: [i64; 3]| (0..3).all(|a| (0..grid[a]).contains(&b[a]));
+            let mut blocks = vec![[0i64, 0, 0]];
+            for pick in picks.iter().take(size - 1) {
+                let mut frontier: Vec<[i64; 3]> = Vec::new();
+                for b in &blocks {
+                    for d in waam_part::graph::FACE_DIRS {
+                        let c = [b[0] + d[0], b[1] + d[1], b[2] + d[2]];
+                        let stands = c[2] == 0 || blocks.contains(&[c[0], c[1], c[2] - 1]);
+                        if inside(c) && stands && !blocks.contains(&c) && !frontier.contains(&c) {
+                            frontier.push(c);
+                        }
+                    }
+                }
+                if frontier.is_empty() {
+                    break;
+                }
+                blocks.push(frontier[*pick as usize % frontier.len()]);
+            }
+            let mut part = Part::from_blocks(name.into(), [6.0, 6.0, 2.5], [0.0; 3], k, blocks)
+                .expect("a grown part is valid");
+            for (b, lo, width) in windows {
+                let b = b % part.len();
+                part.set_window(
+                    b,
+                    waam_part::Window {
+                        min_s: lo,
+                        max_s: lo + width,
+                    },
+                );
+            }
+            part
+        })
+}
