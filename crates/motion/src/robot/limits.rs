@@ -113,20 +113,9 @@ impl Robot {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::robot::TcpChoice;
-    use nalgebra::Isometry3;
 
     fn robot() -> Robot {
-        let choice = TcpChoice {
-            explicit: None,
-            default: Isometry3::identity(),
-        };
-        Robot::from_urdf(
-            include_str!("../../../../urdf/waam_robot.urdf"),
-            None,
-            choice,
-        )
-        .unwrap()
+        crate::robot::bundled_for_tests()
     }
 
     #[test]

@@ -551,6 +551,21 @@ pub fn wrap(a: f64) -> f64 {
     }
 }
 
+/// The bundled robot with its default TCP, for the crate's unit tests.
+#[cfg(test)]
+pub(crate) fn bundled_for_tests() -> Robot {
+    let choice = TcpChoice {
+        explicit: None,
+        default: Isometry3::identity(),
+    };
+    Robot::from_urdf(
+        include_str!("../../../../urdf/waam_robot.urdf"),
+        None,
+        choice,
+    )
+    .expect("the bundled robot loads")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

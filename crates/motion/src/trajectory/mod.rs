@@ -799,20 +799,10 @@ impl JointTrajectory {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::robot::TcpChoice;
     use crate::toolpath::ToolPose;
 
     fn robot() -> Robot {
-        let choice = TcpChoice {
-            explicit: None,
-            default: Isometry3::identity(),
-        };
-        Robot::from_urdf(
-            include_str!("../../../../urdf/waam_robot.urdf"),
-            None,
-            choice,
-        )
-        .unwrap()
+        crate::robot::bundled_for_tests()
     }
 
     fn weld(pose: Isometry3<f64>, time_s: f64, point: usize) -> ToolPose {
