@@ -58,7 +58,7 @@ pub fn output_dir(out: Option<&Path>) -> anyhow::Result<PathBuf> {
 pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     let started = Instant::now();
     let part = Part::parse(DEFAULT_PART).context("the bundled sample part")?;
-    let opts = super::plan::options(&args)?;
+    let mut opts = super::plan::options(&args)?;
     let dir = output_dir(args.out.as_deref())?;
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let write = |name: &str, text: &str| -> anyhow::Result<()> {
@@ -73,6 +73,10 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     };
     let robot = Robot::from_urdf(BUNDLED_URDF, None, choice).context("the bundled robot")?;
     let robot_name = robot.name.clone();
+    // The torch is checked as with --robot: the robot then welds only what the torch reaches.
+    if !args.no_torch {
+        opts.torch = settings.torch_setup();
+    }
     let cell = Cell { settings, robot };
     let bag_dir = dir.join("recording");
     let (recorder, mut planning) = record::start_planning(&bag_dir, None, &part, &opts)?;
@@ -137,6 +141,12 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         report.stats.candidates,
         report.stats.total_s
     ));
+    if let Some(t) = &opts.torch {
+        say(format!(
+            "         torch access checked at every deposit (nozzle {} mm across; --no-torch: off)",
+            t.torch.nozzle_diameter_mm
+        ));
+    }
     if global.verbose > 0 || args.print_plan {
         print!("{}", plan.to_yaml());
     }

@@ -106,8 +106,9 @@ pub fn solver_parser() -> impl clap::builder::TypedValueParser<Value = Backend> 
 }
 
 /// Reads a part file, logging the reader's warnings.
-/// The bundled sample part (`config/parts/ex3-h-column.yaml`), planned when no part is named.
-pub const DEFAULT_PART: &str = include_str!("../../config/parts/ex3-h-column.yaml");
+/// The bundled sample part (`config/parts/ex2-bracket.yaml`), planned when no part is named:
+/// a stepped L-bracket wall that the typical torch can weld (the H-column cannot be).
+pub const DEFAULT_PART: &str = include_str!("../../config/parts/ex2-bracket.yaml");
 
 /// clap's parser of a count that must be at least 1 (`--max-fragments 0` is bad input,
 /// exit 2, not a search that finds no plan).

@@ -21,8 +21,9 @@ use waam_pipeline::Found;
 /// sideways or up, never under what stands, keeping every t8/5 window.
 ///
 /// The best plan has the fewest fragments (arc starts), then the largest worst-case margin
-/// of any t8/5 value to its window bounds. Without PART, plans a bundled sample part (an
-/// H-section column of 168 blocks) and runs the whole chain with the bundled robot: plan,
+/// of any t8/5 value to its window bounds. Without PART, plans a bundled sample part (a
+/// stepped L-bracket wall of 113 blocks) and runs the whole chain with the bundled robot and
+/// its torch: plan,
 /// toolpath, joint trajectory, pictures (3-D views, temperatures during the build) and a
 /// rosbag2/MCAP recording, all in a new folder (--out DIR, or waam-out/, else waam-out-2/,
 /// …; an existing non-empty folder is never written into); with --json, --count, --all,
@@ -31,7 +32,7 @@ use waam_pipeline::Found;
 #[derive(Debug, clap::Args)]
 pub struct PlanArgs {
     /// The part file (YAML, shared part format), or an STL mesh with --pitch. Default: the
-    /// bundled H-column sample.
+    /// bundled L-bracket sample (config/parts/ex2-bracket.yaml).
     pub part: Option<PathBuf>,
     #[command(flatten, next_help_heading = "Mesh input (PART is an .stl file)")]
     pub mesh: super::voxelize::MeshArgs,
@@ -89,7 +90,7 @@ pub struct PlanArgs {
     /// tilted by the travel angle; or --process's). On by default with --robot.
     #[arg(long, conflicts_with = "no_torch")]
     pub torch: bool,
-    /// With --robot: plan without the torch access check.
+    /// With --robot (or the first run, without PART): plan without the torch access check.
     #[arg(long, requires = "robot")]
     pub no_torch: bool,
     /// With --robot and --out: also write the motion as a robot program in this format
