@@ -47,6 +47,11 @@ impl Limits {
 
 /// A valid plan of `part` with at most `k` fragments, built layer by layer; `None` when
 /// this construction does not find one in time.
+///
+/// Every weld path that crosses a layer climbs on: the next layer's pieces start above
+/// where this layer's pieces end, as far as the layer solve allows, so a wall that needs m
+/// paths per layer is built by m weld paths climbing side by side (each welded whole
+/// before the next, which only ever stands beside, never under, the one before).
 pub fn layered_plan(
     part: &Part,
     graph: &WeldGraph,
@@ -56,68 +61,81 @@ pub fn layered_plan(
 ) -> Option<Vec<Vec<usize>>> {
     let layers = layer_ranges(part);
     let mut plan: Vec<Vec<usize>> = Vec::new();
+    // The pieces of the layer below: (fragment, its blocks in weld order).
+    let mut below: Vec<(usize, Vec<usize>)> = Vec::new();
     for (l, range) in layers.iter().enumerate() {
         if limits.stopped() {
             return None;
         }
-        // Where the weld path arriving from below would start this layer.
-        let arriving = plan
-            .last()
-            .and_then(|f| graph.above(*f.last()?))
-            .filter(|b| range.contains(b))
-            .map(|b| b - range.start);
-        // A layer like the one below, entered above its path's end: that path walked
-        // back (a serpentine up a wall), with no solve.
-        if let (Some(below), Some(_)) = (l.checked_sub(1).map(|b| &layers[b]), arriving) {
-            let same = below.len() == range.len()
-                && part.blocks()[below.clone()]
-                    .iter()
-                    .zip(&part.blocks()[range.clone()])
-                    .all(|(a, b)| a[..2] == b[..2]);
-            let last = plan.last().expect("arriving from a weld path");
-            if same && last.len() >= below.len() {
-                let walked = &last[last.len() - below.len()..];
-                if walked.iter().all(|b| below.contains(b)) {
-                    let back: Vec<usize> = walked
-                        .iter()
-                        .rev()
-                        .map(|b| b - below.start + range.start)
-                        .collect();
-                    plan.last_mut().expect("checked").extend(back);
-                    continue;
+        // A layer like the one below: each of its pieces walked back above itself (a
+        // serpentine up a wall), with no solve.
+        if let Some(prev) = l.checked_sub(1).map(|b| &layers[b]) {
+            if same_footprint(part, prev, range) && !below.is_empty() {
+                for (f, piece) in &mut below {
+                    piece.reverse();
+                    for b in piece.iter_mut() {
+                        *b = *b - prev.start + range.start;
+                    }
+                    plan[*f].extend_from_slice(piece);
                 }
+                continue;
             }
         }
         let layer = Layer::new(part, range.clone());
-        // Ends whose block above can start the next layer's single path.
-        let ends: Option<Vec<bool>> = layers.get(l + 1).map(|next| {
+        // Where the weld paths arriving from below would start this layer (local blocks).
+        let arriving: Vec<(usize, usize)> = below
+            .iter()
+            .filter_map(|(f, piece)| {
+                let up = graph.above(*piece.last()?)?;
+                range.contains(&up).then(|| (*f, up - range.start))
+            })
+            .collect();
+        // The layers above with this footprint will be this one walked back and forth, so
+        // steer the pieces to end (or, below an even number of such layers, to start)
+        // under blocks that can start a path of the first different layer above.
+        let top = (l..layers.len())
+            .take_while(|&t| t == l || same_footprint(part, &layers[t - 1], &layers[t]))
+            .last()
+            .expect("l itself");
+        let steer: Option<Steer> = layers.get(top + 1).map(|next| {
             let next = Layer::new(part, next.clone());
-            range
+            let allowed = layers[top]
                 .clone()
                 .map(|b| {
                     graph
                         .above(b)
-                        .is_some_and(|a| next.single_path_may_start(a - next.first))
+                        .is_some_and(|a| next.path_may_start(a - next.first))
                 })
-                .collect()
+                .collect();
+            Steer {
+                allowed,
+                ends: (top - l) % 2 == 0,
+            }
         });
-        let ends = ends.filter(|e| e.iter().any(|&ok| ok));
+        let steer = steer.filter(|s| s.allowed.iter().any(|&ok| ok));
+        let starts: Vec<usize> = arriving.iter().map(|&(_, b)| b).collect();
         let new_fragments_left = k.saturating_sub(plan.len());
-        let pieces = layer.solve(
-            arriving,
-            ends.as_deref(),
-            new_fragments_left,
-            backend,
-            limits,
-        )?;
-        let mut pieces = pieces.into_iter();
-        if arriving.is_some_and(|s| pieces.as_slice()[0][0] == range.start + s) {
-            let first = pieces.next().expect("a layer has a piece");
-            plan.last_mut()
-                .expect("arriving from a weld path")
-                .extend(first);
+        let Some((pieces, continued)) =
+            layer.solve(&starts, steer.as_ref(), new_fragments_left, backend, limits)
+        else {
+            tracing::debug!(
+                "warm start: no cover of layer z = {} with {} arriving and {new_fragments_left} new weld path(s)",
+                part.block(range.start)[2],
+                starts.len()
+            );
+            return None;
+        };
+        below.clear();
+        for (i, piece) in pieces.into_iter().enumerate() {
+            let f = if i < continued {
+                plan[arriving[i].0].extend_from_slice(&piece);
+                arriving[i].0
+            } else {
+                plan.push(piece.clone());
+                plan.len() - 1
+            };
+            below.push((f, piece));
         }
-        plan.extend(pieces);
         if plan.len() > k {
             return None;
         }
@@ -155,15 +173,30 @@ fn layer_ranges(part: &Part) -> Vec<std::ops::Range<usize>> {
     out
 }
 
+/// Whether two layers cover the same (x, y) cells (blocks are sorted by z, y, x, so their
+/// blocks then pair up in order).
+fn same_footprint(part: &Part, a: &std::ops::Range<usize>, b: &std::ops::Range<usize>) -> bool {
+    a.len() == b.len()
+        && part.blocks()[a.clone()]
+            .iter()
+            .zip(&part.blocks()[b.clone()])
+            .all(|(p, q)| p[..2] == q[..2])
+}
+
+/// Where a layer's pieces should end (or start), per local block.
+struct Steer {
+    allowed: Vec<bool>,
+    /// Steer the ends (else the starts).
+    ends: bool,
+}
+
 /// One layer as a part of its own (its blocks keep their order: local i is global
 /// `first + i`).
 struct Layer {
     first: usize,
     part: Part,
-    /// Checkerboard colour (x + y parity) of each block.
-    colour: Vec<bool>,
-    /// Blocks of either colour.
-    count: [usize; 2],
+    /// Whether a path through the layer, as few as it needs, may start at each block.
+    may_start: Vec<bool>,
 }
 
 impl Layer {
@@ -172,85 +205,133 @@ impl Layer {
             .iter()
             .map(|b| [b[0], b[1], 0])
             .collect();
-        let colour: Vec<bool> = blocks.iter().map(|b| (b[0] + b[1]) % 2 == 1).collect();
-        let odd = colour.iter().filter(|&&c| c).count();
         let layer = Part::from_blocks(part.name.clone(), part.block_mm, [0.0; 3], 1, blocks)
             .expect("a layer of a valid part is a valid part");
+        let may_start = starts_of_fewest_paths(&layer);
         Layer {
             first: range.start,
             part: layer,
-            count: [colour.len() - odd, odd],
-            colour,
+            may_start,
         }
     }
 
-    /// Whether one path through every block may start at local block `b`: a path
-    /// alternates colours, so with one colour in the majority it starts (and ends) there.
-    fn single_path_may_start(&self, b: usize) -> bool {
-        let [even, odd] = self.count;
-        match even.cmp(&odd) {
-            std::cmp::Ordering::Equal => true,
-            std::cmp::Ordering::Greater => !self.colour[b],
-            std::cmp::Ordering::Less => self.colour[b],
-        }
+    fn path_may_start(&self, b: usize) -> bool {
+        self.may_start[b]
     }
 
-    /// The layer's paths (global indices, in order): the first starting at `arriving`
-    /// when it can, ends where `ends` allows when they can. Paths beyond the arriving
-    /// one each take one of `new_fragments_left`.
+    /// The layer's paths (global indices, in order) and how many of them start at the
+    /// first of `arriving` (in that order: path i starts at `arriving[i]`), as many as
+    /// the solve allows; steered where `steer` allows when they can. Paths beyond those each
+    /// take one of `new_fragments_left`.
     fn solve(
         &self,
-        arriving: Option<usize>,
-        ends: Option<&[bool]>,
+        arriving: &[usize],
+        steer: Option<&Steer>,
         new_fragments_left: usize,
         backend: Backend,
         limits: &Limits,
-    ) -> Option<Vec<Vec<usize>>> {
+    ) -> Option<(Vec<Vec<usize>>, usize)> {
         let graph = WeldGraph::new(&self.part);
-        let most = new_fragments_left + usize::from(arriving.is_some());
         let fewest = crate::layer_path_bound(&self.part, &graph)[0].1;
-        for paths in fewest..=most {
-            let mut search = Search::new(&self.part, &graph, paths, Acyclicity::Lazy, 0, backend);
-            // (start at the arriving block?, steer the ends?), best first.
-            let mut tries = Vec::new();
-            if arriving.is_some_and(|s| paths > 1 || self.single_path_may_start(s)) {
-                tries.extend([(true, true), (true, false)]);
-            }
-            if paths <= new_fragments_left {
-                tries.extend([(false, true), (false, false)]);
-            }
-            for (from_arriving, steer) in tries {
-                if steer && ends.is_none() {
+        // Steered where that can work, else not.
+        let steerings: Vec<Option<&Steer>> = steer.map(Some).into_iter().chain([None]).collect();
+        // Continue as many arriving paths as possible, then fewer (the last ones first).
+        for continued in (0..=arriving.len()).rev() {
+            let starts = &arriving[..continued];
+            for paths in fewest.max(continued).max(1)..=new_fragments_left + continued {
+                // With as few paths as the colours allow, a start on the minority colour
+                // is impossible, and a SAT solver is slow to prove parity: skip it.
+                if paths == fewest && !starts.iter().all(|&b| self.path_may_start(b)) {
                     continue;
                 }
-                let mut assume: Vec<Lit> = Vec::new();
-                if from_arriving {
-                    assume.push(search.enc.starts_fragment(arriving?, 0));
-                }
-                if let (true, Some(ends)) = (steer, ends) {
+                let mut search =
+                    Search::new(&self.part, &graph, paths, Acyclicity::Lazy, 0, backend);
+                for steer in &steerings {
                     let enc = &search.enc;
-                    assume.extend(
-                        (0..ends.len())
-                            .filter(|&b| !ends[b])
-                            .map(|b| !enc.ends_at(b)),
-                    );
-                }
-                search.set_interrupt(Some(limits.attempt(self.part.len())), limits.cancel.clone());
-                if let Some(pieces) = search.next_candidate(&assume) {
-                    return Some(
-                        pieces
+                    let mut assume: Vec<Lit> = starts
+                        .iter()
+                        .enumerate()
+                        .map(|(i, &b)| enc.starts_fragment(b, i))
+                        .collect();
+                    if let Some(steer) = steer {
+                        let barred = (0..steer.allowed.len()).filter(|&b| !steer.allowed[b]);
+                        if steer.ends {
+                            assume.extend(barred.map(|b| !enc.ends_at(b)));
+                        } else {
+                            // Only new paths choose their start; arriving ones have theirs.
+                            for b in barred {
+                                assume.extend(
+                                    (starts.len()..paths).map(|i| !enc.starts_fragment(b, i)),
+                                );
+                            }
+                        }
+                    }
+                    let deadline = limits.attempt(self.part.len());
+                    search.set_interrupt(Some(deadline), limits.cancel.clone());
+                    if let Some(pieces) = search.next_candidate(&assume) {
+                        let pieces = pieces
                             .into_iter()
                             .map(|p| p.into_iter().map(|b| self.first + b).collect())
-                            .collect(),
-                    );
-                }
-                if limits.stopped() {
-                    return None;
+                            .collect();
+                        return Some((pieces, continued));
+                    }
+                    if limits.stopped() {
+                        return None;
+                    }
                 }
             }
         }
         None
     }
+}
+
+/// Per block of a one-layer part: whether a path may start there when each piece (a
+/// component of sideways moves) is covered by as few paths as its checkerboard colours
+/// allow. A path alternates colours, so when a piece has s more blocks of one colour and
+/// needs exactly s paths, every one of them starts (and ends) on that colour; and when it
+/// has twice as many dead ends as it needs paths, every path starts at a dead end.
+fn starts_of_fewest_paths(layer: &Part) -> Vec<bool> {
+    let graph = WeldGraph::new(layer);
+    let n = layer.len();
+    let colour = |i: usize| {
+        let [x, y, _] = layer.block(i);
+        ((x + y) & 1) as usize
+    };
+    let mut out = vec![true; n];
+    let mut seen = vec![false; n];
+    for s in 0..n {
+        if seen[s] {
+            continue;
+        }
+        seen[s] = true;
+        let (mut stack, mut piece, mut ends, mut count) =
+            (vec![s], Vec::new(), 0usize, [0usize; 2]);
+        while let Some(i) = stack.pop() {
+            piece.push(i);
+            count[colour(i)] += 1;
+            let next = graph.successors(i);
+            if next.len() == 1 {
+                ends += 1;
+            }
+            for &j in next {
+                if !std::mem::replace(&mut seen[j as usize], true) {
+                    stack.push(j as usize);
+                }
+            }
+        }
+        let surplus = count[0].abs_diff(count[1]);
+        let fewest = ends.div_ceil(2).max(surplus).max(1);
+        let major = usize::from(count[1] > count[0]);
+        for &i in &piece {
+            // Fewest paths with a surplus: they all start on the majority colour.
+            let colour_ok = surplus == 0 || fewest > surplus || colour(i) == major;
+            // Every dead end ends a path: with twice as many dead ends as paths, every
+            // path starts at one.
+            let end_ok = ends < 2 * fewest || graph.successors(i).len() == 1;
+            out[i] = colour_ok && end_ok;
+        }
+    }
+    out
 }
 
 #[cfg(test)]
@@ -284,16 +365,48 @@ mod tests {
     }
 
     #[test]
-    fn a_layer_in_two_pieces_takes_two_weld_paths_or_none() {
-        // Two separate columns of 3 x 1 rows: each layer has two components.
+    fn layers_of_two_pieces_are_two_weld_paths_climbing_side_by_side() {
+        // Two separate columns of 3 x 1 rows: each layer has two pieces.
         let blocks: Vec<_> = (0..3)
             .flat_map(|z| (0..3).flat_map(move |x| [[x, 0, z], [x, 2, z]]))
             .collect();
         let part = Part::from_blocks("two".into(), [6.0, 6.0, 2.5], [0.0; 3], 2, blocks).unwrap();
         let graph = WeldGraph::new(&part);
-        // Layer by layer needs a new weld path for every layer's second piece.
-        assert!(layered_plan(&part, &graph, 2, Backend::Cadical, &unlimited()).is_none());
-        let plan = layered_plan(&part, &graph, 6, Backend::Varisat, &unlimited()).unwrap();
-        assert!(plan.len() <= 6);
+        for backend in [Backend::Cadical, Backend::Varisat] {
+            let plan = layered_plan(&part, &graph, 2, backend, &unlimited()).unwrap();
+            assert_eq!(plan.len(), 2);
+            for f in &plan {
+                assert_eq!(f.len(), 9, "each weld path climbs its own column");
+            }
+        }
+    }
+
+    #[test]
+    fn a_wall_that_needs_several_paths_per_layer_is_as_many_weld_paths_or_none() {
+        // A cross with arms 2 long and a block beside its centre, 6 high: four dead ends,
+        // so two paths per layer at least.
+        let cross = [
+            [2, 2],
+            [0, 2],
+            [1, 2],
+            [3, 2],
+            [4, 2],
+            [2, 0],
+            [2, 1],
+            [2, 3],
+            [2, 4],
+            [1, 1],
+        ];
+        let blocks: Vec<_> = (0..6)
+            .flat_map(|z| cross.iter().map(move |&[x, y]| [x, y, z]))
+            .collect();
+        let part = Part::from_blocks("cross".into(), [6.0, 6.0, 2.5], [0.0; 3], 3, blocks).unwrap();
+        let graph = WeldGraph::new(&part);
+        let need = crate::layer_path_bound(&part, &graph)[0].1;
+        assert!(need >= 2, "the test part needs several paths per layer");
+        let plan = layered_plan(&part, &graph, need, Backend::Cadical, &unlimited())
+            .expect("one weld path per piece of the first layer, all climbing");
+        assert_eq!(plan.len(), need);
+        assert!(layered_plan(&part, &graph, need - 1, Backend::Cadical, &unlimited()).is_none());
     }
 }
