@@ -17,11 +17,13 @@ pub mod metadata;
 pub mod qos;
 pub mod reader;
 pub mod recorder;
+pub mod reindex;
 pub mod writer;
 
 pub use qos::Qos;
 pub use reader::{Bag, RecordedMessage, TopicInfo, Truncation};
 pub use recorder::Recorder;
+pub use reindex::{reindex, Reindexed};
 pub use writer::{BagOptions, BagSummary, BagWriter};
 
 use waam_rosmsg::CdrError;
