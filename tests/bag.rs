@@ -56,6 +56,21 @@ fn a_recording_killed_with_sigkill_reads_up_to_its_last_chunk() {
     assert!(text.status.success());
     let text = String::from_utf8(text.stdout).unwrap();
     assert!(text.contains("Truncated:         yes"), "{text}");
+    assert!(text.contains("waam bag reindex"), "{text}");
+
+    // `waam bag reindex` completes it with every message that was read; a second run finds
+    // it complete.
+    let out = run_ok(waam().args(["bag", "reindex", "--json"]).arg(&dir));
+    let done = last_json(&out);
+    assert_eq!(done["was_complete"], false, "{done}");
+    assert_eq!(done["messages"].as_u64(), Some(read), "{done}");
+    let after = info_json(&dir);
+    assert_eq!(after["truncated"], Value::Null, "{after}");
+    assert_eq!(after["message_count"].as_u64(), Some(read));
+    assert_eq!(after["topics"], info["topics"]);
+    let again = last_json(&run_ok(waam().args(["bag", "reindex", "--json"]).arg(&dir)));
+    assert_eq!(again["was_complete"], true, "{again}");
+    assert_eq!(again["messages"].as_u64(), Some(read));
 }
 
 #[test]
@@ -76,6 +91,22 @@ fn info_names_a_file_that_is_not_a_bag() {
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
+    // reindex: a bag directory only, and it says what is wrong with its file.
+    let out = waam().args(["bag", "reindex"]).arg(&file).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("not a directory"), "{err}");
+    let dir = tmp.path().join("junk");
+    std::fs::create_dir(&dir).unwrap();
+    std::fs::write(dir.join("junk_0.mcap"), b"hello").unwrap();
+    let out = waam().args(["bag", "reindex"]).arg(&dir).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("junk_0.mcap") && err.contains("not an MCAP file"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(dir.join("junk_0.mcap")).unwrap(), b"hello");
 }
 
 /// `waam plan --robot --record`: the bag holds the motion as the node publishes it

@@ -395,3 +395,181 @@ fn copy_records<W: Write + std::io::Seek>(
     }
     Ok(scan)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{BagWriter, Qos};
+    use waam_rosmsg::std_msgs::{Bool, String as RosString};
+
+    const T0: u64 = 1_700_000_000_000_000_000;
+
+    /// A finished bag `dir` of 60 messages on two topics in small chunks; its file's bytes.
+    fn finished_bag(dir: &Path) -> Vec<u8> {
+        let options = BagOptions {
+            chunk_bytes: 120,
+            ..BagOptions::default()
+        };
+        let mut w = BagWriter::create(dir, options).unwrap();
+        for i in 0..60u64 {
+            if i % 3 == 0 {
+                let on = Bool { data: i % 2 == 0 };
+                w.write("/waam_planner/arc_on", &Qos::reliable(10), T0 + i, &on)
+                    .unwrap();
+            } else {
+                let text = RosString::from(&*format!("part {i}"));
+                w.write("/waam_planner/part", &Qos::reliable(10), T0 + i, &text)
+                    .unwrap();
+            }
+        }
+        let summary = w.finish().unwrap();
+        std::fs::read(summary.mcap_file).unwrap()
+    }
+
+    /// Every message as (topic, log time, sequence, bytes).
+    fn messages_of(bag: &Bag) -> Vec<(String, u64, u32, Vec<u8>)> {
+        bag.messages
+            .iter()
+            .map(|m| {
+                let t = bag.topic_of(m).name.clone();
+                (t, m.log_time, m.sequence, m.data.clone())
+            })
+            .collect()
+    }
+
+    /// Every message as an indexed reader reads it: through the summary's chunk indexes
+    /// (there is no summary in a killed file, so this reads nothing there).
+    fn read_indexed(bytes: &[u8]) -> Vec<(String, u64, u32, Vec<u8>)> {
+        let summary = mcap::Summary::read(bytes)
+            .unwrap()
+            .expect("the file has a summary");
+        let mut out = Vec::new();
+        for index in &summary.chunk_indexes {
+            for m in summary.stream_chunk(bytes, index).unwrap() {
+                let m = m.unwrap();
+                out.push((
+                    m.channel.topic.clone(),
+                    m.log_time,
+                    m.sequence,
+                    m.data.into_owned(),
+                ));
+            }
+        }
+        out
+    }
+
+    fn yaml_count(dir: &Path) -> (u64, Vec<(String, u64)>) {
+        let text = std::fs::read_to_string(dir.join("metadata.yaml")).unwrap();
+        let v: serde_yaml::Value = serde_yaml::from_str(&text).unwrap();
+        let info = &v["rosbag2_bagfile_information"];
+        let topics = info["topics_with_message_count"]
+            .as_sequence()
+            .unwrap()
+            .iter()
+            .map(|t| {
+                (
+                    t["topic_metadata"]["name"].as_str().unwrap().to_string(),
+                    t["message_count"].as_u64().unwrap(),
+                )
+            })
+            .collect();
+        (info["message_count"].as_u64().unwrap(), topics)
+    }
+
+    /// A file cut anywhere (a killed recording, a copy that stopped) becomes a complete file
+    /// holding exactly the messages that could be read from the cut one, readable through
+    /// its index, with a metadata.yaml that counts them; a cut in the middle of a record
+    /// keeps the old file as `.orig`; a cut too early to hold a header is an error that
+    /// leaves the file as it was.
+    #[test]
+    fn every_cut_of_a_bag_reindexes_to_a_complete_file_of_what_was_readable() {
+        let tmp = tempfile::tempdir().unwrap();
+        let full_dir = tmp.path().join("full");
+        let bytes = finished_bag(&full_dir);
+        let metadata = std::fs::read(full_dir.join("metadata.yaml")).unwrap();
+        // The magic, then the header record: opcode, u64 length, body.
+        let header_len = u64::from_le_bytes(bytes[9..17].try_into().unwrap()) as usize;
+        let header_end = 8 + 9 + header_len;
+        let mut recovered = std::collections::BTreeSet::new();
+        let mut kept = 0;
+        for (n, cut) in (0..bytes.len()).step_by(89).enumerate() {
+            let dir = tmp.path().join(format!("cut{n}"));
+            std::fs::create_dir(&dir).unwrap();
+            std::fs::write(dir.join("metadata.yaml"), &metadata).unwrap();
+            let file = dir.join("full_0.mcap");
+            std::fs::write(&file, &bytes[..cut]).unwrap();
+            let done = match reindex(&dir) {
+                Ok(done) => done,
+                Err(e) => {
+                    assert!(cut < header_end, "cut at {cut}: {e}");
+                    assert_eq!(std::fs::read(&file).unwrap(), &bytes[..cut]);
+                    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 2, "left files");
+                    continue;
+                }
+            };
+            let before = Bag::from_bytes(&file, &bytes[..cut]).unwrap();
+            assert!(!done.was_complete);
+            assert_eq!(done.messages, before.messages.len() as u64);
+            let after = Bag::open(&dir).unwrap();
+            assert!(
+                after.truncated.is_none(),
+                "cut at {cut}: {:?}",
+                after.truncated
+            );
+            assert_eq!(messages_of(&after), messages_of(&before), "cut at {cut}");
+            let new_bytes = std::fs::read(&file).unwrap();
+            assert_eq!(
+                read_indexed(&new_bytes),
+                messages_of(&before),
+                "cut at {cut}"
+            );
+            let (total, topics) = yaml_count(&dir);
+            assert_eq!(total, done.messages);
+            for (topic, count) in topics {
+                assert_eq!(count, before.count(&topic), "cut at {cut}: {topic}");
+            }
+            match &done.original_kept {
+                Some(orig) => {
+                    assert!(done.unread_bytes > 0);
+                    assert_eq!(std::fs::read(orig).unwrap(), &bytes[..cut]);
+                    kept += 1;
+                }
+                None => assert_eq!(done.unread_bytes, 0),
+            }
+            recovered.insert(done.messages);
+        }
+        assert!(recovered.len() > 8, "{recovered:?}");
+        assert!(kept > 0);
+    }
+
+    /// A complete bag is left byte for byte, and the metadata.yaml written again is the one
+    /// the recorder wrote.
+    #[test]
+    fn a_complete_bag_is_left_as_it_is() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path().join("full");
+        let bytes = finished_bag(&dir);
+        let metadata = std::fs::read_to_string(dir.join("metadata.yaml")).unwrap();
+        std::fs::remove_file(dir.join("metadata.yaml")).unwrap();
+        let done = reindex(&dir).unwrap();
+        assert!(done.was_complete);
+        assert_eq!(done.messages, 60);
+        assert_eq!(std::fs::read(dir.join("full_0.mcap")).unwrap(), bytes);
+        let again = std::fs::read_to_string(dir.join("metadata.yaml")).unwrap();
+        assert_eq!(again, metadata);
+    }
+
+    /// What is not an MCAP file is an error naming the file, and nothing is written.
+    #[test]
+    fn a_file_that_is_not_mcap_is_refused_untouched() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path().join("junk");
+        std::fs::create_dir(&dir).unwrap();
+        std::fs::write(dir.join("junk_0.mcap"), b"not an mcap file at all").unwrap();
+        let err = reindex(&dir).unwrap_err().to_string();
+        assert!(err.contains("junk_0.mcap") && err.contains("MCAP"), "{err}");
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+        let err = reindex(&dir.join("junk_0.mcap")).unwrap_err().to_string();
+        assert!(err.contains("not a directory"), "{err}");
+    }
+}
