@@ -211,3 +211,54 @@ fn plan_with_a_robot_records_the_motion_and_every_candidates_verdict() {
     assert_eq!(learned, violated.len() as u64);
     assert!((clause_sum as f64 - mean * learned as f64).abs() < 1e-6);
 }
+
+/// Issue #18: the node makes its input durable before planning it. `waam publish` (the node,
+/// once) is killed with SIGKILL the moment it says the part was received — well inside the
+/// 1 s a chunk may stay open — and the part is in the recording.
+#[test]
+fn the_node_has_its_input_on_disk_before_it_plans() {
+    use std::io::BufRead;
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("node");
+    let mut child = waam()
+        .env("RUST_LOG", "info")
+        .env("ROS_DOMAIN_ID", (150 + std::process::id() % 50).to_string())
+        .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        .args(["publish", "--dry-run", "--linger", "30", "--record"])
+        .arg(&dir)
+        .arg(root.join("config/parts/ex3-h-column.yaml"))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in stderr.lines().map_while(Result::ok) {
+            if line.contains("part 1 received") {
+                let _ = tx.send(());
+            }
+        }
+    });
+    let said = rx.recv_timeout(std::time::Duration::from_secs(60));
+    child.kill().unwrap(); // SIGKILL on Unix
+    child.wait().unwrap();
+    said.expect("the node never said it received the part");
+    let killed = waam_rosbag::Bag::open(&dir).unwrap();
+    assert!(
+        killed.truncated.is_some(),
+        "the node finished before the kill"
+    );
+    assert_eq!(killed.count("/waam_planner/part"), 1, "the part was lost");
+    run_ok(waam().args(["bag", "reindex"]).arg(&dir));
+    let bag = waam_rosbag::Bag::open(&dir).unwrap();
+    assert!(bag.truncated.is_none());
+    let strings = bag.decode_all::<waam_rosmsg::std_msgs::String>().unwrap();
+    let (_, _, part) = strings
+        .iter()
+        .find(|(_, topic, _)| *topic == "/waam_planner/part")
+        .expect("the part after reindex");
+    let text = std::fs::read_to_string(root.join("config/parts/ex3-h-column.yaml")).unwrap();
+    assert_eq!(part.data, text);
+}
