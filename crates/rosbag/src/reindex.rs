@@ -19,7 +19,7 @@ use mcap::{Attachment, Compression, McapError, WriteOptions};
 
 use super::metadata::{BagMetadata, TopicInformation, TopicMetadata, ROS_DISTRO};
 use super::qos;
-use super::reader::{mcap_file_of, read_mcap_file, Bag, Records};
+use super::reader::{mcap_file_of, read_mcap_file, Records};
 use super::writer::{write_metadata_yaml, BagOptions};
 use super::BagError;
 
@@ -68,11 +68,7 @@ pub fn reindex(dir: &Path) -> Result<Reindexed, BagError> {
         .to_string_lossy()
         .into_owned();
 
-    let scan = copy_records(
-        &file,
-        &bytes,
-        None::<&mut mcap::Writer<std::io::Cursor<Vec<u8>>>>,
-    )?;
+    let scan = read_through(&file, &bytes)?;
     if scan.complete {
         write_metadata_yaml(dir, &scan.metadata(&relative))?;
         return Ok(scan.report(file, true, None));
@@ -98,7 +94,10 @@ pub fn reindex(dir: &Path) -> Result<Reindexed, BagError> {
     // Keep what could not be read: it may be more than a half-written chunk.
     let original_kept = if scan.unread_bytes > 0 {
         let kept = free_name(&file.with_file_name(format!("{file_name}.orig")));
-        std::fs::hard_link(&file, &kept).map_err(io(&kept))?;
+        if let Err(e) = std::fs::hard_link(&file, &kept) {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(io(&kept)(e));
+        }
         Some(kept)
     } else {
         None
@@ -175,16 +174,18 @@ fn write_complete(file: &Path, bytes: &[u8], tmp: &Path, relative: &str) -> Resu
         path: tmp.to_path_buf(),
         source,
     })?;
-    let check = Bag::open(tmp)?;
-    if check.truncated.is_some() || check.messages.len() as u64 != scan.messages() {
+    // Read back with the same pass (counting, not keeping, the messages).
+    let written = read_mcap_file(tmp)?;
+    let check = read_through(tmp, &written)?;
+    if !check.complete || check.messages() != scan.messages() {
         return Err(BagError::Corrupt {
             path: file.to_path_buf(),
             reason: format!(
                 "the rewritten file did not read back complete ({} of {} messages; {:?}); \
                  the original is left as it was",
-                check.messages.len(),
+                check.messages(),
                 scan.messages(),
-                check.truncated.map(|t| t.reason)
+                check.cut
             ),
         });
     }
@@ -256,6 +257,15 @@ impl Scan {
             original_kept: kept,
         }
     }
+}
+
+/// [`copy_records`] without copying: what the file holds and whether it is complete.
+fn read_through(file: &Path, bytes: &[u8]) -> Result<Scan, BagError> {
+    copy_records(
+        file,
+        bytes,
+        None::<&mut mcap::Writer<std::io::Cursor<Vec<u8>>>>,
+    )
 }
 
 /// Reads every record of `bytes` in file order until the first that cannot be read, counts
@@ -399,7 +409,7 @@ fn copy_records<W: Write + std::io::Seek>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{BagWriter, Qos};
+    use crate::{Bag, BagWriter, Qos};
     use waam_rosmsg::std_msgs::{Bool, String as RosString};
 
     const T0: u64 = 1_700_000_000_000_000_000;
