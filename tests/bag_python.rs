@@ -149,10 +149,14 @@ fn python_readers_decode_a_planning_session_with_motion() {
 }
 
 /// Starts `waam plan PART --robot --record dir`, waits until it says the part is on disk and
-/// planning starts, waits `delay` more and kills it with SIGKILL. Whether it was still
-/// running when killed, and when it was killed (ns since the epoch, the clock of the
-/// recorded log times).
-fn kill_a_planning_run(part: &Path, dir: &Path, delay: std::time::Duration) -> (bool, u64) {
+/// planning starts, waits `delay` more and kills it with SIGKILL (with `None`: lets it end).
+/// Whether it was still running when killed, when it was killed (ns since the epoch, the
+/// clock of the recorded log times), and how long it ran after saying planning starts.
+fn kill_a_planning_run(
+    part: &Path,
+    dir: &Path,
+    delay: Option<std::time::Duration>,
+) -> (bool, u64, std::time::Duration) {
     use std::io::BufRead;
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut child = common::run::waam()
@@ -178,6 +182,11 @@ fn kill_a_planning_run(part: &Path, dir: &Path, delay: std::time::Duration) -> (
     });
     rx.recv_timeout(std::time::Duration::from_secs(60))
         .expect("the run never said that planning starts");
+    let planning = std::time::Instant::now();
+    let Some(delay) = delay else {
+        assert!(child.wait().unwrap().success(), "the planning run failed");
+        return (false, 0, planning.elapsed());
+    };
     std::thread::sleep(delay);
     let running = child.try_wait().unwrap().is_none();
     let killed_at = std::time::SystemTime::now()
@@ -186,7 +195,7 @@ fn kill_a_planning_run(part: &Path, dir: &Path, delay: std::time::Duration) -> (
         .as_nanos() as u64;
     child.kill().unwrap(); // SIGKILL on Unix
     child.wait().unwrap();
-    (running, killed_at)
+    (running, killed_at, planning.elapsed())
 }
 
 /// Issue #18: a planning run killed at random times (seeded) loses neither its part nor any
@@ -198,11 +207,15 @@ fn kill_a_planning_run(part: &Path, dir: &Path, delay: std::time::Duration) -> (
 fn killed_planning_runs_are_read_by_every_reader_after_reindex() {
     let Some(python) = python() else { return };
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    // ex3 with the robot takes several seconds: the kills land while candidates are recorded.
+    // ex3 with the robot takes seconds, most of them searching (a candidate recorded every
+    // few ms): the kills land while candidates are recorded.
     let part = root.join("config/parts/ex3-h-column.yaml");
     let tmp = tempfile::tempdir().unwrap();
-    // splitmix64 with a fixed seed: the same kill times on every run. The first kill comes at
-    // once (the part alone on disk), the others within the first 3 s of planning.
+    // One run to its end says how long this machine takes now.
+    let (_, _, full) = kill_a_planning_run(&part, &tmp.path().join("full"), None);
+    // splitmix64 with a fixed seed: the same kill times (as parts of the run) on every run.
+    // The first kill comes at once (the part alone on disk), the others within the first
+    // 60 % of the run.
     let mut seed = 18u64;
     let mut next = move || {
         seed = seed.wrapping_add(0x9e37_79b9_7f4a_7c15);
@@ -211,8 +224,9 @@ fn killed_planning_runs_are_read_by_every_reader_after_reindex() {
         z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
         z ^ (z >> 31)
     };
+    let window_ms = (full.as_millis() as u64 * 6 / 10).max(1);
     let delays: Vec<u64> = std::iter::once(0)
-        .chain((0..9).map(|_| next() % 3000))
+        .chain((0..9).map(|_| next() % window_ms))
         .collect();
     let mut python_args: Vec<std::ffi::OsString> = vec![script("read_recovered.py").into()];
     let mut before_counts = Vec::new();
@@ -220,8 +234,8 @@ fn killed_planning_runs_are_read_by_every_reader_after_reindex() {
     let mut lost = Vec::new();
     for (i, &ms) in delays.iter().enumerate() {
         let dir = tmp.path().join(format!("killed{i}"));
-        let (running, killed_at) =
-            kill_a_planning_run(&part, &dir, std::time::Duration::from_millis(ms));
+        let (running, killed_at, _) =
+            kill_a_planning_run(&part, &dir, Some(std::time::Duration::from_millis(ms)));
         let file = dir.join(format!("killed{i}_0.mcap"));
         let before = tmp.path().join(format!("before{i}.mcap"));
         std::fs::copy(&file, &before).unwrap();
@@ -292,7 +306,7 @@ fn killed_planning_runs_are_read_by_every_reader_after_reindex() {
         );
     }
     eprintln!(
-        "killed after {:?} ms; messages kept: {:?}; ms since the last kept message: {lost:?}",
+        "a full run: {full:?}; killed after {:?} ms; messages kept: {:?}; ms since the last kept message: {lost:?}",
         delays,
         before_counts.iter().map(|c| c.1).collect::<Vec<_>>()
     );
