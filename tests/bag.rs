@@ -56,6 +56,21 @@ fn a_recording_killed_with_sigkill_reads_up_to_its_last_chunk() {
     assert!(text.status.success());
     let text = String::from_utf8(text.stdout).unwrap();
     assert!(text.contains("Truncated:         yes"), "{text}");
+    assert!(text.contains("waam bag reindex"), "{text}");
+
+    // `waam bag reindex` completes it with every message that was read; a second run finds
+    // it complete.
+    let out = run_ok(waam().args(["bag", "reindex", "--json"]).arg(&dir));
+    let done = last_json(&out);
+    assert_eq!(done["was_complete"], false, "{done}");
+    assert_eq!(done["messages"].as_u64(), Some(read), "{done}");
+    let after = info_json(&dir);
+    assert_eq!(after["truncated"], Value::Null, "{after}");
+    assert_eq!(after["message_count"].as_u64(), Some(read));
+    assert_eq!(after["topics"], info["topics"]);
+    let again = last_json(&run_ok(waam().args(["bag", "reindex", "--json"]).arg(&dir)));
+    assert_eq!(again["was_complete"], true, "{again}");
+    assert_eq!(again["messages"].as_u64(), Some(read));
 }
 
 #[test]
@@ -76,6 +91,22 @@ fn info_names_a_file_that_is_not_a_bag() {
         .output()
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
+    // reindex: a bag directory only, and it says what is wrong with its file.
+    let out = waam().args(["bag", "reindex"]).arg(&file).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("not a directory"), "{err}");
+    let dir = tmp.path().join("junk");
+    std::fs::create_dir(&dir).unwrap();
+    std::fs::write(dir.join("junk_0.mcap"), b"hello").unwrap();
+    let out = waam().args(["bag", "reindex"]).arg(&dir).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("junk_0.mcap") && err.contains("not an MCAP file"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(dir.join("junk_0.mcap")).unwrap(), b"hello");
 }
 
 /// `waam plan --robot --record`: the bag holds the motion as the node publishes it
@@ -179,4 +210,55 @@ fn plan_with_a_robot_records_the_motion_and_every_candidates_verdict() {
     let learned = stats["learned_clauses"].as_u64().unwrap();
     assert_eq!(learned, violated.len() as u64);
     assert!((clause_sum as f64 - mean * learned as f64).abs() < 1e-6);
+}
+
+/// Issue #18: the node makes its input durable before planning it. `waam publish` (the node,
+/// once) is killed with SIGKILL the moment it says the part was received — well inside the
+/// 1 s a chunk may stay open — and the part is in the recording.
+#[test]
+fn the_node_has_its_input_on_disk_before_it_plans() {
+    use std::io::BufRead;
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("node");
+    let mut child = waam()
+        .env("RUST_LOG", "info")
+        .env("ROS_DOMAIN_ID", (150 + std::process::id() % 50).to_string())
+        .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        .args(["publish", "--dry-run", "--linger", "30", "--record"])
+        .arg(&dir)
+        .arg(root.join("config/parts/ex3-h-column.yaml"))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in stderr.lines().map_while(Result::ok) {
+            if line.contains("part 1 received") {
+                let _ = tx.send(());
+            }
+        }
+    });
+    let said = rx.recv_timeout(std::time::Duration::from_secs(60));
+    child.kill().unwrap(); // SIGKILL on Unix
+    child.wait().unwrap();
+    said.expect("the node never said it received the part");
+    let killed = waam_rosbag::Bag::open(&dir).unwrap();
+    assert!(
+        killed.truncated.is_some(),
+        "the node finished before the kill"
+    );
+    assert_eq!(killed.count("/waam_planner/part"), 1, "the part was lost");
+    run_ok(waam().args(["bag", "reindex"]).arg(&dir));
+    let bag = waam_rosbag::Bag::open(&dir).unwrap();
+    assert!(bag.truncated.is_none());
+    let strings = bag.decode_all::<waam_rosmsg::std_msgs::String>().unwrap();
+    let (_, _, part) = strings
+        .iter()
+        .find(|(_, topic, _)| *topic == "/waam_planner/part")
+        .expect("the part after reindex");
+    let text = std::fs::read_to_string(root.join("config/parts/ex3-h-column.yaml")).unwrap();
+    assert_eq!(part.data, text);
 }

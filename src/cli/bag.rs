@@ -10,7 +10,8 @@ use waam_rosbag::{Bag, BagOptions, Recorder};
 
 use super::EXIT_OK;
 
-/// Recordings: `waam bag info BAG` summarises one like `ros2 bag info`.
+/// Recordings: `waam bag info BAG` summarises one like `ros2 bag info`; `waam bag reindex
+/// BAG` completes one whose recording process was killed.
 #[derive(Debug, clap::Args)]
 pub struct BagArgs {
     #[command(subcommand)]
@@ -20,6 +21,7 @@ pub struct BagArgs {
 #[derive(Debug, clap::Subcommand)]
 pub enum BagCommand {
     Info(InfoArgs),
+    Reindex(ReindexArgs),
     Sample(SampleArgs),
     Echo(EchoArgs),
 }
@@ -51,10 +53,35 @@ pub struct EchoArgs {
 /// --json also each topic's offered QoS and type hash).
 ///
 /// BAG is a bag directory (with metadata.yaml) or an .mcap file. A recording whose process
-/// was killed is read up to its last complete chunk and reported as truncated.
+/// was killed is read up to its last complete chunk and reported as truncated (it is not
+/// changed: `waam bag reindex` completes it).
 #[derive(Debug, clap::Args)]
 pub struct InfoArgs {
     /// The bag directory or .mcap file.
+    pub bag: PathBuf,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Complete a recording whose process died (kill -9, crash, power cut, full disk), like
+/// `ros2 bag reindex` / `mcap recover`.
+///
+/// Such a file ends without the MCAP summary, indexes and closing magic: `waam bag info`,
+/// `waam replay` and MCAP stream readers read it up to its last complete chunk, but rosbags,
+/// `ros2 bag` and indexed MCAP readers read nothing. This reads it as far as it is readable
+/// and rewrites it with summary, chunk and message indexes, statistics and closing magic,
+/// and writes a matching metadata.yaml (message counts, topics, duration, file list).
+///
+/// The new file is written beside the old one, read back and synced, and only then renamed
+/// over it: on any error the old file is left as it was. When the old file has bytes after
+/// its last readable record (a half-written chunk, damage), it is also kept as
+/// `<file>.orig`. A complete file is left as it is (only metadata.yaml is written again).
+/// Run it only after the recording process has exited: a live recording has no summary
+/// either.
+#[derive(Debug, clap::Args)]
+pub struct ReindexArgs {
+    /// The bag directory (with metadata.yaml, or with one .mcap file).
     pub bag: PathBuf,
     /// Print one JSON object instead of text.
     #[arg(long)]
@@ -82,6 +109,7 @@ pub struct SampleArgs {
 pub fn run(args: BagArgs) -> anyhow::Result<ExitCode> {
     match args.command {
         BagCommand::Info(a) => info(a),
+        BagCommand::Reindex(a) => reindex(a),
         BagCommand::Sample(a) => sample(a),
         BagCommand::Echo(a) => echo(a),
     }
@@ -171,6 +199,51 @@ fn info(args: InfoArgs) -> anyhow::Result<ExitCode> {
             t.file_len,
             bag.chunks,
             bag.messages.len()
+        );
+        println!(
+            "                   `waam bag reindex {}` makes it complete for every reader",
+            args.bag.display()
+        );
+    }
+    Ok(ExitCode::from(EXIT_OK))
+}
+
+fn reindex(args: ReindexArgs) -> anyhow::Result<ExitCode> {
+    let done = waam_rosbag::reindex(&args.bag)?;
+    if args.json {
+        println!(
+            "{}",
+            json!({
+                "mcap_file": done.mcap_file,
+                "was_complete": done.was_complete,
+                "messages": done.messages,
+                "topics": done.topics,
+                "cut": done.cut,
+                "unread_bytes": done.unread_bytes,
+                "original_kept": done.original_kept,
+            })
+        );
+        return Ok(ExitCode::from(EXIT_OK));
+    }
+    let file = done.mcap_file.display();
+    if done.was_complete {
+        println!(
+            "{file}: already complete ({} messages on {} topics); metadata.yaml written again",
+            done.messages, done.topics
+        );
+        return Ok(ExitCode::from(EXIT_OK));
+    }
+    println!(
+        "{file}: rewritten complete with {} messages on {} topics (read up to: {})",
+        done.messages,
+        done.topics,
+        done.cut.as_deref().unwrap_or("the end")
+    );
+    if let Some(kept) = &done.original_kept {
+        println!(
+            "{} bytes after the last readable record were dropped; the old file is kept as {}",
+            done.unread_bytes,
+            kept.display()
         );
     }
     Ok(ExitCode::from(EXIT_OK))

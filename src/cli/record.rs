@@ -13,7 +13,8 @@ use waam_rosbag::Recorder;
 use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::std_msgs::Header;
 
-/// Opens the recording of `waam plan --record DIR` and records the part as a part document:
+/// Opens the recording of `waam plan --record DIR` and records the part as a part document
+/// (synced to disk before this returns, so before planning starts):
 /// a part file's own text, the bundled sample's, or, for an STL mesh, the voxelized part that
 /// was planned (so that `waam replay` can plan it again).
 pub fn start_planning(
@@ -31,6 +32,10 @@ pub fn start_planning(
     };
     let recorder = Recorder::create(dir)?;
     let planning = PlanningRecorder::start(&recorder, &text, &part.name, opts)?;
+    tracing::info!(
+        "recording to {}: the part is on disk; planning starts",
+        dir.display()
+    );
     Ok((recorder, planning))
 }
 

@@ -192,7 +192,7 @@ pub struct LayerRecording {
 
 impl LayerRecording {
     /// Records the layer document (`layer_text`) on [`topics::LAYER`] and a "received"
-    /// status.
+    /// status, and syncs them to disk.
     pub fn start(recorder: &Recorder, layer_text: &str, name: &str) -> Result<Self, BagError> {
         recorder.record(
             topics::LAYER,
@@ -208,6 +208,8 @@ impl LayerRecording {
                 vec![KeyValue::new("layer", name)],
             ),
         )?;
+        // On disk before the layer is planned (see `PlanningRecorder::start`).
+        recorder.sync()?;
         Ok(LayerRecording {
             recorder: recorder.clone(),
         })

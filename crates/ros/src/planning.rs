@@ -312,7 +312,7 @@ pub struct PlanningRecorder {
 
 impl PlanningRecorder {
     /// Records the part as received (its document text) and a "received" status with the
-    /// planner's settings.
+    /// planner's settings, and syncs them to disk (see [`Recorder::sync`]).
     pub fn start(
         recorder: &Recorder,
         part_text: &str,
@@ -331,6 +331,9 @@ impl PlanningRecorder {
             &Qos::latched(),
             &status(DiagnosticStatus::OK, "received", values),
         )?;
+        // The input is on disk before the planner runs: a crash or kill while planning
+        // never loses what was to be planned.
+        recorder.sync()?;
         Ok(PlanningRecorder {
             recorder: recorder.clone(),
             candidates: CandidateRecorder::new(recorder),

@@ -9,7 +9,9 @@
 //!
 //! Chunks are bounded in size and age and each closed chunk is flushed to disk with a fresh
 //! `metadata.yaml`, so a recording killed mid-run stays readable up to its last closed chunk;
-//! [`Bag::open`] reads such a file and reports it as truncated.
+//! [`Recorder::sync`] makes a run's input durable before it is planned. [`Bag::open`] reads
+//! such a file and reports it as truncated; [`reindex`] rewrites it complete (summary,
+//! indexes, closing magic) for readers that need the index.
 
 use std::path::{Path, PathBuf};
 
@@ -17,11 +19,13 @@ pub mod metadata;
 pub mod qos;
 pub mod reader;
 pub mod recorder;
+pub mod reindex;
 pub mod writer;
 
 pub use qos::Qos;
 pub use reader::{Bag, RecordedMessage, TopicInfo, Truncation};
 pub use recorder::Recorder;
+pub use reindex::{reindex, Reindexed};
 pub use writer::{BagOptions, BagSummary, BagWriter};
 
 use waam_rosmsg::CdrError;

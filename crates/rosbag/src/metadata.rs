@@ -73,6 +73,42 @@ struct MetadataFile<'a> {
 }
 
 impl BagMetadata {
+    /// The metadata of a bag of one MCAP file, `file_name`, holding `topics` whose messages
+    /// span `times` (first and last receive time, ns since the epoch; `None`: no messages).
+    pub fn of_one_file(
+        file_name: &str,
+        topics: Vec<TopicInformation>,
+        times: Option<(u64, u64)>,
+    ) -> BagMetadata {
+        let (start, end) = times.unwrap_or((0, 0));
+        let duration = Nanoseconds {
+            nanoseconds: end.saturating_sub(start),
+        };
+        let starting_time = SinceEpoch {
+            nanoseconds_since_epoch: start,
+        };
+        let message_count = topics.iter().map(|t| t.message_count).sum();
+        BagMetadata {
+            version: VERSION,
+            storage_identifier: "mcap".to_string(),
+            duration,
+            starting_time,
+            message_count,
+            topics_with_message_count: topics,
+            compression_format: String::new(),
+            compression_mode: String::new(),
+            relative_file_paths: vec![file_name.to_string()],
+            files: vec![FileInformation {
+                path: file_name.to_string(),
+                starting_time,
+                duration,
+                message_count,
+            }],
+            custom_data: None,
+            ros_distro: ROS_DISTRO.to_string(),
+        }
+    }
+
     /// The `metadata.yaml` text.
     pub fn to_file_yaml(&self) -> String {
         serde_yaml::to_string(&MetadataFile {

@@ -27,7 +27,7 @@ pub const MAX_FILE_BYTES: u64 = 1 << 30;
 
 /// The length of `path` when it is a regular file (after symlinks). A FIFO blocked the
 /// reader for ever and a device such as /dev/zero was read up to gigabytes: refused.
-fn regular_file(path: &Path) -> Result<u64, BagError> {
+pub(crate) fn regular_file(path: &Path) -> Result<u64, BagError> {
     let meta = std::fs::metadata(path).map_err(|source| BagError::Io {
         path: path.to_path_buf(),
         source,
@@ -72,20 +72,30 @@ fn inside(dir: &Path, relative: &str, metadata: &Path) -> Result<PathBuf, BagErr
 /// Every record of an MCAP file in file order, chunks unpacked, as `mcap`'s
 /// `ChunkFlattener` yields them, but with [`MAX_RECORD_BYTES`] as the record length limit
 /// (ChunkFlattener sets none, and mcap then sizes buffers by untrusted lengths).
-struct Records<'a> {
+pub(crate) struct Records<'a> {
     rest: &'a [u8],
+    total: usize,
     reader: LinearReader,
 }
 
 impl<'a> Records<'a> {
-    fn new(bytes: &'a [u8]) -> Records<'a> {
+    pub(crate) fn new(bytes: &'a [u8]) -> Records<'a> {
         let options = LinearReaderOptions::default()
             .with_skip_end_magic(true)
             .with_record_length_limit(MAX_RECORD_BYTES);
         Records {
             rest: bytes,
+            total: bytes.len(),
             reader: LinearReader::new_with_options(options),
         }
+    }
+}
+
+impl Records<'_> {
+    /// Bytes of the file read so far. Right after a record is returned this is the end of
+    /// the record (for a record inside a chunk: the end of its chunk).
+    pub(crate) fn consumed(&self) -> usize {
+        self.total - self.rest.len()
     }
 }
 
@@ -172,19 +182,7 @@ impl Bag {
     /// metadata is missing) or a single `.mcap` file.
     pub fn open(path: &Path) -> Result<Bag, BagError> {
         let file = mcap_file_of(path)?;
-        let len = regular_file(&file)?;
-        if len > MAX_FILE_BYTES {
-            return Err(BagError::Corrupt {
-                path: file,
-                reason: format!(
-                    "{len} bytes: bags are read in memory, up to {MAX_FILE_BYTES} bytes"
-                ),
-            });
-        }
-        let bytes = std::fs::read(&file).map_err(|source| BagError::Io {
-            path: file.clone(),
-            source,
-        })?;
+        let bytes = read_mcap_file(&file)?;
         Bag::from_bytes(&file, &bytes)
     }
 
@@ -371,6 +369,21 @@ impl Bag {
         let first = times.next()?;
         Some(times.fold((first, first), |(a, b), t| (a.min(t), b.max(t))))
     }
+}
+
+/// The bytes of an MCAP file: a regular file of at most [`MAX_FILE_BYTES`].
+pub(crate) fn read_mcap_file(file: &Path) -> Result<Vec<u8>, BagError> {
+    let len = regular_file(file)?;
+    if len > MAX_FILE_BYTES {
+        return Err(BagError::Corrupt {
+            path: file.to_path_buf(),
+            reason: format!("{len} bytes: bags are read in memory, up to {MAX_FILE_BYTES} bytes"),
+        });
+    }
+    std::fs::read(file).map_err(|source| BagError::Io {
+        path: file.to_path_buf(),
+        source,
+    })
 }
 
 /// The MCAP file of a bag path: the path itself, or the file a bag directory's

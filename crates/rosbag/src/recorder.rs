@@ -31,7 +31,8 @@ impl Recorder {
         let writer = BagWriter::create(dir, options)?;
         let shared: Shared = Arc::new(Mutex::new(Some(writer)));
         let weak = Arc::downgrade(&shared);
-        let period = (options.chunk_age / 4).max(std::time::Duration::from_millis(10));
+        // Checked ten times per chunk age, so a chunk is closed at most 10 % after it is due.
+        let period = (options.chunk_age / 10).max(std::time::Duration::from_millis(10));
         thread::Builder::new()
             .name("bag-flush".into())
             .spawn(move || flush_loop(weak, period))
@@ -92,9 +93,16 @@ impl Recorder {
         writer.write_raw(topic, log_time, log_time, cdr)
     }
 
-    /// Closes the open chunk and pushes everything to disk now.
+    /// Closes the open chunk and pushes everything to the operating system now (it survives
+    /// the process being killed).
     pub fn flush(&self) -> Result<(), BagError> {
         self.lock().as_mut().ok_or(BagError::Finished)?.flush()
+    }
+
+    /// [`Recorder::flush`], then `fsync`: everything recorded so far survives even a power
+    /// cut. Called once a run's input is recorded, before its planning starts.
+    pub fn sync(&self) -> Result<(), BagError> {
+        self.lock().as_mut().ok_or(BagError::Finished)?.sync()
     }
 
     /// Finishes the bag (summary, footer, final metadata). Later records fail with

@@ -9,10 +9,7 @@ use std::time::{Duration, Instant};
 use mcap::records::{MessageHeader, Metadata};
 use mcap::{Compression, WriteOptions};
 
-use super::metadata::{
-    BagMetadata, FileInformation, Nanoseconds, SinceEpoch, TopicInformation, TopicMetadata,
-    ROS_DISTRO, VERSION,
-};
+use super::metadata::{BagMetadata, TopicInformation, TopicMetadata, ROS_DISTRO};
 use super::qos::{self, Qos};
 use super::BagError;
 use waam_rosmsg::{to_cdr, RosMessage};
@@ -62,6 +59,8 @@ pub struct BagWriter {
     dir: PathBuf,
     file_name: String,
     mcap: Option<mcap::Writer<BufWriter<File>>>,
+    /// A second handle on the MCAP file, for `fsync` (the mcap writer does not lend its own).
+    file: File,
     options: BagOptions,
     topics: Vec<Topic>,
     topic_of: HashMap<String, usize>,
@@ -92,10 +91,12 @@ impl BagWriter {
         std::fs::create_dir_all(dir).map_err(io)?;
         let file_name = format!("{name}_0.mcap");
         let path = dir.join(&file_name);
-        let file = File::create(&path).map_err(|source| BagError::Io {
+        let io_at = |source| BagError::Io {
             path: path.clone(),
             source,
-        })?;
+        };
+        let file = File::create(&path).map_err(io_at)?;
+        let sync_handle = file.try_clone().map_err(io_at)?;
         let mcap = WriteOptions::new()
             .profile("ros2")
             .library(concat!(
@@ -118,6 +119,7 @@ impl BagWriter {
             dir: dir.to_path_buf(),
             file_name,
             mcap: Some(mcap),
+            file: sync_handle,
             options,
             topics: Vec::new(),
             topic_of: HashMap::new(),
@@ -303,40 +305,26 @@ impl BagWriter {
         self.write_metadata_yaml()
     }
 
+    /// Closes the open chunk and makes the file durable (`fsync`): for what must survive
+    /// even a power cut, such as the input a run is about to plan.
+    pub fn sync(&mut self) -> Result<(), BagError> {
+        self.flush()?;
+        self.file.sync_data().map_err(|source| BagError::Io {
+            path: self.path(),
+            source,
+        })
+    }
+
     fn metadata(&self) -> BagMetadata {
-        let (start, end) = self.times.unwrap_or((0, 0));
-        let duration = Nanoseconds {
-            nanoseconds: end - start,
-        };
-        let starting_time = SinceEpoch {
-            nanoseconds_since_epoch: start,
-        };
-        BagMetadata {
-            version: VERSION,
-            storage_identifier: "mcap".to_string(),
-            duration,
-            starting_time,
-            message_count: self.messages,
-            topics_with_message_count: self
-                .topics
-                .iter()
-                .map(|t| TopicInformation {
-                    topic_metadata: t.metadata.clone(),
-                    message_count: t.count,
-                })
-                .collect(),
-            compression_format: String::new(),
-            compression_mode: String::new(),
-            relative_file_paths: vec![self.file_name.clone()],
-            files: vec![FileInformation {
-                path: self.file_name.clone(),
-                starting_time,
-                duration,
-                message_count: self.messages,
-            }],
-            custom_data: None,
-            ros_distro: ROS_DISTRO.to_string(),
-        }
+        let topics = self
+            .topics
+            .iter()
+            .map(|t| TopicInformation {
+                topic_metadata: t.metadata.clone(),
+                message_count: t.count,
+            })
+            .collect();
+        BagMetadata::of_one_file(&self.file_name, topics, self.times)
     }
 
     fn write_metadata_record(&mut self) -> Result<(), BagError> {
@@ -355,18 +343,8 @@ impl BagWriter {
             .map_err(|e| BagError::mcap(&path, e))
     }
 
-    /// Writes `metadata.yaml` through a temporary file, so a reader never sees half of it.
     fn write_metadata_yaml(&self) -> Result<(), BagError> {
-        let path = self.dir.join("metadata.yaml");
-        let tmp = self.dir.join("metadata.yaml.tmp");
-        let io = |source| BagError::Io {
-            path: path.clone(),
-            source,
-        };
-        let mut file = File::create(&tmp).map_err(io)?;
-        file.write_all(self.metadata().to_file_yaml().as_bytes())
-            .map_err(io)?;
-        std::fs::rename(&tmp, &path).map_err(io)
+        write_metadata_yaml(&self.dir, &self.metadata())
     }
 
     /// Writes the final metadata record, the summary (statistics, schemas, channels, chunk
@@ -395,6 +373,20 @@ impl BagWriter {
             chunks: summary.chunk_indexes.len(),
         })
     }
+}
+
+/// Writes `DIR/metadata.yaml` through a temporary file, so a reader never sees half of it.
+pub(crate) fn write_metadata_yaml(dir: &Path, metadata: &BagMetadata) -> Result<(), BagError> {
+    let path = dir.join("metadata.yaml");
+    let tmp = dir.join("metadata.yaml.tmp");
+    let io = |source| BagError::Io {
+        path: path.clone(),
+        source,
+    };
+    let mut file = File::create(&tmp).map_err(io)?;
+    file.write_all(metadata.to_file_yaml().as_bytes())
+        .map_err(io)?;
+    std::fs::rename(&tmp, &path).map_err(io)
 }
 
 impl Drop for BagWriter {

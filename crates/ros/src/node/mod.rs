@@ -427,6 +427,13 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                     ..waam_planner::Options::default()
                 }));
                 settings.extend(torch_values.iter().cloned());
+                // The input (recorded as it arrived, by the input thread or above) is on disk
+                // before its planning starts: a crash while planning never loses it.
+                if let Some(r) = &outputs.recorder {
+                    if let Err(e) = r.sync() {
+                        tracing::warn!("syncing the recording: {e}");
+                    }
+                }
                 let (job, cancelled) = worker.submit(job_input);
                 superseded(&mut goals, cancelled, job);
                 if let Some(goal) = goal {
