@@ -14,7 +14,8 @@ set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 venv="$root/.venv-ros-build"
 python="$(command -v python3.11)"
-if [[ ! -x "$venv/bin/colcon" ]]; then
+# cmake from PyPI too (below 4: some of Jazzy's CMake files predate CMake 4's policies).
+if [[ ! -x "$venv/bin/colcon" || ! -x "$venv/bin/cmake" ]]; then
   "$python" -m venv "$venv"
   "$venv/bin/pip" install --quiet --disable-pip-version-check \
     ros-jazzy-rclpy ros-jazzy-rmw-fastrtps-cpp ros-jazzy-std-msgs ros-jazzy-geometry-msgs \
@@ -23,7 +24,7 @@ if [[ ! -x "$venv/bin/colcon" ]]; then
     ros-jazzy-ament-package ros-jazzy-ament-cmake-include-directories \
     ros-jazzy-rosidl-core-generators ros-jazzy-fastrtps-cmake-module ros-jazzy-ament-cmake-ros \
     ros-jazzy-ament-cmake-gmock ros-jazzy-ament-cmake-gtest ros-jazzy-ament-cmake-pytest \
-    ros-jazzy-python-cmake-module colcon-common-extensions
+    ros-jazzy-python-cmake-module colcon-common-extensions "cmake>=3.22,<4"
 fi
 site="$("$venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')"
 include="$("$venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["include"])')"
