@@ -145,7 +145,7 @@ pub fn run_plan(
     outputs.log(
         Level::Info,
         &format!(
-            "executing part {job}: {} fragment(s) in {goals} goal(s) of at most {max_points} points",
+            "executing part {job}: {} fragment(s) in {goals} goal(s): each weld whole, arc-off moves in goals of at most {max_points} points",
             planned.found.fragments.len()
         ),
     );
