@@ -168,13 +168,10 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
-    // The URDF as recorded on /robot_description (it loaded above, so it reads).
-    let urdf_text = match (&args.record, &args.robot.robot) {
-        (Some(_), Some(path)) => Some(
-            std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read robot {}", path.display()))?,
-        ),
-        _ => None,
+    // The URDF as recorded on /robot_description.
+    let urdf_text = match &args.record {
+        Some(_) => record::urdf_text(args.robot.robot.as_deref())?,
+        None => None,
     };
     let mut session = match &args.record {
         Some(dir) => Some(record::start_planning(

@@ -35,12 +35,28 @@ pub fn start_planning(
         None => super::DEFAULT_PART.to_string(),
     };
     let recorder = Recorder::create(dir)?;
-    match robot {
-        Some((cell, urdf)) => frames::record_cell(&recorder, cell, Some(urdf), Time::now())?,
-        None => frames::record_cell(&recorder, &frames::bundled_cell(), None, Time::now())?,
-    }
+    record_frames(&recorder, robot)?;
     let planning = PlanningRecorder::start(&recorder, &text, &part.name, opts)?;
     Ok((recorder, planning))
+}
+
+/// Records `/tf_static` (robot base → part, tip → TCP) of the robot's cell, or of the node's
+/// default cell without one, and with a robot (`(cell, URDF text)`) `/robot_description`:
+/// the frames every recorded message names are then tied together, with the node's names.
+pub fn record_frames(recorder: &Recorder, robot: Option<(&Cell, &str)>) -> anyhow::Result<()> {
+    match robot {
+        Some((cell, urdf)) => frames::record_cell(recorder, cell, Some(urdf), Time::now())?,
+        None => frames::record_cell(recorder, &frames::bundled_cell(), None, Time::now())?,
+    }
+    Ok(())
+}
+
+/// The URDF file's text, when there is one (`--robot`).
+pub fn urdf_text(path: Option<&Path>) -> anyhow::Result<Option<String>> {
+    path.map(|p| {
+        std::fs::read_to_string(p).with_context(|| format!("cannot read robot {}", p.display()))
+    })
+    .transpose()
 }
 
 /// The messages of a planned part, as the node publishes them.
