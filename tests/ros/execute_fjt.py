@@ -9,7 +9,8 @@ scripts/build-interfaces.sh), plans s1-wall through ~/plan, and executes it thro
 - the goals together are the published trajectory, in order, each point once;
 - no goal boundary (where the robot stops between goals) falls inside an arc-on stretch,
   the arc-on stretches taken from the published weld plan's toolpath (ARC_ON to ARC_OFF
-  times); a weld longer than the cap therefore goes as one goal;
+  times); a weld longer than the cap therefore goes as one goal, while arc-off moves are cut
+  at the cap;
 - the feedback names every goal chunk in order with its points and arc state; ~/arc_on
   goes on and off once per weld path; the result says EXECUTED for the planned job;
 - cancelling an ~/execute goal cancels the controller's goal and leaves the arc off;
@@ -253,6 +254,9 @@ def test(waam):
                   f"{welding}")
             check(f.arc_on == (f.weld_path > 0), f"chunk {f.chunk}: {f}")
             start = last + 1
+        arc_off = [len(g.points) for f, g in zip(feedback, goals) if not f.arc_on]
+        check(max(arc_off) <= CAP and arc_off.count(CAP) > 0,
+              f"arc-off goals of {arc_off} points: expected them cut at the cap of {CAP}")
         check(sum(f.arc_on for f in feedback) == len(welds),
               f"{sum(f.arc_on for f in feedback)} welding chunks for {len(welds)} weld paths")
         check(arcs == [True, False] * len(welds), f"~/arc_on: {arcs}")
