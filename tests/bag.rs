@@ -262,3 +262,135 @@ fn the_node_has_its_input_on_disk_before_it_plans() {
     let text = std::fs::read_to_string(root.join("config/parts/ex3-h-column.yaml")).unwrap();
     assert_eq!(part.data, text);
 }
+
+/// `waam plan --record`, with and without a robot: every frame a recorded message names is
+/// tied by `/tf_static` (and, with a robot, the URDF on `/robot_description`) to the robot's
+/// base, with the node's frame names — so Foxglove shows part, path and heat together.
+#[test]
+fn plan_recordings_tie_every_frame_they_name_to_the_robot_base() {
+    use std::collections::BTreeSet;
+    use waam_ros::node::frames::{TCP_FRAME, TF_STATIC};
+    use waam_ros::planning::PART_FRAME;
+    use waam_ros::topics;
+    use waam_rosbag::Bag;
+    use waam_rosmsg::geometry_msgs::PoseArray;
+    use waam_rosmsg::nav_msgs::Path as PathMsg;
+    use waam_rosmsg::sensor_msgs::PointCloud2;
+    use waam_rosmsg::std_msgs::String as RosString;
+    use waam_rosmsg::tf2_msgs::TFMessage;
+    use waam_rosmsg::trajectory_msgs::JointTrajectory;
+    use waam_rosmsg::visualization_msgs::MarkerArray;
+    use waam_rosmsg::waam_interfaces::{PlanCandidate, WeldPlan};
+
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let urdf_path = root.join("urdf/waam_robot.urdf");
+    let urdf = std::fs::read_to_string(&urdf_path).unwrap();
+    // The URDF's links (robot_state_publisher ties them to its root by /tf).
+    let links: BTreeSet<String> = urdf
+        .split("<link name=\"")
+        .skip(1)
+        .map(|s| s[..s.find('"').unwrap()].to_string())
+        .collect();
+    assert!(links.len() > 3, "{links:?}");
+    let tmp = tempfile::tempdir().unwrap();
+    for with_robot in [true, false] {
+        let dir = tmp.path().join(format!("session-{with_robot}"));
+        let mut cmd = waam();
+        cmd.args(["-q", "plan"]);
+        if with_robot {
+            cmd.arg("--robot").arg(&urdf_path);
+        }
+        cmd.arg("--record")
+            .arg(&dir)
+            .arg(root.join("config/parts/s1-wall.yaml"));
+        run_ok(&mut cmd);
+        let bag = Bag::open(&dir).unwrap();
+
+        // The transforms: base link -> part, tip link -> TCP, the node's names.
+        assert_eq!(bag.count(TF_STATIC), 1, "with robot: {with_robot}");
+        let tf: TFMessage = bag.decode().unwrap().remove(0);
+        let edges: Vec<(String, String)> = tf
+            .transforms
+            .iter()
+            .map(|t| (t.header.frame_id.clone(), t.child_frame_id.clone()))
+            .collect();
+        let children: Vec<&str> = edges.iter().map(|(_, c)| c.as_str()).collect();
+        assert_eq!(children, [PART_FRAME, TCP_FRAME], "{edges:?}");
+        for (parent, _) in &edges {
+            assert!(links.contains(parent), "{parent} is no link of the robot");
+        }
+        let descriptions: Vec<RosString> = bag
+            .decode_all::<RosString>()
+            .unwrap()
+            .into_iter()
+            .filter(|(_, topic, _)| *topic == "/robot_description")
+            .map(|(_, _, m)| m)
+            .collect();
+        // Connected to the base: the URDF's links when it is recorded, and the tf children.
+        let mut connected: BTreeSet<String> = BTreeSet::new();
+        if with_robot {
+            assert_eq!(descriptions.len(), 1);
+            assert_eq!(descriptions[0].data, urdf, "the URDF in use");
+            connected.extend(links.iter().cloned());
+        } else {
+            assert!(descriptions.is_empty(), "no robot, no robot_description");
+            connected.insert(edges[0].0.clone()); // the base of the node's default cell
+        }
+        for (parent, child) in &edges {
+            if connected.contains(parent) {
+                connected.insert(child.clone());
+            }
+        }
+
+        // Every frame a recorded message names.
+        let mut named: Vec<(String, String)> = Vec::new();
+        let mut add = |topic: &str, frame: &str| named.push((topic.to_string(), frame.to_string()));
+        for (_, topic, m) in bag.decode_all::<PointCloud2>().unwrap() {
+            add(topic, &m.header.frame_id);
+        }
+        for (_, topic, m) in bag.decode_all::<WeldPlan>().unwrap() {
+            add(topic, &m.header.frame_id);
+        }
+        for (_, topic, m) in bag.decode_all::<PlanCandidate>().unwrap() {
+            add(topic, &m.header.frame_id);
+        }
+        for (_, topic, m) in bag.decode_all::<JointTrajectory>().unwrap() {
+            add(topic, &m.header.frame_id);
+        }
+        for (_, topic, m) in bag.decode_all::<PoseArray>().unwrap() {
+            add(topic, &m.header.frame_id);
+        }
+        for (_, topic, m) in bag.decode_all::<PathMsg>().unwrap() {
+            add(topic, &m.header.frame_id);
+            for p in &m.poses {
+                add(topic, &p.header.frame_id);
+            }
+        }
+        for (_, topic, m) in bag.decode_all::<MarkerArray>().unwrap() {
+            for marker in &m.markers {
+                add(topic, &marker.header.frame_id);
+            }
+        }
+        assert!(bag.count(topics::HEAT) > 0 && bag.count(topics::WELD_PLAN) == 1);
+        if with_robot {
+            assert_eq!(bag.count(topics::JOINT_TRAJECTORY), 1);
+        }
+        for (topic, frame) in &named {
+            assert!(
+                connected.contains(frame),
+                "with robot: {with_robot}: {topic} names frame {frame:?}, which TF does not \
+                 tie to the robot base (tied: {connected:?})"
+            );
+        }
+        let heat_frames: BTreeSet<&str> = named
+            .iter()
+            .filter(|(t, _)| t == topics::HEAT)
+            .map(|(_, f)| f.as_str())
+            .collect();
+        assert_eq!(
+            heat_frames,
+            BTreeSet::from([PART_FRAME]),
+            "the node's heat frame"
+        );
+    }
+}

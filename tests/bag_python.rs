@@ -130,6 +130,8 @@ fn python_readers_decode_a_planning_session_with_motion() {
         "/waam_planner/plan/markers": {"type": "visualization_msgs/msg/MarkerArray", "count": 1},
         "/waam_planner/plan/weld_plan": {"type": "waam_interfaces/msg/WeldPlan", "count": 1},
         "/waam_planner/planner/heat": {"type": "sensor_msgs/msg/PointCloud2", "count": heat},
+        "/tf_static": {"type": "tf2_msgs/msg/TFMessage", "count": 1},
+        "/robot_description": {"type": "std_msgs/msg/String", "count": 1},
     });
     let expected_file = tmp.path().join("expected.json");
     std::fs::write(&expected_file, expected.to_string()).unwrap();

@@ -11,6 +11,7 @@ use waam_layer::output::TrailFile;
 use waam_layer::plan_layer_motion;
 use waam_layer::{search, Layer, Model, SearchOptions, SearchResult};
 use waam_motion::toolpath::{PoseKind, ProcessSettings};
+use waam_ros::node::frames::TF_STATIC;
 use waam_ros::topics;
 use waam_rosbag::Bag;
 use waam_rosmsg::diagnostic_msgs::DiagnosticArray;
@@ -173,6 +174,9 @@ fn heat_frames_are_thinned_evenly_and_keep_the_last_step() {
     }
 }
 
+/// The URDF's topic in recordings (the node's, unnamespaced).
+const ROBOT_DESCRIPTION: &str = "/robot_description";
+
 /// Topic name -> (type, message count).
 fn topic_counts(bag: &Bag) -> BTreeMap<String, (String, u64)> {
     bag.topics
@@ -242,11 +246,19 @@ fn a_recording_holds_the_layer_its_status_motion_and_heat() {
         (topics::MARKERS, "visualization_msgs/msg/MarkerArray", 1),
         (topics::WELD_PLAN, "waam_interfaces/msg/WeldPlan", 1),
         (topics::HEAT, "sensor_msgs/msg/PointCloud2", heat),
+        // What ties the frames together, as the node publishes it.
+        (TF_STATIC, "tf2_msgs/msg/TFMessage", 1),
+        (ROBOT_DESCRIPTION, "std_msgs/msg/String", 1),
     ];
     assert_eq!(topic_counts(&bag), expected(latched));
 
     // The layer as received.
-    let layer: Vec<_> = bag.decode_all::<RosString>().unwrap();
+    let layer: Vec<_> = bag
+        .decode_all::<RosString>()
+        .unwrap()
+        .into_iter()
+        .filter(|(_, topic, _)| *topic == topics::LAYER)
+        .collect();
     assert_eq!(
         layer[0].2.data,
         std::fs::read_to_string(common::root().join(PAPER)).unwrap()
@@ -376,6 +388,7 @@ fn without_a_motion_nothing_of_a_motion_is_recorded() {
             (topics::LAYER, "std_msgs/msg/String", 1),
             (topics::STATUS, "diagnostic_msgs/msg/DiagnosticArray", 2),
             (topics::HEAT, "sensor_msgs/msg/PointCloud2", heat),
+            (TF_STATIC, "tf2_msgs/msg/TFMessage", 1),
         ])
     );
 
@@ -408,6 +421,8 @@ fn without_a_motion_nothing_of_a_motion_is_recorded() {
             (topics::LAYER, "std_msgs/msg/String", 1),
             (topics::STATUS, "diagnostic_msgs/msg/DiagnosticArray", 3),
             (topics::HEAT, "sensor_msgs/msg/PointCloud2", heat),
+            (TF_STATIC, "tf2_msgs/msg/TFMessage", 1),
+            (ROBOT_DESCRIPTION, "std_msgs/msg/String", 1),
         ])
     );
     let statuses = bag.decode_all::<DiagnosticArray>().unwrap();

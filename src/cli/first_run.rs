@@ -79,7 +79,8 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     }
     let cell = Cell { settings, robot };
     let bag_dir = dir.join("recording");
-    let (recorder, mut planning) = record::start_planning(&bag_dir, None, &part, &opts)?;
+    let (recorder, mut planning) =
+        record::start_planning(&bag_dir, None, &part, &opts, Some((&cell, BUNDLED_URDF)))?;
     let mut bar = super::plan::LazyBar::new(global.quiet);
     let mut progress = |event: planner::Event| {
         bar.update(event.stats());

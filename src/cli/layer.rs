@@ -308,10 +308,13 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
         }
     }
     let recorder = match &args.record {
-        Some(dir) => Some(
-            Recorder::create(dir)
-                .with_context(|| format!("cannot record into {}", dir.display()))?,
-        ),
+        Some(dir) => {
+            let recorder = Recorder::create(dir)
+                .with_context(|| format!("cannot record into {}", dir.display()))?;
+            let urdf = super::record::urdf_text(args.robot.robot.as_deref())?;
+            super::record::record_frames(&recorder, robot.as_ref().zip(urdf.as_deref()))?;
+            Some(recorder)
+        }
         None => None,
     };
     let recording = match &recorder {
@@ -696,10 +699,13 @@ fn plan_part(args: PlanPartArgs) -> anyhow::Result<ExitCode> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let recorder = match &args.record {
-        Some(dir) => Some(
-            Recorder::create(dir)
-                .with_context(|| format!("cannot record into {}", dir.display()))?,
-        ),
+        Some(dir) => {
+            let recorder = Recorder::create(dir)
+                .with_context(|| format!("cannot record into {}", dir.display()))?;
+            let urdf = super::record::urdf_text(args.robot.robot.as_deref())?;
+            super::record::record_frames(&recorder, robot.as_ref().zip(urdf.as_deref()))?;
+            Some(recorder)
+        }
         None => None,
     };
     let options = PartOptions {

@@ -169,12 +169,18 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
+    // The URDF as recorded on /robot_description.
+    let urdf_text = match &args.record {
+        Some(_) => record::urdf_text(args.robot.robot.as_deref())?,
+        None => None,
+    };
     let mut session = match &args.record {
         Some(dir) => Some(record::start_planning(
             dir,
             args.part.as_deref(),
             &part,
             &opts,
+            robot.as_ref().zip(urdf_text.as_deref()),
         )?),
         None => None,
     };

@@ -5,9 +5,10 @@ use std::path::Path;
 use anyhow::Context;
 use waam_part::writer;
 use waam_part::Part;
-use waam_pipeline::Planned;
+use waam_pipeline::{Cell, Planned};
 use waam_planner::{Options, Report};
 use waam_ros::convert::PlanMessages;
+use waam_ros::node::frames;
 use waam_ros::planning::PlanningRecorder;
 use waam_rosbag::Recorder;
 use waam_rosmsg::builtin_interfaces::Time;
@@ -16,12 +17,16 @@ use waam_rosmsg::std_msgs::Header;
 /// Opens the recording of `waam plan --record DIR` and records the part as a part document
 /// (synced to disk before this returns, so before planning starts):
 /// a part file's own text, the bundled sample's, or, for an STL mesh, the voxelized part that
-/// was planned (so that `waam replay` can plan it again).
+/// was planned (so that `waam replay` can plan it again). Also records what ties its frames
+/// together, as the node publishes it: `/tf_static` (robot base → part, tip → TCP) of the
+/// robot's cell, or of the node's default cell without one, and with a robot
+/// (`(cell, URDF text)`) its URDF on `/robot_description`.
 pub fn start_planning(
     dir: &Path,
     part_file: Option<&Path>,
     part: &Part,
     opts: &Options,
+    robot: Option<(&Cell, &str)>,
 ) -> anyhow::Result<(Recorder, PlanningRecorder)> {
     let is_stl = |p: &Path| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("stl"));
     let text = match part_file {
@@ -31,12 +36,32 @@ pub fn start_planning(
         None => super::DEFAULT_PART.to_string(),
     };
     let recorder = Recorder::create(dir)?;
+    record_frames(&recorder, robot)?;
     let planning = PlanningRecorder::start(&recorder, &text, &part.name, opts)?;
     tracing::info!(
         "recording to {}: the part is on disk; planning starts",
         dir.display()
     );
     Ok((recorder, planning))
+}
+
+/// Records `/tf_static` (robot base → part, tip → TCP) of the robot's cell, or of the node's
+/// default cell without one, and with a robot (`(cell, URDF text)`) `/robot_description`:
+/// the frames every recorded message names are then tied together, with the node's names.
+pub fn record_frames(recorder: &Recorder, robot: Option<(&Cell, &str)>) -> anyhow::Result<()> {
+    match robot {
+        Some((cell, urdf)) => frames::record_cell(recorder, cell, Some(urdf), Time::now())?,
+        None => frames::record_cell(recorder, &frames::bundled_cell(), None, Time::now())?,
+    }
+    Ok(())
+}
+
+/// The URDF file's text, when there is one (`--robot`).
+pub fn urdf_text(path: Option<&Path>) -> anyhow::Result<Option<String>> {
+    path.map(|p| {
+        std::fs::read_to_string(p).with_context(|| format!("cannot read robot {}", p.display()))
+    })
+    .transpose()
 }
 
 /// The messages of a planned part, as the node publishes them.

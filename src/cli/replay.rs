@@ -109,6 +109,10 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
         opts
     };
     let recorder = args.record.as_deref().map(Recorder::create).transpose()?;
+    if let Some(r) = &recorder {
+        // Replays plan without a robot: the part frame is tied to the node's default cell.
+        super::record::record_frames(r, None)?;
+    }
     let mut record_error = None;
     let reports = replay::replay(cases, !args.plans_only, |case| {
         let opts = match options_from(&case.status_values, &Options::default()) {

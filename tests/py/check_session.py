@@ -33,8 +33,16 @@ def check(ok, what):
 def check_content(type_name, msg, topic):
     """Type-specific sanity of a decoded message (attribute access works for both readers)."""
     where = f"{topic} ({type_name})"
-    if type_name == "std_msgs/msg/String":
+    if type_name == "std_msgs/msg/String" and topic.endswith("/robot_description"):
+        check("<robot" in msg.data and "<link" in msg.data, f"{where}: not a URDF")
+    elif type_name == "std_msgs/msg/String":
         check("name:" in msg.data, f"{where}: part text has no name")
+    elif type_name == "tf2_msgs/msg/TFMessage":
+        check(len(msg.transforms) > 0, f"{where}: no transforms")
+        for t in msg.transforms:
+            check(t.header.frame_id and t.child_frame_id, f"{where}: a transform without frames")
+            q = t.transform.rotation
+            check(abs(q.x**2 + q.y**2 + q.z**2 + q.w**2 - 1) < 1e-9, f"{where}: not a unit quaternion")
     elif type_name == "shape_msgs/msg/Mesh":
         n = len(msg.vertices)
         check(n > 0 and len(msg.triangles) > 0, f"{where}: empty mesh")

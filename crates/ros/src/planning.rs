@@ -242,7 +242,8 @@ impl CandidateRecorder {
         }
         self.index += 1;
         let mut candidate = PlanCandidate {
-            header: Header::new(Time::now(), ""),
+            // Its block is a place in the part: the part frame, as the heat cloud.
+            header: Header::new(Time::now(), PART_FRAME),
             index: self.index,
             verdict: PlanCandidate::FEASIBLE,
             ..Default::default()

@@ -1,11 +1,12 @@
 //! Running a planned trajectory: the execution thread, and the simulated controller of a
 //! dry run that follows goals in (scaled) real time and publishes `/joint_states`.
 
-use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use super::execute::{plan_steps, Step};
+use super::execute::{oversized_welds, plan_steps, Step};
+use super::execute_action::ExecutePlanFeedback;
 use super::io::{Level, Outputs};
 use super::pipeline::Planned;
 use super::status::Status;
@@ -86,9 +87,13 @@ pub trait Controller: Send {
     }
 }
 
-/// Runs a planned trajectory on `controller`: goals of at most `max_points` points with the
-/// arc switched on `~/arc_on` between them. Stops at the first failed goal or when cancelled,
-/// always leaving the arc off.
+/// Called as each goal chunk starts (the `~/execute` feedback).
+pub type OnChunk = Box<dyn Fn(ExecutePlanFeedback) + Send>;
+
+/// Runs a planned trajectory on `controller`: goals with the arc switched on `~/arc_on`
+/// between them, cut only where the arc is off ([`plan_steps`]). Stops at the first failed
+/// goal or when cancelled, always leaving the arc off.
+#[allow(clippy::too_many_arguments)] // one execution's whole setting, passed once
 pub fn run_plan(
     job: u64,
     planned: &Planned,
@@ -97,13 +102,30 @@ pub fn run_plan(
     max_points: usize,
     lead_in_s: f64,
     cancel: &Cancel,
+    on_chunk: Option<&OnChunk>,
 ) -> Result<(), ExecError> {
-    let arc: Vec<bool> = planned.trajectory.points.iter().map(|p| p.arc_on).collect();
+    let points = &planned.trajectory.points;
+    let arc: Vec<bool> = points.iter().map(|p| p.arc_on).collect();
     let steps = plan_steps(&arc, max_points);
     let goals = steps
         .iter()
         .filter(|s| matches!(s, Step::Goal { .. }))
         .count();
+    for (fragment, n) in oversized_welds(&steps, max_points) {
+        outputs.log(
+            Level::Warn,
+            &format!(
+                "part {job}: weld path {} has {n} points, more than execution.max_points_per_goal \
+                 ({max_points}); it goes as one goal, since a goal boundary would stop the robot \
+                 with the arc on",
+                fragment + 1
+            ),
+        );
+    }
+    let (t0, duration) = match (points.first(), points.last()) {
+        (Some(a), Some(b)) => (a.time_from_start, b.time_from_start - a.time_from_start),
+        _ => (0.0, 0.0),
+    };
     let report = |message: String, level: u8| {
         outputs.status.publish(
             &Status::Executing {
@@ -123,7 +145,7 @@ pub fn run_plan(
     outputs.log(
         Level::Info,
         &format!(
-            "executing part {job}: {} fragment(s) in {goals} goal(s) of at most {max_points} points",
+            "executing part {job}: {} fragment(s) in {goals} goal(s): each weld whole, arc-off moves in goals of at most {max_points} points",
             planned.found.fragments.len()
         ),
     );
@@ -144,6 +166,23 @@ pub fn run_plan(
                 }
                 Step::Goal { span, welding } => {
                     sent += 1;
+                    if let Some(on_chunk) = on_chunk {
+                        let start = span.start().saturating_sub(1);
+                        on_chunk(ExecutePlanFeedback {
+                            job,
+                            chunk: sent as u32,
+                            chunks: goals as u32,
+                            arc_on: welding.is_some(),
+                            weld_path: welding.map_or(0, |f| f as u32 + 1),
+                            first_point: *span.start() as u32,
+                            last_point: *span.end() as u32,
+                            progress: if duration > 0.0 {
+                                ((points[start].time_from_start - t0) / duration).clamp(0.0, 1.0)
+                            } else {
+                                0.0
+                            },
+                        });
+                    }
                     let goal = goal_msg(&planned.trajectory, span.clone(), lead_in_s);
                     let what = match welding {
                         Some(f) => format!("welding fragment {}", f + 1),
@@ -189,8 +228,10 @@ pub enum ExecCommand {
         job: u64,
         planned: Arc<Planned>,
         cancel: Cancel,
-        /// Told when the run ends (for `waam publish`).
-        done: Option<Sender<Result<(), ExecError>>>,
+        /// Told as each goal chunk starts (`~/execute` feedback).
+        on_chunk: Option<OnChunk>,
+        /// Told when the run ends (`waam publish`, `~/execute`).
+        done: Box<dyn FnOnce(Result<(), ExecError>) + Send>,
     },
 }
 
@@ -210,6 +251,7 @@ pub fn spawn_executor(
                     job,
                     planned,
                     cancel,
+                    on_chunk,
                     done,
                 }) => {
                     let result = run_plan(
@@ -220,10 +262,9 @@ pub fn spawn_executor(
                         max_points,
                         lead_in_s,
                         &cancel,
+                        on_chunk.as_ref(),
                     );
-                    if let Some(done) = done {
-                        let _ = done.send(result);
-                    }
+                    done(result);
                 }
                 Err(RecvTimeoutError::Timeout) => controller.idle(),
                 Err(RecvTimeoutError::Disconnected) => return,

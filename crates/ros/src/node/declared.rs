@@ -210,6 +210,8 @@ pub static DECLARED: &[Declared] = &[
         "Out (dry run): sensor_msgs/JointState of the simulated robot", ""),
     declare!("execution.enabled", execution.enabled: bool, AT_START, Range::None,
         "Send each plan to the robot controller (FollowJointTrajectory)", ""),
+    declare!("execution.auto_execute", execution.auto_execute: bool, AT_START, Range::None,
+        "Run each new plan at once (with a controller or --dry-run); false: only on a ~/execute goal", ""),
     declare!("execution.controller_action", execution.controller_action: String, AT_START,
         Range::None, "The controller's FollowJointTrajectory action", ""),
     declare!("execution.max_points_per_goal", execution.max_points_per_goal: i64, AT_START,

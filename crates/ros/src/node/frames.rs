@@ -13,6 +13,9 @@ use super::names::NodeNames;
 use super::params::NodeParams;
 use super::pipeline::PlanningPipeline;
 use crate::planning::PART_FRAME;
+use waam_motion::robot::{Robot, TcpChoice};
+use waam_motion::toolpath::ProcessSettings;
+use waam_pipeline::{Cell, BUNDLED_URDF};
 use waam_rosbag::qos::Qos;
 use waam_rosbag::Recorder;
 use waam_rosmsg::builtin_interfaces::Time;
@@ -39,8 +42,13 @@ pub fn urdf_text(params: &NodeParams) -> Result<String, String> {
 
 /// base → part and tip → TCP of a pipeline's cell, stamped `stamp`.
 pub fn static_transforms(pipeline: &PlanningPipeline, stamp: Time) -> TFMessage {
-    let robot = &pipeline.cell.robot;
-    let plate = pipeline.cell.settings.plate.isometry();
+    cell_transforms(&pipeline.cell, stamp)
+}
+
+/// base → part (the plate pose of the process settings) and tip → TCP of `cell`.
+pub fn cell_transforms(cell: &Cell, stamp: Time) -> TFMessage {
+    let robot = &cell.robot;
+    let plate = cell.settings.plate.isometry();
     TFMessage {
         transforms: vec![
             transform(stamp, &robot.base_link, PART_FRAME, &plate),
@@ -102,4 +110,43 @@ impl CellFrames {
         self.tf_static
             .publish(&static_transforms(pipeline, Time::now()), recorder);
     }
+}
+
+/// The node's default cell: the bundled robot and process settings. Recordings made without a
+/// robot tie their part frame to it, as the node with its default parameters does.
+pub fn bundled_cell() -> Cell {
+    let settings = ProcessSettings::default();
+    let choice = TcpChoice {
+        explicit: None,
+        default: settings.tcp.isometry(),
+    };
+    let robot =
+        Robot::from_urdf(BUNDLED_URDF, None, choice).expect("the bundled URDF is tested to load");
+    Cell { settings, robot }
+}
+
+/// Records what the node publishes for viewers: `/tf_static` of `cell` and, when given, the
+/// URDF on `/robot_description` (`waam plan --record`: the same frames as the node's).
+pub fn record_cell(
+    recorder: &Recorder,
+    cell: &Cell,
+    urdf: Option<&str>,
+    stamp: Time,
+) -> Result<(), waam_rosbag::BagError> {
+    if let Some(urdf) = urdf {
+        recorder.record_at(
+            &format!("/{ROBOT_DESCRIPTION}"),
+            &Qos::latched(),
+            stamp,
+            &RosString {
+                data: urdf.to_string(),
+            },
+        )?;
+    }
+    recorder.record_at(
+        TF_STATIC,
+        &Qos::latched(),
+        stamp,
+        &cell_transforms(cell, stamp),
+    )
 }

@@ -6,10 +6,12 @@
 //! decides what is published. Bad input of any kind ends as an ERROR status, never as a
 //! stopped node, and only a plan that passed validation and the thermal check is published.
 
+pub mod action;
 pub mod args;
 pub mod controller;
 pub mod declared;
 pub mod execute;
+pub mod execute_action;
 pub mod fjt;
 pub mod frames;
 pub mod health;
@@ -81,6 +83,16 @@ enum Event {
     Pipeline(Box<PlanningPipeline>),
     /// A `~/plan` goal or cancel request.
     Action(plan_action::Request),
+    /// A `~/execute` goal or cancel request.
+    Execute(execute_action::Request),
+    /// An execution ended (`serial` tells which).
+    Executed {
+        serial: u64,
+        job: u64,
+        goal: Option<ros2_client::action::GoalId>,
+        cancelled: bool,
+        result: Result<(), controller::ExecError>,
+    },
     /// `~/stop`: stop planning and execution; say what was stopped.
     Stop(Sender<String>),
     Worker(WorkerEvent<Box<Planned>, pipeline::JobError>),
@@ -173,7 +185,9 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     let mut params_thread = None;
     let mut action_thread = None;
     let mut stop_thread = None;
+    let mut execute_thread = None;
     let mut action_replies: Option<Sender<plan_action::Reply>> = None;
+    let mut execute_replies: Option<Sender<execute_action::Reply>> = None;
     let (once, linger) = match mode {
         Mode::Serve => {
             // Parameter changes build the next pipeline here; a bad one is refused.
@@ -213,6 +227,22 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                     move |request| {
                         let to_loop = to_loop.lock().unwrap_or_else(|e| e.into_inner());
                         to_loop.send(Event::Action(request)).is_ok()
+                    },
+                    reply_rx,
+                    Arc::clone(&params_stop),
+                )
+                .map_err(NodeError::Ros)?,
+            );
+            let (reply_tx, reply_rx) = channel();
+            execute_replies = Some(reply_tx);
+            let to_loop = std::sync::Mutex::new(events.clone());
+            execute_thread = Some(
+                execute_action::serve(
+                    &mut node,
+                    names,
+                    move |request| {
+                        let to_loop = to_loop.lock().unwrap_or_else(|e| e.into_inner());
+                        to_loop.send(Event::Execute(request)).is_ok()
                     },
                     reply_rx,
                     Arc::clone(&params_stop),
@@ -302,15 +332,20 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
         None => (None, None),
     };
 
-    drop(events);
-
     let mut state = LoopState {
         outputs: Arc::clone(&outputs),
         executor,
+        auto_execute: params.execution.auto_execute,
         execution: None,
+        serial: 0,
+        plans: std::collections::VecDeque::new(),
+        // Serving, an execution's end comes back as an event; once, on a channel.
+        events: (!once).then(|| events.clone()),
+        execute_replies: execute_replies.clone(),
         last_progress: None,
         success: false,
     };
+    drop(events);
     let mut finished_once = false;
     // `~/plan` goals by job: goal id and when it was accepted.
     let mut goals: std::collections::HashMap<u64, (ros2_client::action::GoalId, Instant)> =
@@ -371,9 +406,14 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                     });
                     stopped.push(format!("planning of part {job}"));
                 }
-                if let Some(cancel) = state.execution.take() {
-                    cancel.cancel(); // the executor cancels its goal and switches the arc off
-                    stopped.push("any execution in progress (goal cancelled, arc off)".to_string());
+                if let Some(execution) = state.execution.take() {
+                    // The executor cancels its goal and switches the arc off; an ~/execute
+                    // goal ends cancelled when it has.
+                    execution.cancel.cancel();
+                    stopped.push(format!(
+                        "the execution of part {} (goal cancelled, arc off)",
+                        execution.job
+                    ));
                 }
                 let message = if stopped.is_empty() {
                     "nothing to stop".to_string()
@@ -382,6 +422,62 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                 };
                 outputs.log(Level::Warn, &format!("~/stop: {message}"));
                 let _ = answer.send(message);
+            }
+            Event::Execute(execute_action::Request::Goal { goal, job }) => {
+                if let Err(refused) = state.execute_goal(goal, job) {
+                    outputs.log(Level::Warn, &format!("~/execute: {}", refused.message));
+                    if let Some(tx) = &execute_replies {
+                        let _ = tx.send(execute_action::Reply::Done(
+                            goal,
+                            ros2_client::action::GoalStatusEnum::Aborted,
+                            refused,
+                        ));
+                    }
+                }
+            }
+            Event::Execute(execute_action::Request::Cancel(goal)) => {
+                if let Some(execution) = &state.execution {
+                    if execution.goal == Some(goal) {
+                        execution.cancel.cancel();
+                        outputs.log(
+                            Level::Info,
+                            &format!(
+                                "part {}: execution cancelled by its ~/execute goal",
+                                execution.job
+                            ),
+                        );
+                    }
+                }
+            }
+            Event::Executed {
+                serial,
+                job,
+                goal,
+                cancelled,
+                result,
+            } => {
+                if state.execution.as_ref().is_some_and(|e| e.serial == serial) {
+                    state.execution = None;
+                }
+                if let (Some(goal), Some(tx)) = (goal, &execute_replies) {
+                    use execute_action::ExecutePlanResult as R;
+                    use ros2_client::action::GoalStatusEnum as S;
+                    let (status, end) = match result {
+                        Ok(()) => (
+                            S::Succeeded,
+                            R::new(R::EXECUTED, job, format!("part {job}: executed")),
+                        ),
+                        Err(e) if cancelled => (
+                            S::Canceled,
+                            R::new(R::CANCELLED, job, format!("part {job}: {e}")),
+                        ),
+                        Err(e) => (
+                            S::Aborted,
+                            R::new(R::FAILED, job, format!("part {job}: {e}")),
+                        ),
+                    };
+                    let _ = tx.send(execute_action::Reply::Done(goal, status, end));
+                }
             }
             Event::Action(plan_action::Request::Cancel(goal)) => {
                 let Some(job) = goals.iter().find(|(_, g)| g.0 == goal).map(|(j, _)| *j) else {
@@ -481,7 +577,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                 worker.finish(job);
                 health.planning = None;
                 if let Some((goal, since)) = goals.remove(&job) {
-                    let (status, end) = goal_result(&result);
+                    let (status, end) = goal_result(job, &result);
                     if let Ok(p) = result_ok(&result) {
                         reply(plan_action::Reply::Feedback(goal, final_feedback(p, since)));
                     }
@@ -528,8 +624,8 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
         }
     }
     // Stop an execution in progress (the arc goes off) before the recording closes.
-    if let Some(cancel) = state.execution.take() {
-        cancel.cancel();
+    if let Some(execution) = state.execution.take() {
+        execution.cancel.cancel();
     }
     drop(state.executor.take());
     if let Some(thread) = executor_thread {
@@ -537,7 +633,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     }
     worker.shutdown();
     params_stop.store(true, Ordering::Relaxed);
-    for thread in [params_thread, action_thread, stop_thread]
+    for thread in [params_thread, action_thread, stop_thread, execute_thread]
         .into_iter()
         .flatten()
     {
@@ -582,12 +678,32 @@ pub fn start_node(env: &RosEnv, names: &NodeNames) -> Result<ros2_client::Node, 
     Ok(node)
 }
 
+/// Plans kept for `~/execute` (the latest ones).
+const KEEP_PLANS: usize = 8;
+
+/// An execution in progress.
+struct Execution {
+    /// Tells this execution's end from an older one's.
+    serial: u64,
+    job: u64,
+    cancel: Cancel,
+    /// The `~/execute` goal that asked for it (none: run on planning).
+    goal: Option<ros2_client::action::GoalId>,
+}
+
 /// The event loop's memory between events.
 struct LoopState {
     outputs: Arc<Outputs>,
     executor: Option<Sender<ExecCommand>>,
-    /// Cancel flag of the execution in progress.
-    execution: Option<Cancel>,
+    /// Run each plan as soon as it is made (`execution.auto_execute`).
+    auto_execute: bool,
+    execution: Option<Execution>,
+    serial: u64,
+    /// The latest plans by job, oldest first: what `~/execute` can run.
+    plans: std::collections::VecDeque<(u64, Arc<Planned>)>,
+    /// Where an execution's end goes while serving.
+    events: Option<Sender<Event>>,
+    execute_replies: Option<Sender<execute_action::Reply>>,
     /// When and which stage the last progress status was published.
     last_progress: Option<(Instant, &'static str)>,
     success: bool,
@@ -663,24 +779,127 @@ impl LoopState {
             ),
         );
         self.success = true;
-        let executor = self.executor.as_ref()?;
+        let planned: Arc<Planned> = Arc::from(planned);
+        self.plans.push_back((job, Arc::clone(&planned)));
+        while self.plans.len() > KEEP_PLANS {
+            self.plans.pop_front();
+        }
+        if !self.auto_execute {
+            return None;
+        }
         if let Some(old) = self.execution.take() {
-            old.cancel();
+            old.cancel.cancel();
             self.outputs.log(
                 Level::Warn,
                 "a newer plan arrived: stopping the execution in progress",
             );
         }
+        self.execute(job, planned, None)
+    }
+
+    /// Starts `~/execute` goal `goal` on plan `job` (0: the latest), or says why not.
+    fn execute_goal(
+        &mut self,
+        goal: ros2_client::action::GoalId,
+        job: u64,
+    ) -> Result<(), execute_action::ExecutePlanResult> {
+        use execute_action::ExecutePlanResult as R;
+        if self.executor.is_none() {
+            return Err(R::new(
+                R::UNAVAILABLE,
+                job,
+                "no controller: set parameter execution.enabled (at start) or run with --dry-run",
+            ));
+        }
+        let found = if job == 0 {
+            self.plans.back()
+        } else {
+            self.plans.iter().find(|(j, _)| *j == job)
+        };
+        let Some((job, planned)) = found.cloned() else {
+            let kept: Vec<String> = self.plans.iter().map(|(j, _)| j.to_string()).collect();
+            return Err(R::new(
+                R::NO_PLAN,
+                job,
+                if job == 0 {
+                    "no plan yet: plan a part first (~/plan, ~/part)".to_string()
+                } else {
+                    format!(
+                        "no plan of part {job}: the node keeps its last {KEEP_PLANS} plans \
+                         (now: [{}])",
+                        kept.join(", ")
+                    )
+                },
+            ));
+        };
+        if let Some(running) = &self.execution {
+            return Err(R::new(
+                R::UNAVAILABLE,
+                job,
+                format!(
+                    "part {} is being executed: cancel its goal or call ~/stop first",
+                    running.job
+                ),
+            ));
+        }
+        self.execute(job, planned, Some(goal));
+        Ok(())
+    }
+
+    /// Hands plan `job` to the execution thread. Returns the channel that reports its end
+    /// when not serving (serving, it comes back as [`Event::Executed`]).
+    fn execute(
+        &mut self,
+        job: u64,
+        planned: Arc<Planned>,
+        goal: Option<ros2_client::action::GoalId>,
+    ) -> Option<std::sync::mpsc::Receiver<Result<(), controller::ExecError>>> {
+        let executor = self.executor.as_ref()?;
         let cancel = Cancel::new();
-        self.execution = Some(cancel.clone());
+        self.serial += 1;
+        let serial = self.serial;
+        self.execution = Some(Execution {
+            serial,
+            job,
+            cancel: cancel.clone(),
+            goal,
+        });
         let (done_tx, done_rx) = channel();
+        let events = self.events.clone();
+        let flag = cancel.clone();
+        let done = Box::new(
+            move |result: Result<(), controller::ExecError>| match events {
+                Some(events) => {
+                    let _ = events.send(Event::Executed {
+                        serial,
+                        job,
+                        goal,
+                        cancelled: flag.is_cancelled(),
+                        result,
+                    });
+                }
+                None => {
+                    let _ = done_tx.send(result);
+                }
+            },
+        );
+        let on_chunk: Option<controller::OnChunk> = match (goal, &self.execute_replies) {
+            (Some(goal), Some(replies)) => {
+                let replies = replies.clone();
+                Some(Box::new(move |feedback| {
+                    let _ = replies.send(execute_action::Reply::Feedback(goal, feedback));
+                }))
+            }
+            _ => None,
+        };
         let _ = executor.send(ExecCommand::Run {
             job,
-            planned: Arc::from(planned),
+            planned,
             cancel,
-            done: Some(done_tx),
+            on_chunk,
+            done,
         });
-        Some(done_rx)
+        self.events.is_none().then_some(done_rx)
     }
 }
 
@@ -705,6 +924,7 @@ fn final_feedback(p: &Planned, since: Instant) -> plan_action::PlanPartFeedback 
 
 /// A `~/plan` goal's end from its job's.
 fn goal_result(
+    job: u64,
     result: &JobResult,
 ) -> (
     ros2_client::action::GoalStatusEnum,
@@ -722,6 +942,7 @@ fn goal_result(
                         outcome: R::PLANNED,
                         reason: String::new(),
                         plan: m.weld_plan,
+                        job,
                     },
                 ),
                 Err(e) => (S::Aborted, R::failed(R::NO_PLAN, e.to_string())),

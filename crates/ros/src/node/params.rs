@@ -91,8 +91,10 @@ pub struct TopicParams {
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ExecutionParams {
-    /// Send each plan to the robot controller (FollowJointTrajectory). Off by default.
+    /// Send plans to the robot controller (FollowJointTrajectory). Off by default.
     pub enabled: bool,
+    /// Run each new plan at once; false: only when a `~/execute` goal asks.
+    pub auto_execute: bool,
     /// The controller's FollowJointTrajectory action.
     pub controller_action: String,
     /// The most trajectory points in one goal (MotoROS2 accepts 200).
@@ -163,6 +165,7 @@ impl Default for ExecutionParams {
     fn default() -> Self {
         ExecutionParams {
             enabled: false,
+            auto_execute: true,
             controller_action: "/joint_trajectory_controller/follow_joint_trajectory".into(),
             max_points_per_goal: 200,
             server_timeout_s: 10.0,

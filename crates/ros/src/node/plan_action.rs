@@ -2,27 +2,19 @@
 //! (`ros/waam_interfaces/action/PlanPart.action`). A client ties its request to its result,
 //! gets progress as feedback and can cancel.
 //!
-//! This thread speaks the action protocol (goals, cancel requests, result requests, goal
-//! statuses); the node's event loop runs the jobs on the same worker as `~/part` (the latest
-//! request wins: a newer goal or part cancels the goal in progress) and answers with
-//! [`Reply`]s.
+//! The action thread ([`action`]) speaks the protocol; the node's event loop runs the jobs on
+//! the same worker as `~/part` (the latest request wins: a newer goal or part cancels the goal
+//! in progress) and answers with [`Reply`]s.
 
-use std::collections::{BTreeMap, VecDeque};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::mpsc::{Receiver, Sender};
 use std::sync::Arc;
-use std::time::Duration;
 
-use ros2_client::action::{
-    ActionServer, ActionServerQosPolicies, GetResultResponse, GoalId, GoalInfo, GoalStatusEnum,
-    SendGoalResponse,
-};
-use ros2_client::action_msgs::{
-    CancelGoalResponse, CancelGoalResponseEnum, GoalStatus, GoalStatusArray,
-};
-use ros2_client::{ActionTypeName, Node, QosProfile, RmwRequestId, ServiceMapping};
+use ros2_client::action::GoalId;
+use ros2_client::Node;
 use serde::{Deserialize, Serialize};
 
+use super::action;
 use super::names::NodeNames;
 use super::param_server::ParamStore;
 use super::params::MAX_WAIT_S;
@@ -50,6 +42,8 @@ pub struct PlanPartResult {
     pub outcome: u8,
     pub reason: String,
     pub plan: WeldPlan,
+    /// The plan's number (as in `~/status`): `~/execute` runs it; 0 without a plan.
+    pub job: u64,
 }
 impl ros2_client::Message for PlanPartResult {}
 
@@ -64,6 +58,7 @@ impl PlanPartResult {
             outcome,
             reason: reason.into(),
             plan: WeldPlan::default(),
+            job: 0,
         }
     }
 }
@@ -87,15 +82,40 @@ pub enum Request {
 }
 
 /// What the event loop tells the action thread.
-pub enum Reply {
-    Feedback(GoalId, PlanPartFeedback),
-    Done(GoalId, GoalStatusEnum, PlanPartResult),
+pub type Reply = action::Reply<PlanPartResult, PlanPartFeedback>;
+
+impl action::Failed for PlanPartResult {
+    fn failed(reason: &str) -> Self {
+        PlanPartResult::failed(PlanPartResult::BAD_INPUT, reason)
+    }
 }
 
-type Server = ActionServer<PlanPartGoal, PlanPartResult, PlanPartFeedback>;
+/// Turns goals into jobs for the event loop.
+struct Goals<F> {
+    store: Arc<ParamStore>,
+    requests: F,
+}
 
-/// Finished goals kept for late result requests.
-const KEEP_RESULTS: usize = 32;
+impl<F: Fn(Request) -> bool + Send + 'static> action::Handler<PlanPartGoal, PlanPartResult>
+    for Goals<F>
+{
+    fn goal(&mut self, id: GoalId, goal: PlanPartGoal) -> Result<(), PlanPartResult> {
+        let job = job_of(goal, &self.store)
+            .map_err(|reason| PlanPartResult::failed(PlanPartResult::BAD_INPUT, reason))?;
+        if (self.requests)(Request::Goal { goal: id, job }) {
+            Ok(())
+        } else {
+            Err(PlanPartResult::failed(
+                PlanPartResult::CANCELLED,
+                "the node is shutting down",
+            ))
+        }
+    }
+
+    fn cancel(&mut self, id: GoalId) -> bool {
+        (self.requests)(Request::Cancel(id))
+    }
+}
 
 /// Starts `~/plan` (remapped as the node's names say); runs until `stop` is raised.
 pub fn serve(
@@ -106,207 +126,15 @@ pub fn serve(
     replies: Receiver<Reply>,
     stop: Arc<AtomicBool>,
 ) -> Result<std::thread::JoinHandle<()>, String> {
-    let name = names.resolve("~/plan").map_err(|e| e.to_string())?;
-    let service =
-        QosProfile::publisher_default().history(ros2_client::qos::History::KeepLast { depth: 10 });
-    let server: Server = node
-        .create_action_server(
-            ServiceMapping::Enhanced,
-            &name,
-            &ActionTypeName::new("waam_interfaces", "PlanPart"),
-            ActionServerQosPolicies {
-                goal_service: service.clone(),
-                result_service: service.clone(),
-                cancel_service: service.clone(),
-                feedback_publisher: service.clone(),
-                status_publisher: service
-                    .durability(ros2_client::qos::Durability::TransientLocal)
-                    .history(ros2_client::qos::History::KeepLast { depth: 1 }),
-            },
-        )
-        .map_err(|e| format!("cannot create action {name}: {e:?}"))?;
-    std::thread::Builder::new()
-        .name("ros-plan-action".into())
-        .spawn(move || {
-            let mut goals = Goals::default();
-            while !stop.load(Ordering::Relaxed) {
-                let busy = goals.step(&server, &store, &requests, &replies);
-                if !busy {
-                    std::thread::sleep(Duration::from_millis(10));
-                }
-            }
-        })
-        .map_err(|e| format!("cannot start the action thread: {e}"))
-}
-
-#[derive(Default)]
-struct Goals {
-    /// Every known goal's status.
-    status: BTreeMap<GoalId, GoalStatus>,
-    results: BTreeMap<GoalId, PlanPartResult>,
-    finished: VecDeque<GoalId>,
-    waiting: Vec<(RmwRequestId, GoalId)>,
-}
-
-impl Goals {
-    /// One round of the protocol; whether there was anything to do.
-    fn step(
-        &mut self,
-        server: &Server,
-        store: &ParamStore,
-        requests: &impl Fn(Request) -> bool,
-        replies: &Receiver<Reply>,
-    ) -> bool {
-        let mut busy = false;
-        let mut changed = false;
-        if let Ok(Some((req, goal))) = server.receive_goal() {
-            busy = true;
-            let id = goal.goal_id;
-            let stamp = ros2_client::builtin_interfaces::Time::now();
-            // Every goal is accepted: one the node cannot plan ends at once with the reason
-            // (a rejected goal could not say why).
-            let _ = server.send_goal_response(
-                req,
-                SendGoalResponse {
-                    accepted: true,
-                    stamp,
-                },
-            );
-            self.status.insert(
-                id,
-                GoalStatus {
-                    goal_info: GoalInfo { goal_id: id, stamp },
-                    status: GoalStatusEnum::Executing,
-                },
-            );
-            match job_of(goal.goal, store) {
-                Ok(job) => {
-                    if !requests(Request::Goal { goal: id, job }) {
-                        self.finish(
-                            id,
-                            GoalStatusEnum::Aborted,
-                            PlanPartResult::failed(
-                                PlanPartResult::CANCELLED,
-                                "the node is shutting down",
-                            ),
-                        );
-                    }
-                }
-                Err(reason) => self.finish(
-                    id,
-                    GoalStatusEnum::Aborted,
-                    PlanPartResult::failed(PlanPartResult::BAD_INPUT, reason),
-                ),
-            }
-            changed = true;
-        }
-        if let Ok(Some((req, cancel))) = server.receive_cancel_request() {
-            busy = true;
-            // `CancelGoalRequest`'s fields are not public in ros2-client; its serde form is.
-            let info = serde_json::to_value(&cancel)
-                .ok()
-                .and_then(|v| serde_json::from_value::<GoalInfo>(v["goal_info"].clone()).ok());
-            let response = match info {
-                Some(info) => self.cancel(info.goal_id, requests),
-                None => CancelGoalResponse {
-                    return_code: CancelGoalResponseEnum::Rejected,
-                    goals_canceling: vec![],
-                },
-            };
-            let _ = server.send_cancel_response(req, response);
-            changed = true;
-        }
-        if let Ok(Some((req, get))) = server.receive_result_request() {
-            busy = true;
-            self.waiting.push((req, get.goal_id));
-        }
-        while let Ok(reply) = replies.try_recv() {
-            busy = true;
-            match reply {
-                Reply::Feedback(id, feedback) => {
-                    let _ = server.send_feedback(id, feedback);
-                }
-                Reply::Done(id, status, result) => {
-                    self.finish(id, status, result);
-                    changed = true;
-                }
-            }
-        }
-        // Answer result requests of finished (or unknown) goals.
-        let mut still = Vec::new();
-        for (req, id) in self.waiting.drain(..) {
-            match (self.results.get(&id), self.status.get(&id)) {
-                (Some(result), Some(status)) => {
-                    let _ = server.send_result(
-                        req,
-                        GetResultResponse {
-                            status: status.status,
-                            result: result.clone(),
-                        },
-                    );
-                }
-                (None, Some(_)) => still.push((req, id)),
-                _ => {
-                    let _ = server.send_result(
-                        req,
-                        GetResultResponse {
-                            status: GoalStatusEnum::Unknown,
-                            result: PlanPartResult::failed(
-                                PlanPartResult::BAD_INPUT,
-                                "unknown goal",
-                            ),
-                        },
-                    );
-                }
-            }
-        }
-        self.waiting = still;
-        if changed {
-            let _ = server.send_goal_statuses(GoalStatusArray {
-                status_list: self.status.values().cloned().collect(),
-            });
-        }
-        busy
-    }
-
-    fn cancel(&mut self, id: GoalId, requests: &impl Fn(Request) -> bool) -> CancelGoalResponse {
-        match self.status.get_mut(&id) {
-            Some(s) if s.status == GoalStatusEnum::Executing => {
-                s.status = GoalStatusEnum::Canceling;
-                let info = s.goal_info.clone();
-                requests(Request::Cancel(id));
-                CancelGoalResponse {
-                    return_code: CancelGoalResponseEnum::None,
-                    goals_canceling: vec![info],
-                }
-            }
-            Some(_) => CancelGoalResponse {
-                return_code: CancelGoalResponseEnum::GoalTerminated,
-                goals_canceling: vec![],
-            },
-            None => CancelGoalResponse {
-                return_code: CancelGoalResponseEnum::UnknownGoal,
-                goals_canceling: vec![],
-            },
-        }
-    }
-
-    fn finish(&mut self, id: GoalId, status: GoalStatusEnum, result: PlanPartResult) {
-        if self.results.contains_key(&id) {
-            return; // already ended (cancelled, then its job's end reported too)
-        }
-        if let Some(s) = self.status.get_mut(&id) {
-            s.status = status;
-        }
-        self.results.insert(id, result);
-        self.finished.push_back(id);
-        while self.finished.len() > KEEP_RESULTS {
-            if let Some(old) = self.finished.pop_front() {
-                self.results.remove(&old);
-                self.status.remove(&old);
-            }
-        }
-    }
+    action::serve(
+        node,
+        names,
+        "~/plan",
+        ("waam_interfaces", "PlanPart"),
+        Goals { store, requests },
+        replies,
+        stop,
+    )
 }
 
 /// The job a goal asks for, or why it cannot be planned.
