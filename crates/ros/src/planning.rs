@@ -275,6 +275,11 @@ impl CandidateRecorder {
                 prefix_len,
                 clause_len,
             ),
+            // Rejected on the robot's executed time line: no one block to name.
+            CandidateVerdict::ExecutedRejected {
+                prefix_len,
+                clause_len,
+            } => (PlanCandidate::VIOLATED, None, 0.0, prefix_len, clause_len),
         };
         candidate.verdict = verdict;
         if let Some(block) = block {
@@ -437,6 +442,7 @@ mod tests {
                 5.0,
             )),
             warm_start: false,
+            executed: None,
         };
         let values: Vec<(String, String)> = settings(&opts)
             .into_iter()

@@ -125,6 +125,14 @@ impl ProcessSettings {
             .map(|t| TorchSetup::new(t, self.travel_angle_deg, self.work_angle_deg))
     }
 
+    /// How far above the tallest block welded so far the TCP moves on a transit, mm:
+    /// `clearance_mm`, plus however far the torch (turned into any heading) reaches below
+    /// the TCP, so that the torch body, not only the TCP, keeps `clearance_mm`.
+    pub fn transit_height_mm(&self) -> f64 {
+        let below = self.torch_setup().map_or(0.0, |t| (-t.lowest_mm()).max(0.0));
+        self.clearance_mm + below
+    }
+
     /// Reads a settings file's text; missing keys take their defaults.
     pub fn from_yaml(text: &str) -> Result<ProcessSettings, SettingsError> {
         let s: ProcessSettings = if text.trim().is_empty() {
