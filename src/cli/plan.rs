@@ -357,6 +357,13 @@ fn print_stats(s: &Stats) {
             s.torch_blocked
         );
     }
+    if s.executed_rejected > 0 {
+        eprintln!(
+            "robot: {} of the candidates fail on the time line the robot welds them on \
+             (a transit too slow for transit_time_s, or a window broken by the dwells)",
+            s.executed_rejected
+        );
+    }
     eprintln!(
         "stats: {} candidates, {} feasible, first feasible {first}, total {:.4} s \
          (encode {:.4} s, SAT {:.4} s, acyclicity {:.4} s [{} cuts], simulator {:.4} s, \

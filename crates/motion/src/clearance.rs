@@ -181,7 +181,10 @@ fn torch_hit(
 ) -> Option<String> {
     let up = -(rot * Vector3::z());
     for (i, c) in cylinders.iter().enumerate() {
-        let name = ["nozzle", "body", "wrist"].get(i).copied().unwrap_or("torch");
+        let name = ["nozzle", "body", "wrist"]
+            .get(i)
+            .copied()
+            .unwrap_or("torch");
         let from = tcp + up * (c.from_mm - margin);
         let len = c.to_mm - c.from_mm + 2.0 * margin;
         let r = c.radius_mm + margin;
@@ -322,7 +325,9 @@ fn distance_to_hull(points: &[[f64; 2]]) -> f64 {
             Box::new(pts.iter().rev())
         };
         for &p in iter {
-            while hull.len() >= start + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0 {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            {
                 hull.pop();
             }
             hull.push(p);
@@ -361,14 +366,56 @@ mod tests {
         let up = Vector3::z();
         let p = Point3::new;
         // Beside the box: clear until the radius reaches its face.
-        assert!(!cylinder_meets_box(&p(2.0, 0.5, 0.0), &up, 1.0, 0.99, lo, hi));
-        assert!(cylinder_meets_box(&p(2.0, 0.5, 0.0), &up, 1.0, 1.01, lo, hi));
+        assert!(!cylinder_meets_box(
+            &p(2.0, 0.5, 0.0),
+            &up,
+            1.0,
+            0.99,
+            lo,
+            hi
+        ));
+        assert!(cylinder_meets_box(
+            &p(2.0, 0.5, 0.0),
+            &up,
+            1.0,
+            1.01,
+            lo,
+            hi
+        ));
         // Above the box: the flat end does not reach down, however wide.
-        assert!(!cylinder_meets_box(&p(0.5, 0.5, 1.01), &up, 5.0, 50.0, lo, hi));
-        assert!(cylinder_meets_box(&p(0.5, 0.5, 0.99), &up, 5.0, 0.1, lo, hi));
+        assert!(!cylinder_meets_box(
+            &p(0.5, 0.5, 1.01),
+            &up,
+            5.0,
+            50.0,
+            lo,
+            hi
+        ));
+        assert!(cylinder_meets_box(
+            &p(0.5, 0.5, 0.99),
+            &up,
+            5.0,
+            0.1,
+            lo,
+            hi
+        ));
         // Off a corner, diagonally: the corner is at √2·0.5 from the axis through (1.5, 1.5).
-        assert!(!cylinder_meets_box(&p(1.5, 1.5, 0.0), &up, 1.0, 0.70, lo, hi));
-        assert!(cylinder_meets_box(&p(1.5, 1.5, 0.0), &up, 1.0, 0.72, lo, hi));
+        assert!(!cylinder_meets_box(
+            &p(1.5, 1.5, 0.0),
+            &up,
+            1.0,
+            0.70,
+            lo,
+            hi
+        ));
+        assert!(cylinder_meets_box(
+            &p(1.5, 1.5, 0.0),
+            &up,
+            1.0,
+            0.72,
+            lo,
+            hi
+        ));
         // Tilted 45° past the box's top edge (x = 1, z = 1), the axis 0.1 from it.
         let h = std::f64::consts::FRAC_1_SQRT_2;
         let d = Vector3::new(h, 0.0, -h);
@@ -376,7 +423,14 @@ mod tests {
         assert!(!cylinder_meets_box(&base, &d, 10.0, 0.05, lo, hi));
         assert!(cylinder_meets_box(&base, &d, 10.0, 0.2, lo, hi));
         // A box wholly inside a wide cylinder.
-        assert!(cylinder_meets_box(&p(0.5, 0.5, -1.0), &up, 3.0, 10.0, lo, hi));
+        assert!(cylinder_meets_box(
+            &p(0.5, 0.5, -1.0),
+            &up,
+            3.0,
+            10.0,
+            lo,
+            hi
+        ));
     }
 
     #[test]

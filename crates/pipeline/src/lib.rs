@@ -185,7 +185,10 @@ pub fn check_torch(
             obstacle: match b.obstacle {
                 Obstacle::Plate => "the plate".into(),
                 Obstacle::Block(o) => {
-                    format!("block {}, deposited before it,", BlockDisplay(part.block(o)))
+                    format!(
+                        "block {}, deposited before it,",
+                        BlockDisplay(part.block(o))
+                    )
                 }
             },
             torch: setup.describe(),
