@@ -273,6 +273,10 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
             println!("TORCH BLOCKED: {e}");
             return Ok(ExitCode::from(EXIT_NO));
         }
+        Err(PipelineError::Motion(e)) => {
+            println!("NO MOTION: {e}");
+            return Ok(ExitCode::from(EXIT_NO));
+        }
         Err(e) => {
             println!("NO MOTION: {e}");
             return Ok(ExitCode::from(EXIT_NO));
