@@ -58,7 +58,7 @@ pub fn output_dir(out: Option<&Path>) -> anyhow::Result<PathBuf> {
 pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     let started = Instant::now();
     let part = Part::parse(DEFAULT_PART).context("the bundled sample part")?;
-    let opts = super::plan::options(&args)?;
+    let mut opts = super::plan::options(&args)?;
     let dir = output_dir(args.out.as_deref())?;
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let write = |name: &str, text: &str| -> anyhow::Result<()> {
@@ -66,7 +66,12 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))
     };
     write("part.yaml", DEFAULT_PART)?;
-    let settings = ProcessSettings::default();
+    // No torch, as the planner has none here (the bundled H-column has no plan the typical
+    // torch can weld): its moves keep the TCP's path clear of the part.
+    let settings = ProcessSettings {
+        torch: None,
+        ..ProcessSettings::default()
+    };
     let choice = TcpChoice {
         explicit: None,
         default: settings.tcp.isometry(),
@@ -74,6 +79,8 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     let robot = Robot::from_urdf(BUNDLED_URDF, None, choice).context("the bundled robot")?;
     let robot_name = robot.name.clone();
     let cell = Cell { settings, robot };
+    // A candidate the robot cannot weld on the model's time line is learned from.
+    opts.executed = Some(cell.executed_check(&part));
     let bag_dir = dir.join("recording");
     let (recorder, mut planning) = record::start_planning(&bag_dir, None, &part, &opts)?;
     let mut bar = super::plan::LazyBar::new(global.quiet);
