@@ -80,10 +80,13 @@ pub struct Rejection {
     pub reason: String,
 }
 
-/// The check behind [`Options::executed`]: `None` when the candidate passes (or fails for a
-/// reason the caller reports itself).
+/// A candidate's fragments in, its [`Rejection`] out (`None`: the candidate passes, or fails
+/// for a reason the caller reports itself).
+pub type JudgeExecuted = dyn Fn(&[Vec<usize>]) -> Option<Rejection> + Send + Sync;
+
+/// The check behind [`Options::executed`].
 #[derive(Clone)]
-pub struct ExecutedCheck(pub Arc<dyn Fn(&[Vec<usize>]) -> Option<Rejection> + Send + Sync>);
+pub struct ExecutedCheck(pub Arc<JudgeExecuted>);
 
 impl std::fmt::Debug for ExecutedCheck {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
