@@ -441,3 +441,35 @@ fn with_a_robot_too_slow_for_any_transit_the_planner_proves_there_is_no_plan() {
         other => panic!("{other:?}"),
     }
 }
+
+#[test]
+fn waam_plan_with_a_slow_robot_learns_from_the_transit_and_says_so() {
+    let run = waam()
+        .args([
+            "plan",
+            "tests/data/two-pads.yaml",
+            "--robot",
+            "urdf/waam_robot.urdf",
+        ])
+        .args([
+            "--limits",
+            "tests/data/slow_joint_limits.yaml",
+            "--print-plan",
+        ])
+        .current_dir(root())
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&run.stdout),
+        String::from_utf8_lossy(&run.stderr),
+    );
+    assert_eq!(run.status.code(), Some(0), "{stdout}{stderr}");
+    assert!(
+        stderr.contains("of the candidates fail on the time line the robot welds them on"),
+        "{stderr}"
+    );
+    assert!(
+        stdout.contains("plan: 2 fragment(s)") && stdout.contains("MOTION:"),
+        "{stdout}"
+    );
+}
