@@ -473,3 +473,48 @@ fn waam_plan_with_a_slow_robot_learns_from_the_transit_and_says_so() {
         "{stdout}"
     );
 }
+
+#[test]
+fn a_planner_without_the_torch_learns_it_from_the_cell_s_check() {
+    // A column 20 layers tall at x = 0 and a block at x = 2, 9 mm from its face: welded
+    // after the column, the tilted nozzle does not fit beside it; welded first, it does.
+    let mut text = String::from(
+        "name: column-and-block\nblock_mm: [6, 6, 2.5]\nmax_fragments: 2\nlayers: ['#.#'",
+    );
+    for _ in 1..20 {
+        text.push_str(", '#..'");
+    }
+    text.push_str("]\n");
+    let part = Part::parse(&text).unwrap();
+    let cell = cell();
+    let block = part.index_of([2, 0, 0]).unwrap();
+    // Without the torch both orders are plans.
+    let count = |opts: &Options| {
+        let mut rejected = 0;
+        let counts = planner::count(&part, opts, false, &mut |e: Event| {
+            if let Event::Candidate {
+                verdict: CandidateVerdict::ExecutedRejected { .. },
+                ..
+            } = e
+            {
+                rejected += 1;
+            }
+        })
+        .unwrap();
+        (counts.feasible, rejected)
+    };
+    assert_eq!(count(&Options::default()), (2, 0));
+    // The planner's own check off, the cell's torch teaches it: one plan, the block first.
+    let taught = Options {
+        executed: Some(cell.executed_check(&part)),
+        ..Options::default()
+    };
+    assert_eq!(count(&taught), (1, 1));
+    let own = Options {
+        torch: cell.settings.torch_setup(),
+        ..Options::default()
+    };
+    assert_eq!(count(&own).0, 1);
+    let report = planner::plan(&part, &taught, &mut |_| {}).unwrap();
+    assert_eq!(report.best.unwrap().fragments[0], vec![block]);
+}

@@ -248,6 +248,21 @@ fn simulate_executed(
     Ok((timeline, outcome.violation))
 }
 
+/// The first `n` deposits of a plan, as fragments.
+fn first_deposits(fragments: &[Vec<usize>], n: usize) -> Vec<Vec<usize>> {
+    let mut left = n;
+    let mut out = Vec::new();
+    for f in fragments {
+        if left == 0 {
+            break;
+        }
+        let take = left.min(f.len());
+        out.push(f[..take].to_vec());
+        left -= take;
+    }
+    out
+}
+
 /// A plan the planner found, before its check.
 #[derive(Debug, Clone)]
 pub struct Found {
@@ -330,6 +345,14 @@ impl Cell {
     ///   last block before the violation. The robot is timed to the model, so the executed
     ///   time line up to the next weld path's arc-on depends on those weld paths only, not
     ///   on the arm.
+    ///
+    /// And, when the cell's torch is not the planner's (or reaches where the planner's check
+    /// does not look), the torch's failures, which depend on the toolpath's poses only:
+    /// - *a block the torch cannot reach*: the plans that deposit the same blocks in the
+    ///   same order up to it (the access check depends on what stands before it);
+    /// - *a move with the arc off the torch cannot make*: into weld path f, the plans with
+    ///   the same weld paths before f and the same first two blocks of f (as for a
+    ///   transit); a retract from f (or the last move), the same weld paths up to f, closed.
     pub fn rejection(&self, part: &Part, fragments: &[Vec<usize>]) -> Option<Rejection> {
         let toolpath = match self.plan_motion(part, fragments) {
             Ok((toolpath, _)) => toolpath,
@@ -345,6 +368,31 @@ impl Cell {
                 return Some(Rejection {
                     prefix,
                     closed: next.len() == 1,
+                    reason: e.to_string(),
+                });
+            }
+            Err(e @ PipelineError::TorchBlocked { deposit, .. }) => {
+                return Some(Rejection {
+                    prefix: first_deposits(fragments, deposit),
+                    closed: false,
+                    reason: e.to_string(),
+                });
+            }
+            Err(e @ PipelineError::Motion(MotionError::Collision(_))) => {
+                let PipelineError::Motion(MotionError::Collision(c)) = &e else {
+                    unreachable!("matched above")
+                };
+                let f = c.fragment.min(fragments.len() - 1);
+                let (prefix, closed) = if c.what == "retract" || f + 1 == fragments.len() {
+                    (fragments[..=f].to_vec(), true)
+                } else {
+                    let mut prefix = fragments[..f].to_vec();
+                    prefix.push(fragments[f][..fragments[f].len().min(2)].to_vec());
+                    (prefix, fragments[f].len() == 1)
+                };
+                return Some(Rejection {
+                    prefix,
+                    closed,
                     reason: e.to_string(),
                 });
             }
