@@ -291,9 +291,9 @@ impl CandidateRecorder {
                 }
             };
             candidate.time_s = time_s;
-            candidate.prefix_len = u32::try_from(prefix_len).unwrap_or(u32::MAX);
-            candidate.learned_clause_len = u32::try_from(clause_len).unwrap_or(u32::MAX);
         }
+        candidate.prefix_len = u32::try_from(prefix_len).unwrap_or(u32::MAX);
+        candidate.learned_clause_len = u32::try_from(clause_len).unwrap_or(u32::MAX);
         if let Err(e) = self
             .recorder
             .record(topics::CANDIDATES, &Qos::reliable(100), &candidate)
