@@ -2,7 +2,7 @@
 //! the TCP's straight line between two poses must not enter a block welded so far, nor go
 //! below the plate's surface; and with a torch, the torch's cylinders (nozzle, body,
 //! wrist: [`Torch::cylinders`]) in the pose's own orientation, sampled along the move
-//! ([`torch_hit`]), must not enter one either. The toolpath routes transits above the
+//! ([`SAMPLE_MM`]), must not enter one either. The toolpath routes transits above the
 //! tallest block welded so far plus `clearance_mm` (and the torch's reach below the TCP);
 //! this check makes sure no such move is ever returned.
 
@@ -110,7 +110,12 @@ pub fn check_moves(
         // Welded so far: every path whose arc went off before this move.
         let done = offs.iter().filter(|&&off| off < k).count();
         built.up_to(part, fragments, done);
-        let ((a, ra), (b, rb)) = (in_part(k - 1), in_part(k));
+        let ((a, ra), (b, mut rb)) = (in_part(k - 1), in_part(k));
+        // The same rotation on the near side of the quaternion sphere: slerp turns the
+        // short way.
+        if ra.coords.dot(&rb.coords) < 0.0 {
+            rb = UnitQuaternion::new_unchecked(-rb.into_inner());
+        }
         if a.z.min(b.z) < -TOUCH_MM {
             return Err(collision("the plate".into()));
         }
@@ -135,7 +140,9 @@ pub fn check_moves(
         for i in 0..=n {
             let t = i as f64 / n as f64;
             let tcp = a + (b - a) * t;
-            let rot = ra.slerp(&rb, t);
+            // Half a turn has no one shortest way (the toolpath turns by max_step_deg at
+            // most between poses, so it does not occur): keep the start's orientation.
+            let rot = ra.try_slerp(&rb, t, 1e-12).unwrap_or(ra);
             if let Some(hit) = torch_hit(part, &built, &cylinders, &tcp, &rot, 0.5 * SAMPLE_MM) {
                 return Err(collision(hit));
             }
