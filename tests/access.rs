@@ -518,3 +518,65 @@ fn a_planner_without_the_torch_learns_it_from_the_cell_s_check() {
     let report = planner::plan(&part, &taught, &mut |_| {}).unwrap();
     assert_eq!(report.best.unwrap().fragments[0], vec![block]);
 }
+
+/// With a 2 s arc-on dwell some feasible s1-wall plans break a window on the executed time
+/// line (tests/timeline.rs). The planner with the robot's check counts exactly the plans
+/// that keep every window there (brute force: every valid plan, simulated on the model's
+/// time line, then welded by the cell): what it learns from a rejection cuts off no plan
+/// the robot can weld, and every plan it counts is one.
+#[test]
+fn the_planner_with_the_robot_counts_exactly_the_plans_that_pass_on_their_executed_time_line() {
+    let part = common::part("s1-wall");
+    let cell = Cell {
+        settings: ProcessSettings {
+            arc_on_dwell_s: 2.0,
+            torch: None,
+            ..ProcessSettings::default()
+        },
+        robot: our_robot(),
+    };
+    let mut expected = 0;
+    let mut failing = 0;
+    for fragments in common::planner::brute_force_plans(&part, part.max_fragments)
+        .into_iter()
+        .filter(|p| common::planner::is_feasible(&part, p))
+    {
+        let found = Found {
+            fragments,
+            stats: Default::default(),
+            proven: false,
+            worst_margin_s: 0.0,
+        };
+        match cell.motion(part.clone(), found) {
+            Ok(_) => expected += 1,
+            Err(PipelineError::InfeasibleExecuted { .. }) => failing += 1,
+            Err(e) => panic!("{e}"),
+        }
+    }
+    assert!(
+        failing > 0 && expected > 0,
+        "{expected} pass, {failing} fail"
+    );
+    let opts = Options {
+        executed: Some(cell.executed_check(&part)),
+        ..Options::default()
+    };
+    let counts = planner::count(&part, &opts, false, &mut |_| {}).unwrap();
+    eprintln!(
+        "s1-wall, 2 s arc-on dwell: {expected} plans pass, {failing} fail on the executed time \
+         line; counted with the robot: {} ({} candidates rejected, {} clauses learned)",
+        counts.feasible, counts.stats.executed_rejected, counts.stats.learned_clauses
+    );
+    assert_eq!(counts.feasible, expected, "{failing} fail");
+    assert!(counts.stats.executed_rejected > 0);
+    // And the best plan with the robot is one that passes.
+    let report = planner::plan(&part, &opts, &mut |_| {}).unwrap();
+    let best = report.best.unwrap();
+    let found = Found {
+        fragments: best.fragments,
+        stats: Default::default(),
+        proven: true,
+        worst_margin_s: best.margin,
+    };
+    cell.motion(part, found).unwrap();
+}
