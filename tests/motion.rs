@@ -56,9 +56,16 @@ fn check(robot: &Robot, tp: &Toolpath, traj: &JointTrajectory, name: &str) {
 }
 
 fn run_all(robot: &Robot) {
-    let settings = ProcessSettings::default();
     for name in common::PARTS {
         let (part, fragments) = common::part_and_plan(name);
+        // ex3's sample plan is one the torch cannot weld (tests/torch.rs, tests/access.rs):
+        // its moves are checked for the TCP only.
+        let settings = ProcessSettings {
+            torch: ProcessSettings::default()
+                .torch
+                .filter(|_| name != "ex3-h-column"),
+            ..ProcessSettings::default()
+        };
         let (tp, traj) = plan_motion(&part, &fragments, &settings, robot)
             .unwrap_or_else(|e| panic!("{name}: {e}"));
         check(robot, &tp, &traj, name);

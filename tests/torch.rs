@@ -292,6 +292,8 @@ proptest! {
             nozzle_length_mm: 10.0,
             body_diameter_mm: 14.0,
             body_length_mm: 20.0,
+            wrist_diameter_mm: 0.0,
+            wrist_length_mm: 0.0,
         };
         let setup = TorchSetup::new(torch, tilt, 0.0);
         let access = TorchAccess::new(&part, &setup);

@@ -1,7 +1,9 @@
 //! Moves with the arc off never pass through the part as built or the plate: transits are
 //! routed above the tallest block welded so far. The check here is written independently
 //! of `waam_motion::clearance`: it samples every move densely and tests each sample point
-//! against every block welded before the move.
+//! against every block welded before the move. The torch is not modelled here (the TCP's
+//! line is this file's subject; the torch's nozzle, body and wrist along the moves are
+//! tests/access.rs's): some of these plans are ones the torch cannot weld.
 
 mod common;
 
@@ -13,7 +15,10 @@ use waam_pipeline::Cell;
 
 fn cell() -> Cell {
     Cell {
-        settings: ProcessSettings::default(),
+        settings: ProcessSettings {
+            torch: None,
+            ..ProcessSettings::default()
+        },
         robot: our_robot(),
     }
 }

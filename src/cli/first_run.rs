@@ -66,18 +66,23 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))
     };
     write("part.yaml", DEFAULT_PART)?;
-    let settings = ProcessSettings::default();
+    // The bundled torch, as with --robot (--no-torch: none, and the moves keep only the
+    // TCP's path clear of the part).
+    let mut settings = ProcessSettings::default();
+    if args.no_torch {
+        settings.torch = None;
+    }
     let choice = TcpChoice {
         explicit: None,
         default: settings.tcp.isometry(),
     };
     let robot = Robot::from_urdf(BUNDLED_URDF, None, choice).context("the bundled robot")?;
     let robot_name = robot.name.clone();
-    // The torch is checked as with --robot: the robot then welds only what the torch reaches.
-    if !args.no_torch {
-        opts.torch = settings.torch_setup();
-    }
+    // The planner checks the same torch: the robot then welds only what the torch reaches.
+    opts.torch = settings.torch_setup();
     let cell = Cell { settings, robot };
+    // A candidate the robot cannot weld on the model's time line is learned from.
+    opts.executed = Some(cell.executed_check(&part));
     let bag_dir = dir.join("recording");
     let (recorder, mut planning) =
         record::start_planning(&bag_dir, None, &part, &opts, Some((&cell, BUNDLED_URDF)))?;

@@ -14,7 +14,7 @@ use waam_motion::write_outputs;
 use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
 use waam_part::Part;
-use waam_pipeline::{Cell, Found, Planned};
+use waam_pipeline::{Cell, Found, PipelineError, Planned};
 
 use super::{read_part, EXIT_NO, EXIT_OK};
 
@@ -221,10 +221,14 @@ pub fn report_motion(
 /// Turn an existing plan into torch poses and a joint trajectory for a robot.
 ///
 /// Writes DIR/toolpath.yaml (TCP poses in the robot's base link with arc state and
-/// fragment) and DIR/trajectory.yaml (joint positions and velocities over time). Exit
-/// code 0: written; 1: the plan is invalid or the robot cannot weld it (unreachable
-/// pose, configuration change mid-weld — the message names the block and the pose);
-/// 2: bad input.
+/// fragment) and DIR/trajectory.yaml (joint positions and velocities over time). The
+/// process settings' torch (the bundled typical GMAW torch unless --process says otherwise)
+/// must reach every block past what stands before it, as the planner requires, and its
+/// nozzle, body and wrist must clear the part as built on every move with the arc off.
+/// Exit code 0: written; 1: the plan is invalid, the torch cannot weld it (TORCH BLOCKED,
+/// naming the block and what is in its way) or the robot cannot (unreachable pose,
+/// configuration change mid-weld — the message names the block and the pose); 2: bad
+/// input.
 #[derive(Debug, clap::Args)]
 pub struct MotionArgs {
     /// The part file (YAML, shared part format).
@@ -236,6 +240,11 @@ pub struct MotionArgs {
     /// Output directory for toolpath.yaml and trajectory.yaml (created if missing).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
+    /// No torch: neither the access check at every deposit nor the torch along the moves
+    /// (only the TCP's path is kept clear of the part), as if the process settings said
+    /// `torch: null`.
+    #[arg(long)]
+    pub no_torch: bool,
 }
 
 pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
@@ -254,8 +263,20 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
     };
     // The plan's rules are checked above; its t8/5 windows are `waam check`'s business.
     // The motion is timed to the thermal model all the same (waits at the approach points).
-    let (toolpath, trajectory) = match args.robot.load()?.plan_motion(&part, &fragments) {
+    let mut cell = args.robot.load()?;
+    if args.no_torch {
+        cell.settings.torch = None;
+    }
+    let (toolpath, trajectory) = match cell.plan_motion(&part, &fragments) {
         Ok(motion) => motion,
+        Err(e @ PipelineError::TorchBlocked { .. }) => {
+            println!("TORCH BLOCKED: {e}");
+            return Ok(ExitCode::from(EXIT_NO));
+        }
+        Err(PipelineError::Motion(e)) => {
+            println!("NO MOTION: {e}");
+            return Ok(ExitCode::from(EXIT_NO));
+        }
         Err(e) => {
             println!("NO MOTION: {e}");
             return Ok(ExitCode::from(EXIT_NO));

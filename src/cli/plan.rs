@@ -90,8 +90,9 @@ pub struct PlanArgs {
     /// tilted by the travel angle; or --process's). On by default with --robot.
     #[arg(long, conflicts_with = "no_torch")]
     pub torch: bool,
-    /// With --robot (or the first run, without PART): plan without the torch access check.
-    #[arg(long, requires = "robot")]
+    /// With --robot or the first run (no PART): plan without the torch access check, and keep
+    /// only the TCP's path (not the torch's body) clear of the part on moves with the arc off.
+    #[arg(long)]
     pub no_torch: bool,
     /// With --robot and --out: also write the motion as a robot program in this format
     /// into DIR (default cell settings; `waam export` takes others).
@@ -141,6 +142,7 @@ pub fn options(args: &PlanArgs) -> anyhow::Result<Options> {
         solver: args.solver,
         torch: None,
         warm_start: !args.no_warm_start,
+        executed: None,
     })
 }
 
@@ -151,8 +153,14 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     };
     let mut opts = options(&args)?;
     // The robot before planning: a bad URDF fails at once, not after the search.
-    let robot = args.robot.robot_args().map(|a| a.load()).transpose()?;
+    let mut robot = args.robot.robot_args().map(|a| a.load()).transpose()?;
     opts.torch = torch(&args, robot.as_ref().map(|c| &c.settings));
+    if let (Some(cell), true) = (robot.as_mut(), args.no_torch) {
+        cell.settings.torch = None; // nor along the moves
+    }
+    // With a robot, a candidate the robot cannot weld on the model's time line is a
+    // violation too (its clause is learned and the search goes on).
+    opts.executed = robot.as_ref().map(|cell| cell.executed_check(&part));
     if !args.json && !global.quiet {
         eprintln!(
             "part {:?}: {} blocks, {} layers, max_fragments {}, {} windowed blocks",
@@ -354,6 +362,13 @@ fn print_stats(s: &Stats) {
         eprintln!(
             "torch: {} of the candidates weld a block the torch cannot reach",
             s.torch_blocked
+        );
+    }
+    if s.executed_rejected > 0 {
+        eprintln!(
+            "robot: {} of the candidates fail on the time line the robot welds them on \
+             (a transit too slow for transit_time_s, or a window broken by the dwells)",
+            s.executed_rejected
         );
     }
     eprintln!(

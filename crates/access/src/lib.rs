@@ -1,10 +1,12 @@
 //! Torch access: whether the welding torch fits at a block, beside the blocks deposited
 //! before it and above the plate.
 //!
-//! The torch ([`Torch`]) is a straight stack of two coaxial cylinders on its axis, measured
+//! The torch ([`Torch`]) is a straight stack of three coaxial cylinders on its axis, measured
 //! from the tool-centre point (TCP: the wire's end, at the top centre of the block being
-//! welded): the gas nozzle from `nozzle_standoff_mm` up along the axis, and the torch body
-//! (neck) above the nozzle. The axis is tilted from the vertical by the process settings'
+//! welded): the gas nozzle from `nozzle_standoff_mm` up along the axis, the torch body
+//! (neck) above the nozzle, and a simple volume for the robot's wrist above the body
+//! ([`Torch::cylinders`]; the motion stage checks the same cylinders along every move with
+//! the arc off). The axis is tilted from the vertical by the process settings'
 //! travel and work angles ([`TorchSetup`]). Which way it leans depends on the travel heading
 //! at the block, and that depends on the *next* move, which the planner has not fixed when
 //! it checks a deposit. So the check takes the torch turned about the vertical through the
@@ -35,8 +37,8 @@ pub struct TorchError {
     pub reason: String,
 }
 
-/// The welding torch as the access check sees it: a gas nozzle and a body above it, both
-/// cylinders on the torch axis. Lengths in mm.
+/// The welding torch as the access check sees it: a gas nozzle, a body above it and the
+/// robot's wrist above that, all cylinders on the torch axis. Lengths in mm.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Torch {
@@ -51,11 +53,26 @@ pub struct Torch {
     pub body_diameter_mm: f64,
     /// Length of the body along the axis, from the nozzle's top up.
     pub body_length_mm: f64,
+    /// Diameter of the cylinder that stands for the robot's wrist (the last links and the
+    /// torch mount) above the body.
+    pub wrist_diameter_mm: f64,
+    /// Length of that cylinder along the axis, from the body's top up (0: no wrist).
+    pub wrist_length_mm: f64,
+}
+
+/// One cylinder of the torch on its axis: from `from_mm` to `to_mm` up the axis from the
+/// TCP, of radius `radius_mm`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cylinder {
+    pub from_mm: f64,
+    pub to_mm: f64,
+    pub radius_mm: f64,
 }
 
 impl Default for Torch {
     /// A typical GMAW torch: a gas nozzle 18 mm across whose end is 12 mm above the top of
-    /// the block being welded, 60 mm long, under a straight 30 mm body 150 mm long.
+    /// the block being welded, 60 mm long, under a straight 30 mm body 150 mm long, under a
+    /// wrist 100 mm across and 120 mm long (a 6-axis arm's flange and last links).
     fn default() -> Self {
         Torch {
             nozzle_diameter_mm: 18.0,
@@ -63,6 +80,8 @@ impl Default for Torch {
             nozzle_length_mm: 60.0,
             body_diameter_mm: 30.0,
             body_length_mm: 150.0,
+            wrist_diameter_mm: 100.0,
+            wrist_length_mm: 120.0,
         }
     }
 }
@@ -86,7 +105,30 @@ impl Torch {
         check("nozzle_length_mm", self.nozzle_length_mm, false)?;
         check("body_diameter_mm", self.body_diameter_mm, true)?;
         check("body_length_mm", self.body_length_mm, true)?;
+        check("wrist_diameter_mm", self.wrist_diameter_mm, true)?;
+        check("wrist_length_mm", self.wrist_length_mm, true)?;
         Ok(())
+    }
+
+    /// The nozzle, the body and the wrist, bottom up; pieces of zero size left out.
+    pub fn cylinders(&self) -> Vec<Cylinder> {
+        let mut out = Vec::new();
+        let mut from = self.nozzle_standoff_mm;
+        for (d, len) in [
+            (self.nozzle_diameter_mm, self.nozzle_length_mm),
+            (self.body_diameter_mm, self.body_length_mm),
+            (self.wrist_diameter_mm, self.wrist_length_mm),
+        ] {
+            if d > 0.0 && len > 0.0 {
+                out.push(Cylinder {
+                    from_mm: from,
+                    to_mm: from + len,
+                    radius_mm: 0.5 * d,
+                });
+            }
+            from += len;
+        }
+        out
     }
 }
 
@@ -122,17 +164,25 @@ impl TorchSetup {
         Ok(())
     }
 
+    /// The lowest point of the torch in any heading, mm above the TCP (negative: below it).
+    /// A transit at safe height keeps the whole torch this much lower than the TCP.
+    pub fn lowest_mm(&self) -> f64 {
+        Envelope::new(self).lowest()
+    }
+
     /// One line on the torch, for logs and reports.
     pub fn describe(&self) -> String {
         let t = &self.torch;
         format!(
             "nozzle {} mm across, its end {} mm from the wire's end, {} mm long; body {} mm \
-             across, {} mm long; tilted {:.1}° from the vertical",
+             across, {} mm long; wrist {} mm across, {} mm long; tilted {:.1}° from the vertical",
             t.nozzle_diameter_mm,
             t.nozzle_standoff_mm,
             t.nozzle_length_mm,
             t.body_diameter_mm,
             t.body_length_mm,
+            t.wrist_diameter_mm,
+            t.wrist_length_mm,
             self.tilt_deg
         )
     }
@@ -176,10 +226,9 @@ impl Envelope {
                 extra: (-lo).max(0.0),
             });
         };
-        let s0 = t.nozzle_standoff_mm;
-        let s1 = s0 + t.nozzle_length_mm;
-        push(0.5 * t.nozzle_diameter_mm, s0, s1);
-        push(0.5 * t.body_diameter_mm, s1, s1 + t.body_length_mm);
+        for c in t.cylinders() {
+            push(c.radius_mm, c.from_mm, c.to_mm);
+        }
         Envelope {
             tan: theta.tan(),
             segments,
@@ -555,6 +604,8 @@ mod tests {
                 nozzle_length_mm: 20.0,
                 body_diameter_mm: diameter * 1.5,
                 body_length_mm: 15.0,
+                wrist_diameter_mm: 0.0,
+                wrist_length_mm: 0.0,
             };
             let setup = TorchSetup::new(torch, tilt, 0.0);
             let access = TorchAccess::new(&p, &setup);

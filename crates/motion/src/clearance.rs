@@ -1,13 +1,26 @@
 //! Moves with the arc off (transit, approach, retract, wait) against the part as built:
 //! the TCP's straight line between two poses must not enter a block welded so far, nor go
-//! below the plate's surface. The toolpath routes transits above the tallest block welded
-//! so far plus `clearance_mm`; this check makes sure no such move is ever returned.
+//! below the plate's surface; and with a torch, the torch's cylinders (nozzle, body,
+//! wrist: [`Torch::cylinders`]) in the pose's own orientation, sampled along the move
+//! ([`SAMPLE_MM`]), must not enter one either. The toolpath routes transits above the
+//! tallest block welded so far plus `clearance_mm` (and the torch's reach below the TCP);
+//! this check makes sure no such move is ever returned.
 
-use nalgebra::{Isometry3, Point3, Vector3};
+use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
+use rustc_hash::FxHashSet;
 use thiserror::Error;
 
 use crate::toolpath::{PoseKind, Toolpath};
-use waam_part::{BlockDisplay, Part};
+use waam_access::{Cylinder, Torch};
+use waam_part::{Block, BlockDisplay, Part};
+
+/// The torch is sampled along a move so that no point of it travels more than this
+/// between two samples, mm; each sampled cylinder is widened and lengthened by half of it.
+/// Every point of the moving torch is then within `SAMPLE_MM / 2` of where it is at one of
+/// the two samples around it, so the widened cylinders at the samples contain the whole
+/// swept torch: a block cannot slip between two samples. (The price: along moves the
+/// torch keeps `SAMPLE_MM / 2` from every block rather than touching it.)
+pub const SAMPLE_MM: f64 = 0.2;
 
 /// Faces may be touched (a retract starts on the top of the block just welded): a block is
 /// entered only deeper than this, mm.
@@ -20,7 +33,7 @@ pub struct Collision {
     pub what: &'static str,
     pub pose: usize,
     pub fragment: usize,
-    /// "block [x,y,z]" or "the plate".
+    /// "block [x,y,z]" or "the plate", and with the torch which part of it meets it.
     pub obstacle: String,
 }
 
@@ -49,22 +62,35 @@ pub fn segment_enters_box(a: &Point3<f64>, b: &Point3<f64>, lo: [f64; 3], hi: [f
 }
 
 /// Checks every arc-off move of a block plan's toolpath against the blocks welded before
-/// it and the plate (`plate`: the part frame in the toolpath's frame).
+/// it and the plate (`plate`: the part frame in the toolpath's frame): the TCP's line, and
+/// with a `torch` its cylinders sampled along the move ([`SAMPLE_MM`]).
 pub fn check_moves(
     part: &Part,
     fragments: &[Vec<usize>],
     tp: &Toolpath,
     plate: &Isometry3<f64>,
+    torch: Option<&Torch>,
 ) -> Result<(), Collision> {
     let to_part = plate.inverse();
-    let mm = |k: usize| -> Point3<f64> {
-        let p = to_part * Point3::from(tp.poses[k].pose.translation.vector);
-        Point3::from(p.coords * 1000.0)
+    // A pose in the part frame, translation in mm.
+    let in_part = |k: usize| -> (Point3<f64>, UnitQuaternion<f64>) {
+        let pose = to_part * tp.poses[k].pose;
+        (
+            Point3::from(pose.translation.vector * 1000.0),
+            pose.rotation,
+        )
     };
     let half = part.block_mm.map(|v| 0.5 * v - TOUCH_MM);
+    let cylinders = torch.map(Torch::cylinders).unwrap_or_default();
+    // The farthest any torch point is from the TCP: how far it swings when the torch turns.
+    let lever = cylinders
+        .iter()
+        .map(|c| c.to_mm.hypot(c.radius_mm))
+        .fold(0.0, f64::max);
     let offs: Vec<usize> = (0..tp.poses.len())
         .filter(|&k| tp.poses[k].kind == PoseKind::ArcOff)
         .collect();
+    let mut built = Built::default();
     for k in 1..tp.poses.len() {
         let (prev, pose) = (&tp.poses[k - 1], &tp.poses[k]);
         if prev.arc_on {
@@ -75,37 +101,344 @@ pub fn check_moves(
             PoseKind::Retract => "retract",
             _ => "transit",
         };
+        let collision = |obstacle: String| Collision {
+            what,
+            pose: k,
+            fragment: pose.fragment,
+            obstacle,
+        };
         // Welded so far: every path whose arc went off before this move.
         let done = offs.iter().filter(|&&off| off < k).count();
-        let (a, b) = (mm(k - 1), mm(k));
+        built.up_to(part, fragments, done);
+        let ((a, ra), (b, mut rb)) = (in_part(k - 1), in_part(k));
+        // The same rotation on the near side of the quaternion sphere: slerp turns the
+        // short way.
+        if ra.coords.dot(&rb.coords) < 0.0 {
+            rb = UnitQuaternion::new_unchecked(-rb.into_inner());
+        }
         if a.z.min(b.z) < -TOUCH_MM {
-            return Err(Collision {
-                what,
-                pose: k,
-                fragment: pose.fragment,
-                obstacle: "the plate".into(),
-            });
+            return Err(collision("the plate".into()));
         }
         for &block in fragments[..done.min(fragments.len())].iter().flatten() {
             let c = part.centre_mm(part.block(block));
             let lo = [c[0] - half[0], c[1] - half[1], c[2] - half[2]];
             let hi = [c[0] + half[0], c[1] + half[1], c[2] + half[2]];
             if segment_enters_box(&a, &b, lo, hi) {
-                return Err(Collision {
-                    what,
-                    pose: k,
-                    fragment: pose.fragment,
-                    obstacle: format!("block {}", BlockDisplay(part.block(block))),
-                });
+                return Err(collision(format!(
+                    "block {}",
+                    BlockDisplay(part.block(block))
+                )));
+            }
+        }
+        if cylinders.is_empty() {
+            continue;
+        }
+        // Samples: the TCP on the straight line, the orientation turning at a constant
+        // rate (as the toolpath interpolates), no torch point moving more than SAMPLE_MM.
+        let sweep = (b - a).norm() + ra.angle_to(&rb) * lever;
+        let n = (sweep / SAMPLE_MM).ceil().max(1.0) as usize;
+        for i in 0..=n {
+            let t = i as f64 / n as f64;
+            let tcp = a + (b - a) * t;
+            // Half a turn has no one shortest way (the toolpath turns by max_step_deg at
+            // most between poses, so it does not occur): keep the start's orientation.
+            let rot = ra.try_slerp(&rb, t, 1e-12).unwrap_or(ra);
+            if let Some(hit) = torch_hit(part, &built, &cylinders, &tcp, &rot, 0.5 * SAMPLE_MM) {
+                return Err(collision(hit));
             }
         }
     }
     Ok(())
 }
 
+/// The blocks welded so far, by grid position.
+#[derive(Default)]
+struct Built {
+    fragments: usize,
+    blocks: FxHashSet<Block>,
+    /// The highest layer built (None: nothing yet).
+    top: Option<i64>,
+}
+
+impl Built {
+    /// Adds the blocks of the first `done` fragments.
+    fn up_to(&mut self, part: &Part, fragments: &[Vec<usize>], done: usize) {
+        let done = done.min(fragments.len());
+        for f in &fragments[self.fragments.min(done)..done] {
+            for &b in f {
+                let block = part.block(b);
+                self.top = self.top.max(Some(block[2]));
+                self.blocks.insert(block);
+            }
+        }
+        self.fragments = self.fragments.max(done);
+    }
+}
+
+/// What the torch (its `cylinders`, each widened by `margin` mm around and at both ends)
+/// meets with its TCP at `tcp` (part frame, mm) turned by `rot` (z: the wire, out of the
+/// torch): "the plate" or "block [x,y,z] (the torch's nozzle)"; `None`: it is clear.
+fn torch_hit(
+    part: &Part,
+    built: &Built,
+    cylinders: &[Cylinder],
+    tcp: &Point3<f64>,
+    rot: &UnitQuaternion<f64>,
+    margin: f64,
+) -> Option<String> {
+    let up = -(rot * Vector3::z());
+    for (i, c) in cylinders.iter().enumerate() {
+        let name = ["nozzle", "body", "wrist"]
+            .get(i)
+            .copied()
+            .unwrap_or("torch");
+        let from = tcp + up * (c.from_mm - margin);
+        let len = c.to_mm - c.from_mm + 2.0 * margin;
+        let r = c.radius_mm + margin;
+        // The cylinder's bounding box, axis by axis: the ends, widened by r·sin of the
+        // angle between the axis and that coordinate axis.
+        let to = from + up * len;
+        let bound = |d: usize| {
+            let w = r * (1.0 - up[d] * up[d]).max(0.0).sqrt();
+            (from[d].min(to[d]) - w, from[d].max(to[d]) + w)
+        };
+        if bound(2).0 < -TOUCH_MM {
+            return Some(format!("the plate (the torch's {name})"));
+        }
+        let range = |d: usize| {
+            let (lo, hi) = bound(d);
+            let (o, p) = (part.origin_mm[d], part.block_mm[d]);
+            (((lo - o) / p).floor() as i64, ((hi - o) / p).floor() as i64)
+        };
+        let (rx, ry, rz) = (range(0), range(1), range(2));
+        if built.top.is_none_or(|top| rz.0 > top) {
+            continue; // above everything built (a transit at safe height)
+        }
+        // Few blocks stand near a torch at safe height: look them up only when the box
+        // holds fewer cells than there are blocks.
+        let cells = [rx, ry, rz]
+            .iter()
+            .map(|&(lo, hi)| (hi - lo + 1).max(0) as u128)
+            .product::<u128>();
+        let candidates: Vec<Block> = if cells <= built.blocks.len() as u128 {
+            let mut v = Vec::new();
+            for x in rx.0..=rx.1 {
+                for y in ry.0..=ry.1 {
+                    for z in rz.0..=rz.1 {
+                        if built.blocks.contains(&[x, y, z]) {
+                            v.push([x, y, z]);
+                        }
+                    }
+                }
+            }
+            v
+        } else {
+            let inside = |b: &Block| {
+                (rx.0..=rx.1).contains(&b[0])
+                    && (ry.0..=ry.1).contains(&b[1])
+                    && (rz.0..=rz.1).contains(&b[2])
+            };
+            built.blocks.iter().copied().filter(inside).collect()
+        };
+        for block in candidates {
+            let centre = part.centre_mm(block);
+            let lo: [f64; 3] = std::array::from_fn(|d| centre[d] - 0.5 * part.block_mm[d]);
+            let hi: [f64; 3] = std::array::from_fn(|d| centre[d] + 0.5 * part.block_mm[d]);
+            if cylinder_meets_box(&from, &up, len, r - TOUCH_MM, lo, hi) {
+                return Some(format!(
+                    "block {} (the torch's {name})",
+                    BlockDisplay(block)
+                ));
+            }
+        }
+    }
+    None
+}
+
+/// Whether the solid cylinder from `base` along the unit `axis` for `len`, of radius `r`,
+/// overlaps the box `lo`–`hi`. Exact: the box cut to the slab between the cylinder's end
+/// planes is a convex polytope (its corners: the box's corners inside the slab and its
+/// edges' crossings of the two planes); it meets the cylinder exactly when its shadow on
+/// the plane across the axis comes within `r` of the axis.
+pub fn cylinder_meets_box(
+    base: &Point3<f64>,
+    axis: &Vector3<f64>,
+    len: f64,
+    r: f64,
+    lo: [f64; 3],
+    hi: [f64; 3],
+) -> bool {
+    // A frame across the axis.
+    let helper = if axis.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
+    let u = axis.cross(&helper).normalize();
+    let v = axis.cross(&u);
+    let corner = |i: usize| -> Vector3<f64> {
+        let p = Vector3::new(
+            if i & 1 == 0 { lo[0] } else { hi[0] },
+            if i & 2 == 0 { lo[1] } else { hi[1] },
+            if i & 4 == 0 { lo[2] } else { hi[2] },
+        ) - base.coords;
+        Vector3::new(p.dot(&u), p.dot(&v), p.dot(axis))
+    };
+    let corners: Vec<Vector3<f64>> = (0..8).map(corner).collect();
+    let mut shadow: Vec<[f64; 2]> = Vec::new();
+    for c in &corners {
+        if (0.0..=len).contains(&c.z) {
+            shadow.push([c.x, c.y]);
+        }
+    }
+    // The box's 12 edges join corners that differ in one bit.
+    for i in 0..8 {
+        for bit in [1, 2, 4] {
+            let j = i | bit;
+            if j == i {
+                continue;
+            }
+            let (p, q) = (corners[i], corners[j]);
+            for plane in [0.0, len] {
+                if (p.z - plane) * (q.z - plane) < 0.0 {
+                    let t = (plane - p.z) / (q.z - p.z);
+                    let x = p + (q - p) * t;
+                    shadow.push([x.x, x.y]);
+                }
+            }
+        }
+    }
+    if shadow.is_empty() {
+        return false;
+    }
+    distance_to_hull(&shadow) < r
+}
+
+/// Distance from the origin to the convex hull of `points` (0 inside it).
+fn distance_to_hull(points: &[[f64; 2]]) -> f64 {
+    let mut pts = points.to_vec();
+    pts.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+    pts.dedup();
+    let cross = |o: [f64; 2], a: [f64; 2], b: [f64; 2]| {
+        (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+    };
+    // Andrew's monotone chain, counter-clockwise.
+    let mut hull: Vec<[f64; 2]> = Vec::new();
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &[f64; 2]>> = if pass == 0 {
+            Box::new(pts.iter())
+        } else {
+            Box::new(pts.iter().rev())
+        };
+        for &p in iter {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(p);
+        }
+        hull.pop();
+    }
+    if hull.is_empty() {
+        hull.push(pts[0]);
+    }
+    let seg = |a: [f64; 2], b: [f64; 2]| {
+        let d = [b[0] - a[0], b[1] - a[1]];
+        let l2 = d[0] * d[0] + d[1] * d[1];
+        let t = if l2 > 0.0 {
+            (-(a[0] * d[0] + a[1] * d[1]) / l2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (a[0] + t * d[0]).hypot(a[1] + t * d[1])
+    };
+    let n = hull.len();
+    if n >= 3 && (0..n).all(|i| cross(hull[i], hull[(i + 1) % n], [0.0, 0.0]) >= 0.0) {
+        return 0.0;
+    }
+    (0..n)
+        .map(|i| seg(hull[i], hull[(i + 1) % n]))
+        .fold(f64::INFINITY, f64::min)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_cylinder_meets_a_box_exactly_when_it_overlaps_it() {
+        let (lo, hi) = ([0.0; 3], [1.0; 3]);
+        let up = Vector3::z();
+        let p = Point3::new;
+        // Beside the box: clear until the radius reaches its face.
+        assert!(!cylinder_meets_box(
+            &p(2.0, 0.5, 0.0),
+            &up,
+            1.0,
+            0.99,
+            lo,
+            hi
+        ));
+        assert!(cylinder_meets_box(
+            &p(2.0, 0.5, 0.0),
+            &up,
+            1.0,
+            1.01,
+            lo,
+            hi
+        ));
+        // Above the box: the flat end does not reach down, however wide.
+        assert!(!cylinder_meets_box(
+            &p(0.5, 0.5, 1.01),
+            &up,
+            5.0,
+            50.0,
+            lo,
+            hi
+        ));
+        assert!(cylinder_meets_box(
+            &p(0.5, 0.5, 0.99),
+            &up,
+            5.0,
+            0.1,
+            lo,
+            hi
+        ));
+        // Off a corner, diagonally: the corner is at √2·0.5 from the axis through (1.5, 1.5).
+        assert!(!cylinder_meets_box(
+            &p(1.5, 1.5, 0.0),
+            &up,
+            1.0,
+            0.70,
+            lo,
+            hi
+        ));
+        assert!(cylinder_meets_box(
+            &p(1.5, 1.5, 0.0),
+            &up,
+            1.0,
+            0.72,
+            lo,
+            hi
+        ));
+        // Tilted 45° past the box's top edge (x = 1, z = 1), the axis 0.1 from it.
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let d = Vector3::new(h, 0.0, -h);
+        let base = p(1.0 + 0.1 * h - 2.0 * h, 0.5, 1.0 + 0.1 * h + 2.0 * h);
+        assert!(!cylinder_meets_box(&base, &d, 10.0, 0.05, lo, hi));
+        assert!(cylinder_meets_box(&base, &d, 10.0, 0.2, lo, hi));
+        // A box wholly inside a wide cylinder.
+        assert!(cylinder_meets_box(
+            &p(0.5, 0.5, -1.0),
+            &up,
+            3.0,
+            10.0,
+            lo,
+            hi
+        ));
+    }
 
     #[test]
     fn the_slab_test_sees_crossings_and_not_touches() {

@@ -71,7 +71,13 @@ pub fn plan_motion_timed(
             }
             e
         })?;
-    clearance::check_moves(part, fragments, &tp, &settings.plate.isometry())?;
+    clearance::check_moves(
+        part,
+        fragments,
+        &tp,
+        &settings.plate.isometry(),
+        settings.torch.as_ref(),
+    )?;
     Ok((tp, traj))
 }
 

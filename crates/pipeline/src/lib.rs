@@ -16,15 +16,18 @@
 use nalgebra::Isometry3;
 use thiserror::Error;
 
+use std::sync::Arc;
+
+use waam_access::{Obstacle, TorchAccess};
 use waam_mesh::{voxelize_indexed, Units, VoxelizeOptions, WindowRule};
 use waam_motion::robot::Robot;
 use waam_motion::toolpath::{ProcessSettings, Toolpath};
-use waam_motion::trajectory::JointTrajectory;
+use waam_motion::trajectory::{JointTrajectory, TrajectoryError};
 use waam_motion::{plan_motion_timed, weld_speed, MotionError};
 use waam_part::graph::WeldGraph;
 use waam_part::plan::{Invalid, Plan};
 use waam_part::{BlockDisplay, Part, PartError, Window};
-use waam_planner::Stats;
+use waam_planner::{ExecutedCheck, Rejection, Stats};
 use waam_thermal::{self as thermal, ThermalModel, Timeline};
 
 /// The robot the project ships (`urdf/waam_robot.urdf`), used when none is named.
@@ -56,6 +59,16 @@ pub enum PipelineError {
     Timeline(#[from] thermal::SimulateError),
     #[error("no robot motion for the plan: {0}")]
     Motion(#[from] MotionError),
+    #[error("the torch cannot weld this plan: it cannot reach block {block} (deposit {deposit} of {total}): {obstacle} stands in its way ({torch}); `--no-torch` or `torch: null` in the process settings turns the torch off")]
+    TorchBlocked {
+        block: BlockDisplay,
+        /// Its position in the weld order, from 1.
+        deposit: usize,
+        total: usize,
+        /// "block [x,y,z], deposited before it," or "the plate".
+        obstacle: String,
+        torch: String,
+    },
 }
 
 /// A part as it arrives: a part document, or a triangle mesh in metres.
@@ -150,6 +163,39 @@ pub fn check_plan(part: &Part, fragments: &[Vec<usize>]) -> Result<(), PipelineE
     }
 }
 
+/// Checks that the torch of `settings` (none: nothing to check) reaches every block of the
+/// plan past the blocks deposited before it and the plate: the planner's own check, for
+/// plans that enter from outside (`waam motion`, `waam publish --plan`) as much as for its
+/// own.
+pub fn check_torch(
+    part: &Part,
+    fragments: &[Vec<usize>],
+    settings: &ProcessSettings,
+) -> Result<(), PipelineError> {
+    let Some(setup) = settings.torch_setup() else {
+        return Ok(());
+    };
+    let access = TorchAccess::new(part, &setup);
+    match access.first_blocked(fragments.iter().flatten().copied()) {
+        None => Ok(()),
+        Some(b) => Err(PipelineError::TorchBlocked {
+            block: BlockDisplay(part.block(b.block)),
+            deposit: b.position + 1,
+            total: part.len(),
+            obstacle: match b.obstacle {
+                Obstacle::Plate => "the plate".into(),
+                Obstacle::Block(o) => {
+                    format!(
+                        "block {}, deposited before it,",
+                        BlockDisplay(part.block(o))
+                    )
+                }
+            },
+            torch: setup.describe(),
+        }),
+    }
+}
+
 /// The thermal model's time line of a plan as arc-on times, s after the first weld path's:
 /// the schedule the robot is timed to.
 pub fn modelled_arc_on_s(part: &Part, fragments: &[Vec<usize>]) -> Vec<f64> {
@@ -170,13 +216,8 @@ pub fn check_executed(
     fragments: &[Vec<usize>],
     toolpath: &Toolpath,
 ) -> Result<Timeline, PipelineError> {
-    let graph = WeldGraph::new(part);
-    let model = ThermalModel::new(part, &graph);
-    let times = toolpath.executed_times();
-    let timeline = Timeline::from_seconds(&times.deposits_s, &times.arc_off_s, model.dt)
-        .map_err(thermal::SimulateError::from)?;
-    let outcome = thermal::simulate_on(&model, fragments, &timeline)?;
-    match outcome.violation {
+    let (timeline, violation) = simulate_executed(part, fragments, toolpath)?;
+    match violation {
         Some(v) => Err(PipelineError::InfeasibleExecuted {
             block: BlockDisplay(part.block(v.block)),
             kind: match v.kind {
@@ -190,6 +231,36 @@ pub fn check_executed(
         }),
         None => Ok(timeline),
     }
+}
+
+/// The executed time line of a plan's toolpath and the first violation on it.
+fn simulate_executed(
+    part: &Part,
+    fragments: &[Vec<usize>],
+    toolpath: &Toolpath,
+) -> Result<(Timeline, Option<thermal::Violation>), PipelineError> {
+    let graph = WeldGraph::new(part);
+    let model = ThermalModel::new(part, &graph);
+    let times = toolpath.executed_times();
+    let timeline = Timeline::from_seconds(&times.deposits_s, &times.arc_off_s, model.dt)
+        .map_err(thermal::SimulateError::from)?;
+    let outcome = thermal::simulate_on(&model, fragments, &timeline)?;
+    Ok((timeline, outcome.violation))
+}
+
+/// The first `n` deposits of a plan, as fragments.
+fn first_deposits(fragments: &[Vec<usize>], n: usize) -> Vec<Vec<usize>> {
+    let mut left = n;
+    let mut out = Vec::new();
+    for f in fragments {
+        if left == 0 {
+            break;
+        }
+        let take = left.min(f.len());
+        out.push(f[..take].to_vec());
+        left -= take;
+    }
+    out
 }
 
 /// A plan the planner found, before its check.
@@ -230,8 +301,9 @@ pub struct Cell {
 }
 
 impl Cell {
-    /// Checks `found` ([`check_plan`]), plans its motion timed to the thermal model and
-    /// checks the plan again on the motion's executed time line ([`check_executed`]).
+    /// Checks `found` ([`check_plan`], [`check_torch`]), plans its motion timed to the
+    /// thermal model and checks the plan again on the motion's executed time line
+    /// ([`check_executed`]).
     pub fn motion(&self, part: Part, found: Found) -> Result<Planned, PipelineError> {
         check_plan(&part, &found.fragments)?;
         let (toolpath, trajectory) = self.plan_motion(&part, &found.fragments)?;
@@ -248,20 +320,126 @@ impl Cell {
         })
     }
 
+    /// The planner's check of a candidate on this cell's robot ([`Cell::rejection`]), for
+    /// [`waam_planner::Options::executed`].
+    pub fn executed_check(&self, part: &Part) -> ExecutedCheck {
+        let (cell, part) = (self.clone(), part.clone());
+        ExecutedCheck(Arc::new(move |fragments: &[Vec<usize>]| {
+            cell.rejection(&part, fragments)
+        }))
+    }
+
+    /// Why the robot cannot weld a candidate on the thermal model's time line, as the plans
+    /// that fail the same way; `None` when it can (or fails otherwise: [`Cell::motion`]
+    /// reports that). Two failures are learned:
+    /// - *A transit the robot cannot make in `transit_time_s`* from weld path f to f + 1:
+    ///   the plans that begin with the same weld paths up to f and the same first two
+    ///   blocks of f + 1 (its only block, closed, when it has one). Those fix every pose of
+    ///   the transit: the retract at f's end (its heading), the safe height (the tallest
+    ///   block so far), the approach at f + 1's start (its heading, from its first two
+    ///   blocks). The joint path is the motion stage's choice of arm configuration for the
+    ///   whole toolpath; on an arm that keeps one configuration throughout it is the same
+    ///   for every such plan.
+    /// - *A window broken on the executed time line* (the dwells shift the deposits): the
+    ///   plans that begin with the same weld paths, closed, up to the one that deposited the
+    ///   last block before the violation. The robot is timed to the model, so the executed
+    ///   time line up to the next weld path's arc-on depends on those weld paths only, not
+    ///   on the arm.
+    ///
+    /// And, when the cell's torch is not the planner's (or reaches where the planner's check
+    /// does not look), the torch's failures, which depend on the toolpath's poses only:
+    /// - *a block the torch cannot reach*: the plans that deposit the same blocks in the
+    ///   same order up to it (the access check depends on what stands before it);
+    /// - *a move with the arc off the torch cannot make*: into weld path f, the plans with
+    ///   the same weld paths before f and the same first two blocks of f (as for a
+    ///   transit); a retract from f (or the last move), the same weld paths up to f, closed.
+    pub fn rejection(&self, part: &Part, fragments: &[Vec<usize>]) -> Option<Rejection> {
+        let toolpath = match self.plan_motion(part, fragments) {
+            Ok((toolpath, _)) => toolpath,
+            Err(
+                e @ PipelineError::Motion(MotionError::Trajectory(
+                    TrajectoryError::TransitTooLong { fragment, .. },
+                )),
+            ) => {
+                // `fragment` counts from 1: the transit leaves fragments[fragment - 1].
+                let next = fragments.get(fragment)?;
+                let mut prefix = fragments[..fragment].to_vec();
+                prefix.push(next[..next.len().min(2)].to_vec());
+                return Some(Rejection {
+                    prefix,
+                    closed: next.len() == 1,
+                    reason: e.to_string(),
+                });
+            }
+            Err(e @ PipelineError::TorchBlocked { deposit, .. }) => {
+                return Some(Rejection {
+                    prefix: first_deposits(fragments, deposit),
+                    closed: false,
+                    reason: e.to_string(),
+                });
+            }
+            Err(e @ PipelineError::Motion(MotionError::Collision(_))) => {
+                let PipelineError::Motion(MotionError::Collision(c)) = &e else {
+                    unreachable!("matched above")
+                };
+                let f = c.fragment.min(fragments.len() - 1);
+                let (prefix, closed) = if c.what == "retract" || f + 1 == fragments.len() {
+                    (fragments[..=f].to_vec(), true)
+                } else {
+                    let mut prefix = fragments[..f].to_vec();
+                    prefix.push(fragments[f][..fragments[f].len().min(2)].to_vec());
+                    (prefix, fragments[f].len() == 1)
+                };
+                return Some(Rejection {
+                    prefix,
+                    closed,
+                    reason: e.to_string(),
+                });
+            }
+            Err(_) => return None,
+        };
+        let (_, violation) = simulate_executed(part, fragments, &toolpath).ok()?;
+        let v = violation?;
+        // The weld path of the last block deposited before the violation.
+        let mut left = v.prefix_len.max(1);
+        let upto = fragments
+            .iter()
+            .position(|f| {
+                if left <= f.len() {
+                    return true;
+                }
+                left -= f.len();
+                false
+            })
+            .unwrap_or(fragments.len() - 1);
+        Some(Rejection {
+            prefix: fragments[..=upto].to_vec(),
+            closed: true,
+            reason: format!(
+                "the plan breaks the t8/5 window of block {} on the robot's executed time line \
+                 (at {:.2} s)",
+                BlockDisplay(part.block(v.block)),
+                v.time_s
+            ),
+        })
+    }
+
     /// The toolpath and validated joint trajectory of fragments whose plan rules the caller
-    /// has checked (`waam motion` of a given plan), timed to the thermal model's time line.
+    /// has checked (`waam motion` of a given plan), timed to the thermal model's time line;
+    /// refused when the settings' torch cannot reach a block ([`check_torch`]).
     pub fn plan_motion(
         &self,
         part: &Part,
         fragments: &[Vec<usize>],
-    ) -> Result<(Toolpath, JointTrajectory), MotionError> {
+    ) -> Result<(Toolpath, JointTrajectory), PipelineError> {
+        check_torch(part, fragments, &self.settings)?;
         let schedule = modelled_arc_on_s(part, fragments);
-        plan_motion_timed(
+        Ok(plan_motion_timed(
             part,
             fragments,
             &self.settings,
             &self.robot,
             Some(&schedule),
-        )
+        )?)
     }
 }

@@ -61,6 +61,37 @@ pub struct Options {
     /// Start from a plan built layer by layer ([`constructive`]): judged first, and the
     /// solver's phases point at it. Plans and proofs are the same with or without it.
     pub warm_start: bool,
+    /// Judge every candidate that keeps its windows (and the torch) once more, on the time
+    /// line a robot would weld it on (None: no robot, as the shared specs and their counts
+    /// assume). A rejection is learned like a violation.
+    pub executed: Option<ExecutedCheck>,
+}
+
+/// Why a candidate fails when a robot welds it (its transit cannot be made in the
+/// modelled time, or a window breaks on the executed time line), as the plans to rule
+/// out with it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rejection {
+    /// Every plan that begins with these fragments (block indices) fails the same way:
+    /// the last fragment ends there when `closed`, else it may go on.
+    pub prefix: Vec<Vec<usize>>,
+    pub closed: bool,
+    /// One line on what failed.
+    pub reason: String,
+}
+
+/// A candidate's fragments in, its [`Rejection`] out (`None`: the candidate passes, or fails
+/// for a reason the caller reports itself).
+pub type JudgeExecuted = dyn Fn(&[Vec<usize>]) -> Option<Rejection> + Send + Sync;
+
+/// The check behind [`Options::executed`].
+#[derive(Clone)]
+pub struct ExecutedCheck(pub Arc<JudgeExecuted>);
+
+impl std::fmt::Debug for ExecutedCheck {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ExecutedCheck(..)")
+    }
 }
 
 impl Default for Options {
@@ -74,6 +105,7 @@ impl Default for Options {
             solver: Backend::default(),
             torch: None,
             warm_start: true,
+            executed: None,
         }
     }
 }
@@ -90,6 +122,8 @@ pub struct Stats {
     pub feasible: u64,
     /// Candidates with a deposit the torch cannot reach (0 without a torch).
     pub torch_blocked: u64,
+    /// Candidates rejected on the robot's executed time line (0 without a robot).
+    pub executed_rejected: u64,
     pub sat_solves: u64,
     pub cycle_cuts: u64,
     pub first_feasible_s: Option<f64>,
@@ -139,6 +173,15 @@ pub enum CandidateVerdict {
         /// The deposited block in the torch's way (None: the plate).
         obstacle: Option<Block>,
         /// Blocks deposited up to and including the blocked one.
+        prefix_len: usize,
+        /// Literals in the clause learned from it.
+        clause_len: usize,
+    },
+    /// It keeps its windows on the thermal model's time line, but not when the robot welds
+    /// it ([`Options::executed`]): a transit too slow, or a window broken on the executed
+    /// time line.
+    ExecutedRejected {
+        /// Blocks in the prefix ruled out.
         prefix_len: usize,
         /// Literals in the clause learned from it.
         clause_len: usize,
@@ -196,6 +239,15 @@ pub enum NoPlan {
         block: Block,
         times: usize,
     },
+    /// Valid plans exist that keep their windows on the thermal model's time line, but
+    /// every one fails when the robot welds it (no candidate broke a window or was
+    /// torch-blocked).
+    RobotTimeline {
+        /// Candidates rejected on the robot's executed time line.
+        times: u64,
+        /// Why the last one was.
+        last: String,
+    },
     /// Valid plans exist, but every one breaks a t8/5 window or has a block the torch
     /// cannot reach.
     WindowsOrTorch {
@@ -241,6 +293,11 @@ impl std::fmt::Display for NoPlan {
                 "torch cannot reach: every valid plan welds a block after something that stands \
                  in the torch's way; most often block [{},{},{}] ({times} of the candidates)",
                 block[0], block[1], block[2]
+            ),
+            NoPlan::RobotTimeline { times, last } => write!(
+                f,
+                "valid plans exist, but the robot cannot weld any on the thermal model's time \
+                 line ({times} candidate(s) rejected); the last: {last}"
             ),
             NoPlan::WindowsOrTorch {
                 window,
@@ -357,6 +414,7 @@ fn new_search<'p>(
         opts.cancel.clone(),
     );
     search.set_torch(opts.torch.map(|t| TorchAccess::new(part, &t)));
+    search.set_executed(opts.executed.clone());
     search
 }
 
@@ -533,6 +591,10 @@ fn search_plans(
             let (block, times) = most(&search.violations);
             let (torch, torch_times) = most(&search.torch_blocked);
             Some(match (times, torch_times) {
+                (0, 0) if search.stats.executed_rejected > 0 => NoPlan::RobotTimeline {
+                    times: search.stats.executed_rejected,
+                    last: search.executed_last.clone().unwrap_or_default(),
+                },
                 (_, 0) => NoPlan::AllBreakWindows { block, times },
                 (0, _) => NoPlan::TorchCannotReach {
                     block: torch,

@@ -22,7 +22,7 @@ use waam_thermal::{self as thermal, Phase, Simulation, Snapshot, ThermalModel, V
 
 use super::encoding::{Acyclicity, Decoded, Encoding};
 use super::sat::{Backend, Lit, SatSolver};
-use super::{CandidateVerdict, Stats};
+use super::{CandidateVerdict, ExecutedCheck, Stats};
 
 /// One SAT instance with its thermal loop.
 pub struct Search<'p> {
@@ -49,6 +49,10 @@ pub struct Search<'p> {
     torch: Option<TorchAccess>,
     /// Torch-blocked deposits per block (to name the one blocked most often).
     pub torch_blocked: Vec<usize>,
+    /// The check on the robot's executed time line (None: no robot).
+    executed: Option<ExecutedCheck>,
+    /// Why the last candidate was rejected on it.
+    pub executed_last: Option<String>,
     /// When simulations stop too (a stopped simulation gives no verdict).
     deadline: Option<Instant>,
     cancel: Option<Arc<AtomicBool>>,
@@ -95,6 +99,8 @@ impl<'p> Search<'p> {
             inside_cuts: 0,
             torch: None,
             torch_blocked: vec![0; n],
+            executed: None,
+            executed_last: None,
             deadline: None,
             cancel: None,
         }
@@ -103,6 +109,12 @@ impl<'p> Search<'p> {
     /// Checks torch access at every deposit of later candidates (None: no torch).
     pub fn set_torch(&mut self, torch: Option<TorchAccess>) {
         self.torch = torch;
+    }
+
+    /// Judges later candidates that keep their windows and the torch once more, on the
+    /// robot's executed time line (None: no robot).
+    pub fn set_executed(&mut self, executed: Option<ExecutedCheck>) {
+        self.executed = executed;
     }
 
     /// Stops solves at `deadline` or on `cancel` (inside a solve where the backend can):
@@ -232,6 +244,19 @@ impl<'p> Search<'p> {
                 Ok(None)
             }
             (Judged::Feasible, None) => {
+                // The robot's word last: it is the slowest judge (a whole motion plan).
+                let rejection = self.executed.as_ref().and_then(|c| (c.0)(fragments));
+                if let Some(r) = rejection {
+                    self.stats.executed_rejected += 1;
+                    tracing::info!("candidate rejected on the robot's time line: {}", r.reason);
+                    let prefix_len = r.prefix.iter().map(Vec::len).sum();
+                    let clause_len = self.learn_clause(&r.prefix, r.closed);
+                    self.executed_last = Some(r.reason);
+                    return Ok(Some(CandidateVerdict::ExecutedRejected {
+                        prefix_len,
+                        clause_len,
+                    }));
+                }
                 self.stats.feasible += 1;
                 Ok(Some(CandidateVerdict::Feasible))
             }

@@ -276,6 +276,11 @@ impl CandidateRecorder {
                 prefix_len,
                 clause_len,
             ),
+            // Rejected on the robot's executed time line: no one block to name.
+            CandidateVerdict::ExecutedRejected {
+                prefix_len,
+                clause_len,
+            } => (PlanCandidate::VIOLATED, None, 0.0, prefix_len, clause_len),
         };
         candidate.verdict = verdict;
         if let Some(block) = block {
@@ -287,9 +292,9 @@ impl CandidateRecorder {
                 }
             };
             candidate.time_s = time_s;
-            candidate.prefix_len = u32::try_from(prefix_len).unwrap_or(u32::MAX);
-            candidate.learned_clause_len = u32::try_from(clause_len).unwrap_or(u32::MAX);
         }
+        candidate.prefix_len = u32::try_from(prefix_len).unwrap_or(u32::MAX);
+        candidate.learned_clause_len = u32::try_from(clause_len).unwrap_or(u32::MAX);
         if let Err(e) = self
             .recorder
             .record(topics::CANDIDATES, &Qos::reliable(100), &candidate)
@@ -441,6 +446,7 @@ mod tests {
                 5.0,
             )),
             warm_start: false,
+            executed: None,
         };
         let values: Vec<(String, String)> = settings(&opts)
             .into_iter()

@@ -178,7 +178,7 @@ fn pose_bound(passes: &[WeldPass], s: &ProcessSettings) -> (f64, (f64, &'static 
         }
     }
     let diagonal = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum::<f64>().sqrt();
-    let travel = diagonal + s.clearance_mm + 2.0 * s.approach_mm;
+    let travel = diagonal + s.transit_height_mm() + 2.0 * s.approach_mm;
     if travel > longest.0 {
         longest = (travel, "a transit across the part");
     }
@@ -390,7 +390,7 @@ pub fn build(
             })
             .collect();
         let approach = back_off(&ways[0]);
-        let mut safe = (tallest + s.clearance_mm).max(approach.p.z);
+        let mut safe = (tallest + s.transit_height_mm()).max(approach.p.z);
         match b.at {
             None => {
                 let start = Way {
@@ -473,7 +473,7 @@ pub fn build(
     // Leave the part: up to safe height above the last retract.
     let at = b.at.expect("poses were emitted");
     let f = passes.len() - 1;
-    let safe = (tallest + s.clearance_mm).max(at.p.z);
+    let safe = (tallest + s.transit_height_mm()).max(at.p.z);
     b.travel(
         Way {
             p: Point3::new(at.p.x, at.p.y, safe),

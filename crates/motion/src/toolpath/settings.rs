@@ -125,6 +125,17 @@ impl ProcessSettings {
             .map(|t| TorchSetup::new(t, self.travel_angle_deg, self.work_angle_deg))
     }
 
+    /// How far above the tallest block welded so far the TCP moves on a transit, mm:
+    /// `clearance_mm`, plus however far the torch (turned into any heading) reaches below
+    /// the TCP, so that the whole torch, not only the TCP, keeps `clearance_mm`; plus the
+    /// margin the move check keeps around the torch ([`crate::clearance::SAMPLE_MM`]).
+    pub fn transit_height_mm(&self) -> f64 {
+        match self.torch_setup() {
+            Some(t) => self.clearance_mm + (-t.lowest_mm()).max(0.0) + crate::clearance::SAMPLE_MM,
+            None => self.clearance_mm,
+        }
+    }
+
     /// Reads a settings file's text; missing keys take their defaults.
     pub fn from_yaml(text: &str) -> Result<ProcessSettings, SettingsError> {
         let s: ProcessSettings = if text.trim().is_empty() {

@@ -137,6 +137,8 @@ pub struct PlanRequest<'a> {
     pub recorder: Option<&'a Recorder>,
     /// The torch whose access the planner checks (the process settings'), if any.
     pub torch: Option<waam_access::TorchSetup>,
+    /// The check of every candidate on the cell's robot (its executed time line).
+    pub executed: Option<waam_planner::ExecutedCheck>,
 }
 
 /// The planner a pipeline calls. `Err` says why there is no plan.
@@ -246,6 +248,7 @@ impl Pipeline for PlanningPipeline {
             ctx,
             recorder: self.recorder.as_ref(),
             torch: self.cell.settings.torch_setup(),
+            executed: Some(self.cell.executed_check(&part)),
         })?;
         if cancelled() {
             return Err(JobError::Cancelled);
@@ -272,6 +275,7 @@ pub fn sat_planner() -> Arc<PlanFn> {
             // the worker then drops it. The first feasible plan stops it too when asked.
             cancel: Some(ctx.cancel.flag()),
             torch: request.torch,
+            executed: request.executed.clone(),
             ..waam_planner::Options::default()
         };
         let mut candidates = request.recorder.map(CandidateRecorder::new);
