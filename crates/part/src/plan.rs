@@ -99,7 +99,7 @@ impl Plan {
         if json || text.trim_start().starts_with('{') {
             serde_json::from_str(text).map_err(|e| PlanReadError::Json(e.to_string()))
         } else {
-            crate::yaml::check_depth(text).map_err(|e| PlanReadError::Yaml(e.to_string()))?;
+            crate::yaml::check(text).map_err(|e| PlanReadError::Yaml(e.to_string()))?;
             serde_yaml::from_str(text).map_err(|e| PlanReadError::Yaml(e.to_string()))
         }
     }
