@@ -437,6 +437,7 @@ mod tests {
                 5.0,
             )),
             warm_start: false,
+            max_memory_mb: waam_planner::DEFAULT_MAX_MEMORY_MB,
         };
         let values: Vec<(String, String)> = settings(&opts)
             .into_iter()
