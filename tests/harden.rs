@@ -353,3 +353,81 @@ fn the_node_parameter_max_memory_mb_is_read_and_checked() {
         waam_planner::DEFAULT_MAX_MEMORY_MB as i64
     );
 }
+
+/// A square grid layer of `cells` x `cells` cells (7 mm pitch, 2 mm walls), with the
+/// parameters of config/layers/paper-16mm.yaml: 2 c (c + 1) segments.
+fn grid_layer(cells: usize) -> String {
+    let id = |i: usize, j: usize| format!("n{i}_{j}");
+    let mut text = format!("name: grid{cells}\nwall_width_mm: 2.0\nnodes:\n");
+    for j in 0..=cells {
+        for i in 0..=cells {
+            let (x, y) = (1.0 + 7.0 * i as f64, 1.0 + 7.0 * j as f64);
+            text.push_str(&format!("  - {{id: {}, x: {x}, y: {y}}}\n", id(i, j)));
+        }
+    }
+    text.push_str("segments:\n");
+    for j in 0..=cells {
+        for i in 0..cells {
+            text.push_str(&format!("  - [{}, {}]\n", id(i, j), id(i + 1, j)));
+            text.push_str(&format!("  - [{}, {}]\n", id(j, i), id(j, i + 1)));
+        }
+    }
+    text.push_str(
+        "process:\n  weld_speed_mm_s: 10.0\n  time_step_s: 0.1\n  transit_speed_mm_s: 50.0\n  \
+         mesh_refinement: 0\nmaterial:\n  diffusivity_mm2_s: 5.0\n  robin_mm_s: 0.5\n\
+         temperatures:\n  ambient_c: 20.0\n  initial_c: 20.0\n  target_c: 400.0\n\
+         source:\n  peak_k_s: 8000.0\n  radii_mm: [1.0, 2.0]\n  weights: [1.0, 0.4]\n",
+    );
+    text
+}
+
+/// Issue #18: a 1,000-segment layer took 2.7 GB and gave no result in 60 s. Its search
+/// (20,000 mesh nodes x 8,900 time steps) is now estimated before it starts and refused
+/// by the limit, naming it.
+#[test]
+fn a_1000_segment_layer_is_refused_by_the_memory_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = grid_layer(22);
+    assert_eq!(
+        waam_layer::Layer::parse(&text).unwrap().segments.len(),
+        1012
+    );
+    std::fs::write(dir.path().join("grid22.yaml"), text).unwrap();
+    let run = measured(
+        dir.path(),
+        &["layer", "plan", "grid22.yaml", "--time-limit", "5"],
+        Duration::from_secs(60),
+    );
+    assert_eq!(run.code, Some(2), "{}", run.describe());
+    let line = run.stderr.lines().last().unwrap_or_default();
+    assert!(
+        line.contains("layer grid22") && line.contains("more than max_memory_mb = 1024"),
+        "{}",
+        run.describe()
+    );
+    assert!(run.wall < Duration::from_secs(15), "{}", run.describe());
+    assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
+}
+
+/// Issue #18: `--time-limit` acted only once a first trail was known; on a 420-segment
+/// layer (within the memory limit) the first trail takes minutes, and the limit now ends
+/// the search without one: exit 1, saying so.
+#[test]
+fn the_layer_time_limit_acts_before_the_first_trail() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("grid14.yaml"), grid_layer(14)).unwrap();
+    let run = measured(
+        dir.path(),
+        &["layer", "plan", "grid14.yaml", "--time-limit", "2"],
+        Duration::from_secs(120),
+    );
+    assert_eq!(run.code, Some(1), "{}", run.describe());
+    assert!(
+        run.stderr
+            .contains("layer grid14: no trail found within --time-limit 2 s"),
+        "{}",
+        run.describe()
+    );
+    assert!(run.wall < Duration::from_secs(5), "{}", run.describe());
+    assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
+}
