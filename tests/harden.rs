@@ -431,3 +431,159 @@ fn the_layer_time_limit_acts_before_the_first_trail() {
     assert!(run.wall < Duration::from_secs(5), "{}", run.describe());
     assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
 }
+
+/// Issue #18: plan files with unknown keys were accepted; now `check` refuses them, naming
+/// the key (exit 2), in YAML and JSON.
+#[test]
+fn a_plan_file_with_an_unknown_key_is_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let part = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("config/parts/s1-wall.yaml");
+    for (name, text) in [
+        (
+            "plan.yaml",
+            "part: s1-wall\nfragments:\n  - [[0,0,0], [1,0,0]]\nfragmnets: []\n",
+        ),
+        (
+            "plan.json",
+            r#"{"part": "s1-wall", "fragments": [[[0,0,0]]], "margin": 1.0}"#,
+        ),
+    ] {
+        std::fs::write(dir.path().join(name), text).unwrap();
+        let run = measured(
+            dir.path(),
+            &["check", part.to_str().unwrap(), name],
+            Duration::from_secs(30),
+        );
+        assert_eq!(run.code, Some(2), "{}", run.describe());
+        let line = one_line(&run);
+        assert!(line.contains("unknown field"), "{line}");
+        assert!(
+            line.contains("fragmnets") || line.contains("margin"),
+            "{line}"
+        );
+    }
+}
+
+/// A recording of one part that the planner cannot finish: ex3 with a transit of 10^8
+/// Euler steps (`waam plan --timeout 1 --record`; replay plans without that timeout).
+fn endless_recording(dir: &Path) -> PathBuf {
+    let bag = dir.join("rec");
+    let part = data("ex3-long-transit.yaml");
+    let run = measured(
+        dir,
+        &[
+            "plan",
+            part.to_str().unwrap(),
+            "--timeout",
+            "1",
+            "-q",
+            "--record",
+            bag.to_str().unwrap(),
+        ],
+        Duration::from_secs(60),
+    );
+    assert_eq!(run.code, Some(1), "{}", run.describe());
+    bag
+}
+
+/// Issue #18: `waam replay` had no time limit; `--timeout` now stops it, saying how many
+/// parts were not compared (exit 1).
+#[test]
+fn replay_stops_at_its_timeout() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = endless_recording(dir.path());
+    let run = measured(
+        dir.path(),
+        &["replay", bag.to_str().unwrap(), "--timeout", "2"],
+        Duration::from_secs(60),
+    );
+    assert_eq!(run.code, Some(1), "{}", run.describe());
+    assert!(
+        run.stderr
+            .contains("replay stopped by --timeout: 1 of 1 part(s) not compared"),
+        "{}",
+        run.describe()
+    );
+    assert!(run.wall < Duration::from_secs(4), "{}", run.describe());
+    assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
+}
+
+/// Issue #18: Ctrl-C stops `waam replay` within a second (exit 130).
+#[test]
+fn replay_stops_on_ctrl_c_within_a_second() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = endless_recording(dir.path());
+    let mut child = Command::new(env!("CARGO_BIN_EXE_waam"))
+        .args(["replay", bag.to_str().unwrap()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    assert!(
+        child.try_wait().unwrap().is_none(),
+        "replay ended by itself"
+    );
+    // SAFETY: kill on our own child's pid.
+    unsafe {
+        libc::kill(child.id() as libc::pid_t, libc::SIGINT);
+    }
+    let sent = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if sent.elapsed() > Duration::from_secs(10) {
+            child.kill().unwrap();
+            panic!("replay still runs 10 s after Ctrl-C");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let stopped_after = sent.elapsed();
+    let mut stderr = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut stderr)
+        .unwrap();
+    assert_eq!(status.code(), Some(130), "{stderr}");
+    assert!(stderr.contains("replay stopped by Ctrl-C"), "{stderr}");
+    assert!(stopped_after < Duration::from_secs(1), "{stopped_after:?}");
+}
+
+/// Issue #18: `relative_file_paths` naming a FIFO blocked `bag info` and `replay` for
+/// ever; both refuse it at once (C3 refuses it in the reader; this checks the commands).
+#[test]
+fn a_fifo_in_the_metadata_blocks_neither_bag_info_nor_replay() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = endless_recording(dir.path());
+    let metadata = std::fs::read_to_string(bag.join("metadata.yaml")).unwrap();
+    assert!(metadata.contains("- rec_0.mcap"), "{metadata}");
+    let fifo = bag.join("fifo.mcap");
+    let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+    // SAFETY: mkfifo with a valid NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+    std::fs::write(
+        bag.join("metadata.yaml"),
+        metadata.replace("- rec_0.mcap", "- fifo.mcap"),
+    )
+    .unwrap();
+    for args in [
+        vec!["bag", "info", bag.to_str().unwrap()],
+        vec!["replay", bag.to_str().unwrap()],
+    ] {
+        let run = measured(dir.path(), &args, Duration::from_secs(20));
+        assert_eq!(run.code, Some(2), "{args:?}: {}", run.describe());
+        assert!(
+            run.stderr.contains("not a regular file"),
+            "{args:?}: {}",
+            run.describe()
+        );
+        assert!(
+            run.wall < Duration::from_secs(2),
+            "{args:?}: {}",
+            run.describe()
+        );
+    }
+}

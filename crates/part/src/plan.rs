@@ -11,8 +11,10 @@ use thiserror::Error;
 use crate::graph::WeldGraph;
 use crate::{Block, BlockDisplay, Part};
 
-/// A plan as read from (or written to) a file: fragments of block coordinates.
+/// A plan as read from (or written to) a file: fragments of block coordinates. A key the
+/// format does not have (a misspelt `fragment:`) is an error, not silently ignored.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Plan {
     /// The name of the part the plan is for.
     #[serde(default, skip_serializing_if = "Option::is_none")]
