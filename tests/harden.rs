@@ -73,6 +73,8 @@ fn measured(dir: &Path, args: &[&str], kill_after: Duration) -> Run {
         });
     }
     let started = Instant::now();
+    // Reaped by wait4 below, which also gives its resource usage.
+    #[allow(clippy::zombie_processes)]
     let mut child = command.spawn().unwrap();
     let pid = child.id() as libc::pid_t;
     let reader = |mut pipe: Box<dyn Read + Send>| {
