@@ -589,3 +589,38 @@ fn a_fifo_in_the_metadata_blocks_neither_bag_info_nor_replay() {
         );
     }
 }
+
+/// Issue #18, H2: the node took 3 GB from a 1 MB message (a 1,000 x 1,000 plate). Its
+/// pipeline, with the default parameters and the SAT planner, now answers with the
+/// memory-limit error within a second and without the memory.
+#[test]
+fn the_node_pipeline_refuses_a_1_mb_plate_by_its_memory_limit() {
+    use waam_ros::node::params::NodeParams;
+    use waam_ros::node::pipeline::{sat_planner, Job, PlanningPipeline};
+    use waam_ros::node::worker::{Cancel, JobContext, Pipeline};
+    let pipeline = PlanningPipeline::from_params(&NodeParams::default(), sat_planner()).unwrap();
+    let document = plate_layers(1000);
+    assert!(document.len() > 1_000_000);
+    let ctx = JobContext::new(1, Cancel::new(), |_| {});
+    let t = Instant::now();
+    let input = waam_pipeline::PartInput::Document(document);
+    let err = match pipeline.run(Job::from(input), &ctx) {
+        Ok(_) => panic!("a 10^6-block plate was planned"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        err.contains("1000000 blocks") && err.contains("planner.max_memory_mb"),
+        "{err}"
+    );
+    assert!(t.elapsed() < Duration::from_secs(3), "{:?}", t.elapsed());
+    // SAFETY: a zeroed rusage is a valid value for getrusage to fill.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: usage points to a live local.
+    assert_eq!(unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) }, 0);
+    let peak = usage.ru_maxrss as u64 * 1024;
+    assert!(
+        peak < MAX_RSS_BYTES,
+        "this test process peaked at {} MB",
+        peak >> 20
+    );
+}
