@@ -624,3 +624,20 @@ fn the_node_pipeline_refuses_a_1_mb_plate_by_its_memory_limit() {
         peak >> 20
     );
 }
+
+/// Issue #18: a part's layers (`waam layer plan-part`) are held to the same memory limit,
+/// each before its search.
+#[test]
+fn a_part_with_a_1000_segment_layer_is_refused_by_the_memory_limit() {
+    let layer = waam_layer::Layer::parse(&grid_layer(22)).unwrap();
+    let t = Instant::now();
+    let err = waam_layer::part::plan_part(&[(0.0, layer)], &Default::default(), |_, _| {})
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        err.starts_with("layer 0 (grid22)") && err.contains("max_memory_mb = 1024"),
+        "{err}"
+    );
+    assert!(t.elapsed() < Duration::from_secs(15), "{:?}", t.elapsed());
+}

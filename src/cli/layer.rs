@@ -106,6 +106,9 @@ pub struct PlanPartArgs {
     /// Search time limit per layer (s): the best trail found and its proven gap.
     #[arg(long, value_name = "S", default_value_t = 10.0)]
     pub time_limit: f64,
+    /// Refuse a layer whose search would need more memory than this (MB, as `layer plan`).
+    #[arg(long, value_name = "MB", default_value_t = waam_layer::search::DEFAULT_MAX_MEMORY_MB)]
+    pub max_memory_mb: u64,
     /// Allow a layer to start, and deadhead, where the layer below did.
     #[arg(long)]
     pub no_vary: bool,
@@ -723,6 +726,7 @@ fn plan_part(args: PlanPartArgs) -> anyhow::Result<ExitCode> {
         interlayer_s: args.interlayer,
         search: SearchOptions {
             time_limit: limit,
+            max_memory_mb: args.max_memory_mb,
             ..SearchOptions::default()
         },
         vary: !args.no_vary,
