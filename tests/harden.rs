@@ -631,10 +631,10 @@ fn the_node_pipeline_refuses_a_1_mb_plate_by_its_memory_limit() {
 fn a_part_with_a_1000_segment_layer_is_refused_by_the_memory_limit() {
     let layer = waam_layer::Layer::parse(&grid_layer(22)).unwrap();
     let t = Instant::now();
-    let err = waam_layer::part::plan_part(&[(0.0, layer)], &Default::default(), |_, _| {})
-        .err()
-        .expect("refused")
-        .to_string();
+    let err = match waam_layer::part::plan_part(&[(0.0, layer)], &Default::default(), |_, _| {}) {
+        Ok(_) => panic!("a 1,000-segment layer was searched"),
+        Err(e) => e.to_string(),
+    };
     assert!(
         err.starts_with("layer 0 (grid22)") && err.contains("max_memory_mb = 1024"),
         "{err}"
