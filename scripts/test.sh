@@ -41,3 +41,9 @@ export WAAM_ROS_BUILD_VENV="$PWD/.venv-ros-build" WAAM_ROS_INTERFACES="$PWD/ros/
 # `milp` adds the MILP cross-check of the thick-wall layer search (pure Rust, light).
 step "tests (cargo test)"
 cargo test --workspace --all-targets --all-features
+
+# The fuzz harness (tests/fuzz.rs: one mutation fuzzer per reader over the corpus in
+# tests/data/fuzz/) ran above with its default 160 cases per reader; once more with 10,000
+# each (a few seconds per reader), bounded in time so that a hang fails the run.
+step "fuzz (tests/fuzz.rs, 10,000 cases per reader)"
+WAAM_FUZZ_CASES=10000 timeout 600 cargo test --test fuzz

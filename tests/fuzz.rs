@@ -1,7 +1,9 @@
 //! A mutation fuzzer per reader, run for a bounded number of cases in the normal test
-//! suite (issue #18): layer files, process settings, node parameters, URDF, bags (MCAP)
-//! and the CDR of every message a recorded bag holds. Part, plan and STL readers are
-//! fuzzed in `tests/robustness.rs`. Each case takes a corpus file (`tests/data/fuzz/`)
+//! suite (issue #18): part files, plan files, STL meshes, layer files, process settings,
+//! node parameters, URDF, bags (MCAP) and the CDR of every message a recorded bag holds.
+//! (`tests/robustness.rs` adds structure-aware generators for parts, plans and STL.)
+//! `scripts/test.sh` runs it once more with more cases, bounded in time. Each case takes a
+//! corpus file (`tests/data/fuzz/READER/`)
 //! and applies a few byte edits a fuzzer would (bit flips, boundary integers written over
 //! length fields, insertions, deletions, duplicated ranges); the reader must return,
 //! never panic (a panic fails the case, proptest shrinks it) or abort (the test binary
@@ -141,8 +143,29 @@ fn recorded_cdr() -> Vec<(String, Vec<u8>)> {
         .collect()
 }
 
+/// What parses is pushed on (weld graph, and for small parts the thermal simulation of a
+/// layer-by-layer order), as `waam plan` and `waam check` would.
+fn exercise_part(part: &waam_part::Part) {
+    let graph = waam_part::graph::WeldGraph::new(part);
+    if part.len() <= 200 {
+        let model = waam_thermal::ThermalModel::new(part, &graph);
+        let order: Vec<usize> = (0..part.len()).collect();
+        let deadline = std::time::Instant::now() + std::time::Duration::from_millis(200);
+        let _ = waam_thermal::simulate_until(&model, &[order], Some(deadline), None);
+    }
+}
+
 #[test]
 fn the_corpus_reads_cleanly() {
+    for bytes in corpus("part") {
+        exercise_part(&waam_part::Part::from_bytes(&bytes).unwrap());
+    }
+    for bytes in corpus("plan") {
+        waam_part::plan::Plan::from_bytes(&bytes, false).unwrap();
+    }
+    for bytes in corpus("stl") {
+        waam_mesh::read_stl(&bytes, waam_mesh::Units::Mm).unwrap();
+    }
     for bytes in corpus("layer") {
         waam_layer::Layer::from_bytes(&bytes).unwrap();
     }
@@ -179,6 +202,34 @@ fn urdf(bytes: &[u8]) -> Result<waam_motion::robot::Robot, String> {
 
 proptest! {
     #![proptest_config(config())]
+
+    #[test]
+    fn part_files(bytes in mutated("part")) {
+        if let Ok(part) = waam_part::Part::from_bytes(&bytes) {
+            exercise_part(&part);
+        }
+    }
+
+    #[test]
+    fn plan_files(bytes in mutated("plan"), json in any::<bool>()) {
+        if let Ok(plan) = waam_part::plan::Plan::from_bytes(&bytes, json) {
+            // Validated against the corpus part it may belong to.
+            for text in corpus("part") {
+                let part = waam_part::Part::from_bytes(&text).unwrap();
+                let graph = waam_part::graph::WeldGraph::new(&part);
+                let _ = plan.validate(&part, &graph);
+            }
+        }
+    }
+
+    #[test]
+    fn stl_meshes(bytes in mutated("stl")) {
+        if let Ok(mesh) = waam_mesh::read_stl(&bytes, waam_mesh::Units::Mm) {
+            let mut options = waam_mesh::VoxelizeOptions::new("fuzz", [2.0, 2.0, 2.0]);
+            options.max_cells = 100_000;
+            let _ = waam_mesh::voxelize(&mesh, &options);
+        }
+    }
 
     #[test]
     fn layer_files(bytes in mutated("layer")) {

@@ -139,11 +139,7 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     ));
     say(format!(
         "         worst t8/5 margin {}, {} candidates checked in {:.1} s",
-        if best.margin.is_finite() {
-            format!("{:.2} s", best.margin)
-        } else {
-            "unbounded (no windows)".to_string()
-        },
+        best.margin_text(),
         report.stats.candidates,
         report.stats.total_s
     ));

@@ -106,6 +106,9 @@ pub struct PlanPartArgs {
     /// Search time limit per layer (s): the best trail found and its proven gap.
     #[arg(long, value_name = "S", default_value_t = 10.0)]
     pub time_limit: f64,
+    /// Refuse a layer whose search would need more memory than this (MB, as `layer plan`).
+    #[arg(long, value_name = "MB", default_value_t = waam_layer::search::DEFAULT_MAX_MEMORY_MB)]
+    pub max_memory_mb: u64,
     /// Allow a layer to start, and deadhead, where the layer below did.
     #[arg(long)]
     pub no_vary: bool,
@@ -156,9 +159,14 @@ pub struct PlanArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
-    /// Stop after this many seconds and return the best trail with its proven gap.
+    /// Stop after this many seconds and return the best trail with its proven gap (no
+    /// trail, exit 1, when the limit comes before a first one).
     #[arg(long, value_name = "S")]
     pub time_limit: Option<f64>,
+    /// Refuse a layer whose search would need more memory than this (MB, estimated from
+    /// its mesh nodes, time steps and segments before the search starts).
+    #[arg(long, value_name = "MB", default_value_t = waam_layer::search::DEFAULT_MAX_MEMORY_MB)]
+    pub max_memory_mb: u64,
     /// Do not prune symmetric trails (slower; for checking).
     #[arg(long)]
     pub no_symmetry: bool,
@@ -284,9 +292,13 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
     let model = build_model(&layer)?;
     let options = SearchOptions {
         time_limit: time_limit(args.time_limit)?,
+        // The limit acts before the first trail too: a large layer answers "no trail".
+        give_up: time_limit(args.time_limit)?,
         symmetry: !args.no_symmetry,
+        max_memory_mb: args.max_memory_mb,
         ..SearchOptions::default()
     };
+    waam_layer::search::check_size(&model, &options)?;
     anyhow::ensure!(
         args.linger.is_finite() && args.linger >= 0.0,
         "--linger: expected seconds >= 0, got {}",
@@ -330,6 +342,14 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
         model.deadheads
     );
     let r = search(&model, &options);
+    if !r.found() {
+        eprintln!(
+            "layer {}: no trail found within --time-limit {} s",
+            layer.name,
+            args.time_limit.unwrap_or_default()
+        );
+        return Ok(ExitCode::from(super::EXIT_NO));
+    }
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         let file = TrailFile::new(
@@ -712,6 +732,7 @@ fn plan_part(args: PlanPartArgs) -> anyhow::Result<ExitCode> {
         interlayer_s: args.interlayer,
         search: SearchOptions {
             time_limit: limit,
+            max_memory_mb: args.max_memory_mb,
             ..SearchOptions::default()
         },
         vary: !args.no_vary,

@@ -129,6 +129,32 @@ pub fn acyclicity_parser() -> impl clap::builder::TypedValueParser<Value = Acycl
     .map(|name| name.parse().expect("clap accepts only listed names"))
 }
 
+/// Runs `work` on a thread of its own and waits at most `limit` for it: reading a part of
+/// a million blocks takes seconds that `--timeout` covers too. Past the limit the thread
+/// is left behind; the command ends with the error.
+pub fn within<T: Send + 'static>(
+    limit: Option<std::time::Duration>,
+    what: &str,
+    work: impl FnOnce() -> anyhow::Result<T> + Send + 'static,
+) -> anyhow::Result<T> {
+    use std::sync::mpsc::RecvTimeoutError;
+    let Some(limit) = limit else {
+        return work();
+    };
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(work());
+    });
+    match rx.recv_timeout(limit) {
+        Ok(result) => result,
+        Err(RecvTimeoutError::Timeout) => anyhow::bail!(
+            "{what}: not done within --timeout {} s",
+            limit.as_secs_f64()
+        ),
+        Err(RecvTimeoutError::Disconnected) => anyhow::bail!("{what}: the reader failed"),
+    }
+}
+
 pub fn read_part(path: &Path) -> anyhow::Result<Part> {
     let bytes =
         std::fs::read(path).with_context(|| format!("cannot read part {}", path.display()))?;

@@ -54,6 +54,10 @@ pub struct PlanArgs {
     /// Override the part's max_fragments (k).
     #[arg(long, value_name = "K", value_parser = super::at_least_one)]
     pub max_fragments: Option<usize>,
+    /// Refuse a part whose search would need more memory than this (MB, estimated from
+    /// its blocks and k before anything is built; about 13 KB per block at k = 1).
+    #[arg(long, value_name = "MB", default_value_t = waam_planner::DEFAULT_MAX_MEMORY_MB)]
+    pub max_memory_mb: u64,
     /// How cycles are excluded: lazily by cuts between solves, or eagerly by a rank order.
     #[arg(long, value_parser = super::acyclicity_parser(), default_value = "lazy")]
     pub acyclicity: Acyclicity,
@@ -143,15 +147,23 @@ pub fn options(args: &PlanArgs) -> anyhow::Result<Options> {
         torch: None,
         warm_start: !args.no_warm_start,
         executed: None,
+        max_memory_mb: args.max_memory_mb,
     })
 }
 
 pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
+    let started = std::time::Instant::now();
+    let mut opts = options(&args)?;
     let part = match &args.part {
-        Some(path) => args.mesh.read_part_or_mesh(path)?,
+        // Reading counts against --timeout: a block list of a million blocks takes seconds.
+        Some(path) => {
+            let (mesh, path) = (args.mesh.clone(), path.clone());
+            let what = format!("reading {}", path.display());
+            super::within(opts.timeout, &what, move || mesh.read_part_or_mesh(&path))?
+        }
         None => Part::parse(super::DEFAULT_PART).context("the bundled sample part")?,
     };
-    let mut opts = options(&args)?;
+    opts.timeout = opts.timeout.map(|t| t.saturating_sub(started.elapsed()));
     // The robot before planning: a bad URDF fails at once, not after the search.
     let mut robot = args.robot.robot_args().map(|a| a.load()).transpose()?;
     opts.torch = torch(&args, robot.as_ref().map(|c| &c.settings));
@@ -320,11 +332,7 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
                 println!(
                     "plan: {} fragment(s), worst-case t8/5 margin {} — {proof}",
                     plan.fragments.len(),
-                    if best.margin.is_finite() {
-                        format!("{:.2} s", best.margin)
-                    } else {
-                        "unbounded (no windows)".to_string()
-                    }
+                    best.margin_text()
                 );
                 // Written to a file: the block lists only on request.
                 if args.out.is_none() || args.print_plan || global.verbose > 0 {

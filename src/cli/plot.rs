@@ -49,7 +49,7 @@ pub fn run(args: PlotArgs) -> anyhow::Result<ExitCode> {
     if toolpath.exists() {
         let text = std::fs::read_to_string(&toolpath)
             .with_context(|| format!("cannot read {}", toolpath.display()))?;
-        waam_part::yaml::check_depth(&text)
+        waam_part::yaml::check(&text)
             .with_context(|| format!("{} is not a toolpath file", toolpath.display()))?;
         let tp: ToolpathFile = serde_yaml::from_str(&text)
             .with_context(|| format!("{} is not a toolpath file", toolpath.display()))?;

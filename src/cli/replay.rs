@@ -3,7 +3,9 @@
 
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::time::Duration;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use serde_json::json;
 use waam_part::writer;
@@ -20,7 +22,8 @@ use super::{EXIT_BAD_INPUT, EXIT_NO, EXIT_OK};
 /// Re-plan every part found in a recording and compare each new plan with the recorded one.
 ///
 /// The planner runs with the settings recorded with the part (`waam plan --record` records
-/// them), else the defaults; options given here override them. Never with a timeout.
+/// them), else the defaults; options given here override them. Never with the recorded
+/// timeout (a timeout makes no reproducible plan); `--timeout` bounds the whole replay.
 ///
 /// Parts are the part documents received on `.../part` topics and the meshes received on
 /// `.../part_mesh` (voxelized again with the settings the node recorded with them); each is
@@ -28,8 +31,8 @@ use super::{EXIT_BAD_INPUT, EXIT_NO, EXIT_OK};
 /// DIFFERENT with the fragments, the first differing block and the statistics that changed
 /// (candidates, feasible plans, learned clauses; never times). A truncated recording (a killed
 /// process) is read up to its last complete chunk and said to be truncated.
-/// Exit code 0: every compared plan is identical; 1: a difference; 2: bad input (unreadable
-/// bag, no parts in it).
+/// Exit code 0: every compared plan is identical; 1: a difference, or `--timeout` came
+/// first; 2: bad input (unreadable bag, no parts in it); 130: stopped by Ctrl-C.
 #[derive(Debug, clap::Args)]
 pub struct ReplayArgs {
     /// The recording: a bag directory (with metadata.yaml) or an .mcap file.
@@ -64,9 +67,27 @@ pub struct ReplayArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
+    /// Stop re-planning after this many seconds in all: the part being planned then is
+    /// cut off and, like the parts after it, not compared (exit 1). Ctrl-C stops the same
+    /// way (exit 130).
+    #[arg(long, value_name = "SECONDS", conflicts_with = "publish")]
+    pub timeout: Option<f64>,
 }
 
+/// Exit code of a replay stopped by Ctrl-C (128 + SIGINT, as shells report it).
+const EXIT_INTERRUPTED: u8 = 130;
+
 pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
+    let started = Instant::now();
+    let deadline = args
+        .timeout
+        .map(|s| {
+            Duration::try_from_secs_f64(s)
+                .ok()
+                .and_then(|t| started.checked_add(t))
+                .ok_or_else(|| anyhow::anyhow!("--timeout: expected seconds >= 0, got {s}"))
+        })
+        .transpose()?;
     let bag = Bag::open(&args.bag)?;
     if let Some(t) = &bag.truncated {
         eprintln!(
@@ -113,10 +134,26 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
         // Replays plan without a robot: the part frame is tied to the node's default cell.
         super::record::record_frames(r, None)?;
     }
+    // Ctrl-C raises the flag; the planner stops on it within a second.
+    let interrupted = Arc::new(AtomicBool::new(false));
+    {
+        let flag = Arc::clone(&interrupted);
+        ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))?;
+    }
+    let stopped =
+        || interrupted.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d);
     let mut record_error = None;
     let reports = replay::replay(cases, !args.plans_only, |case| {
+        if stopped() {
+            return Replanned::Unsupported(STOPPED.into());
+        }
         let opts = match options_from(&case.status_values, &Options::default()) {
-            Ok(opts) => overrides(opts),
+            Ok(opts) => Options {
+                // Within what is left of --timeout; a run cut short is not compared.
+                timeout: deadline.map(|d| d.saturating_duration_since(Instant::now())),
+                cancel: Some(Arc::clone(&interrupted)),
+                ..overrides(opts)
+            },
             Err(e) => return Replanned::Unsupported(e.to_string()),
         };
         // A mesh is voxelized with the settings the node recorded when it received it.
@@ -161,6 +198,9 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
             Ok(report) => report,
             Err(e) => return Replanned::NoPlan(e.to_string()),
         };
+        if stopped() {
+            return Replanned::Unsupported(STOPPED.into());
+        }
         if let Some(p) = planning {
             if let Err(e) = p.finish(&part, &report, None) {
                 record_error.get_or_insert(e);
@@ -264,6 +304,22 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
             }
         );
     }
+    let cut = reports
+        .iter()
+        .filter(|r| matches!(&r.verdict, Verdict::Skipped(why) if why == STOPPED))
+        .count();
+    if cut > 0 {
+        let (why, code) = if interrupted.load(Ordering::Relaxed) {
+            ("Ctrl-C", EXIT_INTERRUPTED)
+        } else {
+            ("--timeout", EXIT_NO)
+        };
+        eprintln!(
+            "error: replay stopped by {why}: {cut} of {} part(s) not compared",
+            reports.len()
+        );
+        return Ok(ExitCode::from(code));
+    }
     if identical + different == 0 {
         // A truncated recording can leave parts without outcomes: nothing was checked, so
         // this is not a pass.
@@ -280,6 +336,9 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
         EXIT_OK
     }))
 }
+
+/// Why a part was not compared when the replay was stopped.
+const STOPPED: &str = "not re-planned: the replay was stopped (--timeout or Ctrl-C)";
 
 /// `--publish`: plays the recording back to ROS 2.
 fn publish(args: &ReplayArgs, bag: &Bag) -> anyhow::Result<ExitCode> {

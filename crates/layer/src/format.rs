@@ -145,7 +145,7 @@ impl Layer {
         if text.trim().is_empty() {
             return Err(rule("the layer file is empty: expected a YAML mapping"));
         }
-        waam_part::yaml::check_depth(text).map_err(|e| LayerError::Yaml(e.to_string()))?;
+        waam_part::yaml::check(text).map_err(|e| LayerError::Yaml(e.to_string()))?;
         let raw: RawLayer =
             serde_yaml::from_str(text).map_err(|e| LayerError::Yaml(format!("{e}")))?;
         let layer = Layer::from_raw(raw)?;

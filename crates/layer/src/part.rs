@@ -223,6 +223,12 @@ pub fn plan_part(
             name: layer.name.clone(),
             message: e.to_string(),
         })?;
+        // Each layer before its search: a layer too large fails at once, not after minutes.
+        crate::search::check_size(&model, &options.search).map_err(|e| PartError::Model {
+            index,
+            name: layer.name.clone(),
+            message: e.to_string(),
+        })?;
         let (mut starts, mut pairs) = (Vec::new(), Vec::new());
         if let Some(below) = out.last() {
             let u = carry(&below.model, &below.end_field, options.interlayer_s, &model);

@@ -32,8 +32,14 @@ use super::symmetry::symmetries;
 /// Search settings.
 #[derive(Debug, Clone)]
 pub struct SearchOptions {
-    /// Stop after this long and return the best trail with its proven gap.
+    /// Stop after this long, once a first trail is known, and return the best trail with
+    /// its proven gap.
     pub time_limit: Option<Duration>,
+    /// Stop after this long even without a trail (then the result has none: see
+    /// [`SearchResult::found`]). The first trail of a layer of hundreds of segments takes
+    /// minutes; `waam layer plan --time-limit` sets both limits, a part's layers (which
+    /// each need a trail) only `time_limit`.
+    pub give_up: Option<Duration>,
     /// Prune symmetric trails.
     pub symmetry: bool,
     /// Free-decay steps used for the hot part of the bound (more: tighter, slower).
@@ -45,6 +51,53 @@ pub struct SearchOptions {
     /// Deadheading moves the trail may not make, as node pairs in either direction (a
     /// part's layer below deadheaded between them).
     pub forbidden_deadheads: Vec<[usize; 2]>,
+    /// Refuse a layer whose search needs more memory than this, MB, by
+    /// [`estimated_memory_mb`] ([`check_size`]; the caller checks before searching).
+    pub max_memory_mb: u64,
+}
+
+/// The default of [`SearchOptions::max_memory_mb`].
+pub const DEFAULT_MAX_MEMORY_MB: u64 = 1024;
+
+/// What a search of `model` holds at least, MB: the bound's free-decay sums (a field per
+/// time step) and the root's children (a field each, up to four per segment). A layer of
+/// 1,000 segments (20,000 mesh nodes, 8,900 steps) needs about 2 GB of them.
+pub fn estimated_memory_mb(model: &Model) -> u64 {
+    let n = model.heat.len() as u64;
+    let fields = (model.horizon as u64 + 1) + 4 * model.layer.segments.len() as u64;
+    fields.saturating_mul(n).saturating_mul(8) >> 20
+}
+
+/// A layer too large to search within the memory limit.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error(
+    "layer {name}: searching it needs about {estimate_mb} MB ({nodes} mesh nodes x {steps} time \
+     steps, {segments} segments), more than max_memory_mb = {limit_mb} (raise it with \
+     --max-memory-mb)"
+)]
+pub struct TooLarge {
+    pub name: String,
+    pub nodes: usize,
+    pub steps: usize,
+    pub segments: usize,
+    pub estimate_mb: u64,
+    pub limit_mb: u64,
+}
+
+/// Refuses a layer whose search would need more than `options.max_memory_mb`.
+pub fn check_size(model: &Model, options: &SearchOptions) -> Result<(), TooLarge> {
+    let estimate_mb = estimated_memory_mb(model);
+    if estimate_mb > options.max_memory_mb {
+        return Err(TooLarge {
+            name: model.layer.name.clone(),
+            nodes: model.heat.len(),
+            steps: model.horizon,
+            segments: model.layer.segments.len(),
+            estimate_mb,
+            limit_mb: options.max_memory_mb,
+        });
+    }
+    Ok(())
 }
 
 impl SearchOptions {
@@ -82,11 +135,13 @@ impl Default for SearchOptions {
     fn default() -> Self {
         SearchOptions {
             time_limit: None,
+            give_up: None,
             symmetry: true,
             free_decay_steps: 10,
             bound: true,
             forbidden_starts: Vec::new(),
             forbidden_deadheads: Vec::new(),
+            max_memory_mb: DEFAULT_MAX_MEMORY_MB,
         }
     }
 }
@@ -139,7 +194,9 @@ struct Bound {
 }
 
 impl Bound {
-    fn new(model: &Model, decay_steps: usize) -> Bound {
+    /// `None` when `deadline` passed first (a layer of 1,000 segments takes minutes here).
+    fn new(model: &Model, decay_steps: usize, deadline: Option<Instant>) -> Option<Bound> {
+        let late = || deadline.is_some_and(|d| Instant::now() >= d);
         let n = model.heat.len();
         let h = model.horizon;
         let mut a = vec![1.0; n];
@@ -147,6 +204,9 @@ impl Bound {
         let mut gains = vec![0.0f64; h];
         let mut cum = vec![0.0; model.positions.len()];
         for k in 0..h {
+            if late() {
+                return None;
+            }
             // c_k = A⁻¹ a_k; node-sum response at lag k of a weld at q is dt c_kᵀ F_q.
             let mut c = a.clone();
             model.heat.solve(&mut c);
@@ -174,11 +234,11 @@ impl Bound {
         }
         let hot = model.heat.monotone && model.target >= 0.0 && model.initial >= 0.0;
         let history = if hot {
-            history_overshoots(model, HISTORY_DEPTH)
+            history_overshoots(model, HISTORY_DEPTH, deadline)?
         } else {
             vec![vec![0.0; 2 * model.layer.segments.len()]]
         };
-        Bound {
+        Some(Bound {
             n,
             free_sum,
             gains,
@@ -187,7 +247,7 @@ impl Bound {
             history,
             hot,
             decay_steps,
-        }
+        })
     }
 
     /// Largest total node-sum heat W weld steps can add within the last R steps.
@@ -248,11 +308,41 @@ impl Bound {
     }
 }
 
+impl SearchResult {
+    /// [`SearchOptions::give_up`] came before a first trail: no trail, nothing proven.
+    fn no_trail(start: Instant) -> SearchResult {
+        SearchResult {
+            trail: Trail::default(),
+            objective: f64::INFINITY,
+            lower_bound: f64::NEG_INFINITY,
+            proven_optimal: false,
+            gap: f64::INFINITY,
+            relative_gap: f64::INFINITY,
+            nodes_explored: 0,
+            leaves: 0,
+            seconds: start.elapsed().as_secs_f64(),
+            symmetries: 1,
+            hot_bound: false,
+            root_bound: f64::NEG_INFINITY,
+        }
+    }
+
+    /// Whether the search found a trail (false only when `give_up` came first).
+    pub fn found(&self) -> bool {
+        !self.trail.moves.is_empty()
+    }
+}
+
 /// Predecessors considered in the hot part of the bound.
 const HISTORY_DEPTH: usize = 3;
 
-/// history[j][d] for j = 0..=depth (see [`Bound`]).
-fn history_overshoots(model: &Model, depth: usize) -> Vec<Vec<f64>> {
+/// history[j][d] for j = 0..=depth (see [`Bound`]); `None` when `deadline` passed first.
+fn history_overshoots(
+    model: &Model,
+    depth: usize,
+    deadline: Option<Instant>,
+) -> Option<Vec<Vec<f64>>> {
+    let late = || deadline.is_some_and(|d| Instant::now() >= d);
     let dirs = 2 * model.layer.segments.len();
     let directed = |d: usize| Move {
         segment: d / 2,
@@ -280,6 +370,9 @@ fn history_overshoots(model: &Model, depth: usize) -> Vec<Vec<f64>> {
         let mut walks: Vec<Vec<usize>> = vec![Vec::new()];
         for (level, slot) in best.iter_mut().enumerate() {
             for walk in &walks {
+                if late() {
+                    return best; // thrown away below
+                }
                 let mut u = vec![0.0; model.heat.len()];
                 for &p in walk {
                     weld(&mut u, p);
@@ -313,11 +406,14 @@ fn history_overshoots(model: &Model, depth: usize) -> Vec<Vec<f64>> {
     });
     let mut history = vec![vec![0.0; dirs]; depth + 1];
     for (d, best) in per_segment.enumerate() {
+        if late() {
+            return None;
+        }
         for (row, value) in history.iter_mut().zip(best) {
             row[d] = value;
         }
     }
-    history
+    Some(history)
 }
 
 /// What is left to do after a search node.
@@ -358,7 +454,13 @@ struct Frame {
 /// Finds the trail of least objective (or the best within the time limit, with its gap).
 pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
     let start = Instant::now();
-    let bound = Bound::new(model, options.free_decay_steps);
+    // Giving up also acts before the first trail: then there is no trail.
+    let deadline = options.give_up.and_then(|t| start.checked_add(t));
+    let late = || deadline.is_some_and(|d| Instant::now() >= d);
+    let Some(bound) = Bound::new(model, options.free_decay_steps, deadline) else {
+        return SearchResult::no_trail(start);
+    };
+    let stopped = std::cell::Cell::new(false);
     // Forbidden starts and deadheading moves are not symmetric: no symmetry pruning then.
     let group = if options.symmetry && options.unconstrained() {
         symmetries(model)
@@ -407,6 +509,10 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
         let weld_done: usize = (0..segs).filter(|&s| used[s]).map(|s| model.steps[s]).sum();
         let mut incumbent = incumbent;
         for &s in &left {
+            if best.is_none() && late() {
+                stopped.set(true);
+                break;
+            }
             for reversed in [false, true] {
                 let d = 2 * s + reversed as usize;
                 if stabilizer.iter().any(|&g| group[g][d] < d) {
@@ -519,6 +625,9 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
         &mut best,
         &path,
     );
+    if stopped.get() {
+        return SearchResult::no_trail(start);
+    }
     let mut stack = vec![Frame {
         children: root_children,
         next: 0,
@@ -595,6 +704,9 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
             &mut best,
             &path,
         );
+        if stopped.get() {
+            return SearchResult::no_trail(start);
+        }
         stack.push(Frame {
             children,
             next: 0,
@@ -739,7 +851,8 @@ pub fn check_bound(model: &Model) -> Result<usize, crate::ModelError> {
     }
     let mut walk = Walk {
         model,
-        bound: Bound::new(model, SearchOptions::default().free_decay_steps),
+        bound: Bound::new(model, SearchOptions::default().free_decay_steps, None)
+            .expect("no deadline"),
         used: vec![false; model.layer.segments.len()],
         checked: 0,
         scratch: Vec::new(),

@@ -100,7 +100,7 @@ impl Part {
 
     /// Parses part-file text.
     pub fn parse(text: &str) -> Result<Part, PartError> {
-        yaml::check_depth(text).map_err(|e| PartError::Yaml(e.to_string()))?;
+        yaml::check(text).map_err(|e| PartError::Yaml(e.to_string()))?;
         let doc: Value = serde_yaml::from_str(text).map_err(|e| PartError::Yaml(e.to_string()))?;
         let map = match doc {
             Value::Mapping(map) => map,

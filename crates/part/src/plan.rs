@@ -11,8 +11,10 @@ use thiserror::Error;
 use crate::graph::WeldGraph;
 use crate::{Block, BlockDisplay, Part};
 
-/// A plan as read from (or written to) a file: fragments of block coordinates.
+/// A plan as read from (or written to) a file: fragments of block coordinates. A key the
+/// format does not have (a misspelt `fragment:`) is an error, not silently ignored.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Plan {
     /// The name of the part the plan is for.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -99,7 +101,7 @@ impl Plan {
         if json || text.trim_start().starts_with('{') {
             serde_json::from_str(text).map_err(|e| PlanReadError::Json(e.to_string()))
         } else {
-            crate::yaml::check_depth(text).map_err(|e| PlanReadError::Yaml(e.to_string()))?;
+            crate::yaml::check(text).map_err(|e| PlanReadError::Yaml(e.to_string()))?;
             serde_yaml::from_str(text).map_err(|e| PlanReadError::Yaml(e.to_string()))
         }
     }

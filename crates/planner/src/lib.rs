@@ -65,6 +65,9 @@ pub struct Options {
     /// line a robot would weld it on (None: no robot, as the shared specs and their counts
     /// assume). A rejection is learned like a violation.
     pub executed: Option<ExecutedCheck>,
+    /// Refuse a part whose search would need more memory than this, MB, by the estimate
+    /// of [`estimated_memory_mb`] (checked before anything is built).
+    pub max_memory_mb: u64,
 }
 
 /// Why a candidate fails when a robot welds it (its transit cannot be made in the
@@ -94,6 +97,19 @@ impl std::fmt::Debug for ExecutedCheck {
     }
 }
 
+/// The default of [`Options::max_memory_mb`]: a part the planner would need more for (a
+/// 250 x 250 plate, 70,000 blocks of a solid) is refused unless the limit is raised.
+pub const DEFAULT_MAX_MEMORY_MB: u64 = 2048;
+
+/// What searching a part of `blocks` blocks with at most `k` fragments takes, MB: the
+/// encoding, CaDiCaL's clause database and the layer-by-layer warm start grow with the
+/// blocks and with k. Measured peaks (plates of 10^4 to 1.6 x 10^5 blocks, cubes of 2.7 x
+/// 10^4 and 6.4 x 10^4, k = 1 and 8) lie at or below 10 KiB + 3 KiB x k per block.
+pub fn estimated_memory_mb(blocks: usize, k: usize) -> u64 {
+    let per_block_kib = 10 + 3 * k as u64;
+    (blocks as u64).saturating_mul(per_block_kib) / 1024
+}
+
 impl Default for Options {
     fn default() -> Self {
         Options {
@@ -106,6 +122,7 @@ impl Default for Options {
             torch: None,
             warm_start: true,
             executed: None,
+            max_memory_mb: DEFAULT_MAX_MEMORY_MB,
         }
     }
 }
@@ -203,7 +220,8 @@ impl Stats {
 pub struct Found {
     /// Fragments of block indices, in weld order.
     pub fragments: Vec<Vec<usize>>,
-    /// Smallest distance of any t8/5 value to its window bounds, s (+inf: no windows).
+    /// Smallest distance of any t8/5 value to its window bounds, s (+inf: no windows;
+    /// NaN: the deadline or a cancel came before it was measured).
     pub margin: f64,
 }
 
@@ -211,6 +229,17 @@ impl Found {
     /// The plan in the shared plan format.
     pub fn plan(&self, part: &Part) -> Plan {
         Plan::from_indices(part, &self.fragments)
+    }
+
+    /// The margin for people: "1.23 s", "unbounded (no windows)" or "not measured …".
+    pub fn margin_text(&self) -> String {
+        if self.margin.is_finite() {
+            format!("{:.2} s", self.margin)
+        } else if self.margin.is_nan() {
+            "not measured before the timeout".to_string()
+        } else {
+            "unbounded (no windows)".to_string()
+        }
     }
 }
 
@@ -346,6 +375,17 @@ pub struct Counts {
 pub enum PlanError {
     #[error(transparent)]
     NotCooled(#[from] thermal::NotCooled),
+    #[error(
+        "part of {blocks} blocks with max_fragments {k}: planning it needs about {estimate_mb} MB, \
+         more than max_memory_mb = {limit_mb} (raise it with --max-memory-mb, or the node \
+         parameter planner.max_memory_mb)"
+    )]
+    TooLarge {
+        blocks: usize,
+        k: usize,
+        estimate_mb: u64,
+        limit_mb: u64,
+    },
     #[error("writing plans: {0}")]
     Output(#[from] std::io::Error),
 }
@@ -381,6 +421,21 @@ fn max_fragments(part: &Part, opts: &Options) -> usize {
     opts.max_fragments
         .unwrap_or(part.max_fragments)
         .clamp(1, part.len())
+}
+
+/// Refuses a part too large for `opts.max_memory_mb`, before its graph is built.
+fn check_size(part: &Part, opts: &Options) -> Result<(), PlanError> {
+    let k = max_fragments(part, opts);
+    let estimate_mb = estimated_memory_mb(part.len(), k);
+    if estimate_mb > opts.max_memory_mb {
+        return Err(PlanError::TooLarge {
+            blocks: part.len(),
+            k,
+            estimate_mb,
+            limit_mb: opts.max_memory_mb,
+        });
+    }
+    Ok(())
 }
 
 /// Whether the run must stop now: its time is up or it was cancelled.
@@ -435,6 +490,7 @@ fn search_plans(
     optimize: bool,
 ) -> Result<Report, PlanError> {
     let started = Instant::now();
+    check_size(part, opts)?;
     let graph = WeldGraph::new(part);
     let k = max_fragments(part, opts);
     // A layer that alone needs more weld paths than allowed: no plan, proven at once. How
@@ -488,18 +544,25 @@ fn search_plans(
                 warm.len(),
                 started.elapsed().as_secs_f64()
             );
+                // The margin before the event: a listener that stops the run at the first
+                // feasible plan (the node's first_feasible) raises the cancel flag.
+                let margin = match verdict {
+                    CandidateVerdict::Feasible => {
+                        search
+                            .stats
+                            .first_feasible_s
+                            .get_or_insert(started.elapsed().as_secs_f64());
+                        Some(margin_under(&base, &warm, opts, started)?)
+                    }
+                    _ => None,
+                };
                 progress(Event::Candidate {
                     fragments: &warm,
                     verdict,
                     stats: &search.stats,
                 });
-                if let CandidateVerdict::Feasible = verdict {
-                    search
-                        .stats
-                        .first_feasible_s
-                        .get_or_insert(started.elapsed().as_secs_f64());
+                if let Some(margin) = margin {
                     search.block_plan(&warm);
-                    let margin = margin_under(&base, &warm)?;
                     search.stats.best_margin_s = Some(margin).filter(|m| m.is_finite());
                     best = Some(Found {
                         margin,
@@ -512,6 +575,11 @@ fn search_plans(
     // Fewest fragments first: f = 1, 2, ... under an assumption (all of k when not optimizing).
     let levels: Vec<usize> = if optimize { (1..=k).collect() } else { vec![k] };
     'levels: for f in levels {
+        if best.as_ref().is_some_and(|b| b.margin.is_nan()) {
+            // Stopped while measuring the best plan's margin: no optimum is proven.
+            proven &= !optimize;
+            break 'levels;
+        }
         if let Some(b) = best.as_ref().filter(|b| b.fragments.len() <= f) {
             // Every plan with fewer fragments is ruled out (or the first will do).
             if !optimize || b.margin.is_infinite() {
@@ -540,18 +608,24 @@ fn search_plans(
                 proven = false;
                 break 'levels;
             };
+            // Judge by the part's own windows (the search may run on narrowed ones), before
+            // the event: a listener may stop the run at the first feasible plan.
+            let margin = match verdict {
+                CandidateVerdict::Feasible => {
+                    search
+                        .stats
+                        .first_feasible_s
+                        .get_or_insert(started.elapsed().as_secs_f64());
+                    Some(margin_under(&base, &candidate, opts, started)?)
+                }
+                _ => None,
+            };
             progress(Event::Candidate {
                 fragments: &candidate,
                 verdict,
                 stats: &search.stats,
             });
-            if let CandidateVerdict::Feasible = verdict {
-                // Judge by the part's own windows: the search may run on narrowed ones.
-                let margin = margin_under(&base, &candidate)?;
-                search
-                    .stats
-                    .first_feasible_s
-                    .get_or_insert(started.elapsed().as_secs_f64());
+            if let Some(margin) = margin {
                 let better = best.as_ref().is_none_or(|b| {
                     candidate.len() < b.fragments.len()
                         || (candidate.len() == b.fragments.len() && margin > b.margin)
@@ -562,6 +636,10 @@ fn search_plans(
                         fragments: candidate.clone(),
                         margin,
                     });
+                }
+                if margin.is_nan() {
+                    proven &= !optimize;
+                    break 'levels;
                 }
                 if !optimize || margin.is_infinite() {
                     break 'levels;
@@ -619,12 +697,21 @@ fn search_plans(
     })
 }
 
-fn margin_under(model: &ThermalModel, fragments: &[Vec<usize>]) -> Result<f64, PlanError> {
+/// The worst t8/5 margin of a feasible plan under the part's own windows; NaN when the
+/// run's deadline or cancel stopped the simulation first (a transit of 10^8 steps takes
+/// seconds, and the search has already simulated this plan once).
+fn margin_under(
+    model: &ThermalModel,
+    fragments: &[Vec<usize>],
+    opts: &Options,
+    started: Instant,
+) -> Result<f64, PlanError> {
     if !model.has_windows() {
         return Ok(f64::INFINITY);
     }
-    let outcome = thermal::simulate(model, fragments)?;
-    Ok(model.margin(&outcome.crossings))
+    let deadline = opts.timeout.and_then(|t| started.checked_add(t));
+    let outcome = thermal::simulate_until(model, fragments, deadline, opts.cancel.clone())?;
+    Ok(outcome.map_or(f64::NAN, |o| model.margin(&o.crossings)))
 }
 
 /// Counts the valid plans (`with_plans`) and the feasible plans, exactly.
@@ -635,6 +722,7 @@ pub fn count(
     progress: Progress,
 ) -> Result<Counts, PlanError> {
     let started = Instant::now();
+    check_size(part, opts)?;
     let graph = WeldGraph::new(part);
     let k = max_fragments(part, opts);
     let mut complete = true;
@@ -674,6 +762,7 @@ pub fn enumerate(
     progress: Progress,
     sink: &mut dyn FnMut(&[Vec<usize>]) -> std::io::Result<()>,
 ) -> Result<Counts, PlanError> {
+    check_size(part, opts)?;
     let graph = WeldGraph::new(part);
     let k = max_fragments(part, opts);
     enumerate_from(part, &graph, k, opts, Instant::now(), progress, sink)

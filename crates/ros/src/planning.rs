@@ -447,6 +447,7 @@ mod tests {
             )),
             warm_start: false,
             executed: None,
+            max_memory_mb: waam_planner::DEFAULT_MAX_MEMORY_MB,
         };
         let values: Vec<(String, String)> = settings(&opts)
             .into_iter()

@@ -1251,7 +1251,23 @@ pub struct Outcome {
 
 /// Simulates a whole plan given as fragments of block indices, recording crossings.
 pub fn simulate(model: &ThermalModel, fragments: &[Vec<usize>]) -> Result<Outcome, NotCooled> {
-    let mut sim = Simulation::new(model).recording();
+    let outcome = simulate_until(model, fragments, None, None)?;
+    Ok(outcome.expect("a simulation without deadline or cancel runs to its end"))
+}
+
+/// [`simulate`], stopped at `deadline` or soon after `cancel` is raised: `Ok(None)` then.
+/// A long transit or cooldown (up to a billion steps) takes minutes; callers with a
+/// time limit use this one.
+pub fn simulate_until(
+    model: &ThermalModel,
+    fragments: &[Vec<usize>],
+    deadline: Option<Instant>,
+    cancel: Option<Arc<AtomicBool>>,
+) -> Result<Option<Outcome>, NotCooled> {
+    let mut sim = Simulation::new(model).recording().with_deadline(deadline);
+    if let Some(flag) = cancel {
+        sim = sim.with_cancel(flag);
+    }
     let mut violation = None;
     'plan: for fragment in fragments {
         for (p, &b) in fragment.iter().enumerate() {
@@ -1264,12 +1280,15 @@ pub fn simulate(model: &ThermalModel, fragments: &[Vec<usize>]) -> Result<Outcom
     if violation.is_none() {
         violation = sim.finish()?.err();
     }
-    Ok(Outcome {
+    if sim.cancelled() {
+        return Ok(None);
+    }
+    Ok(Some(Outcome {
         violation,
         steps: sim.steps(),
         time_s: sim.time_s(),
         crossings: sim.crossings.take().unwrap_or_default(),
-    })
+    }))
 }
 
 /// When a plan's blocks are deposited and each weld path's arc goes off, in Euler steps

@@ -141,7 +141,7 @@ impl ProcessSettings {
         let s: ProcessSettings = if text.trim().is_empty() {
             ProcessSettings::default()
         } else {
-            waam_part::yaml::check_depth(text).map_err(|e| SettingsError::Yaml(e.to_string()))?;
+            waam_part::yaml::check(text).map_err(|e| SettingsError::Yaml(e.to_string()))?;
             serde_yaml::from_str(text).map_err(|e| SettingsError::Yaml(e.to_string()))?
         };
         s.validate()?;

@@ -296,7 +296,11 @@ mod tests {
         let planner = store.list(&["planner".into()], 1);
         assert_eq!(
             planner.names,
-            vec!["planner.timeout_s", "planner.default_max_fragments"]
+            vec![
+                "planner.timeout_s",
+                "planner.default_max_fragments",
+                "planner.max_memory_mb"
+            ]
         );
         let e = store
             .set_all(&[(

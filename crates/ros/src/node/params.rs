@@ -61,6 +61,9 @@ pub struct PlannerParams {
     pub timeout_s: f64,
     /// k for parts that do not name one (meshes): the most weld paths allowed.
     pub default_max_fragments: i64,
+    /// Refuse a part whose search would need more memory than this, MB (estimated from
+    /// its blocks and k before planning starts).
+    pub max_memory_mb: i64,
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -131,6 +134,7 @@ impl Default for PlannerParams {
         PlannerParams {
             timeout_s: 60.0,
             default_max_fragments: 2,
+            max_memory_mb: waam_planner::DEFAULT_MAX_MEMORY_MB as i64,
         }
     }
 }
@@ -294,7 +298,7 @@ impl NodeParams {
             where_: String::new(),
             msg,
         };
-        waam_part::yaml::check_depth(text).map_err(|e| invalid(format!("not valid YAML: {e}")))?;
+        waam_part::yaml::check(text).map_err(|e| invalid(format!("not valid YAML: {e}")))?;
         let merged = sections(text, "/waam_planner").map_err(invalid)?;
         let params: NodeParams = serde_yaml::from_value(serde_yaml::Value::Mapping(merged))
             .map_err(|e| invalid(format!("ros__parameters: {e}")))?;
@@ -316,6 +320,12 @@ impl NodeParams {
             return Err(ParamRule(format!(
                 "planner.timeout_s: expected seconds in [0, {MAX_WAIT_S}], got {}",
                 self.planner.timeout_s
+            )));
+        }
+        if self.planner.max_memory_mb < 1 {
+            return Err(ParamRule(format!(
+                "planner.max_memory_mb: expected an integer >= 1 (MB), got {}",
+                self.planner.max_memory_mb
             )));
         }
         if self.planner.default_max_fragments < 1 {

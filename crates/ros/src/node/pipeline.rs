@@ -129,6 +129,8 @@ pub struct PlanRequest<'a> {
     pub part: &'a Part,
     /// Time limit, s (0 = none).
     pub timeout_s: f64,
+    /// Memory limit of the search, MB (`planner.max_memory_mb`).
+    pub max_memory_mb: u64,
     /// Stop at the first feasible plan instead of the best within the limit.
     pub first_feasible: bool,
     /// The job: cancel flag and progress.
@@ -150,6 +152,7 @@ pub struct PlanningPipeline {
     pub cell: Cell,
     pub mesh: MeshSettings,
     pub timeout_s: f64,
+    pub max_memory_mb: u64,
     pub planner: Arc<PlanFn>,
     /// The session's recording, if any.
     pub recorder: Option<Recorder>,
@@ -205,6 +208,7 @@ impl PlanningPipeline {
             cell: Cell { settings, robot },
             mesh: mesh_settings(params)?,
             timeout_s: params.planner.timeout_s,
+            max_memory_mb: params.planner.max_memory_mb.max(1) as u64,
             planner,
             recorder: None,
         })
@@ -244,6 +248,7 @@ impl Pipeline for PlanningPipeline {
         let found = (self.planner)(&PlanRequest {
             part: &part,
             timeout_s: job.timeout_s.unwrap_or(self.timeout_s),
+            max_memory_mb: self.max_memory_mb,
             first_feasible: job.first_feasible,
             ctx,
             recorder: self.recorder.as_ref(),
@@ -276,6 +281,7 @@ pub fn sat_planner() -> Arc<PlanFn> {
             cancel: Some(ctx.cancel.flag()),
             torch: request.torch,
             executed: request.executed.clone(),
+            max_memory_mb: request.max_memory_mb,
             ..waam_planner::Options::default()
         };
         let mut candidates = request.recorder.map(CandidateRecorder::new);

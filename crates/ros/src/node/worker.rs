@@ -67,6 +67,19 @@ pub struct JobContext {
 }
 
 impl JobContext {
+    /// A job's context: its id, its cancel flag and where its progress goes.
+    pub fn new(
+        job: u64,
+        cancel: Cancel,
+        report: impl Fn(Progress) + Send + Sync + 'static,
+    ) -> Self {
+        JobContext {
+            job,
+            cancel,
+            report: Box::new(report),
+        }
+    }
+
     pub fn progress(&self, stage: &'static str, fraction: Option<f64>, detail: impl Into<String>) {
         self.report(Progress {
             stage,

@@ -1,0 +1,643 @@
+//! Issue #18, the reproducers that need time and memory bounds: each runs `waam` as a
+//! child under an address-space limit (so a regression fails here instead of eating the
+//! machine) and asserts its exit code, its one-line error, its wall time and its peak
+//! resident memory (getrusage of the child). Library-level checks of the same limits sit
+//! beside them.
+
+use std::io::Read;
+use std::os::unix::process::CommandExt;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use waam_part::graph::WeldGraph;
+use waam_part::Part;
+use waam_thermal::ThermalModel;
+
+/// The address space a child may take: a blow-up ends in an allocation failure at 3 GB,
+/// not in a machine that swaps.
+const CHILD_ADDRESS_SPACE: u64 = 3 << 30;
+/// The peak resident memory a child may reach (issue #18: never more than 1 GB).
+const MAX_RSS_BYTES: u64 = 1 << 30;
+
+fn data(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/harden")
+        .join(name)
+}
+
+/// What a measured run of `waam` gave.
+struct Run {
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+    wall: Duration,
+    peak_rss: u64,
+}
+
+impl Run {
+    fn describe(&self) -> String {
+        format!(
+            "exit {:?} after {:?}, peak {} MB\nstdout: {}\nstderr: {}",
+            self.code,
+            self.wall,
+            self.peak_rss >> 20,
+            self.stdout.chars().take(2000).collect::<String>(),
+            self.stderr
+        )
+    }
+}
+
+/// Runs `waam ARGS` in `dir` under [`CHILD_ADDRESS_SPACE`], killed after `kill_after`;
+/// its output, wall time and peak resident memory (from `wait4`).
+fn measured(dir: &Path, args: &[&str], kill_after: Duration) -> Run {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_waam"));
+    command
+        .args(args)
+        .current_dir(dir)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    // SAFETY: setrlimit is async-signal-safe; nothing else runs between fork and exec.
+    unsafe {
+        command.pre_exec(|| {
+            let limit = libc::rlimit {
+                rlim_cur: CHILD_ADDRESS_SPACE,
+                rlim_max: CHILD_ADDRESS_SPACE,
+            };
+            if libc::setrlimit(libc::RLIMIT_AS, &limit) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let started = Instant::now();
+    // Reaped by wait4 below, which also gives its resource usage.
+    #[allow(clippy::zombie_processes)]
+    let mut child = command.spawn().unwrap();
+    let pid = child.id() as libc::pid_t;
+    let reader = |mut pipe: Box<dyn Read + Send>| {
+        std::thread::spawn(move || {
+            let mut text = String::new();
+            let _ = pipe.read_to_string(&mut text);
+            text
+        })
+    };
+    let out = reader(Box::new(child.stdout.take().unwrap()));
+    let err = reader(Box::new(child.stderr.take().unwrap()));
+    // A watchdog: a hang fails the test (by its wall time) instead of blocking it.
+    let done = Arc::new(AtomicBool::new(false));
+    let watchdog = {
+        let done = Arc::clone(&done);
+        std::thread::spawn(move || {
+            while started.elapsed() < kill_after {
+                if done.load(Ordering::Relaxed) {
+                    return;
+                }
+                std::thread::sleep(Duration::from_millis(50));
+            }
+            // SAFETY: kill on the child's pid, which is not reaped before `done` is set.
+            unsafe {
+                libc::kill(pid, libc::SIGKILL);
+            }
+        })
+    };
+    let mut status = 0;
+    // SAFETY: a zeroed rusage is a valid value for wait4 to fill.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: pid is our child; status and usage point to live locals.
+    let reaped = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
+    let wall = started.elapsed();
+    done.store(true, Ordering::Relaxed);
+    watchdog.join().unwrap();
+    assert_eq!(reaped, pid, "wait4: {}", std::io::Error::last_os_error());
+    let code = libc::WIFEXITED(status).then(|| libc::WEXITSTATUS(status));
+    Run {
+        code,
+        stdout: out.join().unwrap(),
+        stderr: err.join().unwrap(),
+        wall,
+        // ru_maxrss is in kilobytes on Linux.
+        peak_rss: usage.ru_maxrss as u64 * 1024,
+    }
+}
+
+fn one_line(run: &Run) -> &str {
+    let lines: Vec<&str> = run.stderr.trim().lines().collect();
+    assert_eq!(lines.len(), 1, "not a one-line error: {}", run.describe());
+    lines[0]
+}
+
+/// Issue #18, H1: a transit of 5 x 10^7 s (10^8 Euler steps per transit) kept `plan
+/// --timeout 5` running for 40 s; the simulation now honours the deadline.
+#[test]
+fn a_50_million_second_transit_is_stopped_by_the_timeout() {
+    let dir = tempfile::tempdir().unwrap();
+    let part = data("ex3-long-transit.yaml");
+    let run = measured(
+        dir.path(),
+        &["plan", part.to_str().unwrap(), "--timeout", "5", "-q"],
+        Duration::from_secs(60),
+    );
+    assert_eq!(run.code, Some(1), "{}", run.describe());
+    assert!(
+        run.stdout.contains("none found before the timeout"),
+        "{}",
+        run.describe()
+    );
+    assert!(run.wall < Duration::from_millis(6500), "{}", run.describe());
+    assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
+}
+
+/// Two single blocks apart, so every plan has one transit; `transit_s` long.
+fn two_towers(transit_s: f64) -> String {
+    format!(
+        "name: towers\nblock_mm: [6, 6, 2.5]\nmax_fragments: 2\nblocks: [[0,0,0], [3,0,0]]\n\
+         t85:\n  - {{block: [0,0,0], min_s: 0.1, max_s: 1.0e8}}\n\
+         thermal: {{transit_time_s: {transit_s}}}\n"
+    )
+}
+
+/// Issue #18, H1: once a plan was found, its margin was measured by a second simulation
+/// that ignored the deadline (`--timeout 15` answered after 25 s with a 5 x 10^6 s
+/// transit). Whatever the search reaches before it, the answer comes at the timeout.
+#[test]
+fn the_margin_of_a_found_plan_is_measured_within_the_timeout() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("towers.yaml"), two_towers(2.5e6)).unwrap();
+    let run = measured(
+        dir.path(),
+        &["plan", "towers.yaml", "--timeout", "6", "-q"],
+        Duration::from_secs(60),
+    );
+    assert!(matches!(run.code, Some(0 | 1)), "{}", run.describe());
+    assert!(run.wall < Duration::from_millis(7500), "{}", run.describe());
+}
+
+/// Issue #18, H1 (library level, the node's case): raising the cancel flag stops a whole
+/// simulation with a 10^8-step transit within a second, and a passed deadline stops it at
+/// once.
+#[test]
+fn a_cancel_stops_a_long_simulation_within_a_second() {
+    let part = Part::parse(&two_towers(5.0e7)).unwrap();
+    let graph = WeldGraph::new(&part);
+    let model = ThermalModel::new(&part, &graph);
+    let fragments = vec![vec![0], vec![1]];
+    let cancel = Arc::new(AtomicBool::new(false));
+    let raiser = {
+        let cancel = Arc::clone(&cancel);
+        std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(300));
+            cancel.store(true, Ordering::Relaxed);
+            Instant::now()
+        })
+    };
+    let outcome = waam_thermal::simulate_until(&model, &fragments, None, Some(cancel)).unwrap();
+    let stopped = Instant::now();
+    let raised = raiser.join().unwrap();
+    assert!(outcome.is_none(), "a cancelled run has no outcome");
+    assert!(
+        stopped.duration_since(raised) < Duration::from_secs(1),
+        "{:?} after the cancel",
+        stopped.duration_since(raised)
+    );
+    let t = Instant::now();
+    let outcome =
+        waam_thermal::simulate_until(&model, &fragments, Some(Instant::now()), None).unwrap();
+    assert!(outcome.is_none());
+    assert!(t.elapsed() < Duration::from_secs(1), "{:?}", t.elapsed());
+}
+
+/// Issue #18, H1: the planner (as the node runs it, with a cancel flag) stops within a
+/// second of a cancel while simulating a 10^8-step transit.
+#[test]
+fn a_cancelled_planner_stops_within_a_second() {
+    let part = Part::parse(&two_towers(5.0e7)).unwrap();
+    let cancel = Arc::new(AtomicBool::new(false));
+    let opts = waam_planner::Options {
+        cancel: Some(Arc::clone(&cancel)),
+        ..waam_planner::Options::default()
+    };
+    let raiser = {
+        let cancel = Arc::clone(&cancel);
+        std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(500));
+            cancel.store(true, Ordering::Relaxed);
+            Instant::now()
+        })
+    };
+    let report = waam_planner::plan(&part, &opts, &mut |_| {}).unwrap();
+    let stopped = Instant::now();
+    let raised = raiser.join().unwrap();
+    assert!(!report.proven);
+    assert!(
+        stopped.duration_since(raised) < Duration::from_secs(1),
+        "{:?} after the cancel",
+        stopped.duration_since(raised)
+    );
+}
+
+fn plate_layers(n: usize) -> String {
+    format!(
+        "name: plate\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nlayers:\n  - |\n{}",
+        format!("    {}\n", "#".repeat(n)).repeat(n)
+    )
+}
+
+/// Issue #18, H2: a 1,000 x 1,000 plate (a 1 MB part file) took 3-7 GB and ignored
+/// `--timeout`; its size is now estimated before anything is built and refused by the
+/// limit, naming it. Raising the limit is what the error says to do.
+#[test]
+fn a_1000_by_1000_plate_is_refused_by_the_memory_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("plate.yaml"), plate_layers(1000)).unwrap();
+    let run = measured(
+        dir.path(),
+        &["plan", "plate.yaml", "--timeout", "10", "-q"],
+        Duration::from_secs(60),
+    );
+    assert_eq!(run.code, Some(2), "{}", run.describe());
+    let line = one_line(&run);
+    assert!(
+        line.contains("1000000 blocks")
+            && line.contains("max_memory_mb = 2048")
+            && line.contains("--max-memory-mb"),
+        "{line}"
+    );
+    assert!(run.wall < Duration::from_secs(5), "{}", run.describe());
+    assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
+}
+
+/// Issue #18, H2: a 100³ block list (15 MB, 4 x 10^6 YAML values) took 950 MB and 8 s
+/// to parse; it is refused before parsing.
+#[test]
+fn a_100_cubed_block_list_is_refused_before_it_is_parsed() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 100;
+    let mut text = String::from("name: cube\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nblocks:\n");
+    for z in 0..n {
+        for y in 0..n {
+            for x in 0..n {
+                text.push_str(&format!("  - [{x},{y},{z}]\n"));
+            }
+        }
+    }
+    std::fs::write(dir.path().join("cube.yaml"), text).unwrap();
+    let run = measured(
+        dir.path(),
+        &["plan", "cube.yaml", "--timeout", "10", "-q"],
+        Duration::from_secs(60),
+    );
+    assert_eq!(run.code, Some(2), "{}", run.describe());
+    let line = one_line(&run);
+    assert!(
+        line.contains("cube.yaml") && line.contains("more than 3000000 values"),
+        "{line}"
+    );
+    assert!(run.wall < Duration::from_secs(5), "{}", run.describe());
+    assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
+}
+
+/// Issue #18, H2: the limit is the planner's, so the node (and `count`, `--all`) refuse
+/// the same part by the same estimate; a raised limit lets a part through.
+#[test]
+fn the_memory_limit_is_checked_by_every_planner_entry_and_can_be_raised() {
+    let part = Part::parse(&plate_layers(300)).unwrap();
+    let small = waam_planner::Options {
+        max_memory_mb: 100,
+        timeout: Some(Duration::from_millis(1)),
+        ..waam_planner::Options::default()
+    };
+    let t = Instant::now();
+    for err in [
+        waam_planner::plan(&part, &small, &mut |_| {}).err(),
+        waam_planner::first(&part, &small, &mut |_| {}).err(),
+        waam_planner::count(&part, &small, true, &mut |_| {}).err(),
+        waam_planner::enumerate(&part, &small, &mut |_| {}, &mut |_| Ok(())).err(),
+    ] {
+        let err = err.expect("refused").to_string();
+        assert!(err.contains("max_memory_mb = 100"), "{err}");
+    }
+    assert!(t.elapsed() < Duration::from_secs(1), "{:?}", t.elapsed());
+    // The estimate for a plate this size (90,000 blocks, k = 1) is about 1.1 GB.
+    let estimate = waam_planner::estimated_memory_mb(part.len(), 1);
+    assert!((1000..1300).contains(&estimate), "{estimate}");
+    let tiny = Part::parse(&plate_layers(10)).unwrap();
+    let raised = waam_planner::Options {
+        max_memory_mb: 100,
+        ..waam_planner::Options::default()
+    };
+    assert!(waam_planner::plan(&tiny, &raised, &mut |_| {})
+        .unwrap()
+        .best
+        .is_some());
+}
+
+/// Issue #18, H2: the node's parameter carries the limit and is checked.
+#[test]
+fn the_node_parameter_max_memory_mb_is_read_and_checked() {
+    use waam_ros::node::params::NodeParams;
+    let file = |v: &str| {
+        format!("waam_planner:\n  ros__parameters:\n    planner: {{max_memory_mb: {v}}}\n")
+    };
+    assert_eq!(
+        NodeParams::parse(&file("512"))
+            .unwrap()
+            .planner
+            .max_memory_mb,
+        512
+    );
+    let err = NodeParams::parse(&file("0")).unwrap_err().to_string();
+    assert!(err.contains("planner.max_memory_mb"), "{err}");
+    assert_eq!(
+        NodeParams::default().planner.max_memory_mb,
+        waam_planner::DEFAULT_MAX_MEMORY_MB as i64
+    );
+}
+
+/// A square grid layer of `cells` x `cells` cells (7 mm pitch, 2 mm walls), with the
+/// parameters of config/layers/paper-16mm.yaml: 2 c (c + 1) segments.
+fn grid_layer(cells: usize) -> String {
+    let id = |i: usize, j: usize| format!("n{i}_{j}");
+    let mut text = format!("name: grid{cells}\nwall_width_mm: 2.0\nnodes:\n");
+    for j in 0..=cells {
+        for i in 0..=cells {
+            let (x, y) = (1.0 + 7.0 * i as f64, 1.0 + 7.0 * j as f64);
+            text.push_str(&format!("  - {{id: {}, x: {x}, y: {y}}}\n", id(i, j)));
+        }
+    }
+    text.push_str("segments:\n");
+    for j in 0..=cells {
+        for i in 0..cells {
+            text.push_str(&format!("  - [{}, {}]\n", id(i, j), id(i + 1, j)));
+            text.push_str(&format!("  - [{}, {}]\n", id(j, i), id(j, i + 1)));
+        }
+    }
+    text.push_str(
+        "process:\n  weld_speed_mm_s: 10.0\n  time_step_s: 0.1\n  transit_speed_mm_s: 50.0\n  \
+         mesh_refinement: 0\nmaterial:\n  diffusivity_mm2_s: 5.0\n  robin_mm_s: 0.5\n\
+         temperatures:\n  ambient_c: 20.0\n  initial_c: 20.0\n  target_c: 400.0\n\
+         source:\n  peak_k_s: 8000.0\n  radii_mm: [1.0, 2.0]\n  weights: [1.0, 0.4]\n",
+    );
+    text
+}
+
+/// Issue #18: a 1,000-segment layer took 2.7 GB and gave no result in 60 s. Its search
+/// (20,000 mesh nodes x 8,900 time steps) is now estimated before it starts and refused
+/// by the limit, naming it.
+#[test]
+fn a_1000_segment_layer_is_refused_by_the_memory_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = grid_layer(22);
+    assert_eq!(
+        waam_layer::Layer::parse(&text).unwrap().segments.len(),
+        1012
+    );
+    std::fs::write(dir.path().join("grid22.yaml"), text).unwrap();
+    let run = measured(
+        dir.path(),
+        &["layer", "plan", "grid22.yaml", "--time-limit", "5"],
+        Duration::from_secs(60),
+    );
+    assert_eq!(run.code, Some(2), "{}", run.describe());
+    let line = run.stderr.lines().last().unwrap_or_default();
+    assert!(
+        line.contains("layer grid22") && line.contains("more than max_memory_mb = 1024"),
+        "{}",
+        run.describe()
+    );
+    assert!(run.wall < Duration::from_secs(15), "{}", run.describe());
+    assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
+}
+
+/// Issue #18: `--time-limit` acted only once a first trail was known; on a 420-segment
+/// layer (within the memory limit) the first trail takes minutes, and the limit now ends
+/// the search without one: exit 1, saying so.
+#[test]
+fn the_layer_time_limit_acts_before_the_first_trail() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("grid14.yaml"), grid_layer(14)).unwrap();
+    let run = measured(
+        dir.path(),
+        &["layer", "plan", "grid14.yaml", "--time-limit", "2"],
+        Duration::from_secs(120),
+    );
+    assert_eq!(run.code, Some(1), "{}", run.describe());
+    assert!(
+        run.stderr
+            .contains("layer grid14: no trail found within --time-limit 2 s"),
+        "{}",
+        run.describe()
+    );
+    assert!(run.wall < Duration::from_secs(5), "{}", run.describe());
+    assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
+}
+
+/// Issue #18: plan files with unknown keys were accepted; now `check` refuses them, naming
+/// the key (exit 2), in YAML and JSON.
+#[test]
+fn a_plan_file_with_an_unknown_key_is_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let part = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("config/parts/s1-wall.yaml");
+    for (name, text) in [
+        (
+            "plan.yaml",
+            "part: s1-wall\nfragments:\n  - [[0,0,0], [1,0,0]]\nfragmnets: []\n",
+        ),
+        (
+            "plan.json",
+            r#"{"part": "s1-wall", "fragments": [[[0,0,0]]], "margin": 1.0}"#,
+        ),
+    ] {
+        std::fs::write(dir.path().join(name), text).unwrap();
+        let run = measured(
+            dir.path(),
+            &["check", part.to_str().unwrap(), name],
+            Duration::from_secs(30),
+        );
+        assert_eq!(run.code, Some(2), "{}", run.describe());
+        let line = one_line(&run);
+        assert!(line.contains("unknown field"), "{line}");
+        assert!(
+            line.contains("fragmnets") || line.contains("margin"),
+            "{line}"
+        );
+    }
+}
+
+/// A recording of one part that the planner cannot finish: ex3 with a transit of 10^8
+/// Euler steps (`waam plan --timeout 1 --record`; replay plans without that timeout).
+fn endless_recording(dir: &Path) -> PathBuf {
+    let bag = dir.join("rec");
+    let part = data("ex3-long-transit.yaml");
+    let run = measured(
+        dir,
+        &[
+            "plan",
+            part.to_str().unwrap(),
+            "--timeout",
+            "1",
+            "-q",
+            "--record",
+            bag.to_str().unwrap(),
+        ],
+        Duration::from_secs(60),
+    );
+    assert_eq!(run.code, Some(1), "{}", run.describe());
+    bag
+}
+
+/// Issue #18: `waam replay` had no time limit; `--timeout` now stops it, saying how many
+/// parts were not compared (exit 1).
+#[test]
+fn replay_stops_at_its_timeout() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = endless_recording(dir.path());
+    let run = measured(
+        dir.path(),
+        &["replay", bag.to_str().unwrap(), "--timeout", "2"],
+        Duration::from_secs(60),
+    );
+    assert_eq!(run.code, Some(1), "{}", run.describe());
+    assert!(
+        run.stderr
+            .contains("replay stopped by --timeout: 1 of 1 part(s) not compared"),
+        "{}",
+        run.describe()
+    );
+    assert!(run.wall < Duration::from_secs(4), "{}", run.describe());
+    assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
+}
+
+/// Issue #18: Ctrl-C stops `waam replay` within a second (exit 130).
+#[test]
+fn replay_stops_on_ctrl_c_within_a_second() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = endless_recording(dir.path());
+    let mut child = Command::new(env!("CARGO_BIN_EXE_waam"))
+        .args(["replay", bag.to_str().unwrap()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    assert!(
+        child.try_wait().unwrap().is_none(),
+        "replay ended by itself"
+    );
+    // SAFETY: kill on our own child's pid.
+    unsafe {
+        libc::kill(child.id() as libc::pid_t, libc::SIGINT);
+    }
+    let sent = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if sent.elapsed() > Duration::from_secs(10) {
+            child.kill().unwrap();
+            panic!("replay still runs 10 s after Ctrl-C");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let stopped_after = sent.elapsed();
+    let mut stderr = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut stderr)
+        .unwrap();
+    assert_eq!(status.code(), Some(130), "{stderr}");
+    assert!(stderr.contains("replay stopped by Ctrl-C"), "{stderr}");
+    assert!(stopped_after < Duration::from_secs(1), "{stopped_after:?}");
+}
+
+/// Issue #18: `relative_file_paths` naming a FIFO blocked `bag info` and `replay` for
+/// ever; both refuse it at once (C3 refuses it in the reader; this checks the commands).
+#[test]
+fn a_fifo_in_the_metadata_blocks_neither_bag_info_nor_replay() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = endless_recording(dir.path());
+    let metadata = std::fs::read_to_string(bag.join("metadata.yaml")).unwrap();
+    assert!(metadata.contains("- rec_0.mcap"), "{metadata}");
+    let fifo = bag.join("fifo.mcap");
+    let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+    // SAFETY: mkfifo with a valid NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+    std::fs::write(
+        bag.join("metadata.yaml"),
+        metadata.replace("- rec_0.mcap", "- fifo.mcap"),
+    )
+    .unwrap();
+    for args in [
+        vec!["bag", "info", bag.to_str().unwrap()],
+        vec!["replay", bag.to_str().unwrap()],
+    ] {
+        let run = measured(dir.path(), &args, Duration::from_secs(20));
+        assert_eq!(run.code, Some(2), "{args:?}: {}", run.describe());
+        assert!(
+            run.stderr.contains("not a regular file"),
+            "{args:?}: {}",
+            run.describe()
+        );
+        assert!(
+            run.wall < Duration::from_secs(2),
+            "{args:?}: {}",
+            run.describe()
+        );
+    }
+}
+
+/// Issue #18, H2: the node took 3 GB from a 1 MB message (a 1,000 x 1,000 plate). Its
+/// pipeline, with the default parameters and the SAT planner, now answers with the
+/// memory-limit error within a second and without the memory.
+#[test]
+fn the_node_pipeline_refuses_a_1_mb_plate_by_its_memory_limit() {
+    use waam_ros::node::params::NodeParams;
+    use waam_ros::node::pipeline::{sat_planner, Job, PlanningPipeline};
+    use waam_ros::node::worker::{Cancel, JobContext, Pipeline};
+    let pipeline = PlanningPipeline::from_params(&NodeParams::default(), sat_planner()).unwrap();
+    let document = plate_layers(1000);
+    assert!(document.len() > 1_000_000);
+    let ctx = JobContext::new(1, Cancel::new(), |_| {});
+    let t = Instant::now();
+    let input = waam_pipeline::PartInput::Document(document);
+    let err = match pipeline.run(Job::from(input), &ctx) {
+        Ok(_) => panic!("a 10^6-block plate was planned"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        err.contains("1000000 blocks") && err.contains("planner.max_memory_mb"),
+        "{err}"
+    );
+    assert!(t.elapsed() < Duration::from_secs(3), "{:?}", t.elapsed());
+    // SAFETY: a zeroed rusage is a valid value for getrusage to fill.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: usage points to a live local.
+    assert_eq!(unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) }, 0);
+    let peak = usage.ru_maxrss as u64 * 1024;
+    assert!(
+        peak < MAX_RSS_BYTES,
+        "this test process peaked at {} MB",
+        peak >> 20
+    );
+}
+
+/// Issue #18: a part's layers (`waam layer plan-part`) are held to the same memory limit,
+/// each before its search.
+#[test]
+fn a_part_with_a_1000_segment_layer_is_refused_by_the_memory_limit() {
+    let layer = waam_layer::Layer::parse(&grid_layer(22)).unwrap();
+    let t = Instant::now();
+    let err = match waam_layer::part::plan_part(&[(0.0, layer)], &Default::default(), |_, _| {}) {
+        Ok(_) => panic!("a 1,000-segment layer was searched"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        err.starts_with("layer 0 (grid22)") && err.contains("max_memory_mb = 1024"),
+        "{err}"
+    );
+    assert!(t.elapsed() < Duration::from_secs(15), "{:?}", t.elapsed());
+}
