@@ -333,13 +333,10 @@ impl Cell {
     /// that fail the same way; `None` when it can (or fails otherwise: [`Cell::motion`]
     /// reports that). Two failures are learned:
     /// - *A transit the robot cannot make in `transit_time_s`* from weld path f to f + 1:
-    ///   the plans that begin with the same weld paths up to f and the same first two
-    ///   blocks of f + 1 (its only block, closed, when it has one). Those fix every pose of
-    ///   the transit: the retract at f's end (its heading), the safe height (the tallest
-    ///   block so far), the approach at f + 1's start (its heading, from its first two
-    ///   blocks). The joint path is the motion stage's choice of arm configuration for the
-    ///   whole toolpath; on an arm that keeps one configuration throughout it is the same
-    ///   for every such plan.
+    ///   this plan only. The transit's poses depend on the weld paths up to f and the first
+    ///   two blocks of f + 1 alone, but its joint path on the arm configuration the motion
+    ///   stage picks for the whole toolpath, which later weld paths can change; a shorter
+    ///   clause could rule out a plan the robot can weld.
     /// - *A window broken on the executed time line* (the dwells shift the deposits): the
     ///   plans that begin with the same weld paths, closed, up to the one that deposited the
     ///   last block before the violation. The robot is timed to the model, so the executed
@@ -362,12 +359,12 @@ impl Cell {
                 )),
             ) => {
                 // `fragment` counts from 1: the transit leaves fragments[fragment - 1].
-                let next = fragments.get(fragment)?;
-                let mut prefix = fragments[..fragment].to_vec();
-                prefix.push(next[..next.len().min(2)].to_vec());
+                fragments.get(fragment)?;
+                // The joint path depends on the arm configuration the motion stage picks
+                // for the whole toolpath, so only this very plan is known to fail.
                 return Some(Rejection {
-                    prefix,
-                    closed: next.len() == 1,
+                    prefix: fragments.to_vec(),
+                    closed: true,
                     reason: e.to_string(),
                 });
             }
