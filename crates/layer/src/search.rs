@@ -150,7 +150,8 @@ struct Bound {
     tail: Vec<f64>,
     /// The fewest arc-off steps of a deadheading move (between two distinct nodes).
     tail_steps: usize,
-    /// The longest deadheading move (steps), as in the horizon.
+    /// The longest deadheading move (steps), as in the horizon: the slack for cooling after
+    /// the last weld is what the horizon leaves when every move left takes this long.
     longest_transit: usize,
     hot: bool,
     /// Free-decay steps used for the hot part.
@@ -204,8 +205,6 @@ impl Bound {
         } else {
             vec![0.0; 2 * model.layer.segments.len()]
         };
-        let weld: usize = model.steps.iter().sum();
-        let longest_transit = (h - weld).checked_div(model.deadheads).unwrap_or(0);
         let history = if hot {
             history_overshoots(model, HISTORY_DEPTH)
         } else {
@@ -222,7 +221,7 @@ impl Bound {
             history,
             tail,
             tail_steps,
-            longest_transit,
+            longest_transit: model.longest_transit,
             hot,
             decay_steps,
         }
