@@ -13,6 +13,7 @@
 //! Parts: [`slice`] cuts a mesh into layers (one layer graph per section) and [`part`]
 //! plans them bottom up, each layer starting from the heat the layer below left.
 
+pub mod assignment;
 pub mod fem;
 pub mod format;
 pub mod improve;

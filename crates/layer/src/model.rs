@@ -60,6 +60,8 @@ pub struct Model {
     pub deadheads: usize,
     /// Time steps every trail is scored over.
     pub horizon: usize,
+    /// Steps of the longest possible deadheading move (the layer's bounding-box diagonal).
+    pub longest_transit: usize,
     /// Initial deviation from ambient (K): the smallest over the mesh nodes.
     pub initial: f64,
     /// Initial deviation from ambient (K) at every mesh node: the layer's `initial_c`
@@ -130,6 +132,7 @@ impl Model {
             loads,
             deadheads,
             horizon: weld + deadheads * longest_transit,
+            longest_transit,
             initial: layer.temperatures.initial_c - layer.temperatures.ambient_c,
             initial_field: vec![
                 layer.temperatures.initial_c - layer.temperatures.ambient_c;

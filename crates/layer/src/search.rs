@@ -10,13 +10,19 @@
 //! * cold part, linear and so exact up to the torch positions: Σ_j Σ_i (T* − T_i^j) =
 //!   R·N·(T*−T_amb) − Σ_j 1ᵀGʲu − (heat the future welds add to the node sums); the last
 //!   term is at most the W largest "heat sums" a single weld step can add with the steps
-//!   left after it (precomputed by an adjoint recursion for every torch position).
+//!   left after it (precomputed by an adjoint recursion for every torch position), and at
+//!   most the assignment bound: every remaining torch position is welded exactly once, in
+//!   its own step, so the dual of the position-to-step assignment solved once at the root
+//!   ([`crate::assignment`]) bounds it for every node (a torch at a wall crossing keeps
+//!   more of its heat than one beside an outline: the first bound charges every step the
+//!   best position, this one charges each position once).
 //! * hot part, only when each step is monotone (A⁻¹ ≥ 0, see `fem`) and T* ≥ T_amb: every
 //!   future field is at least the free decay of u plus, during the weld of each remaining
 //!   segment, the heat of that segment and of the future welds just before it in its run;
 //!   for T* ≥ T_amb overshoots of sums of non-negative parts add up, so 2·(overshoot of
 //!   the free decay + Σ over remaining segments of their least overshoot after a walk of
-//!   as many future predecessors as a trail must give them) is a lower bound.
+//!   as many future predecessors as a trail must give them + the least overshoot of the
+//!   arc-off steps after the runs still to end) is a lower bound.
 //!
 //! Symmetries of the layer and mesh prune children that are not the smallest of their
 //! orbit under the stabilizer of the prefix (sound: some image of every trail passes).
@@ -25,6 +31,7 @@ use std::time::{Duration, Instant};
 
 use serde::Serialize;
 
+use super::assignment::max_assignment_dual;
 use super::improve::improve;
 use super::model::{trails_needed, Model, Move, Trail};
 use super::symmetry::symmetries;
@@ -183,11 +190,24 @@ struct Bound {
     gains: Vec<f64>,
     gains_sorted_by_m: bool,
     gains_prefix: Vec<f64>,
+    /// Dual of assigning every torch position to its own weld slot (see
+    /// [`Bound::max_heat`]): per segment, the sum of its positions' row values; per slot
+    /// m, prefix sums of the column values made non-decreasing in m.
+    segment_heat: Vec<f64>,
+    slot_heat_prefix: Vec<f64>,
     /// history[j][d]: least overshoot while welding directed segment d (index
     /// 2 s + reversed) from cold right after j other segments welded in one run (any walk
     /// of j distinct segments ending where d starts); level j falls back to level j − 1
     /// where no such walk exists.
     history: Vec<Vec<f64>>,
+    /// tail[d]: least overshoot over the `tail_steps` arc-off steps right after welding
+    /// directed segment d from cold (a run end before deadheading or the final cooling).
+    tail: Vec<f64>,
+    /// The fewest arc-off steps of a deadheading move (between two distinct nodes).
+    tail_steps: usize,
+    /// The longest deadheading move (steps), as in the horizon: the slack for cooling after
+    /// the last weld is what the horizon leaves when every move left takes this long.
+    longest_transit: usize,
     hot: bool,
     /// Free-decay steps used for the hot part.
     decay_steps: usize,
@@ -202,7 +222,11 @@ impl Bound {
         let mut a = vec![1.0; n];
         let mut free_sum = vec![0.0; (h + 1) * n];
         let mut gains = vec![0.0f64; h];
-        let mut cum = vec![0.0; model.positions.len()];
+        let positions = model.positions.len();
+        let mut cum = vec![0.0; positions];
+        // gain_at[q * h + m]: node-sum heat a weld step at position q adds over the m + 1
+        // steps from it on.
+        let mut gain_at = vec![0.0; positions * h];
         for k in 0..h {
             if late() {
                 return None;
@@ -214,6 +238,7 @@ impl Bound {
             for (q, load) in model.loads.iter().enumerate() {
                 let s: f64 = load.iter().map(|&(i, f)| c[i] * f).sum::<f64>() * model.heat.dt;
                 cum[q] += s;
+                gain_at[q * h + k] = cum[q];
                 best = best.max(cum[q]);
             }
             gains[k] = best;
@@ -232,7 +257,14 @@ impl Bound {
         for m in 0..h {
             gains_prefix[m + 1] = gains_prefix[m] + gains[m];
         }
+        let (segment_heat, slot_heat_prefix) = assignment_heat(model, &gain_at, h);
         let hot = model.heat.monotone && model.target >= 0.0 && model.initial >= 0.0;
+        let tail_steps = shortest_transit(model);
+        let tail = if hot {
+            tail_overshoots(model, tail_steps)
+        } else {
+            vec![0.0; 2 * model.layer.segments.len()]
+        };
         let history = if hot {
             history_overshoots(model, HISTORY_DEPTH, deadline)?
         } else {
@@ -244,22 +276,37 @@ impl Bound {
             gains,
             gains_sorted_by_m,
             gains_prefix,
+            segment_heat,
+            slot_heat_prefix,
             history,
+            tail,
+            tail_steps,
+            longest_transit: model.longest_transit,
             hot,
             decay_steps,
         })
     }
 
-    /// Largest total node-sum heat W weld steps can add within the last R steps.
-    fn max_heat(&self, r: usize, w: usize) -> f64 {
+    /// Largest total node-sum heat the W weld steps of the `left` segments can add within
+    /// the last R steps: the lesser of two upper bounds.
+    /// * Any W slots, each with the best torch position for it: the W largest g[m].
+    /// * Each position welded once, in its own slot: by the assignment dual, position q in
+    ///   slot m adds at most row[q] + col[m], so the total is at most Σ row over the
+    ///   positions left plus the W largest col[m] of the slots left (col non-decreasing
+    ///   in m: the last W of them).
+    fn max_heat(&self, r: usize, w: usize, left: &[usize]) -> f64 {
         let w = w.min(r);
-        if self.gains_sorted_by_m {
+        let any_position = if self.gains_sorted_by_m {
             self.gains_prefix[r] - self.gains_prefix[r - w]
         } else {
             let mut g = self.gains[..r].to_vec();
             g.sort_by(|a, b| b.total_cmp(a));
             g[..w].iter().sum()
-        }
+        };
+        let each_once = left.iter().map(|&s| self.segment_heat[s]).sum::<f64>()
+            + self.slot_heat_prefix[r]
+            - self.slot_heat_prefix[r - w];
+        any_position.min(each_once)
     }
 
     /// Lower bound on the cost still to come from field u with what is left to do.
@@ -270,7 +317,7 @@ impl Bound {
         }
         let fs = &self.free_sum[r * self.n..(r + 1) * self.n];
         let free: f64 = fs.iter().zip(u).map(|(a, b)| a * b).sum();
-        let cold = r as f64 * self.n as f64 * model.target - free - self.max_heat(r, w);
+        let cold = r as f64 * self.n as f64 * model.target - free - self.max_heat(r, w, left);
         if !self.hot {
             return cold;
         }
@@ -294,6 +341,7 @@ impl Bound {
             }
             hot -= diffs.iter().take(allowed).sum::<f64>();
         }
+        hot += self.run_end_tails(rest);
         scratch.clear();
         scratch.extend_from_slice(u);
         for _ in 0..r.min(self.decay_steps) {
@@ -331,6 +379,113 @@ impl SearchResult {
     pub fn found(&self) -> bool {
         !self.trail.moves.is_empty()
     }
+}
+
+/// The assignment dual of the heat the welds add (see [`Bound::max_heat`]): per segment the
+/// sum of its positions' row values, and prefix sums of the slot values made
+/// non-decreasing (raising a slot value keeps every gain covered).
+fn assignment_heat(model: &Model, gain_at: &[f64], h: usize) -> (Vec<f64>, Vec<f64>) {
+    let positions = model.positions.len();
+    if positions > h {
+        // Cannot happen (the horizon holds every weld step); no usable dual then.
+        return (vec![f64::INFINITY; model.steps.len()], vec![0.0; h + 1]);
+    }
+    let dual = max_assignment_dual(gain_at, positions, h);
+    let mut col = dual.col;
+    for m in 1..h {
+        col[m] = col[m].max(col[m - 1]);
+    }
+    // Rows again against the raised columns: the least values that still cover.
+    let row: Vec<f64> = (0..positions)
+        .map(|q| {
+            (0..h)
+                .map(|m| gain_at[q * h + m] - col[m])
+                .fold(f64::NEG_INFINITY, f64::max)
+        })
+        .collect();
+    let segment_heat = (0..model.steps.len())
+        .map(|s| {
+            row[model.offset[s]..model.offset[s] + model.steps[s]]
+                .iter()
+                .sum()
+        })
+        .collect();
+    let mut prefix = vec![0.0; h + 1];
+    for m in 0..h {
+        prefix[m + 1] = prefix[m] + col[m];
+    }
+    (segment_heat, prefix)
+}
+
+impl Bound {
+    /// Overshoot of the arc-off steps that follow the ends of future runs: every deadheading
+    /// move left follows a run end (a future segment's weld, except perhaps the first when
+    /// the current run may end where the torch is) and takes at least `tail_steps` steps;
+    /// the last weld is followed by cooling when the horizon leaves room for it whatever
+    /// the deadheading moves take. Those run ends are distinct remaining segments, so the
+    /// sum of that many smallest tails bounds their overshoot (times apart from the weld
+    /// steps, heat pieces apart from the free decay: the overshoots add up).
+    fn run_end_tails(&self, rest: &Rest) -> f64 {
+        let left = rest.segments;
+        let mut count = if rest.run_open {
+            rest.deadheads.saturating_sub(1)
+        } else {
+            rest.deadheads
+        };
+        let future_transit = rest.deadheads * self.longest_transit;
+        let slack = rest.steps.saturating_sub(rest.weld_steps + future_transit);
+        if slack >= self.tail_steps && self.tail_steps > 0 {
+            count += 1;
+        }
+        let count = count.min(left.len());
+        if count == 0 {
+            return 0.0;
+        }
+        let mut tails: Vec<f64> = left
+            .iter()
+            .map(|&s| self.tail[2 * s].min(self.tail[2 * s + 1]))
+            .collect();
+        if count < tails.len() {
+            tails.select_nth_unstable_by(count, |a, b| a.total_cmp(b));
+        }
+        tails[..count].iter().sum()
+    }
+}
+
+/// The fewest steps of a deadheading move between two distinct layer nodes (a move back
+/// to the same node would save a deadheading move, so a minimum trail never makes one).
+fn shortest_transit(model: &Model) -> usize {
+    let n = model.layer.nodes.len();
+    (0..n)
+        .flat_map(|a| (a + 1..n).map(move |b| (a, b)))
+        .map(|(a, b)| model.layer.transit_steps(a, b))
+        .min()
+        .unwrap_or(0)
+}
+
+/// tail[d] for every directed segment (see [`Bound`]).
+fn tail_overshoots(model: &Model, steps: usize) -> Vec<f64> {
+    (0..2 * model.layer.segments.len())
+        .map(|d| {
+            let mv = Move {
+                segment: d / 2,
+                reversed: d % 2 == 1,
+                deadhead_before: false,
+            };
+            let mut u = vec![0.0; model.heat.len()];
+            for k in 0..model.steps[mv.segment] {
+                model
+                    .heat
+                    .step(&mut u, &model.loads[model.position(&mv, k)]);
+            }
+            let mut o = 0.0;
+            for _ in 0..steps {
+                model.heat.step(&mut u, &[]);
+                o += overshoot(&u, model.target);
+            }
+            o
+        })
+        .collect()
 }
 
 /// Predecessors considered in the hot part of the bound.
@@ -428,6 +583,11 @@ struct Rest<'a> {
     /// deadheading move left, plus the first (which continues the current run, whose
     /// past is already in the field, or starts the trail).
     run_starts: usize,
+    /// Deadheading moves left (exactly: every trail has the minimum count).
+    deadheads: usize,
+    /// A past segment ends the current run (false only before the first weld): the next
+    /// deadheading move may follow it rather than a future segment.
+    run_open: bool,
 }
 
 fn overshoot(u: &[f64], target: f64) -> f64 {
@@ -488,6 +648,8 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
             weld_steps: total_weld,
             segments: &all,
             run_starts: model.deadheads + 1,
+            deadheads: model.deadheads,
+            run_open: false,
         },
         &mut scratch,
     );
@@ -590,6 +752,8 @@ pub fn search(model: &Model, options: &SearchOptions) -> SearchResult {
                                 weld_steps: w,
                                 segments: &rest,
                                 run_starts: dl + 1,
+                                deadheads: dl,
+                                run_open: true,
                             },
                             &mut scratch,
                         )
@@ -819,6 +983,8 @@ pub fn check_bound(model: &Model) -> Result<usize, crate::ModelError> {
                                 weld_steps: weld,
                                 segments: &rest,
                                 run_starts: dl + 1,
+                                deadheads: dl,
+                                run_open: true,
                             },
                             &mut self.scratch,
                         );
