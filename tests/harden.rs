@@ -320,9 +320,9 @@ fn the_memory_limit_is_checked_by_every_planner_entry_and_can_be_raised() {
         assert!(err.contains("max_memory_mb = 100"), "{err}");
     }
     assert!(t.elapsed() < Duration::from_secs(1), "{:?}", t.elapsed());
-    // The estimate for a plate this size (90,000 blocks, k = 1) is about 1.1 GB.
+    // The estimate for a plate this size (90,000 blocks, k = 1) is about 1.4 GB.
     let estimate = waam_planner::estimated_memory_mb(part.len(), 1);
-    assert!((1000..1300).contains(&estimate), "{estimate}");
+    assert!((1300..1500).contains(&estimate), "{estimate}");
     let tiny = Part::parse(&plate_layers(10)).unwrap();
     let raised = waam_planner::Options {
         max_memory_mb: 100,

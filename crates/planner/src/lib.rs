@@ -97,16 +97,17 @@ impl std::fmt::Debug for ExecutedCheck {
     }
 }
 
-/// The default of [`Options::max_memory_mb`]: a part the planner would need more for (a
-/// 250 x 250 plate, 70,000 blocks of a solid) is refused unless the limit is raised.
+/// The default of [`Options::max_memory_mb`]: a part the planner would need more for (at
+/// k = 2, more than about 100,000 blocks) is refused unless the limit is raised.
 pub const DEFAULT_MAX_MEMORY_MB: u64 = 2048;
 
 /// What searching a part of `blocks` blocks with at most `k` fragments takes, MB: the
 /// encoding, CaDiCaL's clause database and the layer-by-layer warm start grow with the
-/// blocks and with k. Measured peaks (plates of 10^4 to 1.6 x 10^5 blocks, cubes of 2.7 x
-/// 10^4 and 6.4 x 10^4, k = 1 and 8) lie at or below 10 KiB + 3 KiB x k per block.
+/// blocks and with k. Measured peaks lie at or below 12 KiB + 4 KiB x k per block: plates
+/// of 10^4 to 1.6 x 10^5 blocks and cubes of 2.7 x 10^4 and 6.4 x 10^4 at k = 1 and 8 (at
+/// most 10 + 3k), and the 62,614-block flanged tube at k = 6 (31.5 KiB per block in 300 s).
 pub fn estimated_memory_mb(blocks: usize, k: usize) -> u64 {
-    let per_block_kib = 10 + 3 * k as u64;
+    let per_block_kib = 12 + 4 * k as u64;
     (blocks as u64).saturating_mul(per_block_kib) / 1024
 }
 
