@@ -19,7 +19,6 @@ use waam_ros::layer::{
 };
 use waam_ros::node::once::publish_once;
 use waam_ros::node::params::TopicParams;
-use waam_rosbag::Recorder;
 use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::std_msgs::Header;
 
@@ -324,16 +323,11 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
             );
         }
     }
-    let recorder = match &args.record {
-        Some(dir) => {
-            let recorder = Recorder::create(dir)
-                .with_context(|| format!("cannot record into {}", dir.display()))?;
-            let urdf = super::record::urdf_text(args.robot.robot.as_deref())?;
-            super::record::record_frames(&recorder, robot.as_ref().zip(urdf.as_deref()))?;
-            Some(recorder)
-        }
-        None => None,
-    };
+    let recorder = super::record::layer_recorder(
+        args.record.as_deref(),
+        args.robot.robot.as_deref(),
+        robot.as_ref(),
+    )?;
     let recording = match &recorder {
         Some(r) => Some(LayerRecording::start(r, &text, &layer.name)?),
         None => None,
@@ -725,16 +719,11 @@ fn plan_part(args: PlanPartArgs) -> anyhow::Result<ExitCode> {
     let robot = args.robot.robot_args().map(|a| a.load()).transpose()?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
-    let recorder = match &args.record {
-        Some(dir) => {
-            let recorder = Recorder::create(dir)
-                .with_context(|| format!("cannot record into {}", dir.display()))?;
-            let urdf = super::record::urdf_text(args.robot.robot.as_deref())?;
-            super::record::record_frames(&recorder, robot.as_ref().zip(urdf.as_deref()))?;
-            Some(recorder)
-        }
-        None => None,
-    };
+    let recorder = super::record::layer_recorder(
+        args.record.as_deref(),
+        args.robot.robot.as_deref(),
+        robot.as_ref(),
+    )?;
     let options = PartOptions {
         interlayer_s: args.interlayer,
         search: SearchOptions {

@@ -56,6 +56,23 @@ pub fn record_frames(recorder: &Recorder, robot: Option<(&Cell, &str)>) -> anyho
     Ok(())
 }
 
+/// A new recording in `dir` (None: not recording) that starts with the cell's frames: the
+/// robot's (URDF read from `urdf_path`) or, without one, the node's default cell's.
+pub fn layer_recorder(
+    dir: Option<&Path>,
+    urdf_path: Option<&Path>,
+    cell: Option<&Cell>,
+) -> anyhow::Result<Option<Recorder>> {
+    let Some(dir) = dir else {
+        return Ok(None);
+    };
+    let recorder =
+        Recorder::create(dir).with_context(|| format!("cannot record into {}", dir.display()))?;
+    let urdf = urdf_text(urdf_path)?;
+    record_frames(&recorder, cell.zip(urdf.as_deref()))?;
+    Ok(Some(recorder))
+}
+
 /// The URDF file's text, when there is one (`--robot`).
 pub fn urdf_text(path: Option<&Path>) -> anyhow::Result<Option<String>> {
     path.map(|p| {

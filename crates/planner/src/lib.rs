@@ -547,16 +547,7 @@ fn search_plans(
             );
                 // The margin before the event: a listener that stops the run at the first
                 // feasible plan (the node's first_feasible) raises the cancel flag.
-                let margin = match verdict {
-                    CandidateVerdict::Feasible => {
-                        search
-                            .stats
-                            .first_feasible_s
-                            .get_or_insert(started.elapsed().as_secs_f64());
-                        Some(margin_under(&base, &warm, opts, started)?)
-                    }
-                    _ => None,
-                };
+                let margin = feasible_margin(&mut search, verdict, &base, &warm, opts, started)?;
                 progress(Event::Candidate {
                     fragments: &warm,
                     verdict,
@@ -611,16 +602,7 @@ fn search_plans(
             };
             // Judge by the part's own windows (the search may run on narrowed ones), before
             // the event: a listener may stop the run at the first feasible plan.
-            let margin = match verdict {
-                CandidateVerdict::Feasible => {
-                    search
-                        .stats
-                        .first_feasible_s
-                        .get_or_insert(started.elapsed().as_secs_f64());
-                    Some(margin_under(&base, &candidate, opts, started)?)
-                }
-                _ => None,
-            };
+            let margin = feasible_margin(&mut search, verdict, &base, &candidate, opts, started)?;
             progress(Event::Candidate {
                 fragments: &candidate,
                 verdict,
@@ -696,6 +678,26 @@ fn search_plans(
         no_plan,
         stats: search.stats,
     })
+}
+
+/// A feasible candidate's margin under the part's own windows (`model`), noting when the
+/// first feasible plan came; `None` for any other verdict.
+fn feasible_margin(
+    search: &mut Search<'_>,
+    verdict: CandidateVerdict,
+    model: &ThermalModel,
+    fragments: &[Vec<usize>],
+    opts: &Options,
+    started: Instant,
+) -> Result<Option<f64>, PlanError> {
+    if !matches!(verdict, CandidateVerdict::Feasible) {
+        return Ok(None);
+    }
+    search
+        .stats
+        .first_feasible_s
+        .get_or_insert(started.elapsed().as_secs_f64());
+    margin_under(model, fragments, opts, started).map(Some)
 }
 
 /// The worst t8/5 margin of a feasible plan under the part's own windows; NaN when the

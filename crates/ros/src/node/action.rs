@@ -24,6 +24,12 @@ pub trait Failed: Message + Clone + Send + 'static {
     fn failed(reason: &str) -> Self;
 }
 
+/// What an action's thread asks of the event loop: start the job of a goal, or cancel one.
+pub enum Request<J> {
+    Goal { goal: GoalId, job: J },
+    Cancel(GoalId),
+}
+
 /// What the event loop tells an action's thread.
 pub enum Reply<R, F> {
     Feedback(GoalId, F),

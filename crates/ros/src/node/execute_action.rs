@@ -73,10 +73,7 @@ pub struct ExecutePlanFeedback {
 impl ros2_client::Message for ExecutePlanFeedback {}
 
 /// What the action thread asks of the event loop.
-pub enum Request {
-    Goal { goal: GoalId, job: u64 },
-    Cancel(GoalId),
-}
+pub type Request = action::Request<u64>;
 
 /// What the event loop tells the action thread.
 pub type Reply = action::Reply<ExecutePlanResult, ExecutePlanFeedback>;

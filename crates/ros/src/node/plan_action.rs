@@ -76,10 +76,7 @@ pub struct PlanPartFeedback {
 impl ros2_client::Message for PlanPartFeedback {}
 
 /// What the action thread asks of the event loop.
-pub enum Request {
-    Goal { goal: GoalId, job: Job },
-    Cancel(GoalId),
-}
+pub type Request = action::Request<Job>;
 
 /// What the event loop tells the action thread.
 pub type Reply = action::Reply<PlanPartResult, PlanPartFeedback>;
