@@ -396,3 +396,88 @@ fn a_layer_in_more_pieces_than_k_is_no_plan_at_once() {
         other => panic!("expected a layer needing 2 weld paths, got {other:?}"),
     }
 }
+
+/// A 1,900-block ring tower whose one window no plan can keep (a block held between 500 and
+/// 800 °C for at least 5,000 s): the planner can only go on examining candidates, so it runs
+/// until it is stopped.
+fn endless_ring_tower() -> String {
+    let (w, d, h) = (20usize, 20usize, 25usize);
+    let ring: String = (0..d)
+        .map(|y| {
+            let row: String = (0..w)
+                .map(|x| {
+                    if x == 0 || y == 0 || x == w - 1 || y == d - 1 {
+                        '#'
+                    } else {
+                        '.'
+                    }
+                })
+                .collect();
+            format!("    {row}\n")
+        })
+        .collect();
+    let layers: String = (0..h).map(|_| format!("  - |\n{ring}")).collect();
+    format!(
+        "name: endless-ring\nblock_mm: [6.0, 6.0, 2.5]\nmax_fragments: 2\nlayers:\n{layers}\
+         t85:\n  - {{block: [0, 0, 20], min_s: 5000.0, max_s: 6000.0}}\n"
+    )
+}
+
+/// Issue #12: the node's "latest part wins" — a newer part cancels the plan in progress, and
+/// the superseded job (the real node pipeline and SAT planner) ends within a second.
+#[test]
+fn a_newer_part_cancels_the_running_plan_within_a_second() {
+    use std::sync::mpsc::channel;
+    use waam_ros::node::params::NodeParams;
+    use waam_ros::node::pipeline::{sat_planner, Job, PlanningPipeline};
+    use waam_ros::node::worker::{JobFailure, Worker, WorkerEvent};
+    let pipeline = PlanningPipeline::from_params(&NodeParams::default(), sat_planner()).unwrap();
+    let (tx, rx) = channel();
+    let mut worker = Worker::new(pipeline, move |event| {
+        let _ = tx.send((Instant::now(), event));
+    });
+    let document = waam_pipeline::PartInput::Document;
+    let (first, _) = worker.submit(Job::from(document(endless_ring_tower())));
+    // Let it get deep into planning (candidates examined), then send a newer part.
+    let started = Instant::now();
+    while started.elapsed() < Duration::from_secs(3) {
+        if let Ok((_, WorkerEvent::Finished { job, result })) =
+            rx.recv_timeout(Duration::from_millis(50))
+        {
+            panic!(
+                "part {job} ended before it was superseded: {:?}",
+                result.err()
+            );
+        }
+    }
+    let small = std::fs::read_to_string(part_path("s1-wall")).unwrap();
+    let superseded_at = Instant::now();
+    let (second, cancelled) = worker.submit(Job::from(document(small)));
+    assert_eq!(cancelled, Some(first));
+    let mut ended = std::collections::HashMap::new();
+    while ended.len() < 2 {
+        let (at, event) = rx
+            .recv_timeout(Duration::from_secs(60))
+            .expect("both jobs end");
+        if let WorkerEvent::Finished { job, result } = event {
+            ended.insert(job, (at, result));
+        }
+    }
+    let (at, result) = &ended[&first];
+    assert!(
+        matches!(result, Err(JobFailure::Superseded)),
+        "{:?}",
+        result.as_ref().err()
+    );
+    let took = at.duration_since(superseded_at);
+    eprintln!("the superseded plan ended {took:?} after the newer part");
+    assert!(
+        took < Duration::from_secs(1),
+        "the superseded plan ran on for {took:?}"
+    );
+    assert!(
+        ended[&second].1.is_ok(),
+        "{:?}",
+        ended[&second].1.as_ref().err()
+    );
+}
