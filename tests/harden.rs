@@ -641,3 +641,273 @@ fn a_part_with_a_1000_segment_layer_is_refused_by_the_memory_limit() {
     );
     assert!(t.elapsed() < Duration::from_secs(15), "{:?}", t.elapsed());
 }
+
+/// A plate of `nx` x `ny` blocks, `nz` layers high, every block windowed by a window no plan
+/// breaks, and a one-weld-path plan of it: each layer a serpentine, the next layer the same
+/// serpentine backwards, starting on the block above where the layer below ended.
+fn stacked_plate(nx: i64, ny: i64, nz: i64) -> (String, String) {
+    let layer: Vec<(i64, i64)> = (0..ny)
+        .flat_map(|y| {
+            let xs: Vec<i64> = if y % 2 == 0 {
+                (0..nx).collect()
+            } else {
+                (0..nx).rev().collect()
+            };
+            xs.into_iter().map(move |x| (x, y))
+        })
+        .collect();
+    let mut order = Vec::new();
+    for z in 0..nz {
+        let mut cells = layer.clone();
+        if z % 2 == 1 {
+            cells.reverse();
+        }
+        order.extend(cells.into_iter().map(|(x, y)| format!("[{x},{y},{z}]")));
+    }
+    let part = format!(
+        "name: plate\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nlayers:\n{}\
+         t85:\n  - {{box: {{min: [0,0,0], max: [{},{},{}]}}, min_s: 0.0, max_s: 1.0e7}}\n",
+        format!(
+            "  - |\n{}",
+            format!("    {}\n", "#".repeat(nx as usize)).repeat(ny as usize)
+        )
+        .repeat(nz as usize),
+        nx - 1,
+        ny - 1,
+        nz - 1
+    );
+    let plan = format!("part: plate\nfragments:\n  - [{}]\n", order.join(", "));
+    (part, plan)
+}
+
+/// The two towers apart by a 5 x 10^7 s transit (10^8 Euler steps) and their plan.
+fn long_transit_plan(dir: &Path) {
+    std::fs::write(dir.join("part.yaml"), two_towers(5.0e7)).unwrap();
+    std::fs::write(
+        dir.join("plan.yaml"),
+        "part: towers\nfragments:\n  - [[0,0,0]]\n  - [[3,0,0]]\n",
+    )
+    .unwrap();
+}
+
+/// Issue #18: `waam check` simulated a 10^8-step transit for minutes; `--timeout 2` now
+/// stops it (TIMEOUT, exit 1) within a second of the limit, in text and JSON.
+#[test]
+fn check_stops_at_its_timeout() {
+    let dir = tempfile::tempdir().unwrap();
+    long_transit_plan(dir.path());
+    for json in [false, true] {
+        let mut args = vec!["check", "part.yaml", "plan.yaml", "--timeout", "2"];
+        if json {
+            args.push("--json");
+        }
+        let run = measured(dir.path(), &args, Duration::from_secs(60));
+        assert_eq!(run.code, Some(1), "{}", run.describe());
+        if json {
+            let v: serde_json::Value = serde_json::from_str(run.stdout.trim()).unwrap();
+            assert_eq!(v["feasible"], serde_json::Value::Null, "{v}");
+            assert_eq!(v["timeout_s"], 2.0, "{v}");
+        } else {
+            assert!(
+                run.stdout
+                    .contains("TIMEOUT: the simulation did not end within --timeout 2 s"),
+                "{}",
+                run.describe()
+            );
+        }
+        assert!(run.wall < Duration::from_secs(3), "{}", run.describe());
+        assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
+    }
+}
+
+/// Issue #18: a 10,000-block part with windows (a generated 20 x 25 x 20 plate and its
+/// serpentine plan) takes seconds to check; `--timeout 1` ends it within 2 s.
+#[test]
+fn check_of_a_10000_block_part_stops_at_its_timeout() {
+    let dir = tempfile::tempdir().unwrap();
+    let (part, plan) = stacked_plate(20, 25, 20);
+    std::fs::write(dir.path().join("part.yaml"), part).unwrap();
+    std::fs::write(dir.path().join("plan.yaml"), plan).unwrap();
+    let run = measured(
+        dir.path(),
+        &["check", "part.yaml", "plan.yaml", "--timeout", "1"],
+        Duration::from_secs(120),
+    );
+    assert!(
+        run.stdout.contains("VALID: 1 fragment(s), 10000 blocks"),
+        "{}",
+        run.describe()
+    );
+    // On a fast machine the check may end before the limit; it never ends long after it.
+    if run.code != Some(0) {
+        assert_eq!(run.code, Some(1), "{}", run.describe());
+        assert!(run.stdout.contains("TIMEOUT"), "{}", run.describe());
+    }
+    assert!(run.wall < Duration::from_secs(2), "{}", run.describe());
+    assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
+}
+
+/// Issue #18: `waam plot` simulates the build for its temperature pictures; a 10^8-step
+/// transit kept it running for minutes. `--timeout 2` names what it did not draw (exit 1).
+#[test]
+fn plot_stops_at_its_timeout() {
+    let dir = tempfile::tempdir().unwrap();
+    long_transit_plan(dir.path());
+    let run = measured(
+        dir.path(),
+        &["plot", ".", "--timeout", "2"],
+        Duration::from_secs(60),
+    );
+    assert_eq!(run.code, Some(1), "{}", run.describe());
+    assert!(
+        run.stdout.contains(
+            "TIMEOUT: t85.png, plan3d.png, heat.png and heat.gif not drawn within --timeout 2 s"
+        ),
+        "{}",
+        run.describe()
+    );
+    assert!(run.wall < Duration::from_secs(3), "{}", run.describe());
+    assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
+}
+
+/// Issue #18: `waam motion` of a 20,000-block plate plans tens of thousands of poses;
+/// `--timeout 0.5` ends it (TIMEOUT, exit 1) within a second of the limit.
+#[test]
+fn motion_stops_at_its_timeout() {
+    let dir = tempfile::tempdir().unwrap();
+    let (part, plan) = stacked_plate(20, 25, 40);
+    std::fs::write(dir.path().join("part.yaml"), part).unwrap();
+    std::fs::write(dir.path().join("plan.yaml"), plan).unwrap();
+    let urdf = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("urdf/waam_robot.urdf");
+    let run = measured(
+        dir.path(),
+        &[
+            "motion",
+            "part.yaml",
+            "plan.yaml",
+            "--robot",
+            urdf.to_str().unwrap(),
+            "--out",
+            "out",
+            "--timeout",
+            "0.5",
+        ],
+        Duration::from_secs(120),
+    );
+    assert_eq!(run.code, Some(1), "{}", run.describe());
+    assert!(
+        run.stdout
+            .contains("TIMEOUT: the motion was not planned within --timeout 0.5 s"),
+        "{}",
+        run.describe()
+    );
+    assert!(run.wall < Duration::from_millis(1500), "{}", run.describe());
+    assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
+}
+
+/// Issue #18: Ctrl-C stops `waam check` (and `plot`, `motion`: no handler of their own)
+/// within a second while it simulates.
+#[test]
+fn check_stops_on_ctrl_c_within_a_second() {
+    let dir = tempfile::tempdir().unwrap();
+    long_transit_plan(dir.path());
+    let mut child = Command::new(env!("CARGO_BIN_EXE_waam"))
+        .args(["check", "part.yaml", "plan.yaml"])
+        .current_dir(dir.path())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1000));
+    assert!(child.try_wait().unwrap().is_none(), "check ended by itself");
+    // SAFETY: kill on our own child's pid.
+    unsafe {
+        libc::kill(child.id() as libc::pid_t, libc::SIGINT);
+    }
+    let sent = Instant::now();
+    loop {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        if sent.elapsed() > Duration::from_secs(10) {
+            child.kill().unwrap();
+            panic!("check still runs 10 s after Ctrl-C");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(
+        sent.elapsed() < Duration::from_secs(1),
+        "{:?}",
+        sent.elapsed()
+    );
+}
+
+/// Issue #18, H1 (the node past planning): a job whose planner is done goes on to check
+/// the plan and plan its motion, which simulate the whole build again; a newer part or a
+/// cancelled goal (the cancel flag) now stops that stage within a second too.
+#[test]
+fn a_cancelled_node_job_stops_within_a_second_past_planning() {
+    use waam_ros::node::params::NodeParams;
+    use waam_ros::node::pipeline::{Job, JobError, PlanRequest, PlanningPipeline};
+    use waam_ros::node::worker::{Cancel, JobContext, Pipeline};
+    // The planner's part: the towers' plan, at once (as a planner that found it).
+    let planner = Arc::new(|_: &PlanRequest| {
+        Ok(waam_pipeline::Found {
+            fragments: vec![vec![0], vec![1]],
+            stats: Default::default(),
+            proven: false,
+            worst_margin_s: 0.0,
+        })
+    });
+    let pipeline = PlanningPipeline::from_params(&NodeParams::default(), planner).unwrap();
+    let cancel = Cancel::new();
+    let ctx = JobContext::new(1, cancel.clone(), |_| {});
+    let raiser = std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_millis(500));
+        cancel.cancel();
+        Instant::now()
+    });
+    let input = waam_pipeline::PartInput::Document(two_towers(5.0e7));
+    let result = pipeline.run(Job::from(input), &ctx);
+    let stopped = Instant::now();
+    let raised = raiser.join().unwrap();
+    assert!(
+        matches!(result, Err(JobError::Cancelled)),
+        "{:?}",
+        result.map(|_| ())
+    );
+    assert!(
+        stopped.duration_since(raised) < Duration::from_secs(1),
+        "{:?} after the cancel",
+        stopped.duration_since(raised)
+    );
+}
+
+/// Issue #18: the planner's early stop (a first feasible plan) is not a cancel: the stage
+/// after it still checks the plan, and a time limit of the library's own stops it.
+#[test]
+fn the_motion_stage_honours_its_interrupt_and_not_the_planners_stop() {
+    use waam_pipeline::{Interrupt, PipelineError};
+    let part = Part::parse(&two_towers(5.0e7)).unwrap();
+    let cell = waam_ros::node::frames::bundled_cell();
+    let found = waam_pipeline::Found {
+        fragments: vec![vec![0], vec![1]],
+        stats: Default::default(),
+        proven: false,
+        worst_margin_s: 0.0,
+    };
+    let t = Instant::now();
+    let interrupt = Interrupt::after(Some(Duration::from_millis(300)));
+    let err = cell.motion_until(part, found, &interrupt).unwrap_err();
+    assert!(matches!(err, PipelineError::Interrupted(_)), "{err}");
+    assert!(
+        err.to_string()
+            .starts_with("stopped by the time limit or a cancel while checking"),
+        "{err}"
+    );
+    assert!(
+        t.elapsed() < Duration::from_millis(1300),
+        "{:?}",
+        t.elapsed()
+    );
+}

@@ -246,6 +246,15 @@ impl<'p> Search<'p> {
             (Judged::Feasible, None) => {
                 // The robot's word last: it is the slowest judge (a whole motion plan).
                 let rejection = self.executed.as_ref().and_then(|c| (c.0)(fragments));
+                // A check the deadline or cancel cut short is no verdict either.
+                let stopped = thermal::Interrupt {
+                    deadline: self.deadline,
+                    cancel: self.cancel.clone(),
+                };
+                if rejection.is_none() && self.executed.is_some() && stopped.reached() {
+                    self.interrupted = true;
+                    return Ok(None);
+                }
                 if let Some(r) = rejection {
                     self.stats.executed_rejected += 1;
                     tracing::info!("candidate rejected on the robot's time line: {}", r.reason);
