@@ -150,6 +150,8 @@ pub fn options(args: &PlanArgs) -> anyhow::Result<Options> {
 
 pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     let started = std::time::Instant::now();
+    // One run, then the process ends: a solver stopped by --timeout is not freed first.
+    planner::cadical::leave_stopped_solvers_to_exit();
     let mut opts = options(&args)?;
     let part = match &args.part {
         // Reading counts against --timeout: a block list of a million blocks takes seconds.

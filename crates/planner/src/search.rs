@@ -59,6 +59,8 @@ pub struct Search<'p> {
 }
 
 impl<'p> Search<'p> {
+    /// `None` when `interrupt` (deadline or cancel, kept for the solves) comes before the
+    /// encoding is complete.
     pub fn new(
         part: &'p Part,
         graph: &'p WeldGraph,
@@ -66,10 +68,13 @@ impl<'p> Search<'p> {
         acyclicity: Acyclicity,
         lookahead_budget: usize,
         backend: Backend,
-    ) -> Search<'p> {
+        interrupt: thermal::Interrupt,
+    ) -> Option<Search<'p>> {
         let started = Instant::now();
         let mut solver = crate::new_solver(backend);
-        let enc = Encoding::new(part, graph, k, acyclicity, &mut solver);
+        let enc = Encoding::new(part, graph, k, acyclicity, &mut solver, &|| {
+            interrupt.reached()
+        })?;
         // Lazy acyclicity inside the search where the backend can (the paper's way); cuts
         // between solves otherwise. Hybrid needs no ranks when no cycle reaches a model.
         if acyclicity != Acyclicity::Eager {
@@ -81,7 +86,7 @@ impl<'p> Search<'p> {
         stats.clauses = clauses;
         stats.encode_s = started.elapsed().as_secs_f64();
         let n = part.len();
-        Search {
+        let mut search = Search {
             part,
             graph,
             enc,
@@ -103,7 +108,9 @@ impl<'p> Search<'p> {
             executed_last: None,
             deadline: None,
             cancel: None,
-        }
+        };
+        search.set_interrupt(interrupt.deadline, interrupt.cancel);
+        Some(search)
     }
 
     /// Checks torch access at every deposit of later candidates (None: no torch).
