@@ -936,3 +936,281 @@ fn a_62500_block_plate_answers_within_a_second_of_its_timeout() {
     assert!(run.wall < Duration::from_secs(3), "{}", run.describe());
     assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
 }
+
+/// One reproducer of issue #18 run as the command line runs it.
+struct Case {
+    name: &'static str,
+    args: Vec<String>,
+    code: i32,
+    /// What the answer says: the one-line error (exit 2) or stdout (a bounded answer).
+    says: &'static str,
+}
+
+/// Issue #18, Done-when: every reproducer that reaches the command line, run as a user
+/// runs it (`-q`), gets a one-line error naming what is wrong (exit 2) or a bounded answer,
+/// within seconds and under 1 GB. (The library-level tests in tests/robustness.rs pin the
+/// messages; this pins what the process does: exit code, one line, time and memory.)
+#[test]
+fn every_command_line_reproducer_is_a_one_line_error_or_a_bounded_answer() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let urdf = std::fs::read_to_string(root.join("urdf/waam_robot.urdf")).unwrap();
+    let paper = std::fs::read_to_string(root.join("config/layers/paper-16mm.yaml")).unwrap();
+    let write = |name: &str, text: &str| std::fs::write(d.join(name), text).unwrap();
+    let edited = |text: &str, from: &str, to: &str| {
+        assert!(text.contains(from), "the reproducer's anchor moved: {from}");
+        text.replacen(from, to, 1)
+    };
+    write(
+        "p1.yaml",
+        "name: z\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nblocks: [[0,0,9223372036854775807]]\n",
+    );
+    let origin = r#"origin xyz="0.150 0 0.4865""#;
+    write(
+        "big.urdf",
+        &edited(&urdf, origin, r#"origin xyz="1e200 0 0.4865""#),
+    );
+    write(
+        "deep.urdf",
+        &format!(
+            "<robot name=\"r\"><link name=\"a\">{}{}</link></robot>",
+            "<visual>".repeat(30_000),
+            "</visual>".repeat(30_000)
+        ),
+    );
+    write(
+        "orphan.urdf",
+        &edited(
+            &urdf,
+            r#"<parent link="link_2"/>"#,
+            r#"<parent link="link_two"/>"#,
+        ),
+    );
+    for (name, from, to) in [
+        (
+            "p3.yaml",
+            "weld_speed_mm_s: 10.0",
+            "weld_speed_mm_s: 1.0e-300",
+        ),
+        ("p3b.yaml", "time_step_s: 0.1", "time_step_s: 1.0e-300"),
+        ("w1.yaml", "peak_k_s: 8000.0", "peak_k_s: 1.0e308"),
+        (
+            "transit.yaml",
+            "transit_speed_mm_s: 50.0",
+            "transit_speed_mm_s: 1.0e-300",
+        ),
+        ("wall.yaml", "wall_width_mm: 2.0", "wall_width_mm: 1.0e-300"),
+    ] {
+        write(name, &edited(&paper, from, to));
+    }
+    write(
+        "c2.yaml",
+        "name: c2\nblock_mm: [1e308,1e308,1e308]\nmax_fragments: 1\nblocks: [[0,0,0],[1,0,0]]\n",
+    );
+    write(
+        "c2plan.yaml",
+        "part: c2\nfragments:\n  - [[0,0,0],[1,0,0]]\n",
+    );
+    write("step.yaml", "max_step_mm: 1.0e-9\n");
+    write("approach.yaml", "approach_mm: 1.0e308\n");
+    write("clearance.yaml", "clearance_mm: 1.0e308\n");
+    write(
+        "substeps.yaml",
+        "name: s\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nblocks: [[0,0,0]]\n\
+         thermal: {substeps: 1000000000}\n",
+    );
+    let params = |text: &str| format!("waam_planner:\n  ros__parameters:\n    {text}\n");
+    write("p5.yaml", &params("planner: {timeout_s: 1.0e300}"));
+    write(
+        "p6.yaml",
+        &params("execution: {enabled: true, server_timeout_s: 1.0e300}"),
+    );
+    write(
+        "nested.yaml",
+        &format!("name: {}1{}", "{a: ".repeat(100_000), "}".repeat(100_000)),
+    );
+    std::fs::create_dir(d.join("p4")).unwrap();
+    write(
+        "p4/toolpath.yaml",
+        "frame: world\nposes:\n\
+         - {time: 0.0, position: [0.1, 0.2, 0.3], orientation: [0, 0, 0, 1], arc_on: false, fragment: 0}\n\
+         - {time: 1.0, position: [0.1, .inf, 0.3], orientation: [0, 0, 0, 1], arc_on: true, fragment: 0}\n",
+    );
+    std::fs::create_dir(d.join("h3")).unwrap();
+    write(
+        "h3/part.yaml",
+        "name: h3\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nblocks: [[0,0,0],[1,0,0]]\n\
+         t85: [{block: [1,0,0], min_s: 0, max_s: 100}]\nthermal: {block_time_s: 1.0e308}\n",
+    );
+    write("h3/plan.yaml", "fragments:\n  - [[0,0,0],[1,0,0]]\n");
+    write(
+        "s1plan.yaml",
+        "part: s1-wall\nfragments:\n  - [[2,0,0], [1,0,0], [0,0,0], [0,0,1], [1,0,1], [1,0,2], [0,0,2]]\n  \
+         - [[3,0,0], [3,0,1], [2,0,1], [2,0,2], [3,0,2]]\n",
+    );
+    let s1 = root.join("config/parts/s1-wall.yaml");
+    let s1 = s1.to_str().unwrap();
+    let layer = root.join("config/layers/paper-16mm.yaml");
+    let layer = layer.to_str().unwrap();
+    let robot = root.join("urdf/waam_robot.urdf");
+    let robot = robot.to_str().unwrap();
+    let case = |name, args: &[&str], code, says| Case {
+        name,
+        args: args.iter().map(|a| a.to_string()).collect(),
+        code,
+        says,
+    };
+    let cases = [
+        case("P1", &["plan", "p1.yaml"], 0, "1 fragment(s)"),
+        case(
+            "P2 motion",
+            &["motion", s1, "s1plan.yaml", "--robot", "big.urdf", "--out", "o"],
+            2,
+            "joint 'joint_2': origin xyz 1e200 m is beyond 1000 m",
+        ),
+        case(
+            "P2 plan",
+            &["plan", s1, "--robot", "big.urdf"],
+            2,
+            "beyond 1000 m",
+        ),
+        case(
+            "P2 layer plan",
+            &["layer", "plan", layer, "--robot", "big.urdf"],
+            2,
+            "beyond 1000 m",
+        ),
+        case(
+            "P3 weld speed",
+            &["layer", "plan", "p3.yaml"],
+            2,
+            "raise weld_speed_mm_s (1e-300)",
+        ),
+        case(
+            "P3 time step",
+            &["layer", "plan", "p3b.yaml"],
+            2,
+            "time_step_s (1e-300)",
+        ),
+        case("P4", &["plot", "p4"], 2, "toolpath pose 1:"),
+        case(
+            "P5",
+            &["node", "--params", "p5.yaml"],
+            2,
+            "planner.timeout_s: expected seconds in [0, 604800], got 1e300",
+        ),
+        case(
+            "P6",
+            &["node", "--params", "p6.yaml"],
+            2,
+            "execution.server_timeout_s: expected seconds in (0, 604800], got 1e300",
+        ),
+        case(
+            "C1",
+            &["plan", s1, "--robot", "deep.urdf"],
+            2,
+            "more than 64 deep",
+        ),
+        case(
+            "C2 plan --robot",
+            &["plan", "c2.yaml", "--robot", robot],
+            1,
+            "NO MOTION: no robot motion for the plan: the toolpath would need about inf poses, more than max_poses",
+        ),
+        case(
+            "C2 motion",
+            &["motion", "c2.yaml", "c2plan.yaml", "--robot", robot, "--out", "o2"],
+            1,
+            "more than max_poses",
+        ),
+        case(
+            "C2 max_step_mm",
+            &["plan", s1, "--robot", robot, "--process", "step.yaml"],
+            2,
+            "max_step_mm: 1e-9 is outside",
+        ),
+        case(
+            "C2 approach_mm",
+            &["plan", s1, "--robot", robot, "--process", "approach.yaml"],
+            2,
+            "approach_mm: 1e308 is outside",
+        ),
+        case(
+            "C2 clearance_mm",
+            &["plan", s1, "--robot", robot, "--process", "clearance.yaml"],
+            2,
+            "clearance_mm",
+        ),
+        case(
+            "H3",
+            &["plot", "h3"],
+            2,
+            "thermal.block_time_s = 1e308",
+        ),
+        case(
+            "YAML 100,000 deep",
+            &["plan", "nested.yaml"],
+            2,
+            "more than 128 levels deep",
+        ),
+        case(
+            "W1",
+            &["layer", "plan", "w1.yaml"],
+            2,
+            "source.peak_k_s: 1e308 K/s is beyond 1e7 K/s",
+        ),
+        case(
+            "substeps",
+            &["plan", "substeps.yaml"],
+            2,
+            "thermal.substeps: 1000000000",
+        ),
+        case(
+            "max-fragments 0",
+            &["plan", s1, "--max-fragments", "0"],
+            2,
+            "--max-fragments",
+        ),
+        case(
+            "missing parent link",
+            &["plan", s1, "--robot", "orphan.urdf"],
+            2,
+            "parent link 'link_two' is not a link of the URDF",
+        ),
+        case(
+            "transit speed 1e-300",
+            &["layer", "plan", "transit.yaml"],
+            2,
+            "raise transit_speed_mm_s (1e-300)",
+        ),
+        case(
+            "wall width 1e-300",
+            &["layer", "plan", "wall.yaml"],
+            2,
+            "wall_width_mm: 1e-300 mm is not a weld bead width",
+        ),
+    ];
+    for c in &cases {
+        let mut args = vec!["-q"];
+        args.extend(c.args.iter().map(String::as_str));
+        let run = measured(d, &args, Duration::from_secs(30));
+        let what = format!("{}: {}", c.name, run.describe());
+        assert_eq!(run.code, Some(c.code), "{what}");
+        let text = if c.code == 2 {
+            // clap's usage errors end with its standard pointer to --help.
+            let lines: Vec<&str> = run
+                .stderr
+                .lines()
+                .filter(|l| !l.is_empty() && *l != "For more information, try '--help'.")
+                .collect();
+            assert_eq!(lines.len(), 1, "not a one-line error: {what}");
+            lines[0]
+        } else {
+            &run.stdout
+        };
+        assert!(text.contains(c.says), "{what}");
+        assert!(run.wall < Duration::from_secs(10), "{what}");
+        assert!(run.peak_rss < MAX_RSS_BYTES, "{what}");
+    }
+}
