@@ -1214,3 +1214,52 @@ fn every_command_line_reproducer_is_a_one_line_error_or_a_bounded_answer() {
         assert!(run.peak_rss < MAX_RSS_BYTES, "{what}");
     }
 }
+
+/// Issue #18, security: `metadata.yaml` file paths that climb out of the bag folder, and
+/// an endless device file inside it, were opened and read (up to ~2 GB). `bag info` and
+/// `replay` refuse both with a one-line error, at once and without the memory.
+#[test]
+fn bag_paths_out_of_the_folder_and_device_files_are_refused_by_the_commands() {
+    let dir = tempfile::tempdir().unwrap();
+    let part = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("config/parts/s1-wall.yaml");
+    let bag = dir.path().join("rec");
+    let run = measured(
+        dir.path(),
+        &[
+            "plan",
+            part.to_str().unwrap(),
+            "-q",
+            "--record",
+            bag.to_str().unwrap(),
+        ],
+        Duration::from_secs(60),
+    );
+    assert_eq!(run.code, Some(0), "{}", run.describe());
+    let metadata = std::fs::read_to_string(bag.join("metadata.yaml")).unwrap();
+    assert!(metadata.contains("- rec_0.mcap"), "{metadata}");
+    std::fs::copy(bag.join("rec_0.mcap"), dir.path().join("outside.mcap")).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", bag.join("zero.mcap")).unwrap();
+    for (name, says) in [
+        ("../outside.mcap", "must name a file inside the bag folder"),
+        // A link to /dev/zero leads out of the folder (a FIFO inside it: see above).
+        ("zero.mcap", "leads out of the bag folder"),
+    ] {
+        std::fs::write(
+            bag.join("metadata.yaml"),
+            metadata.replace("- rec_0.mcap", &format!("- {name}")),
+        )
+        .unwrap();
+        for command in ["info", "replay"] {
+            let args = match command {
+                "info" => vec!["bag", "info", bag.to_str().unwrap()],
+                _ => vec!["replay", bag.to_str().unwrap()],
+            };
+            let run = measured(dir.path(), &args, Duration::from_secs(20));
+            let what = format!("{name}, {command}: {}", run.describe());
+            assert_eq!(run.code, Some(2), "{what}");
+            assert!(one_line(&run).contains(says), "{what}");
+            assert!(run.wall < Duration::from_secs(2), "{what}");
+            assert!(run.peak_rss < MAX_RSS_BYTES, "{what}");
+        }
+    }
+}
