@@ -250,7 +250,7 @@ impl Layer {
                     deadline: limits.deadline,
                     cancel: limits.cancel.clone(),
                 };
-                let Some(mut search) = Search::new(
+                let mut search = Search::new(
                     &self.part,
                     &graph,
                     paths,
@@ -258,9 +258,7 @@ impl Layer {
                     0,
                     backend,
                     run_limits,
-                ) else {
-                    return None;
-                };
+                )?;
                 for steer in &steerings {
                     let enc = &search.enc;
                     let mut assume: Vec<Lit> = starts

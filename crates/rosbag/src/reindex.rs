@@ -766,7 +766,7 @@ mod tests {
             state ^= state << 17;
             let at = lo + (state % (hi - lo) as u64) as usize;
             let mut damaged = bytes.clone();
-            damaged[at] ^= 1 << (state >> 40) % 8;
+            damaged[at] ^= 1 << ((state >> 40) % 8);
             let dir = tmp.path().join(format!("flip{n}"));
             std::fs::create_dir(&dir).unwrap();
             std::fs::write(dir.join("bag_0.mcap"), &damaged).unwrap();
