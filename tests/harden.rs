@@ -510,6 +510,31 @@ fn replay_stops_at_its_timeout() {
     assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
 }
 
+/// Sends Ctrl-C (SIGINT) to `child` once it has run for `after` (it must still run), and
+/// waits for it to end: its status and how long that took after the signal.
+fn ctrl_c_after(
+    child: &mut std::process::Child,
+    after: Duration,
+) -> (std::process::ExitStatus, Duration) {
+    std::thread::sleep(after);
+    assert!(child.try_wait().unwrap().is_none(), "it ended by itself");
+    // SAFETY: kill on our own child's pid.
+    unsafe {
+        libc::kill(child.id() as libc::pid_t, libc::SIGINT);
+    }
+    let sent = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return (status, sent.elapsed());
+        }
+        if sent.elapsed() > Duration::from_secs(10) {
+            child.kill().unwrap();
+            panic!("still running 10 s after Ctrl-C");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
 /// Issue #18: Ctrl-C stops `waam replay` within a second (exit 130).
 #[test]
 fn replay_stops_on_ctrl_c_within_a_second() {
@@ -521,27 +546,7 @@ fn replay_stops_on_ctrl_c_within_a_second() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    std::thread::sleep(Duration::from_millis(1500));
-    assert!(
-        child.try_wait().unwrap().is_none(),
-        "replay ended by itself"
-    );
-    // SAFETY: kill on our own child's pid.
-    unsafe {
-        libc::kill(child.id() as libc::pid_t, libc::SIGINT);
-    }
-    let sent = Instant::now();
-    let status = loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            break status;
-        }
-        if sent.elapsed() > Duration::from_secs(10) {
-            child.kill().unwrap();
-            panic!("replay still runs 10 s after Ctrl-C");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    };
-    let stopped_after = sent.elapsed();
+    let (status, stopped_after) = ctrl_c_after(&mut child, Duration::from_millis(1500));
     let mut stderr = String::new();
     child
         .stderr
@@ -818,28 +823,11 @@ fn check_stops_on_ctrl_c_within_a_second() {
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    std::thread::sleep(Duration::from_millis(1000));
-    assert!(child.try_wait().unwrap().is_none(), "check ended by itself");
-    // SAFETY: kill on our own child's pid.
-    unsafe {
-        libc::kill(child.id() as libc::pid_t, libc::SIGINT);
-    }
-    let sent = Instant::now();
-    loop {
-        if child.try_wait().unwrap().is_some() {
-            break;
-        }
-        if sent.elapsed() > Duration::from_secs(10) {
-            child.kill().unwrap();
-            panic!("check still runs 10 s after Ctrl-C");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    assert!(
-        sent.elapsed() < Duration::from_secs(1),
-        "{:?}",
-        sent.elapsed()
-    );
+    let (status, stopped_after) = ctrl_c_after(&mut child, Duration::from_millis(1000));
+    // No handler of its own: SIGINT ends it as it ends any Unix tool.
+    use std::os::unix::process::ExitStatusExt;
+    assert_eq!(status.signal(), Some(libc::SIGINT), "{status:?}");
+    assert!(stopped_after < Duration::from_secs(1), "{stopped_after:?}");
 }
 
 /// Issue #18, H1 (the node past planning): a job whose planner is done goes on to check
