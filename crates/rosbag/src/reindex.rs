@@ -485,11 +485,20 @@ fn copy_records<W: Write + std::io::Seek>(
         }
     }
     scan.skipped = records.skipped().to_vec();
-    scan.complete = scan.cut.is_none() && !scan.damaged() && footer && bytes.ends_with(mcap::MAGIC);
+    let closed = footer && bytes.ends_with(mcap::MAGIC);
+    scan.complete = scan.cut.is_none() && !scan.damaged() && closed;
     if !scan.complete {
-        scan.unread_bytes = (bytes.len() - readable_end) as u64;
+        // Read to its closing magic, past damage: nothing at the end is unread.
+        let to_the_end = scan.cut.is_none() && closed;
+        scan.unread_bytes = if to_the_end {
+            0
+        } else {
+            (bytes.len() - readable_end) as u64
+        };
         scan.cut.get_or_insert_with(|| {
-            if footer {
+            if to_the_end {
+                "its end, past the damage".into()
+            } else if footer {
                 "the file ends without its closing magic".into()
             } else {
                 "the file ends without a footer".into()
