@@ -358,7 +358,7 @@ fn two_pads(transit_time_s: f64) -> Part {
 fn plan_with_robot(part: &Part, cell: &Cell) -> (planner::Report, Vec<CandidateVerdict>) {
     let opts = Options {
         torch: cell.settings.torch_setup(),
-        executed: Some(cell.executed_check(part)),
+        executed: Some(cell.executed_check(part, Default::default())),
         ..Options::default()
     };
     let verdicts = Arc::new(Mutex::new(Vec::new()));
@@ -506,7 +506,7 @@ fn a_planner_without_the_torch_learns_it_from_the_cell_s_check() {
     assert_eq!(count(&Options::default()), (2, 0));
     // The planner's own check off, the cell's torch teaches it: one plan, the block first.
     let taught = Options {
-        executed: Some(cell.executed_check(&part)),
+        executed: Some(cell.executed_check(&part, Default::default())),
         ..Options::default()
     };
     assert_eq!(count(&taught), (1, 1));
@@ -558,7 +558,7 @@ fn the_planner_with_the_robot_counts_exactly_the_plans_that_pass_on_their_execut
         "{expected} pass, {failing} fail"
     );
     let opts = Options {
-        executed: Some(cell.executed_check(&part)),
+        executed: Some(cell.executed_check(&part, Default::default())),
         ..Options::default()
     };
     let counts = planner::count(&part, &opts, false, &mut |_| {}).unwrap();

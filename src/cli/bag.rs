@@ -220,6 +220,11 @@ fn reindex(args: ReindexArgs) -> anyhow::Result<ExitCode> {
                 "topics": done.topics,
                 "cut": done.cut,
                 "unread_bytes": done.unread_bytes,
+                "skipped_bytes": done.skipped_bytes(),
+                "skipped": done.skipped.iter().map(|k| json!({
+                    "from": k.from, "to": k.to, "reason": k.reason,
+                })).collect::<Vec<_>>(),
+                "skipped_records": done.skipped_records,
                 "original_kept": done.original_kept,
             })
         );
@@ -239,10 +244,27 @@ fn reindex(args: ReindexArgs) -> anyhow::Result<ExitCode> {
         done.topics,
         done.cut.as_deref().unwrap_or("the end")
     );
+    for k in &done.skipped {
+        println!(
+            "damaged: bytes {}..{} ({} bytes) stepped over to the next readable chunk: {}",
+            k.from,
+            k.to,
+            k.to - k.from,
+            k.reason
+        );
+    }
+    if done.skipped_records > 0 {
+        println!(
+            "{} record(s) left out: their channel or schema was in a damaged stretch",
+            done.skipped_records
+        );
+    }
     if let Some(kept) = &done.original_kept {
         println!(
-            "{} bytes after the last readable record were dropped; the old file is kept as {}",
+            "{} bytes after the last readable record and {} damaged bytes were dropped; the \
+             old file is kept as {}",
             done.unread_bytes,
+            done.skipped_bytes(),
             kept.display()
         );
     }

@@ -10,7 +10,7 @@ use waam_motion::toolpath::ProcessSettings;
 use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
 use waam_part::BlockDisplay;
-use waam_thermal::{self as thermal, ThermalModel};
+use waam_thermal::{self as thermal, Interrupt, ThermalModel};
 
 use super::{EXIT_NO, EXIT_OK};
 
@@ -20,7 +20,8 @@ use super::{EXIT_NO, EXIT_OK};
 /// Prints VALID or INVALID with the first broken rule, then FEASIBLE or INFEASIBLE with
 /// the first violated window, then every t8/5 crossing of every windowed block; with a
 /// torch, TORCH OK or TORCH BLOCKED with the first block the torch cannot reach.
-/// Exit code 0: valid, feasible (and reachable); 1: invalid, infeasible or blocked; 2: bad input.
+/// Exit code 0: valid, feasible (and reachable); 1: invalid, infeasible, blocked, or not
+/// decided within --timeout; 2: bad input.
 #[derive(Debug, clap::Args)]
 pub struct CheckArgs {
     /// The part file (YAML, shared part format), or an STL mesh with --pitch.
@@ -40,10 +41,19 @@ pub struct CheckArgs {
     /// access with (implies --torch unless the file says `torch: null`).
     #[arg(long, value_name = "FILE")]
     pub process: Option<PathBuf>,
+    /// Give up after this many seconds (reading the part counts against it): a part of
+    /// many blocks, or a long transit or cooldown, takes minutes to simulate. Prints
+    /// TIMEOUT (feasibility not decided), exit 1. Ctrl-C stops it at once.
+    #[arg(long, value_name = "SECONDS")]
+    pub timeout: Option<f64>,
 }
 
 pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
-    let part = args.mesh.read_part_or_mesh(&args.part)?;
+    let timeout = super::timeout_arg(args.timeout)?;
+    let interrupt = Interrupt::after(timeout);
+    let (mesh, path) = (args.mesh.clone(), args.part.clone());
+    let what = format!("reading {}", path.display());
+    let part = super::within(timeout, &what, move || mesh.read_part_or_mesh(&path))?;
     let torch = match &args.process {
         Some(path) => {
             let text = std::fs::read_to_string(path)
@@ -84,8 +94,25 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
         }
     };
     let model = ThermalModel::new(&part, &graph);
-    let outcome = thermal::simulate(&model, &fragments)
+    let outcome = thermal::simulate_until(&model, &fragments, interrupt.deadline, None)
         .with_context(|| format!("simulating plan {}", args.plan.display()))?;
+    let Some(outcome) = outcome else {
+        let limit = timeout.unwrap_or_default().as_secs_f64();
+        if args.json {
+            println!(
+                "{}",
+                json!({"valid": true, "feasible": null, "timeout_s": limit})
+            );
+        } else {
+            println!(
+                "VALID: {} fragment(s), {} blocks",
+                fragments.len(),
+                part.len()
+            );
+            println!("TIMEOUT: the simulation did not end within --timeout {limit} s (feasibility not decided)");
+        }
+        return Ok(ExitCode::from(EXIT_NO));
+    };
     let feasible = outcome.violation.is_none();
     let blocked = torch
         .map(|t| TorchAccess::new(&part, &t).first_blocked(fragments.iter().flatten().copied()));

@@ -9,7 +9,7 @@ use anyhow::{bail, Context};
 use waam_motion::robot::{Robot, TcpChoice};
 use waam_motion::toolpath::{ProcessSettings, ToolpathFile};
 use waam_part::Part;
-use waam_pipeline::{Cell, Found, BUNDLED_URDF};
+use waam_pipeline::{Cell, Found, Interrupt, BUNDLED_URDF};
 use waam_planner as planner;
 use waam_plot as plot;
 use waam_rosbag::Bag;
@@ -82,7 +82,7 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     opts.torch = settings.torch_setup();
     let cell = Cell { settings, robot };
     // A candidate the robot cannot weld on the model's time line is learned from.
-    opts.executed = Some(cell.executed_check(&part));
+    opts.executed = Some(cell.executed_check(&part, Interrupt::after(opts.timeout)));
     let bag_dir = dir.join("recording");
     let (recorder, mut planning) =
         record::start_planning(&bag_dir, None, &part, &opts, Some((&cell, BUNDLED_URDF)))?;

@@ -129,6 +129,16 @@ pub fn acyclicity_parser() -> impl clap::builder::TypedValueParser<Value = Acycl
     .map(|name| name.parse().expect("clap accepts only listed names"))
 }
 
+/// `--timeout S` as a time limit: seconds >= 0 that fit a `Duration`, else bad input.
+pub fn timeout_arg(seconds: Option<f64>) -> anyhow::Result<Option<std::time::Duration>> {
+    seconds
+        .map(|s| {
+            std::time::Duration::try_from_secs_f64(s)
+                .map_err(|_| anyhow::anyhow!("--timeout: expected seconds >= 0, got {s}"))
+        })
+        .transpose()
+}
+
 /// Runs `work` on a thread of its own and waits at most `limit` for it: reading a part of
 /// a million blocks takes seconds that `--timeout` covers too. Past the limit the thread
 /// is left behind; the command ends with the error.

@@ -245,10 +245,19 @@ pub struct MotionArgs {
     /// `torch: null`.
     #[arg(long)]
     pub no_torch: bool,
+    /// Give up after this many seconds (reading the part counts against it): the torch's
+    /// access and clearance checks and the inverse kinematics of a part of many blocks take
+    /// long. Prints TIMEOUT, exit 1. Ctrl-C stops it at once.
+    #[arg(long, value_name = "SECONDS")]
+    pub timeout: Option<f64>,
 }
 
 pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
-    let part = read_part(&args.part)?;
+    let timeout = super::timeout_arg(args.timeout)?;
+    let started = std::time::Instant::now();
+    let path = args.part.clone();
+    let what = format!("reading {}", path.display());
+    let part = super::within(timeout, &what, move || read_part(&path))?;
     let bytes = std::fs::read(&args.plan)
         .with_context(|| format!("cannot read plan {}", args.plan.display()))?;
     let is_json = args.plan.extension().is_some_and(|e| e == "json");
@@ -267,7 +276,23 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
     if args.no_torch {
         cell.settings.torch = None;
     }
-    let (toolpath, trajectory) = match cell.plan_motion(&part, &fragments) {
+    // The motion stages have no stopping points of their own: they run on a thread that
+    // is left behind at the time limit, and the process ends.
+    let left = timeout.map(|t| t.saturating_sub(started.elapsed()));
+    let motion = super::within(left, "planning the motion", move || {
+        Ok(cell.plan_motion(&part, &fragments))
+    });
+    let motion = match motion {
+        Ok(motion) => motion,
+        Err(_) => {
+            println!(
+                "TIMEOUT: the motion was not planned within --timeout {} s",
+                timeout.unwrap_or_default().as_secs_f64()
+            );
+            return Ok(ExitCode::from(EXIT_NO));
+        }
+    };
+    let (toolpath, trajectory) = match motion {
         Ok(motion) => motion,
         Err(e @ PipelineError::TorchBlocked { .. }) => {
             println!("TORCH BLOCKED: {e}");

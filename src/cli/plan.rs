@@ -15,7 +15,7 @@ use waam_planner::{self as planner, Acyclicity, Backend, Options, Stats};
 use super::{record, GlobalArgs, EXIT_NO, EXIT_OK};
 use waam_access::TorchSetup;
 use waam_motion::toolpath::ProcessSettings;
-use waam_pipeline::Found;
+use waam_pipeline::{Found, Interrupt};
 
 /// Plan the weld order of a part: at most k weld paths covering every block, moving
 /// sideways or up, never under what stands, keeping every t8/5 window.
@@ -137,10 +137,7 @@ pub fn options(args: &PlanArgs) -> anyhow::Result<Options> {
         } else {
             Options::default().lookahead_budget
         },
-        timeout: args
-            .timeout
-            .map(|s| Duration::try_from_secs_f64(s).context("--timeout: expected seconds >= 0"))
-            .transpose()?,
+        timeout: super::timeout_arg(args.timeout)?,
         max_fragments: args.max_fragments,
         cancel: None,
         solver: args.solver,
@@ -153,6 +150,8 @@ pub fn options(args: &PlanArgs) -> anyhow::Result<Options> {
 
 pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     let started = std::time::Instant::now();
+    // One run, then the process ends: a solver stopped by --timeout is not freed first.
+    planner::cadical::leave_stopped_solvers_to_exit();
     let mut opts = options(&args)?;
     let part = match &args.part {
         // Reading counts against --timeout: a block list of a million blocks takes seconds.
@@ -172,7 +171,10 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     }
     // With a robot, a candidate the robot cannot weld on the model's time line is a
     // violation too (its clause is learned and the search goes on).
-    opts.executed = robot.as_ref().map(|cell| cell.executed_check(&part));
+    let interrupt = Interrupt::after(opts.timeout).with_cancel(opts.cancel.clone());
+    opts.executed = robot
+        .as_ref()
+        .map(|cell| cell.executed_check(&part, interrupt));
     if !args.json && !global.quiet {
         eprintln!(
             "part {:?}: {} blocks, {} layers, max_fragments {}, {} windowed blocks",

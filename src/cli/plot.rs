@@ -8,6 +8,7 @@ use waam_motion::toolpath::ToolpathFile;
 use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
 use waam_plot as plot;
+use waam_thermal::Interrupt;
 
 use super::{read_part, EXIT_NO, EXIT_OK};
 
@@ -41,9 +42,23 @@ pub struct PlotArgs {
     /// The plan for the temperature curves (default: DIR/plan.yaml).
     #[arg(long, value_name = "PLAN")]
     pub plan: Option<PathBuf>,
+    /// Give up after this many seconds: the temperature pictures simulate the whole build
+    /// and its cooldown, which takes minutes for a part of many blocks or a long transit.
+    /// The pictures not drawn by then are named, exit 1. Ctrl-C stops it at once.
+    #[arg(long, value_name = "SECONDS")]
+    pub timeout: Option<f64>,
 }
 
 pub fn run(args: PlotArgs) -> anyhow::Result<ExitCode> {
+    let timeout = super::timeout_arg(args.timeout)?;
+    let interrupt = Interrupt::after(timeout);
+    let stopped = |what: &str| {
+        println!(
+            "TIMEOUT: {what} not drawn within --timeout {} s",
+            timeout.unwrap_or_default().as_secs_f64()
+        );
+        Ok(ExitCode::from(EXIT_NO))
+    };
     let mut drew = 0;
     let toolpath = args.dir.join("toolpath.yaml");
     if toolpath.exists() {
@@ -94,14 +109,20 @@ pub fn run(args: PlotArgs) -> anyhow::Result<ExitCode> {
                 return Ok(ExitCode::from(EXIT_NO));
             }
         };
-        let curves = plot::temperature_curves(&part, &fragments);
+        let Some(curves) = plot::temperature_curves_until(&part, &fragments, &interrupt) else {
+            return stopped("t85.png, plan3d.png, heat.png and heat.gif");
+        };
         let out = args.dir.join("t85.png");
         plot::t85_png(&part, &curves, &out)?;
         println!("wrote {}", out.display());
         let out = args.dir.join("plan3d.png");
         plot::blocks::plan_png(&part, &fragments, &out)?;
         println!("wrote {}", out.display());
-        let build = plot::blocks::heat_build(&part, &fragments, super::first_run::GIF_FRAMES);
+        let frames = super::first_run::GIF_FRAMES;
+        let Some(build) = plot::blocks::heat_build_until(&part, &fragments, frames, &interrupt)
+        else {
+            return stopped("heat.png and heat.gif");
+        };
         for (name, gif) in [("heat.png", false), ("heat.gif", true)] {
             let out = args.dir.join(name);
             if gif {

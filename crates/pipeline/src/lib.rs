@@ -30,6 +30,8 @@ use waam_part::{BlockDisplay, Part, PartError, Window};
 use waam_planner::{ExecutedCheck, Rejection, Stats};
 use waam_thermal::{self as thermal, ThermalModel, Timeline};
 
+pub use waam_thermal::Interrupt;
+
 /// The robot the project ships (`urdf/waam_robot.urdf`), used when none is named.
 pub const BUNDLED_URDF: &str = include_str!("../../../urdf/waam_robot.urdf");
 
@@ -59,6 +61,9 @@ pub enum PipelineError {
     Timeline(#[from] thermal::SimulateError),
     #[error("no robot motion for the plan: {0}")]
     Motion(#[from] MotionError),
+    /// The deadline passed or the job was cancelled (see [`Interrupt`]).
+    #[error("stopped by the time limit or a cancel while {0}")]
+    Interrupted(&'static str),
     #[error("the torch cannot weld this plan: it cannot reach block {block} (deposit {deposit} of {total}): {obstacle} stands in its way ({torch}); `--no-torch` or `torch: null` in the process settings turns the torch off")]
     TorchBlocked {
         block: BlockDisplay,
@@ -153,10 +158,27 @@ pub fn read_input(input: PartInput, mesh: &MeshSettings) -> Result<Part, Pipelin
 /// Checks a plan before anything is published or moved: the plan rules, then every t8/5
 /// window, with the part's own model (not the planner's word for it).
 pub fn check_plan(part: &Part, fragments: &[Vec<usize>]) -> Result<(), PipelineError> {
+    check_plan_until(part, fragments, &Interrupt::default())
+}
+
+/// [`check_plan`], stopped by `interrupt` ([`PipelineError::Interrupted`]).
+pub fn check_plan_until(
+    part: &Part,
+    fragments: &[Vec<usize>],
+    interrupt: &Interrupt,
+) -> Result<(), PipelineError> {
     let graph = WeldGraph::new(part);
     Plan::from_indices(part, fragments).validate(part, &graph)?;
     let model = ThermalModel::new(part, &graph);
-    let outcome = thermal::simulate(&model, fragments)?;
+    let outcome = thermal::simulate_until(
+        &model,
+        fragments,
+        interrupt.deadline,
+        interrupt.cancel.clone(),
+    )?
+    .ok_or(PipelineError::Interrupted(
+        "checking the plan's t8/5 windows",
+    ))?;
     match outcome.violation {
         Some(v) => Err(PipelineError::Infeasible(BlockDisplay(part.block(v.block)))),
         None => Ok(()),
@@ -215,8 +237,9 @@ pub fn check_executed(
     part: &Part,
     fragments: &[Vec<usize>],
     toolpath: &Toolpath,
+    interrupt: &Interrupt,
 ) -> Result<Timeline, PipelineError> {
-    let (timeline, violation) = simulate_executed(part, fragments, toolpath)?;
+    let (timeline, violation) = simulate_executed(part, fragments, toolpath, interrupt)?;
     match violation {
         Some(v) => Err(PipelineError::InfeasibleExecuted {
             block: BlockDisplay(part.block(v.block)),
@@ -238,13 +261,16 @@ fn simulate_executed(
     part: &Part,
     fragments: &[Vec<usize>],
     toolpath: &Toolpath,
+    interrupt: &Interrupt,
 ) -> Result<(Timeline, Option<thermal::Violation>), PipelineError> {
     let graph = WeldGraph::new(part);
     let model = ThermalModel::new(part, &graph);
     let times = toolpath.executed_times();
     let timeline = Timeline::from_seconds(&times.deposits_s, &times.arc_off_s, model.dt)
         .map_err(thermal::SimulateError::from)?;
-    let outcome = thermal::simulate_on(&model, fragments, &timeline)?;
+    let outcome = thermal::simulate_on_until(&model, fragments, &timeline, interrupt)?.ok_or(
+        PipelineError::Interrupted("checking the plan on the robot's executed time line"),
+    )?;
     Ok((timeline, outcome.violation))
 }
 
@@ -305,9 +331,26 @@ impl Cell {
     /// thermal model and checks the plan again on the motion's executed time line
     /// ([`check_executed`]).
     pub fn motion(&self, part: Part, found: Found) -> Result<Planned, PipelineError> {
-        check_plan(&part, &found.fragments)?;
+        self.motion_until(part, found, &Interrupt::default())
+    }
+
+    /// [`Cell::motion`], stopped by `interrupt` ([`PipelineError::Interrupted`]): checked in
+    /// every simulation and between the stages.
+    pub fn motion_until(
+        &self,
+        part: Part,
+        found: Found,
+        interrupt: &Interrupt,
+    ) -> Result<Planned, PipelineError> {
+        check_plan_until(&part, &found.fragments, interrupt)?;
+        if interrupt.reached() {
+            return Err(PipelineError::Interrupted("planning the robot motion"));
+        }
         let (toolpath, trajectory) = self.plan_motion(&part, &found.fragments)?;
-        let timeline = check_executed(&part, &found.fragments, &toolpath)?;
+        if interrupt.reached() {
+            return Err(PipelineError::Interrupted("planning the robot motion"));
+        }
+        let timeline = check_executed(&part, &found.fragments, &toolpath, interrupt)?;
         Ok(Planned {
             timeline,
             plate: self.settings.plate.isometry(),
@@ -322,10 +365,11 @@ impl Cell {
 
     /// The planner's check of a candidate on this cell's robot ([`Cell::rejection`]), for
     /// [`waam_planner::Options::executed`].
-    pub fn executed_check(&self, part: &Part) -> ExecutedCheck {
+    /// Its simulations stop at `interrupt` (the planner's own), as a candidate not rejected.
+    pub fn executed_check(&self, part: &Part, interrupt: Interrupt) -> ExecutedCheck {
         let (cell, part) = (self.clone(), part.clone());
         ExecutedCheck(Arc::new(move |fragments: &[Vec<usize>]| {
-            cell.rejection(&part, fragments)
+            cell.rejection(&part, fragments, &interrupt)
         }))
     }
 
@@ -350,7 +394,12 @@ impl Cell {
     /// - *a move with the arc off the torch cannot make*: into weld path f, the plans with
     ///   the same weld paths before f and the same first two blocks of f (as for a
     ///   transit); a retract from f (or the last move), the same weld paths up to f, closed.
-    pub fn rejection(&self, part: &Part, fragments: &[Vec<usize>]) -> Option<Rejection> {
+    pub fn rejection(
+        &self,
+        part: &Part,
+        fragments: &[Vec<usize>],
+        interrupt: &Interrupt,
+    ) -> Option<Rejection> {
         let toolpath = match self.plan_motion(part, fragments) {
             Ok((toolpath, _)) => toolpath,
             Err(
@@ -395,7 +444,7 @@ impl Cell {
             }
             Err(_) => return None,
         };
-        let (_, violation) = simulate_executed(part, fragments, &toolpath).ok()?;
+        let (_, violation) = simulate_executed(part, fragments, &toolpath, interrupt).ok()?;
         let v = violation?;
         // The weld path of the last block deposited before the violation.
         let mut left = v.prefix_len.max(1);

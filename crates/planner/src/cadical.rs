@@ -41,6 +41,21 @@ pub struct Cadical {
     clauses: usize,
     buf: Vec<pindakaas::Lit>,
     cycles: Option<Rc<RefCell<NoCycles>>>,
+    /// The run's deadline and cancel flag ([`SatSolver::set_interrupt`]).
+    stop: (Option<Instant>, Option<Arc<AtomicBool>>),
+}
+
+/// Set by a process that exits once its run is stopped (the `waam` CLI): a big solver
+/// dropped after its deadline or cancel is then left to the exit, not freed.
+static LEAVE_TO_EXIT: AtomicBool = AtomicBool::new(false);
+
+/// Lets big solvers dropped after their run was stopped be freed by the process exit:
+/// freeing 10^7 clauses takes up to a second on a loaded machine (on a thread of its own,
+/// but its frees fill the allocator's bins that the answering thread then sorts), which
+/// the answer at a `--timeout` would wait for. Only for processes that end after a run:
+/// a long-lived one (the node) would keep the memory.
+pub fn leave_stopped_solvers_to_exit() {
+    LEAVE_TO_EXIT.store(true, Ordering::Relaxed);
 }
 
 impl Default for Cadical {
@@ -58,6 +73,7 @@ impl Default for Cadical {
             clauses: 0,
             buf: Vec::new(),
             cycles: None,
+            stop: (None, None),
         }
     }
 }
@@ -81,6 +97,13 @@ impl Drop for Cadical {
             _solver: std::mem::take(&mut self.inner),
             _propagator: self.cycles.take(),
         };
+        let (deadline, cancel) = &self.stop;
+        let stopped = deadline.is_some_and(|d| Instant::now() >= d)
+            || cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
+        if stopped && LEAVE_TO_EXIT.load(Ordering::Relaxed) {
+            std::mem::forget(parcel);
+            return;
+        }
         // If no thread can be started, the parcel is freed here.
         let _ = std::thread::Builder::new()
             .name("cadical-free".into())
@@ -143,6 +166,7 @@ impl SatSolver for Cadical {
     }
 
     fn set_interrupt(&mut self, deadline: Option<Instant>, cancel: Option<Arc<AtomicBool>>) {
+        self.stop = (deadline, cancel.clone());
         if deadline.is_none() && cancel.is_none() {
             self.inner
                 .set_terminate_callback(None::<fn() -> TermSignal>);

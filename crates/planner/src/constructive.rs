@@ -22,6 +22,7 @@ use waam_part::Part;
 use crate::encoding::Acyclicity;
 use crate::sat::{Backend, Lit};
 use crate::search::Search;
+use waam_thermal as thermal;
 
 /// When to give up, shared by every layer solve.
 pub struct Limits {
@@ -244,8 +245,20 @@ impl Layer {
                 if paths == fewest && !starts.iter().all(|&b| self.path_may_start(b)) {
                     continue;
                 }
-                let mut search =
-                    Search::new(&self.part, &graph, paths, Acyclicity::Lazy, 0, backend);
+                // The encoding of a big layer takes seconds: within the run's limits.
+                let run_limits = thermal::Interrupt {
+                    deadline: limits.deadline,
+                    cancel: limits.cancel.clone(),
+                };
+                let mut search = Search::new(
+                    &self.part,
+                    &graph,
+                    paths,
+                    Acyclicity::Lazy,
+                    0,
+                    backend,
+                    run_limits,
+                )?;
                 for steer in &steerings {
                     let enc = &search.enc;
                     let mut assume: Vec<Lit> = starts

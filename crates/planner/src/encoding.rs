@@ -109,20 +109,27 @@ pub enum Decoded {
 }
 
 impl Encoding {
-    /// Encodes the weld paths of `part` with at most `k` fragments into `solver`.
+    /// Encodes the weld paths of `part` with at most `k` fragments into `solver`; `None`
+    /// when `stopped` (asked every few thousand blocks: encoding 10^5 blocks takes seconds)
+    /// says so first, the solver then holding part of the encoding.
     pub fn new(
         part: &Part,
         graph: &WeldGraph,
         k: usize,
         acyclicity: Acyclicity,
         solver: &mut impl SatSolver,
-    ) -> Encoding {
+        stopped: &dyn Fn() -> bool,
+    ) -> Option<Encoding> {
         let n = part.len();
+        let stop_at = |v: usize| v % 4096 == 0 && stopped();
         let truth = solver.new_lit();
         solver.add_clause(&[truth]);
         let mut out = vec![Vec::new(); n];
         let mut inc = vec![Vec::new(); n];
         for u in 0..n {
+            if stop_at(u) {
+                return None;
+            }
             for &v in graph.successors(u) {
                 let e = solver.new_lit();
                 out[u].push((v, e));
@@ -132,11 +139,17 @@ impl Encoding {
         let start: Vec<Lit> = (0..n).map(|_| solver.new_lit()).collect();
         let end: Vec<Lit> = (0..n).map(|_| solver.new_lit()).collect();
         for v in 0..n {
+            if stop_at(v) {
+                return None;
+            }
             degree_constraints(solver, &inc[v], start[v]);
             degree_constraints(solver, &out[v], end[v]);
         }
         // A torch move and its reverse never both happen (the only cycles of length 2).
         for u in 0..n {
+            if stop_at(u) {
+                return None;
+            }
             for &(v, e) in &out[u] {
                 if (v as usize) > u {
                     if let Some(&(_, back)) = out[v as usize].iter().find(|(w, _)| *w as usize == u)
@@ -160,6 +173,9 @@ impl Encoding {
             })
             .collect();
         for u in 0..n {
+            if stop_at(u) {
+                return None;
+            }
             for &(v, e) in &out[u] {
                 for i in 0..k - 1 {
                     solver.add_clause(&[!e, !le[u][i], le[v as usize][i]]);
@@ -211,6 +227,9 @@ impl Encoding {
         for i in 1..k {
             solver.add_clause(&[!used[i], used[i - 1]]);
         }
+        if stopped() {
+            return None;
+        }
         let enc = Encoding {
             k,
             out,
@@ -225,7 +244,7 @@ impl Encoding {
         if acyclicity == Acyclicity::Eager {
             enc.encode_ranks(part, solver, |_| true);
         }
-        enc
+        Some(enc)
     }
 
     // Eager acyclicity: a binary rank per block, increasing along every sideways edge.

@@ -448,7 +448,8 @@ fn timed_out(opts: &Options, started: Instant) -> bool {
             .is_some_and(|c| c.load(Ordering::Relaxed))
 }
 
-/// A search with the run's solver, its solves stopped at the run's deadline or on cancel.
+/// A search with the run's solver, its encoding and solves stopped at the run's deadline
+/// or on cancel (`None`: stopped while encoding).
 fn new_search<'p>(
     part: &'p Part,
     graph: &'p WeldGraph,
@@ -456,7 +457,11 @@ fn new_search<'p>(
     opts: &Options,
     lookahead_budget: usize,
     started: Instant,
-) -> Search<'p> {
+) -> Option<Search<'p>> {
+    let interrupt = thermal::Interrupt {
+        deadline: opts.timeout.and_then(|t| started.checked_add(t)),
+        cancel: opts.cancel.clone(),
+    };
     let mut search = Search::new(
         part,
         graph,
@@ -464,14 +469,24 @@ fn new_search<'p>(
         opts.acyclicity,
         lookahead_budget,
         opts.solver,
-    );
-    search.set_interrupt(
-        opts.timeout.and_then(|t| started.checked_add(t)),
-        opts.cancel.clone(),
-    );
+        interrupt,
+    )?;
     search.set_torch(opts.torch.map(|t| TorchAccess::new(part, &t)));
     search.set_executed(opts.executed.clone());
-    search
+    Some(search)
+}
+
+/// The report of a run stopped before its search was built.
+fn stopped_early(started: Instant) -> Report {
+    Report {
+        best: None,
+        proven: false,
+        no_plan: None,
+        stats: Stats {
+            total_s: started.elapsed().as_secs_f64(),
+            ..Stats::default()
+        },
+    }
 }
 
 /// The best feasible plan: fewest fragments, then the largest worst-case t8/5 margin.
@@ -522,7 +537,9 @@ fn search_plans(
             },
         });
     }
-    let mut search = new_search(part, &graph, k, opts, opts.lookahead_budget, started);
+    let Some(mut search) = new_search(part, &graph, k, opts, opts.lookahead_budget, started) else {
+        return Ok(stopped_early(started));
+    };
     let base = ThermalModel::new(part, &graph);
     let mut best: Option<Found> = None;
     let mut proven = true;
@@ -730,7 +747,14 @@ pub fn count(
     let k = max_fragments(part, opts);
     let mut complete = true;
     let plans = if with_plans {
-        let mut search = new_search(part, &graph, k, opts, 0, started);
+        let Some(mut search) = new_search(part, &graph, k, opts, 0, started) else {
+            return Ok(Counts {
+                plans: Some(0),
+                feasible: 0,
+                complete: false,
+                stats: stopped_early(started).stats,
+            });
+        };
         let mut plans = 0u64;
         while let Some(candidate) = search.next_candidate(&[]) {
             plans += 1;
@@ -782,7 +806,14 @@ fn enumerate_from(
     progress: Progress,
     sink: &mut dyn FnMut(&[Vec<usize>]) -> std::io::Result<()>,
 ) -> Result<Counts, PlanError> {
-    let mut search = new_search(part, graph, k, opts, opts.lookahead_budget, started);
+    let Some(mut search) = new_search(part, graph, k, opts, opts.lookahead_budget, started) else {
+        return Ok(Counts {
+            plans: None,
+            feasible: 0,
+            complete: false,
+            stats: stopped_early(started).stats,
+        });
+    };
     let (mut feasible, mut complete) = (0u64, true);
     while let Some(candidate) = search.next_candidate(&[]) {
         let Some(verdict) = search.judge(&candidate)? else {
@@ -838,7 +869,10 @@ fn no_valid_plan(
         if interrupted {
             return false;
         }
-        let mut search = new_search(part, graph, f, opts, 0, started);
+        let Some(mut search) = new_search(part, graph, f, opts, 0, started) else {
+            interrupted = true;
+            return false;
+        };
         let found = search.next_candidate(&[]).is_some();
         interrupted = search.interrupted;
         found

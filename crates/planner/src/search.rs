@@ -59,6 +59,8 @@ pub struct Search<'p> {
 }
 
 impl<'p> Search<'p> {
+    /// `None` when `interrupt` (deadline or cancel, kept for the solves) comes before the
+    /// encoding is complete.
     pub fn new(
         part: &'p Part,
         graph: &'p WeldGraph,
@@ -66,10 +68,13 @@ impl<'p> Search<'p> {
         acyclicity: Acyclicity,
         lookahead_budget: usize,
         backend: Backend,
-    ) -> Search<'p> {
+        interrupt: thermal::Interrupt,
+    ) -> Option<Search<'p>> {
         let started = Instant::now();
         let mut solver = crate::new_solver(backend);
-        let enc = Encoding::new(part, graph, k, acyclicity, &mut solver);
+        let enc = Encoding::new(part, graph, k, acyclicity, &mut solver, &|| {
+            interrupt.reached()
+        })?;
         // Lazy acyclicity inside the search where the backend can (the paper's way); cuts
         // between solves otherwise. Hybrid needs no ranks when no cycle reaches a model.
         if acyclicity != Acyclicity::Eager {
@@ -81,7 +86,7 @@ impl<'p> Search<'p> {
         stats.clauses = clauses;
         stats.encode_s = started.elapsed().as_secs_f64();
         let n = part.len();
-        Search {
+        let mut search = Search {
             part,
             graph,
             enc,
@@ -103,7 +108,9 @@ impl<'p> Search<'p> {
             executed_last: None,
             deadline: None,
             cancel: None,
-        }
+        };
+        search.set_interrupt(interrupt.deadline, interrupt.cancel);
+        Some(search)
     }
 
     /// Checks torch access at every deposit of later candidates (None: no torch).
@@ -246,6 +253,15 @@ impl<'p> Search<'p> {
             (Judged::Feasible, None) => {
                 // The robot's word last: it is the slowest judge (a whole motion plan).
                 let rejection = self.executed.as_ref().and_then(|c| (c.0)(fragments));
+                // A check the deadline or cancel cut short is no verdict either.
+                let stopped = thermal::Interrupt {
+                    deadline: self.deadline,
+                    cancel: self.cancel.clone(),
+                };
+                if rejection.is_none() && self.executed.is_some() && stopped.reached() {
+                    self.interrupted = true;
+                    return Ok(None);
+                }
                 if let Some(r) = rejection {
                     self.stats.executed_rejected += 1;
                     tracing::info!("candidate rejected on the robot's time line: {}", r.reason);

@@ -17,7 +17,7 @@ use plotters::prelude::*;
 
 use waam_part::graph::WeldGraph;
 use waam_part::{BlockDisplay, Part, Window};
-use waam_thermal::{Simulation, ThermalModel, HOT_C, WARM_C};
+use waam_thermal::{Interrupt, Simulation, ThermalModel, HOT_C, WARM_C};
 
 use crate::{draw_err, font, PlotError, FONT};
 
@@ -345,9 +345,22 @@ impl HeatBuild {
 /// deposits (the last right after the last block) plus one after the cooldown. An
 /// infeasible plan is followed to its end all the same (windows are not judged here).
 pub fn heat_build(part: &Part, fragments: &[Vec<usize>], frames: usize) -> HeatBuild {
+    heat_build_until(part, fragments, frames, &Interrupt::default())
+        .expect("a simulation without deadline or cancel runs to its end")
+}
+
+/// [`heat_build`], stopped by `interrupt`: `None` then.
+pub fn heat_build_until(
+    part: &Part,
+    fragments: &[Vec<usize>],
+    frames: usize,
+    interrupt: &Interrupt,
+) -> Option<HeatBuild> {
     let graph = WeldGraph::new(part);
     let model = ThermalModel::new(part, &graph);
-    let mut sim = Simulation::new(&model).recording();
+    let mut sim = Simulation::new(&model)
+        .recording()
+        .interrupted_by(interrupt);
     let total: usize = fragments.iter().map(Vec::len).sum();
     let frames = frames.clamp(1, total.max(1));
     let at: Vec<usize> = (1..=frames).map(|k| (k * total).div_ceil(frames)).collect();
@@ -369,6 +382,9 @@ pub fn heat_build(part: &Part, fragments: &[Vec<usize>], frames: usize) -> HeatB
         for (p, &b) in fragment.iter().enumerate() {
             // A violation does not stop the picture: keep depositing.
             let _ = sim.deposit(b, p == 0);
+            if sim.cancelled() {
+                return None;
+            }
             done += 1;
             if at.contains(&done) {
                 out.push(snap(&sim, false));
@@ -377,6 +393,9 @@ pub fn heat_build(part: &Part, fragments: &[Vec<usize>], frames: usize) -> HeatB
     }
     if total > 0 {
         let _ = sim.finish();
+        if sim.cancelled() {
+            return None;
+        }
         out.push(snap(&sim, true));
     }
     let windowed = part
@@ -392,12 +411,12 @@ pub fn heat_build(part: &Part, fragments: &[Vec<usize>], frames: usize) -> HeatB
                 .map(|c| (c.time_s, c.t85_s)),
         })
         .collect();
-    HeatBuild {
+    Some(HeatBuild {
         frames: out,
         windowed,
         deposit_c: part.thermal.deposit_c,
         ambient_c: part.thermal.ambient_c,
-    }
+    })
 }
 
 /// The temperature colour map: ambient dark blue, through purple and red (500 °C) and

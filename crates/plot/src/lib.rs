@@ -16,7 +16,7 @@ use thiserror::Error;
 use waam_motion::toolpath::ToolpathFile;
 use waam_part::graph::WeldGraph;
 use waam_part::{Block, BlockDisplay, Part, Window};
-use waam_thermal::{Simulation, ThermalModel, HOT_C, WARM_C};
+use waam_thermal::{Interrupt, Simulation, ThermalModel, HOT_C, WARM_C};
 
 /// Size of `toolpath.png` (two panels side by side), pixels.
 pub const TOOLPATH_SIZE: (u32, u32) = (1600, 800);
@@ -247,6 +247,16 @@ pub struct Curve {
 /// cooldown is stepped by depositing isolated probe blocks far from the part: they share
 /// no face with it, so each only advances time by one `block_time_s`.
 pub fn temperature_curves(part: &Part, fragments: &[Vec<usize>]) -> Vec<Curve> {
+    temperature_curves_until(part, fragments, &Interrupt::default())
+        .expect("a simulation without deadline or cancel runs to its end")
+}
+
+/// [`temperature_curves`], stopped by `interrupt`: `None` then.
+pub fn temperature_curves_until(
+    part: &Part,
+    fragments: &[Vec<usize>],
+    interrupt: &Interrupt,
+) -> Option<Vec<Curve>> {
     let params = part.thermal;
     let max_x = part.blocks().iter().map(|b| b[0]).max().unwrap_or(0);
     let probes = ((params.max_cooldown_s / params.block_time_s).ceil() as i64).clamp(1, 20_000);
@@ -260,12 +270,12 @@ pub fn temperature_curves(part: &Part, fragments: &[Vec<usize>]) -> Vec<Curve> {
         part.max_fragments,
         blocks,
     ) else {
-        return Vec::new();
+        return Some(Vec::new());
     };
     sim_part.thermal = params;
     let graph = WeldGraph::new(&sim_part);
     let model = ThermalModel::new(&sim_part, &graph);
-    let mut sim = Simulation::new(&model);
+    let mut sim = Simulation::new(&model).interrupted_by(interrupt);
     let index = |b: usize| sim_part.index_of(part.block(b)).expect("same blocks");
     let windowed: Vec<(usize, Window)> =
         part.windows().iter().map(|&(b, w)| (index(b), w)).collect();
@@ -297,6 +307,9 @@ pub fn temperature_curves(part: &Part, fragments: &[Vec<usize>]) -> Vec<Curve> {
         for (p, &b) in fragment.iter().enumerate() {
             // No windows: a deposit cannot fail.
             let _ = sim.deposit(index(b), p == 0);
+            if sim.cancelled() {
+                return None;
+            }
             // The block starts at the deposit temperature one block time ago.
             if let Some(k) = windowed.iter().position(|w| w.0 == index(b)) {
                 let placed = sim.time_s() - params.dt() * params.substeps as f64;
@@ -310,11 +323,14 @@ pub fn temperature_curves(part: &Part, fragments: &[Vec<usize>]) -> Vec<Curve> {
             break;
         };
         let _ = sim.deposit(probe, false);
+        if sim.cancelled() {
+            return None;
+        }
         if !sample(&sim, &mut curves) {
             break;
         }
     }
-    curves
+    Some(curves)
 }
 
 /// Draws `t85.png`: each windowed block's temperature over time, with the 800 °C and

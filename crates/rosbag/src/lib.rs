@@ -23,7 +23,7 @@ pub mod reindex;
 pub mod writer;
 
 pub use qos::Qos;
-pub use reader::{Bag, RecordedMessage, TopicInfo, Truncation};
+pub use reader::{Bag, RecordedMessage, Skipped, TopicInfo, Truncation};
 pub use recorder::Recorder;
 pub use reindex::{reindex, Reindexed};
 pub use writer::{BagOptions, BagSummary, BagWriter};

@@ -73,36 +73,83 @@ fn inside(dir: &Path, relative: &str, metadata: &Path) -> Result<PathBuf, BagErr
 /// `ChunkFlattener` yields them, but with [`MAX_RECORD_BYTES`] as the record length limit
 /// (ChunkFlattener sets none, and mcap then sizes buffers by untrusted lengths).
 pub(crate) struct Records<'a> {
+    bytes: &'a [u8],
     rest: &'a [u8],
-    total: usize,
     reader: LinearReader,
+    /// [`Records::resyncing`]: go on past damage.
+    resync: bool,
+    /// Where the last record returned ended (or the reader was restarted).
+    last_end: usize,
+    /// Whether a record was returned since the reader was (re)started at `last_end`.
+    read_since_start: bool,
+    skipped: Vec<Skipped>,
 }
+
+/// A damaged stretch of a file that [`Records::resyncing`] stepped over.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Skipped {
+    /// Byte offsets: the end of the last readable record, the next readable record.
+    pub from: u64,
+    pub to: u64,
+    /// Why the record at `from` could not be read.
+    pub reason: String,
+}
+
+/// Top-level records a reader may start again at after damage: those a chunked writer puts
+/// in the data section outside chunks (schemas, channels and messages live in chunks).
+const RESYNC_OPCODES: [u8; 3] = [
+    mcap::records::op::CHUNK,
+    mcap::records::op::METADATA,
+    mcap::records::op::ATTACHMENT,
+];
 
 impl<'a> Records<'a> {
     pub(crate) fn new(bytes: &'a [u8]) -> Records<'a> {
-        let options = LinearReaderOptions::default()
-            .with_skip_end_magic(true)
-            .with_record_length_limit(MAX_RECORD_BYTES);
         Records {
+            bytes,
             rest: bytes,
-            total: bytes.len(),
-            reader: LinearReader::new_with_options(options),
+            reader: Self::reader(false, false),
+            resync: false,
+            last_end: 0,
+            read_since_start: false,
+            skipped: Vec::new(),
         }
     }
-}
 
-impl Records<'_> {
+    /// [`Records::new`] that, at a record it cannot read, starts again at the next chunk,
+    /// metadata or attachment record that reads (one with a sane length whose chunk CRC
+    /// holds), instead of ending: `waam bag reindex` keeps every intact chunk after damage.
+    /// What it stepped over is in [`Records::skipped`].
+    pub(crate) fn resyncing(bytes: &'a [u8]) -> Records<'a> {
+        Records {
+            reader: Self::reader(false, true),
+            resync: true,
+            ..Records::new(bytes)
+        }
+    }
+
+    fn reader(mid_file: bool, check_crcs: bool) -> LinearReader {
+        let options = LinearReaderOptions::default()
+            .with_skip_start_magic(mid_file)
+            .with_skip_end_magic(true)
+            .with_prevalidate_chunk_crcs(check_crcs)
+            .with_record_length_limit(MAX_RECORD_BYTES);
+        LinearReader::new_with_options(options)
+    }
+
     /// Bytes of the file read so far. Right after a record is returned this is the end of
     /// the record (for a record inside a chunk: the end of its chunk).
     pub(crate) fn consumed(&self) -> usize {
-        self.total - self.rest.len()
+        self.bytes.len() - self.rest.len()
     }
-}
 
-impl Iterator for Records<'_> {
-    type Item = mcap::McapResult<Record<'static>>;
+    /// The damaged stretches stepped over so far (only [`Records::resyncing`] steps over).
+    pub(crate) fn skipped(&self) -> &[Skipped] {
+        &self.skipped
+    }
 
-    fn next(&mut self) -> Option<Self::Item> {
+    /// The next record as the reader gives it.
+    fn read(&mut self) -> Option<mcap::McapResult<Record<'static>>> {
         while let Some(event) = self.reader.next_event() {
             match event {
                 Ok(LinearReadEvent::ReadRequest(need)) => {
@@ -119,6 +166,98 @@ impl Iterator for Records<'_> {
             }
         }
         None
+    }
+
+    /// The first offset from `from` on where a resync record plausibly begins: its length
+    /// fits the file, and a chunk's own lengths and compression add up (so that random
+    /// bytes inside damage are rarely tried, each try reading up to its length).
+    fn next_candidate(&self, from: usize) -> Option<usize> {
+        (from..self.bytes.len()).find(|&at| plausible_record(&self.bytes[at..]))
+    }
+
+    /// Restarts the reader at `at`.
+    fn restart(&mut self, at: usize) {
+        self.reader = Self::reader(true, true);
+        self.rest = &self.bytes[at..];
+        self.last_end = at;
+        self.read_since_start = false;
+    }
+}
+
+/// Whether `bytes` plausibly begin with a resync record (see [`Records::resyncing`]).
+fn plausible_record(bytes: &[u8]) -> bool {
+    let u64_at = |at: usize| -> Option<u64> {
+        Some(u64::from_le_bytes(bytes.get(at..at + 8)?.try_into().ok()?))
+    };
+    let u32_at = |at: usize| -> Option<u64> {
+        Some(u32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?) as u64)
+    };
+    let (Some(&opcode), Some(len)) = (bytes.first(), u64_at(1)) else {
+        return false;
+    };
+    if !RESYNC_OPCODES.contains(&opcode)
+        || len > MAX_RECORD_BYTES as u64
+        || len > (bytes.len() - 9) as u64
+    {
+        return false;
+    }
+    if opcode != mcap::records::op::CHUNK {
+        return true;
+    }
+    // A chunk: start and end time, uncompressed size and CRC, compression, records.
+    let body = 9;
+    let (Some(size), Some(clen)) = (u64_at(body + 16), u32_at(body + 28)) else {
+        return false;
+    };
+    let Some(compression) = bytes.get(body + 32..body + 32 + clen.min(16) as usize) else {
+        return false;
+    };
+    let records_at = body + 32 + clen as usize;
+    size <= MAX_RECORD_BYTES as u64
+        && matches!(compression, b"" | b"zstd" | b"lz4")
+        && clen == compression.len() as u64
+        && u64_at(records_at).is_some_and(|n| n + (records_at + 8 - body) as u64 == len)
+}
+
+impl Iterator for Records<'_> {
+    type Item = mcap::McapResult<Record<'static>>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        loop {
+            match self.read() {
+                Some(Err(e)) if self.resync => {
+                    // Inside a chunk already read whole (a record in it is bad) the next
+                    // record starts where the chunk ends; else past the bad record's start.
+                    let from = self.last_end;
+                    let search = if self.read_since_start && self.consumed() == from {
+                        from
+                    } else {
+                        from + 1
+                    };
+                    let Some(at) = self.next_candidate(search) else {
+                        return Some(Err(e));
+                    };
+                    match self.skipped.last_mut() {
+                        // A false start inside the same damage: one stretch.
+                        Some(last) if last.to == from as u64 && !self.read_since_start => {
+                            last.to = at as u64
+                        }
+                        _ => self.skipped.push(Skipped {
+                            from: from as u64,
+                            to: at as u64,
+                            reason: e.to_string(),
+                        }),
+                    }
+                    self.restart(at);
+                }
+                Some(Ok(record)) => {
+                    self.last_end = self.consumed();
+                    self.read_since_start = true;
+                    return Some(Ok(record));
+                }
+                other => return other,
+            }
+        }
     }
 }
 

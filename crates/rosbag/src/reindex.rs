@@ -19,7 +19,7 @@ use mcap::{Attachment, Compression, McapError, WriteOptions};
 
 use super::metadata::{BagMetadata, TopicInformation, TopicMetadata, ROS_DISTRO};
 use super::qos;
-use super::reader::{mcap_file_of, read_mcap_file, Records};
+use super::reader::{mcap_file_of, read_mcap_file, Records, Skipped};
 use super::writer::{write_metadata_yaml, BagOptions};
 use super::BagError;
 
@@ -39,8 +39,21 @@ pub struct Reindexed {
     pub cut: Option<String>,
     /// Bytes at the end of the old file after its last readable record.
     pub unread_bytes: u64,
-    /// Where the old file was kept: only when it had unread bytes.
+    /// Damaged stretches of the old file stepped over: reading went on at the next chunk
+    /// (or metadata, attachment) record that reads.
+    pub skipped: Vec<Skipped>,
+    /// Records read but not kept: a message whose channel, or a channel whose schema, was
+    /// in a damaged stretch.
+    pub skipped_records: u64,
+    /// Where the old file was kept: only when it had unread or skipped bytes.
     pub original_kept: Option<PathBuf>,
+}
+
+impl Reindexed {
+    /// Bytes of the old file stepped over as damage.
+    pub fn skipped_bytes(&self) -> u64 {
+        self.skipped.iter().map(|s| s.to - s.from).sum()
+    }
 }
 
 /// Rewrites the bag directory `dir` complete: its MCAP file with summary, chunk and message
@@ -92,7 +105,7 @@ pub fn reindex(dir: &Path) -> Result<Reindexed, BagError> {
         move |source| BagError::Io { path, source }
     };
     // Keep what could not be read: it may be more than a half-written chunk.
-    let original_kept = if scan.unread_bytes > 0 {
+    let original_kept = if scan.unread_bytes > 0 || scan.damaged() {
         let kept = free_name(&file.with_file_name(format!("{file_name}.orig")));
         if let Err(e) = std::fs::hard_link(&file, &kept) {
             let _ = std::fs::remove_file(&tmp);
@@ -213,11 +226,18 @@ struct Scan {
     complete: bool,
     cut: Option<String>,
     unread_bytes: u64,
+    skipped: Vec<Skipped>,
+    skipped_records: u64,
 }
 
 impl Scan {
     fn messages(&self) -> u64 {
         self.channels.values().map(|c| c.count).sum()
+    }
+
+    /// Whether anything in the middle of the file was stepped over.
+    fn damaged(&self) -> bool {
+        !self.skipped.is_empty() || self.skipped_records > 0
     }
 
     fn metadata(&self, relative: &str) -> BagMetadata {
@@ -254,9 +274,56 @@ impl Scan {
             topics: self.channels.len(),
             cut: self.cut,
             unread_bytes: self.unread_bytes,
+            skipped: self.skipped,
+            skipped_records: self.skipped_records,
             original_kept: kept,
         }
     }
+}
+
+/// Adds `schema` to the scan and, once, to the writer.
+fn copy_schema<W: Write + std::io::Seek>(
+    scan: &mut Scan,
+    writer: Option<&mut mcap::Writer<W>>,
+    copied: &mut HashSet<u16>,
+    schema: &mcap::Schema<'_>,
+) -> Result<(), McapError> {
+    scan.schemas
+        .entry(schema.id)
+        .or_insert_with(|| schema.name.clone());
+    match writer {
+        Some(w) if copied.insert(schema.id) => w
+            .add_schema_with_id(schema.id, &schema.name, &schema.encoding, &schema.data)
+            .map(drop),
+        _ => Ok(()),
+    }
+}
+
+/// Adds channel `id` to the writer and, when the writer takes it (its schema is known),
+/// to the scan.
+fn copy_channel<W: Write + std::io::Seek>(
+    scan: &mut Scan,
+    writer: Option<&mut mcap::Writer<W>>,
+    id: u16,
+    schema_id: u16,
+    channel: Channel,
+) -> Result<(), McapError> {
+    let added = match writer {
+        Some(w) => w
+            .add_channel_with_id(
+                id,
+                schema_id,
+                &channel.topic,
+                &channel.message_encoding,
+                &channel.metadata,
+            )
+            .map(drop),
+        None => Ok(()),
+    };
+    if added.is_ok() {
+        scan.channels.insert(id, channel);
+    }
+    added
 }
 
 /// [`copy_records`] without copying: what the file holds and whether it is complete.
@@ -268,9 +335,11 @@ fn read_through(file: &Path, bytes: &[u8]) -> Result<Scan, BagError> {
     )
 }
 
-/// Reads every record of `bytes` in file order until the first that cannot be read, counts
-/// the messages per channel and, with a `writer`, copies schemas, channels, messages,
-/// metadata and attachments into it (with their ids, sequence numbers and times).
+/// Reads every record of `bytes` in file order, stepping over damage to the next chunk that
+/// reads ([`Records::resyncing`]), counts the messages per channel and, with a `writer`,
+/// copies schemas, channels, messages, metadata and attachments into it (with their ids,
+/// sequence numbers and times). A record the writer refuses (a channel of an unknown
+/// schema, a message of an unknown channel: their records were in damage) is left out.
 /// Indexes, statistics and the summary are left out: the writer makes new ones.
 fn copy_records<W: Write + std::io::Seek>(
     file: &Path,
@@ -284,8 +353,13 @@ fn copy_records<W: Write + std::io::Seek>(
         complete: false,
         cut: None,
         unread_bytes: 0,
+        skipped: Vec::new(),
+        skipped_records: 0,
     };
-    let mut records = Records::new(bytes);
+    let mut records = Records::resyncing(bytes);
+    // The old summary, when the file has one whose offsets hold: it names the channels
+    // and schemas even when the chunk that declared them is damaged.
+    let summary = mcap::Summary::read(bytes).ok().flatten();
     let mut readable_end = 0;
     let mut copied_schemas = HashSet::new();
     let mut footer = false;
@@ -297,65 +371,82 @@ fn copy_records<W: Write + std::io::Seek>(
                 break;
             }
         };
-        // A record the writer refuses (a channel of an unknown schema, a message of an
-        // unknown channel) is damage: the copy ends before it, as at an unreadable one.
         let copied: Result<(), McapError> = match record {
-            Record::Schema { header, data } => {
-                scan.schemas
-                    .entry(header.id)
-                    .or_insert_with(|| header.name.clone());
-                match writer.as_deref_mut() {
-                    Some(w) if copied_schemas.insert(header.id) => w
-                        .add_schema_with_id(header.id, &header.name, &header.encoding, &data)
-                        .map(drop),
-                    _ => Ok(()),
-                }
-            }
-            Record::Channel(c) if !scan.channels.contains_key(&c.id) => {
-                let added = match writer.as_deref_mut() {
-                    Some(w) => w
-                        .add_channel_with_id(
-                            c.id,
-                            c.schema_id,
-                            &c.topic,
-                            &c.message_encoding,
-                            &c.metadata,
-                        )
-                        .map(drop),
-                    None => Ok(()),
-                };
-                if added.is_ok() {
-                    scan.channels.insert(
+            Record::Schema { header, data } => copy_schema(
+                &mut scan,
+                writer.as_deref_mut(),
+                &mut copied_schemas,
+                &mcap::Schema {
+                    id: header.id,
+                    name: header.name,
+                    encoding: header.encoding,
+                    data,
+                },
+            ),
+            Record::Channel(c) if !scan.channels.contains_key(&c.id) => copy_channel(
+                &mut scan,
+                writer.as_deref_mut(),
+                c.id,
+                c.schema_id,
+                Channel {
+                    topic: c.topic,
+                    schema: c.schema_id,
+                    message_encoding: c.message_encoding,
+                    metadata: c.metadata,
+                    count: 0,
+                },
+            ),
+            Record::Message { header, data } => {
+                // A channel whose record was in a damaged chunk: from the old summary,
+                // when the file has one.
+                if let Some(c) = summary
+                    .as_ref()
+                    .filter(|_| !scan.channels.contains_key(&header.channel_id))
+                    .and_then(|s| s.channels.get(&header.channel_id))
+                {
+                    if let Some(schema) = &c.schema {
+                        let _ = copy_schema(
+                            &mut scan,
+                            writer.as_deref_mut(),
+                            &mut copied_schemas,
+                            schema,
+                        );
+                    }
+                    let schema_id = c.schema.as_ref().map_or(0, |s| s.id);
+                    let _ = copy_channel(
+                        &mut scan,
+                        writer.as_deref_mut(),
                         c.id,
+                        schema_id,
                         Channel {
-                            topic: c.topic,
-                            schema: c.schema_id,
-                            message_encoding: c.message_encoding,
-                            metadata: c.metadata,
+                            topic: c.topic.clone(),
+                            schema: schema_id,
+                            message_encoding: c.message_encoding.clone(),
+                            metadata: c.metadata.clone(),
                             count: 0,
                         },
                     );
                 }
-                added
-            }
-            Record::Message { header, data } => match scan.channels.get_mut(&header.channel_id) {
-                Some(channel) => {
-                    let written = match writer.as_deref_mut() {
-                        Some(w) => w.write_to_known_channel(&header, &data),
-                        None => Ok(()),
-                    };
-                    if written.is_ok() {
-                        channel.count += 1;
-                        let t = header.log_time;
-                        scan.times = Some(scan.times.map_or((t, t), |(a, b)| (a.min(t), b.max(t))));
+                match scan.channels.get_mut(&header.channel_id) {
+                    Some(channel) => {
+                        let written = match writer.as_deref_mut() {
+                            Some(w) => w.write_to_known_channel(&header, &data),
+                            None => Ok(()),
+                        };
+                        if written.is_ok() {
+                            channel.count += 1;
+                            let t = header.log_time;
+                            scan.times =
+                                Some(scan.times.map_or((t, t), |(a, b)| (a.min(t), b.max(t))));
+                        }
+                        written
                     }
-                    written
+                    None => Err(McapError::UnknownChannel(
+                        header.sequence,
+                        header.channel_id,
+                    )),
                 }
-                None => Err(McapError::UnknownChannel(
-                    header.sequence,
-                    header.channel_id,
-                )),
-            },
+            }
             Record::Metadata(m) => match writer.as_deref_mut() {
                 Some(w) => w.write_metadata(&m),
                 None => Ok(()),
@@ -387,16 +478,27 @@ fn copy_records<W: Write + std::io::Seek>(
                 })
             }
             Err(e) => {
-                scan.cut = Some(e.to_string());
-                break;
+                tracing::debug!("{}: record left out: {e}", file.display());
+                scan.skipped_records += 1;
+                readable_end = records.consumed();
             }
         }
     }
-    scan.complete = scan.cut.is_none() && footer && bytes.ends_with(mcap::MAGIC);
+    scan.skipped = records.skipped().to_vec();
+    let closed = footer && bytes.ends_with(mcap::MAGIC);
+    scan.complete = scan.cut.is_none() && !scan.damaged() && closed;
     if !scan.complete {
-        scan.unread_bytes = (bytes.len() - readable_end) as u64;
+        // Read to its closing magic, past damage: nothing at the end is unread.
+        let to_the_end = scan.cut.is_none() && closed;
+        scan.unread_bytes = if to_the_end {
+            0
+        } else {
+            (bytes.len() - readable_end) as u64
+        };
         scan.cut.get_or_insert_with(|| {
-            if footer {
+            if to_the_end {
+                "its end, past the damage".into()
+            } else if footer {
                 "the file ends without its closing magic".into()
             } else {
                 "the file ends without a footer".into()
@@ -581,5 +683,113 @@ mod tests {
         assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
         let err = reindex(&dir.join("junk_0.mcap")).unwrap_err().to_string();
         assert!(err.contains("not a directory"), "{err}");
+    }
+
+    /// A damaged chunk in the middle of a bag (a flipped byte in its compressed records, or
+    /// a length field that runs past the file) costs that chunk alone: reindex goes on at
+    /// the next chunk and keeps every message of the chunks before *and after* it, saying
+    /// what it stepped over. Also when the file was killed as well (no summary).
+    #[test]
+    fn a_damaged_middle_chunk_costs_only_its_own_messages() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path().join("good");
+        let bytes = finished_bag(&dir);
+        let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+        let chunks = &summary.chunk_indexes;
+        assert!(chunks.len() >= 5, "{} chunks", chunks.len());
+        let all = read_indexed(&bytes);
+        let k = chunks.len() / 2;
+        let lost: Vec<_> = summary
+            .stream_chunk(&bytes, &chunks[k])
+            .unwrap()
+            .map(|m| m.unwrap().log_time)
+            .collect();
+        assert!(!lost.is_empty());
+        let (start, len) = (
+            chunks[k].chunk_start_offset as usize,
+            chunks[k].chunk_length as usize,
+        );
+        let data_end = chunks.last().map(|c| c.chunk_start_offset + c.chunk_length);
+        let flipped_records = {
+            let mut b = bytes.clone();
+            b[start + len - 10] ^= 0x5a;
+            b
+        };
+        let long_length = {
+            let mut b = bytes.clone();
+            b[start + 1..start + 9].copy_from_slice(&(u64::MAX / 2).to_le_bytes());
+            b.truncate(data_end.unwrap() as usize);
+            b
+        };
+        for (name, damaged) in [("flipped", flipped_records), ("length", long_length)] {
+            let dir = tmp.path().join(name);
+            std::fs::create_dir(&dir).unwrap();
+            std::fs::write(dir.join("bag_0.mcap"), &damaged).unwrap();
+            let done = reindex(&dir).unwrap();
+            assert!(!done.was_complete, "{name}");
+            assert_eq!(done.skipped.len(), 1, "{name}: {:?}", done.skipped);
+            let skip = &done.skipped[0];
+            assert_eq!(skip.from as usize, start, "{name}: {skip:?}");
+            // Up to the next chunk: the damaged chunk's message indexes follow it.
+            let next = chunks[k + 1].chunk_start_offset;
+            assert!(next >= (start + len) as u64);
+            assert_eq!(skip.to, next, "{name}: {skip:?}");
+            assert_eq!(done.skipped_bytes(), next - start as u64);
+            assert!(done.original_kept.is_some(), "{name}");
+            let rewritten = std::fs::read(dir.join("bag_0.mcap")).unwrap();
+            let expected: Vec<_> = all
+                .iter()
+                .filter(|m| !lost.contains(&m.1))
+                .cloned()
+                .collect();
+            assert_eq!(read_indexed(&rewritten), expected, "{name}");
+            assert_eq!(done.messages, expected.len() as u64, "{name}");
+            assert_eq!(yaml_count(&dir).0, done.messages, "{name}");
+        }
+    }
+
+    /// Reindex steps over damage, so it reads on where the plain reader stops: one flipped
+    /// bit anywhere in the chunks (a seeded sample of 300) never makes it panic or loop,
+    /// and it keeps every message of every chunk but the one hit.
+    #[test]
+    fn no_single_bit_flip_costs_reindex_more_than_its_chunk() {
+        let tmp = tempfile::tempdir().unwrap();
+        let bytes = finished_bag(&tmp.path().join("good"));
+        let summary = mcap::Summary::read(&bytes).unwrap().unwrap();
+        let chunks = &summary.chunk_indexes;
+        let most = chunks
+            .iter()
+            .map(|c| summary.stream_chunk(&bytes, c).unwrap().count())
+            .max()
+            .unwrap() as u64;
+        let (lo, hi) = (
+            chunks[0].chunk_start_offset as usize,
+            (chunks.last().unwrap().chunk_start_offset + chunks.last().unwrap().chunk_length)
+                as usize,
+        );
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        for n in 0..300 {
+            // xorshift: a fixed sample of (byte, bit) positions.
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let at = lo + (state % (hi - lo) as u64) as usize;
+            let mut damaged = bytes.clone();
+            damaged[at] ^= 1 << ((state >> 40) % 8);
+            let dir = tmp.path().join(format!("flip{n}"));
+            std::fs::create_dir(&dir).unwrap();
+            std::fs::write(dir.join("bag_0.mcap"), &damaged).unwrap();
+            if let Ok(done) = reindex(&dir) {
+                assert!(
+                    done.messages + most >= 60,
+                    "flip at byte {at}: {} messages kept, {:?}, {} records left out, cut {:?}, chunks at {:?}",
+                    done.messages,
+                    done.skipped,
+                    done.skipped_records,
+                    done.cut,
+                    chunks.iter().map(|c| (c.chunk_start_offset, c.chunk_length)).collect::<Vec<_>>()
+                );
+            }
+        }
     }
 }

@@ -13,7 +13,7 @@
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use thiserror::Error;
 
@@ -31,6 +31,39 @@ pub const TOLERANCE_S: f64 = 1e-9;
 /// Rounds a non-negative step count, halves away from zero.
 fn round_steps(x: f64) -> u64 {
     (x + 0.5).floor() as u64
+}
+
+/// What stops a long run early: a deadline, a cancel flag, or both (the default, neither:
+/// it runs to its end). The planner's `timeout` and `cancel`, for the stages that
+/// simulate after it (check, plot, motion).
+#[derive(Debug, Clone, Default)]
+pub struct Interrupt {
+    pub deadline: Option<Instant>,
+    pub cancel: Option<Arc<AtomicBool>>,
+}
+
+impl Interrupt {
+    /// Stops `timeout` from now (none: never; one too long for a clock: never either).
+    pub fn after(timeout: Option<Duration>) -> Interrupt {
+        Interrupt {
+            deadline: timeout.and_then(|t| Instant::now().checked_add(t)),
+            cancel: None,
+        }
+    }
+
+    /// Also stops once `flag` is raised.
+    pub fn with_cancel(mut self, flag: Option<Arc<AtomicBool>>) -> Interrupt {
+        self.cancel = flag;
+        self
+    }
+
+    /// Whether the deadline has passed or the flag is raised.
+    pub fn reached(&self) -> bool {
+        self.cancel
+            .as_ref()
+            .is_some_and(|c| c.load(Ordering::Relaxed))
+            || self.deadline.is_some_and(|d| Instant::now() >= d)
+    }
 }
 
 /// Which way a t8/5 window was broken.
@@ -371,6 +404,13 @@ impl<'m> Simulation<'m> {
     /// hundred steps).
     pub fn with_deadline(mut self, deadline: Option<Instant>) -> Self {
         self.deadline = deadline;
+        self
+    }
+
+    /// Stops stepping at the deadline or the cancel of `interrupt`.
+    pub fn interrupted_by(mut self, interrupt: &Interrupt) -> Self {
+        self.deadline = interrupt.deadline;
+        self.cancel = interrupt.cancel.clone();
         self
     }
 
@@ -1419,8 +1459,19 @@ pub fn simulate_on(
     fragments: &[Vec<usize>],
     timeline: &Timeline,
 ) -> Result<Outcome, SimulateError> {
+    let outcome = simulate_on_until(model, fragments, timeline, &Interrupt::default())?;
+    Ok(outcome.expect("a simulation without deadline or cancel runs to its end"))
+}
+
+/// [`simulate_on`], stopped by `interrupt`: `Ok(None)` then.
+pub fn simulate_on_until(
+    model: &ThermalModel,
+    fragments: &[Vec<usize>],
+    timeline: &Timeline,
+    interrupt: &Interrupt,
+) -> Result<Option<Outcome>, SimulateError> {
     timeline.fits(fragments)?;
-    let mut sim = Simulation::new(model).recording();
+    let mut sim = Simulation::new(model).recording().interrupted_by(interrupt);
     let mut violation = None;
     'plan: for (f, fragment) in fragments.iter().enumerate() {
         for (p, &b) in fragment.iter().enumerate() {
@@ -1436,6 +1487,9 @@ pub fn simulate_on(
                 violation = Some(v);
                 break 'plan;
             }
+            if sim.cancelled() {
+                return Ok(None);
+            }
             sim.place(b, p == 0);
         }
     }
@@ -1446,12 +1500,15 @@ pub fn simulate_on(
     if violation.is_none() {
         violation = sim.finish()?.err();
     }
-    Ok(Outcome {
+    if sim.cancelled() {
+        return Ok(None);
+    }
+    Ok(Some(Outcome {
         violation,
         steps: sim.steps(),
         time_s: sim.time_s(),
         crossings: sim.crossings.take().unwrap_or_default(),
-    })
+    }))
 }
 
 #[cfg(test)]

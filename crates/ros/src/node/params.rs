@@ -318,7 +318,7 @@ impl NodeParams {
             && (0.0..=MAX_WAIT_S).contains(&self.planner.timeout_s))
         {
             return Err(ParamRule(format!(
-                "planner.timeout_s: expected seconds in [0, {MAX_WAIT_S}], got {}",
+                "planner.timeout_s: expected seconds in [0, {MAX_WAIT_S}], got {:?}",
                 self.planner.timeout_s
             )));
         }
@@ -368,13 +368,13 @@ impl NodeParams {
             && self.execution.server_timeout_s <= MAX_WAIT_S)
         {
             return Err(ParamRule(format!(
-                "execution.server_timeout_s: expected seconds in (0, {MAX_WAIT_S}], got {}",
+                "execution.server_timeout_s: expected seconds in (0, {MAX_WAIT_S}], got {:?}",
                 self.execution.server_timeout_s
             )));
         }
         if !(self.execution.lead_in_s.is_finite() && self.execution.lead_in_s >= 0.0) {
             return Err(ParamRule(format!(
-                "execution.lead_in_s: expected seconds >= 0, got {}",
+                "execution.lead_in_s: expected seconds >= 0, got {:?}",
                 self.execution.lead_in_s
             )));
         }
@@ -405,13 +405,13 @@ impl NodeParams {
         }
         if !finite_pos(self.dry_run.time_scale) {
             return Err(ParamRule(format!(
-                "dry_run.time_scale: expected a factor > 0, got {}",
+                "dry_run.time_scale: expected a factor > 0, got {:?}",
                 self.dry_run.time_scale
             )));
         }
         if !(finite_pos(self.dry_run.rate_hz) && self.dry_run.rate_hz <= 1000.0) {
             return Err(ParamRule(format!(
-                "dry_run.rate_hz: expected 0 < rate <= 1000, got {}",
+                "dry_run.rate_hz: expected 0 < rate <= 1000, got {:?}",
                 self.dry_run.rate_hz
             )));
         }

@@ -14,7 +14,7 @@ use waam_motion::robot::limits::{JointLimitsFile, LimitsError};
 use waam_motion::robot::{xyz_rpy, Robot, RobotError, TcpChoice};
 use waam_motion::toolpath::{ProcessSettings, SettingsError};
 use waam_part::{Part, Window};
-use waam_pipeline::{read_input, Cell, Found, PipelineError, BUNDLED_URDF};
+use waam_pipeline::{read_input, Cell, Found, Interrupt, PipelineError, BUNDLED_URDF};
 pub use waam_pipeline::{MeshSettings, PartInput, Planned};
 use waam_rosbag::Recorder;
 use waam_rosmsg::shape_msgs::Mesh;
@@ -245,15 +245,24 @@ impl Pipeline for PlanningPipeline {
                 part.max_fragments
             ),
         );
+        let timeout_s = job.timeout_s.unwrap_or(self.timeout_s);
+        let planner_interrupt = Interrupt::after(
+            std::time::Duration::try_from_secs_f64(timeout_s)
+                .ok()
+                .filter(|t| !t.is_zero()),
+        )
+        .with_cancel(Some(ctx.cancel.flag()));
         let found = (self.planner)(&PlanRequest {
             part: &part,
-            timeout_s: job.timeout_s.unwrap_or(self.timeout_s),
+            timeout_s,
             max_memory_mb: self.max_memory_mb,
             first_feasible: job.first_feasible,
             ctx,
             recorder: self.recorder.as_ref(),
             torch: self.cell.settings.torch_setup(),
-            executed: Some(self.cell.executed_check(&part)),
+            // The planner's time limit and a cancel (or an early stop) bound the robot
+            // checks of its candidates too.
+            executed: Some(self.cell.executed_check(&part, planner_interrupt.clone())),
         })?;
         if cancelled() {
             return Err(JobError::Cancelled);
@@ -263,7 +272,14 @@ impl Pipeline for PlanningPipeline {
             None,
             format!("{} fragment(s)", found.fragments.len()),
         );
-        Ok(Box::new(self.cell.motion(part, found)?))
+        // A superseded or cancelled job stops here too, within a simulation step: the
+        // cancel flag, not the planner's stop flag, which a first feasible plan raises.
+        let interrupt = Interrupt::default().with_cancel(Some(ctx.cancel.cancelled_flag()));
+        match self.cell.motion_until(part, found, &interrupt) {
+            Ok(planned) => Ok(Box::new(planned)),
+            Err(PipelineError::Interrupted(_)) => Err(JobError::Cancelled),
+            Err(e) => Err(e.into()),
+        }
     }
 }
 

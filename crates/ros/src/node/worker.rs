@@ -37,6 +37,11 @@ impl Cancel {
     pub fn flag(&self) -> Arc<AtomicBool> {
         Arc::clone(&self.stop)
     }
+    /// The cancel flag alone (not raised by [`Cancel::stop_early`]), for the stages after
+    /// planning, which must finish a plan the planner stopped early on.
+    pub fn cancelled_flag(&self) -> Arc<AtomicBool> {
+        Arc::clone(&self.cancelled)
+    }
 }
 
 /// The planner's counters at a progress report.
