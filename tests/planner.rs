@@ -396,3 +396,82 @@ fn a_layer_in_more_pieces_than_k_is_no_plan_at_once() {
         other => panic!("expected a layer needing 2 weld paths, got {other:?}"),
     }
 }
+
+/// A one-block rectangular ring `w` x `d`, `h` layers high (a tube), k = 1.
+fn ring_tower(w: i64, d: i64, h: i64) -> Part {
+    let blocks = (0..h)
+        .flat_map(|z| {
+            (0..d).flat_map(move |y| {
+                (0..w)
+                    .filter(move |&x| y == 0 || y == d - 1 || x == 0 || x == w - 1)
+                    .map(move |x| [x, y, z])
+            })
+        })
+        .collect();
+    Part::from_blocks("ring".into(), [6.0, 6.0, 2.5], [0.0; 3], 1, blocks).unwrap()
+}
+
+#[test]
+fn a_warm_start_that_breaks_a_window_is_set_off_elsewhere() {
+    // The layer-by-layer plan walks each ring layer back over the one below, so where it
+    // starts decides how soon each block gets the block above it. A window 2 s below the
+    // longest t8/5 the plain warm start gives a high corner block: that plan breaks it,
+    // and the portfolio of other starts finds one that keeps it, checked afresh here.
+    let mut part = ring_tower(6, 8, 30);
+    let graph = waam_part::graph::WeldGraph::new(&part);
+    let corner = part.index_of([0, 0, 20]).unwrap();
+    let t85_of = |part: &Part, plan: &[Vec<usize>]| {
+        let model = waam_thermal::ThermalModel::new(part, &graph);
+        let outcome = waam_thermal::simulate(&model, plan).unwrap();
+        let longest = outcome
+            .crossings
+            .iter()
+            .filter(|c| c.block == corner)
+            .map(|c| c.t85_s)
+            .fold(0.0, f64::max);
+        (outcome.violation.is_none(), longest)
+    };
+    let wide = waam_part::Window {
+        min_s: 0.0,
+        max_s: 1e6,
+    };
+    part.set_window(corner, wide);
+    let limits = planner::constructive::Limits {
+        deadline: None,
+        cancel: None,
+    };
+    let base = planner::constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &limits)
+        .expect("a ring tower has a layer-by-layer plan");
+    let (_, hottest) = t85_of(&part, &base);
+    part.set_window(
+        corner,
+        waam_part::Window {
+            min_s: 0.0,
+            max_s: hottest - 2.0,
+        },
+    );
+    assert!(
+        !t85_of(&part, &base).0,
+        "the plain warm start breaks the window"
+    );
+
+    let run = || planner::first(&part, &Options::default(), &mut |_| {}).unwrap();
+    let report = run();
+    let best = report.best.expect("another start keeps the window");
+    assert_eq!(
+        report.stats.candidates, 2,
+        "the plain warm start, then the portfolio's choice"
+    );
+    assert_ne!(best.fragments, base);
+    best.plan(&part).validate(&part, &graph).unwrap();
+    let (feasible, t85) = t85_of(&part, &best.fragments);
+    assert!(
+        feasible && t85 < hottest - 2.0,
+        "{t85} s against {hottest} s"
+    );
+    assert_eq!(
+        run().best.unwrap().fragments,
+        best.fragments,
+        "the same choice"
+    );
+}

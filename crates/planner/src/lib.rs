@@ -11,6 +11,7 @@
 pub mod cadical;
 pub mod constructive;
 pub mod encoding;
+mod portfolio;
 pub mod sat;
 mod search;
 
@@ -535,11 +536,24 @@ fn search_plans(
             deadline: opts.timeout.and_then(|t| started.checked_add(t)),
             cancel: opts.cancel.clone(),
         };
-        if let Some(warm) = constructive::layered_plan(part, &graph, k, opts.solver, &limits) {
+        if let Some(mut warm) = constructive::layered_plan(part, &graph, k, opts.solver, &limits) {
             any_valid = true;
-            search.set_phases(&warm);
             // Stopped before a verdict: the loop below sees the timeout.
-            if let Some(verdict) = search.judge(&warm)? {
+            let mut verdict = search.judge(&warm)?;
+            if let Some(CandidateVerdict::Violated { block, kind, .. }) = verdict {
+                tracing::info!(
+                    "warm start: the layer-by-layer plan breaks the window of {block:?} ({kind:?}); trying other starts"
+                );
+                let varied =
+                    portfolio::varied_start(part, &graph, k, opts.solver, &limits, &base, &warm);
+                if let Some(varied) = varied {
+                    // The simulator is the authority: judged like any candidate.
+                    verdict = search.judge(&varied)?;
+                    warm = varied;
+                }
+            }
+            search.set_phases(&warm);
+            if let Some(verdict) = verdict {
                 tracing::info!(
                 "warm start: a plan of {} weld path(s) built layer by layer in {:.2} s: {verdict:?}",
                 warm.len(),

@@ -1,0 +1,239 @@
+//! A portfolio of warm starts: when the layer-by-layer plan breaks a t8/5 window, the same
+//! construction is set off from other places, each variant simulated, and the best
+//! feasible one becomes the warm start.
+//!
+//! Why the start: a weld path that walks each layer back over the one below leaves a seam
+//! where a layer starts, and a block's distance from that seam decides how soon the block
+//! above it is deposited and reheats it. On a tall tube that moves a windowed block's
+//! t8/5 by hundreds of seconds (measured in the README), while the builder's other
+//! choices stay valid. The variants start at places spread evenly along the base plan's
+//! first layer (halves, then quarters, eighths, ...), setting off both ways; they are
+//! judged in rounds of a fixed size on all cores, and the first round with a feasible
+//! variant gives the one with the largest margin (ties: the earlier variant), so the
+//! answer does not depend on the number of cores or on which thread finishes first.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+use waam_part::graph::WeldGraph;
+use waam_part::Part;
+use waam_thermal::{self as thermal, ThermalModel};
+
+use crate::constructive::{self, FirstMove, Limits};
+use crate::sat::Backend;
+
+/// Variants judged together; fixed, so the choice is the same on any machine.
+const ROUND: usize = 8;
+/// Places along the first layer tried at most (each set off both ways).
+const MAX_STARTS: usize = 16;
+
+/// A feasible variant of `base` (a layer-by-layer plan that breaks a window), the best of
+/// the first round that has one; `None` when no variant keeps every window (or the run
+/// stopped first).
+pub fn varied_start(
+    part: &Part,
+    graph: &WeldGraph,
+    k: usize,
+    backend: Backend,
+    limits: &Limits,
+    model: &ThermalModel,
+    base: &[Vec<usize>],
+) -> Option<Vec<Vec<usize>>> {
+    let moves = first_moves(part, graph, base);
+    for (r, round) in moves.chunks(ROUND).enumerate() {
+        if limits.stopped() {
+            return None;
+        }
+        let judged = judge_round(part, graph, k, backend, limits, model, round);
+        let tried = judged.iter().filter(|j| j.is_some()).count();
+        let best = judged
+            .into_iter()
+            .enumerate()
+            .filter_map(|(i, j)| j.and_then(|(plan, margin)| Some((i, plan, margin?))))
+            // Largest margin; on a tie the earlier variant (max_by keeps the last maximum).
+            .max_by(|a, b| a.2.total_cmp(&b.2).then(b.0.cmp(&a.0)));
+        tracing::info!(
+            "warm-start portfolio: round {} ({} variants built and judged): {}",
+            r + 1,
+            tried,
+            best.as_ref()
+                .map_or("none feasible".to_string(), |(i, _, m)| {
+                    format!("variant {} feasible, margin {m:.2} s", r * ROUND + i)
+                })
+        );
+        if let Some((_, plan, _)) = best {
+            return Some(plan);
+        }
+    }
+    None
+}
+
+/// Each variant of a round built and simulated, on all cores: `(plan, margin)` with the
+/// margin `None` when it breaks a window; `None` when it could not be built or judged.
+type Judged = Option<(Vec<Vec<usize>>, Option<f64>)>;
+
+fn judge_round(
+    part: &Part,
+    graph: &WeldGraph,
+    k: usize,
+    backend: Backend,
+    limits: &Limits,
+    model: &ThermalModel,
+    round: &[FirstMove],
+) -> Vec<Judged> {
+    let next = AtomicUsize::new(0);
+    let results: Mutex<Vec<Judged>> = Mutex::new(vec![None; round.len()]);
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(round.len());
+    std::thread::scope(|scope| {
+        for _ in 0..workers {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, Ordering::Relaxed);
+                let Some(&first) = round.get(i) else { break };
+                let judged =
+                    constructive::layered_plan_from(part, graph, k, backend, limits, Some(first))
+                        .and_then(|plan| {
+                            // One thread per simulation: the variants are the parallel work.
+                            let sim = thermal::Simulation::new(model)
+                                .with_threads(1)
+                                .with_deadline(limits.deadline);
+                            let sim = match &limits.cancel {
+                                Some(c) => sim.with_cancel(c.clone()),
+                                None => sim,
+                            };
+                            let outcome = thermal::simulate_in(sim, &plan).ok()??;
+                            let margin = outcome
+                                .violation
+                                .is_none()
+                                .then(|| model.margin(&outcome.crossings));
+                            Some((plan, margin))
+                        });
+                results.lock().expect("no worker panics")[i] = judged;
+            });
+        }
+    });
+    results.into_inner().expect("no worker panics")
+}
+
+/// The first moves to try: from places spread evenly along the base plan's first layer
+/// (in the order the first weld path welds it: 1/2, 1/4, 3/4, 1/8, ... of the way), each
+/// setting off forwards and backwards along that order, where the weld graph allows; the
+/// base plan's own first move left out.
+fn first_moves(part: &Part, graph: &WeldGraph, base: &[Vec<usize>]) -> Vec<FirstMove> {
+    let Some(first) = base.first() else {
+        return Vec::new();
+    };
+    let z0 = part.block(first[0])[2];
+    let layer: Vec<usize> = first
+        .iter()
+        .copied()
+        .take_while(|&b| part.block(b)[2] == z0)
+        .collect();
+    let n = layer.len();
+    let own = (layer[0], layer.get(1).copied().unwrap_or(layer[0]));
+    let mut moves = Vec::new();
+    for i in 0..MAX_STARTS.min(n) {
+        let p = (van_der_corput(i) * n as f64) as usize;
+        for q in [p + 1, p + n - 1] {
+            let m = (layer[p], layer[q % n]);
+            if m != own && graph.has_edge(m.0, m.1) && !moves.contains(&m) {
+                moves.push(m);
+            }
+        }
+    }
+    moves
+}
+
+/// 0, 1/2, 1/4, 3/4, 1/8, 3/8, ...: each prefix spread evenly over [0, 1).
+fn van_der_corput(mut i: usize) -> f64 {
+    let (mut x, mut scale) = (0.0, 0.5);
+    while i > 0 {
+        x += scale * (i & 1) as f64;
+        i >>= 1;
+        scale /= 2.0;
+    }
+    x
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A one-block 5 x 5 ring, `h` layers, with a window on a high corner block.
+    fn ring(h: i64, window: waam_part::Window) -> Part {
+        let blocks = (0..h)
+            .flat_map(|z| {
+                (0..5).flat_map(move |y| {
+                    (0..5)
+                        .filter(move |&x| y % 4 == 0 || x % 4 == 0)
+                        .map(move |x| [x, y, z])
+                })
+            })
+            .collect();
+        let mut part = Part::from_blocks("ring".into(), [6.0, 6.0, 2.5], [0.0; 3], 1, blocks)
+            .expect("a valid part");
+        let corner = part.index_of([0, 0, h - 2]).expect("a corner block");
+        part.set_window(corner, window);
+        part
+    }
+
+    fn no_limits() -> Limits {
+        Limits {
+            deadline: None,
+            cancel: None,
+        }
+    }
+
+    #[test]
+    fn every_variant_is_valid_and_judged_by_the_simulator() {
+        // A window no start can keep (at most 1 s between 800 and 500 °C high on a wall):
+        // every variant is built and simulated, and none is claimed.
+        let part = ring(
+            12,
+            waam_part::Window {
+                min_s: 0.0,
+                max_s: 1.0,
+            },
+        );
+        let graph = WeldGraph::new(&part);
+        let model = ThermalModel::new(&part, &graph);
+        let base = constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &no_limits())
+            .expect("a ring has a layer-by-layer plan");
+        let moves = first_moves(&part, &graph, &base);
+        assert!(moves.len() >= 8, "{} first moves", moves.len());
+        let judged = judge_round(
+            &part,
+            &graph,
+            1,
+            Backend::Cadical,
+            &no_limits(),
+            &model,
+            &moves,
+        );
+        for (m, j) in moves.iter().zip(&judged) {
+            let (plan, margin) = j.as_ref().expect("each start of a ring can be built");
+            assert_eq!(plan[0][..2], [m.0, m.1], "the variant sets off as asked");
+            waam_part::plan::Plan::from_indices(&part, plan)
+                .validate(&part, &graph)
+                .expect("a valid plan");
+            assert!(margin.is_none(), "no plan keeps a 1 s window");
+        }
+        let varied = varied_start(
+            &part,
+            &graph,
+            1,
+            Backend::Cadical,
+            &no_limits(),
+            &model,
+            &base,
+        );
+        assert!(varied.is_none());
+    }
+
+    #[test]
+    fn van_der_corput_halves_then_quarters() {
+        let v: Vec<f64> = (0..6).map(van_der_corput).collect();
+        assert_eq!(v, [0.0, 0.5, 0.25, 0.75, 0.125, 0.625]);
+    }
+}
