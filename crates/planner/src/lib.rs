@@ -540,9 +540,15 @@ fn search_plans(
             any_valid = true;
             // Stopped before a verdict: the loop below sees the timeout.
             let mut verdict = search.judge(&warm)?;
-            if let Some(CandidateVerdict::Violated { block, kind, .. }) = verdict {
+            if let Some(CandidateVerdict::Violated {
+                block,
+                kind,
+                prefix_len,
+                ..
+            }) = verdict.filter(|v| portfolio::worth_trying(v))
+            {
                 tracing::info!(
-                    "warm start: the layer-by-layer plan breaks the window of {block:?} ({kind:?}); trying other starts"
+                    "warm start: the layer-by-layer plan breaks the window of {block:?} ({kind:?}) after {prefix_len} blocks; trying other starts"
                 );
                 let varied =
                     portfolio::varied_start(part, &graph, k, opts.solver, &limits, &base, &warm);

@@ -21,6 +21,18 @@ use waam_thermal::{self as thermal, ThermalModel};
 
 use crate::constructive::{self, FirstMove, Limits};
 use crate::sat::Backend;
+use crate::CandidateVerdict;
+
+/// The shortest violating prefix worth a portfolio. Below it the search's learned clause
+/// (the prefix, shortened) rules out many plans at once and the search finds a feasible
+/// plan in milliseconds, sooner than the variants are built; above it (a tall part broken
+/// high up: thousands of literals) a clause rules out next to nothing.
+const WORTH_FROM_PREFIX: usize = 500;
+
+/// Whether the base plan's verdict calls for other starts: a window broken late in it.
+pub fn worth_trying(verdict: &CandidateVerdict) -> bool {
+    matches!(verdict, CandidateVerdict::Violated { prefix_len, .. } if *prefix_len >= WORTH_FROM_PREFIX)
+}
 
 /// Variants judged together; fixed, so the choice is the same on any machine.
 const ROUND: usize = 8;
@@ -91,29 +103,56 @@ fn judge_round(
             scope.spawn(|| loop {
                 let i = next.fetch_add(1, Ordering::Relaxed);
                 let Some(&first) = round.get(i) else { break };
-                let judged =
-                    constructive::layered_plan_from(part, graph, k, backend, limits, Some(first))
-                        .and_then(|plan| {
-                            // One thread per simulation: the variants are the parallel work.
-                            let sim = thermal::Simulation::new(model)
-                                .with_threads(1)
-                                .with_deadline(limits.deadline);
-                            let sim = match &limits.cancel {
-                                Some(c) => sim.with_cancel(c.clone()),
-                                None => sim,
-                            };
-                            let outcome = thermal::simulate_in(sim, &plan).ok()??;
-                            let margin = outcome
-                                .violation
-                                .is_none()
-                                .then(|| model.margin(&outcome.crossings));
-                            Some((plan, margin))
-                        });
+                let judged = judge_variant(part, graph, k, backend, limits, model, first);
                 results.lock().expect("no worker panics")[i] = judged;
             });
         }
     });
     results.into_inner().expect("no worker panics")
+}
+
+/// One variant built and simulated (on one thread: the variants are the parallel work).
+fn judge_variant(
+    part: &Part,
+    graph: &WeldGraph,
+    k: usize,
+    backend: Backend,
+    limits: &Limits,
+    model: &ThermalModel,
+    first: FirstMove,
+) -> Judged {
+    let (from, to) = (part.block(first.0), part.block(first.1));
+    let Some(plan) = constructive::layered_plan_from(part, graph, k, backend, limits, Some(first))
+    else {
+        tracing::debug!("warm-start variant {from:?} -> {to:?}: not built");
+        return None;
+    };
+    let sim = thermal::Simulation::new(model)
+        .with_threads(1)
+        .with_deadline(limits.deadline);
+    let sim = match &limits.cancel {
+        Some(c) => sim.with_cancel(c.clone()),
+        None => sim,
+    };
+    let outcome = thermal::simulate_in(sim, &plan).ok()??;
+    let margin = match &outcome.violation {
+        Some(v) => {
+            tracing::debug!(
+                "warm-start variant {from:?} -> {to:?}: {:?} window of {:?} broken at {:.1} s (t8/5 {:.2} s)",
+                v.kind,
+                part.block(v.block),
+                v.time_s,
+                v.t85_s
+            );
+            None
+        }
+        None => {
+            let m = model.margin(&outcome.crossings);
+            tracing::debug!("warm-start variant {from:?} -> {to:?}: feasible, margin {m:.2} s");
+            Some(m)
+        }
+    };
+    Some((plan, margin))
 }
 
 /// The first moves to try: from places spread evenly along the base plan's first layer
