@@ -545,7 +545,7 @@ fn search_plans(
                 kind,
                 prefix_len,
                 ..
-            }) = verdict.filter(|v| portfolio::worth_trying(v))
+            }) = verdict.filter(portfolio::worth_trying)
             {
                 tracing::info!(
                     "warm start: the layer-by-layer plan breaks the window of {block:?} ({kind:?}) after {prefix_len} blocks; trying other starts"
