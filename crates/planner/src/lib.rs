@@ -550,8 +550,15 @@ fn search_plans(
                 tracing::info!(
                     "warm start: the layer-by-layer plan breaks the window of {block:?} ({kind:?}) after {prefix_len} blocks; trying other starts"
                 );
-                let varied =
-                    portfolio::varied_start(part, &graph, k, opts.solver, &limits, &base, &warm);
+                let portfolio = portfolio::Portfolio {
+                    part,
+                    graph: &graph,
+                    k,
+                    backend: opts.solver,
+                    limits: &limits,
+                    model: &base,
+                };
+                let varied = portfolio.varied_start(&warm);
                 if let Some(varied) = varied {
                     // The simulator is the authority: judged like any candidate.
                     verdict = search.judge(&varied)?;

@@ -39,120 +39,120 @@ const ROUND: usize = 8;
 /// Places along the first layer tried at most (each set off both ways).
 const MAX_STARTS: usize = 16;
 
-/// A feasible variant of `base` (a layer-by-layer plan that breaks a window), the best of
-/// the first round that has one; `None` when no variant keeps every window (or the run
-/// stopped first).
-pub fn varied_start(
-    part: &Part,
-    graph: &WeldGraph,
-    k: usize,
-    backend: Backend,
-    limits: &Limits,
-    model: &ThermalModel,
-    base: &[Vec<usize>],
-) -> Option<Vec<Vec<usize>>> {
-    let moves = first_moves(part, graph, base);
-    for (r, round) in moves.chunks(ROUND).enumerate() {
-        if limits.stopped() {
-            return None;
-        }
-        let judged = judge_round(part, graph, k, backend, limits, model, round);
-        let tried = judged.iter().filter(|j| j.is_some()).count();
-        let best = judged
-            .into_iter()
-            .enumerate()
-            .filter_map(|(i, j)| j.and_then(|(plan, margin)| Some((i, plan, margin?))))
-            // Largest margin; on a tie the earlier variant (max_by keeps the last maximum).
-            .max_by(|a, b| a.2.total_cmp(&b.2).then(b.0.cmp(&a.0)));
-        tracing::info!(
-            "warm-start portfolio: round {} ({} variants built and judged): {}",
-            r + 1,
-            tried,
-            best.as_ref()
-                .map_or("none feasible".to_string(), |(i, _, m)| {
-                    format!("variant {} feasible, margin {m:.2} s", r * ROUND + i)
-                })
-        );
-        if let Some((_, plan, _)) = best {
-            return Some(plan);
-        }
-    }
-    None
+/// What every variant is built and judged with.
+pub struct Portfolio<'a> {
+    pub part: &'a Part,
+    pub graph: &'a WeldGraph,
+    pub k: usize,
+    pub backend: Backend,
+    pub limits: &'a Limits,
+    pub model: &'a ThermalModel,
 }
 
-/// Each variant of a round built and simulated, on all cores: `(plan, margin)` with the
-/// margin `None` when it breaks a window; `None` when it could not be built or judged.
+/// A variant built and simulated: `(plan, margin)` with the margin `None` when it breaks a
+/// window; `None` when it could not be built or the run stopped its simulation.
 type Judged = Option<(Vec<Vec<usize>>, Option<f64>)>;
 
-fn judge_round(
-    part: &Part,
-    graph: &WeldGraph,
-    k: usize,
-    backend: Backend,
-    limits: &Limits,
-    model: &ThermalModel,
-    round: &[FirstMove],
-) -> Vec<Judged> {
-    let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<Judged>> = Mutex::new(vec![None; round.len()]);
-    let workers = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(round.len());
-    std::thread::scope(|scope| {
-        for _ in 0..workers {
-            scope.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                let Some(&first) = round.get(i) else { break };
-                let judged = judge_variant(part, graph, k, backend, limits, model, first);
-                results.lock().expect("no worker panics")[i] = judged;
-            });
+impl Portfolio<'_> {
+    /// A feasible variant of `base` (a layer-by-layer plan that breaks a window), the best
+    /// of the first round that has one; `None` when no variant keeps every window (or the
+    /// run stopped first).
+    pub fn varied_start(&self, base: &[Vec<usize>]) -> Option<Vec<Vec<usize>>> {
+        let moves = first_moves(self.part, self.graph, base);
+        for (r, round) in moves.chunks(ROUND).enumerate() {
+            if self.limits.stopped() {
+                return None;
+            }
+            let judged = self.judge_round(round, cores());
+            let tried = judged.iter().filter(|j| j.is_some()).count();
+            let best = judged
+                .into_iter()
+                .enumerate()
+                .filter_map(|(i, j)| j.and_then(|(plan, margin)| Some((i, plan, margin?))))
+                // Largest margin; on a tie the earlier variant (max_by keeps the last maximum).
+                .max_by(|a, b| a.2.total_cmp(&b.2).then(b.0.cmp(&a.0)));
+            tracing::info!(
+                "warm-start portfolio: round {} ({} variants built and judged): {}",
+                r + 1,
+                tried,
+                best.as_ref()
+                    .map_or("none feasible".to_string(), |(i, _, m)| {
+                        format!("variant {} feasible, margin {m:.2} s", r * ROUND + i)
+                    })
+            );
+            if let Some((_, plan, _)) = best {
+                return Some(plan);
+            }
         }
-    });
-    results.into_inner().expect("no worker panics")
+        None
+    }
+
+    /// Each variant of a round built and simulated by `workers` threads; slot i holds
+    /// variant i whichever thread judged it, and whenever.
+    fn judge_round(&self, round: &[FirstMove], workers: usize) -> Vec<Judged> {
+        let next = AtomicUsize::new(0);
+        let results: Mutex<Vec<Judged>> = Mutex::new(vec![None; round.len()]);
+        std::thread::scope(|scope| {
+            for _ in 0..workers.clamp(1, round.len().max(1)) {
+                scope.spawn(|| loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(&first) = round.get(i) else { break };
+                    let judged = self.judge_variant(first);
+                    results.lock().expect("no worker panics")[i] = judged;
+                });
+            }
+        });
+        results.into_inner().expect("no worker panics")
+    }
+
+    /// One variant built and simulated (on one thread: the variants are the parallel work).
+    fn judge_variant(&self, first: FirstMove) -> Judged {
+        let Portfolio {
+            part,
+            graph,
+            k,
+            backend,
+            limits,
+            model,
+        } = *self;
+        let (from, to) = (part.block(first.0), part.block(first.1));
+        let Some(plan) =
+            constructive::layered_plan_from(part, graph, k, backend, limits, Some(first))
+        else {
+            tracing::debug!("warm-start variant {from:?} -> {to:?}: not built");
+            return None;
+        };
+        let sim = thermal::Simulation::new(model)
+            .with_threads(1)
+            .with_deadline(limits.deadline);
+        let sim = match &limits.cancel {
+            Some(c) => sim.with_cancel(c.clone()),
+            None => sim,
+        };
+        let outcome = thermal::simulate_in(sim, &plan).ok()??;
+        let margin = match &outcome.violation {
+            Some(v) => {
+                tracing::debug!(
+                    "warm-start variant {from:?} -> {to:?}: {:?} window of {:?} broken at {:.1} s (t8/5 {:.2} s)",
+                    v.kind,
+                    part.block(v.block),
+                    v.time_s,
+                    v.t85_s
+                );
+                None
+            }
+            None => {
+                let m = model.margin(&outcome.crossings);
+                tracing::debug!("warm-start variant {from:?} -> {to:?}: feasible, margin {m:.2} s");
+                Some(m)
+            }
+        };
+        Some((plan, margin))
+    }
 }
 
-/// One variant built and simulated (on one thread: the variants are the parallel work).
-fn judge_variant(
-    part: &Part,
-    graph: &WeldGraph,
-    k: usize,
-    backend: Backend,
-    limits: &Limits,
-    model: &ThermalModel,
-    first: FirstMove,
-) -> Judged {
-    let (from, to) = (part.block(first.0), part.block(first.1));
-    let Some(plan) = constructive::layered_plan_from(part, graph, k, backend, limits, Some(first))
-    else {
-        tracing::debug!("warm-start variant {from:?} -> {to:?}: not built");
-        return None;
-    };
-    let sim = thermal::Simulation::new(model)
-        .with_threads(1)
-        .with_deadline(limits.deadline);
-    let sim = match &limits.cancel {
-        Some(c) => sim.with_cancel(c.clone()),
-        None => sim,
-    };
-    let outcome = thermal::simulate_in(sim, &plan).ok()??;
-    let margin = match &outcome.violation {
-        Some(v) => {
-            tracing::debug!(
-                "warm-start variant {from:?} -> {to:?}: {:?} window of {:?} broken at {:.1} s (t8/5 {:.2} s)",
-                v.kind,
-                part.block(v.block),
-                v.time_s,
-                v.t85_s
-            );
-            None
-        }
-        None => {
-            let m = model.margin(&outcome.crossings);
-            tracing::debug!("warm-start variant {from:?} -> {to:?}: feasible, margin {m:.2} s");
-            Some(m)
-        }
-    };
-    Some((plan, margin))
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
 /// The first moves to try: from places spread evenly along the base plan's first layer
@@ -224,6 +224,22 @@ mod tests {
         }
     }
 
+    fn on_one_path<'a>(
+        part: &'a Part,
+        graph: &'a WeldGraph,
+        limits: &'a Limits,
+        model: &'a ThermalModel,
+    ) -> Portfolio<'a> {
+        Portfolio {
+            part,
+            graph,
+            k: 1,
+            backend: Backend::Cadical,
+            limits,
+            model,
+        }
+    }
+
     #[test]
     fn every_variant_is_valid_and_judged_by_the_simulator() {
         // A window no start can keep (at most 1 s between 800 and 500 °C high on a wall):
@@ -241,15 +257,9 @@ mod tests {
             .expect("a ring has a layer-by-layer plan");
         let moves = first_moves(&part, &graph, &base);
         assert!(moves.len() >= 8, "{} first moves", moves.len());
-        let judged = judge_round(
-            &part,
-            &graph,
-            1,
-            Backend::Cadical,
-            &no_limits(),
-            &model,
-            &moves,
-        );
+        let limits = no_limits();
+        let portfolio = on_one_path(&part, &graph, &limits, &model);
+        let judged = portfolio.judge_round(&moves, 2);
         for (m, j) in moves.iter().zip(&judged) {
             let (plan, margin) = j.as_ref().expect("each start of a ring can be built");
             assert_eq!(plan[0][..2], [m.0, m.1], "the variant sets off as asked");
@@ -258,16 +268,34 @@ mod tests {
                 .expect("a valid plan");
             assert!(margin.is_none(), "no plan keeps a 1 s window");
         }
-        let varied = varied_start(
-            &part,
-            &graph,
-            1,
-            Backend::Cadical,
-            &no_limits(),
-            &model,
-            &base,
+        assert!(portfolio.varied_start(&base).is_none());
+    }
+
+    #[test]
+    fn a_round_judges_the_same_on_any_number_of_threads() {
+        // Each variant lands in its own slot whatever thread judged it and when.
+        let part = ring(
+            10,
+            waam_part::Window {
+                min_s: 0.0,
+                max_s: 1e6,
+            },
         );
-        assert!(varied.is_none());
+        let graph = WeldGraph::new(&part);
+        let model = ThermalModel::new(&part, &graph);
+        let base = constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &no_limits())
+            .expect("a ring has a layer-by-layer plan");
+        let moves = first_moves(&part, &graph, &base);
+        let limits = no_limits();
+        let portfolio = on_one_path(&part, &graph, &limits, &model);
+        let judge = |workers| portfolio.judge_round(&moves, workers);
+        let one = judge(1);
+        assert!(one
+            .iter()
+            .all(|j| j.as_ref().is_some_and(|(_, m)| m.is_some())));
+        for workers in [2, 3, 8] {
+            assert_eq!(judge(workers), one, "{workers} threads");
+        }
     }
 
     #[test]
