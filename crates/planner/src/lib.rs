@@ -550,12 +550,20 @@ fn search_plans(
                 tracing::info!(
                     "warm start: the layer-by-layer plan breaks the window of {block:?} ({kind:?}) after {prefix_len} blocks; trying other starts"
                 );
+                // At most half the time left: the search keeps the rest.
+                let half_left = constructive::Limits {
+                    deadline: limits.deadline.map(|d| {
+                        let now = Instant::now();
+                        now + d.saturating_duration_since(now) / 2
+                    }),
+                    cancel: limits.cancel.clone(),
+                };
                 let portfolio = portfolio::Portfolio {
                     part,
                     graph: &graph,
                     k,
                     backend: opts.solver,
-                    limits: &limits,
+                    limits: &half_left,
                     model: &base,
                 };
                 let varied = portfolio.varied_start(&warm);
