@@ -430,7 +430,7 @@ fn a_warm_start_that_breaks_windows_is_set_off_elsewhere() {
     // layer walked back over the one below.
     let ring: Vec<[i64; 3]> = base[0][..32].iter().map(|&b| part.block(b)).collect();
     let rotated: Vec<[i64; 3]> = ring[13..].iter().chain(&ring[..13]).copied().collect();
-    let hidden: Vec<usize> = (0..40)
+    let hidden: Vec<Vec<usize>> = vec![(0..40)
         .flat_map(|z| {
             let layer: Vec<[i64; 3]> = if z % 2 == 0 {
                 rotated.clone()
@@ -440,7 +440,7 @@ fn a_warm_start_that_breaks_windows_is_set_off_elsewhere() {
             layer.into_iter().map(move |[x, y, _]| [x, y, z])
         })
         .map(|b| part.index_of(b).unwrap())
-        .collect();
+        .collect()];
     let watched: Vec<usize> = [[0, 0, 10], [7, 4, 20], [3, 9, 30]]
         .iter()
         .map(|&b| part.index_of(b).unwrap())
@@ -456,7 +456,7 @@ fn a_warm_start_that_breaks_windows_is_set_off_elsewhere() {
         };
         part.set_window(b, wide);
     }
-    let seen = simulate(&part, &[hidden.clone()]).crossings;
+    let seen = simulate(&part, &hidden).crossings;
     for &b in &watched {
         let t85 = || seen.iter().filter(|c| c.block == b).map(|c| c.t85_s);
         let window = waam_part::Window {
@@ -465,7 +465,7 @@ fn a_warm_start_that_breaks_windows_is_set_off_elsewhere() {
         };
         part.set_window(b, window);
     }
-    assert!(simulate(&part, &[hidden]).violation.is_none());
+    assert!(simulate(&part, &hidden).violation.is_none());
     assert!(
         simulate(&part, &base).violation.is_some(),
         "the plain warm start breaks a window"
