@@ -301,6 +301,31 @@ mod tests {
     }
 
     #[test]
+    fn a_cancelled_run_builds_and_claims_nothing() {
+        let part = ring(
+            10,
+            waam_part::Window {
+                min_s: 0.0,
+                max_s: 1.0,
+            },
+        );
+        let graph = WeldGraph::new(&part);
+        let model = ThermalModel::new(&part, &graph);
+        let base = constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &no_limits())
+            .expect("a ring has a layer-by-layer plan");
+        let limits = Limits {
+            deadline: None,
+            cancel: Some(std::sync::Arc::new(std::sync::atomic::AtomicBool::new(
+                true,
+            ))),
+        };
+        let portfolio = on_one_path(&part, &graph, &limits, &model);
+        let moves = first_moves(&part, &graph, &base);
+        assert!(portfolio.judge_round(&moves, 2).iter().all(Option::is_none));
+        assert!(portfolio.varied_start(&base).is_none());
+    }
+
+    #[test]
     fn van_der_corput_halves_then_quarters() {
         let v: Vec<f64> = (0..6).map(van_der_corput).collect();
         assert_eq!(v, [0.0, 0.5, 0.25, 0.75, 0.125, 0.625]);
