@@ -248,10 +248,10 @@ fn parity_part(side: usize) -> std::path::PathBuf {
     path
 }
 
-/// A 10,000-block tube with three t8/5 windows (a copy of shared/parts/scale/tube-24x28.yaml):
-/// no plan is found in minutes.
+/// A ring tower whose one window no plan keeps (tests/data/endless-ring.yaml): the planner
+/// runs until it is stopped.
 fn hard_part() -> std::path::PathBuf {
-    root().join("tests/data/tube-24x28.yaml")
+    root().join("tests/data/endless-ring.yaml")
 }
 
 #[test]
@@ -397,32 +397,6 @@ fn a_layer_in_more_pieces_than_k_is_no_plan_at_once() {
     }
 }
 
-/// A 1,900-block ring tower whose one window no plan can keep (a block held between 500 and
-/// 800 °C for at least 5,000 s): the planner can only go on examining candidates, so it runs
-/// until it is stopped.
-fn endless_ring_tower() -> String {
-    let (w, d, h) = (20usize, 20usize, 25usize);
-    let ring: String = (0..d)
-        .map(|y| {
-            let row: String = (0..w)
-                .map(|x| {
-                    if x == 0 || y == 0 || x == w - 1 || y == d - 1 {
-                        '#'
-                    } else {
-                        '.'
-                    }
-                })
-                .collect();
-            format!("    {row}\n")
-        })
-        .collect();
-    let layers: String = (0..h).map(|_| format!("  - |\n{ring}")).collect();
-    format!(
-        "name: endless-ring\nblock_mm: [6.0, 6.0, 2.5]\nmax_fragments: 2\nlayers:\n{layers}\
-         t85:\n  - {{block: [0, 0, 20], min_s: 5000.0, max_s: 6000.0}}\n"
-    )
-}
-
 /// Issue #12: the node's "latest part wins" — a newer part cancels the plan in progress, and
 /// the superseded job (the real node pipeline and SAT planner) ends within a second.
 #[test]
@@ -437,7 +411,9 @@ fn a_newer_part_cancels_the_running_plan_within_a_second() {
         let _ = tx.send((Instant::now(), event));
     });
     let document = waam_pipeline::PartInput::Document;
-    let (first, _) = worker.submit(Job::from(document(endless_ring_tower())));
+    let (first, _) = worker.submit(Job::from(document(
+        std::fs::read_to_string(hard_part()).unwrap(),
+    )));
     // Let it get deep into planning (candidates examined), then send a newer part.
     let started = Instant::now();
     while started.elapsed() < Duration::from_secs(3) {
@@ -479,5 +455,95 @@ fn a_newer_part_cancels_the_running_plan_within_a_second() {
         ended[&second].1.is_ok(),
         "{:?}",
         ended[&second].1.as_ref().err()
+    );
+}
+
+/// A one-block rectangular ring `w` x `d`, `h` layers high (a tube), k = 1.
+fn ring_tower(w: i64, d: i64, h: i64) -> Part {
+    let blocks = (0..h)
+        .flat_map(|z| {
+            (0..d).flat_map(move |y| {
+                (0..w)
+                    .filter(move |&x| y == 0 || y == d - 1 || x == 0 || x == w - 1)
+                    .map(move |x| [x, y, z])
+            })
+        })
+        .collect();
+    Part::from_blocks("ring".into(), [6.0, 6.0, 2.5], [0.0; 3], 1, blocks).unwrap()
+}
+
+#[test]
+fn a_warm_start_that_breaks_windows_is_set_off_elsewhere() {
+    // The layer-by-layer plan walks each ring layer back over the one below, so where it
+    // starts decides how soon each block gets the block above it. The windows here are
+    // those of a hidden plan of the same kind started elsewhere on the ring (three blocks,
+    // each [0.95 x shortest, 1.01 x longest t8/5] in it): the plain warm start breaks
+    // them, and the portfolio of other starts finds a plan that keeps them, checked afresh.
+    let mut part = ring_tower(8, 10, 40);
+    let graph = waam_part::graph::WeldGraph::new(&part);
+    let limits = planner::constructive::Limits {
+        deadline: None,
+        cancel: None,
+    };
+    let base = planner::constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &limits)
+        .expect("a ring tower has a layer-by-layer plan");
+    // The hidden plan: the base's first layer (the ring in order) from 13 blocks on, each
+    // layer walked back over the one below.
+    let ring: Vec<[i64; 3]> = base[0][..32].iter().map(|&b| part.block(b)).collect();
+    let rotated: Vec<[i64; 3]> = ring[13..].iter().chain(&ring[..13]).copied().collect();
+    let hidden: Vec<Vec<usize>> = vec![(0..40)
+        .flat_map(|z| {
+            let layer: Vec<[i64; 3]> = if z % 2 == 0 {
+                rotated.clone()
+            } else {
+                rotated.iter().rev().copied().collect()
+            };
+            layer.into_iter().map(move |[x, y, _]| [x, y, z])
+        })
+        .map(|b| part.index_of(b).unwrap())
+        .collect()];
+    let watched: Vec<usize> = [[0, 0, 10], [7, 4, 20], [3, 9, 30]]
+        .iter()
+        .map(|&b| part.index_of(b).unwrap())
+        .collect();
+    let simulate = |part: &Part, plan: &[Vec<usize>]| {
+        let model = waam_thermal::ThermalModel::new(part, &graph);
+        waam_thermal::simulate(&model, plan).unwrap()
+    };
+    for &b in &watched {
+        let wide = waam_part::Window {
+            min_s: 0.0,
+            max_s: 1e6,
+        };
+        part.set_window(b, wide);
+    }
+    let seen = simulate(&part, &hidden).crossings;
+    for &b in &watched {
+        let t85 = || seen.iter().filter(|c| c.block == b).map(|c| c.t85_s);
+        let window = waam_part::Window {
+            min_s: 0.95 * t85().fold(f64::INFINITY, f64::min),
+            max_s: 1.01 * t85().fold(0.0, f64::max),
+        };
+        part.set_window(b, window);
+    }
+    assert!(simulate(&part, &hidden).violation.is_none());
+    assert!(
+        simulate(&part, &base).violation.is_some(),
+        "the plain warm start breaks a window"
+    );
+
+    let run = || planner::first(&part, &Options::default(), &mut |_| {}).unwrap();
+    let report = run();
+    let best = report.best.expect("another start keeps the windows");
+    assert_eq!(
+        report.stats.candidates, 2,
+        "the plain warm start, then the portfolio's choice"
+    );
+    best.plan(&part).validate(&part, &graph).unwrap();
+    assert!(simulate(&part, &best.fragments).violation.is_none());
+    assert_eq!(
+        run().best.unwrap().fragments,
+        best.fragments,
+        "the same choice"
     );
 }

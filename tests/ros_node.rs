@@ -572,10 +572,11 @@ fn plan_action_gives_feedback_and_a_result_and_cancels_within_a_second() {
         got.unwrap()
     };
 
-    // 1. A long part (a 10,000-block tube with t8/5 windows: no plan within minutes) is
+    // 1. A long part (a ring tower whose window no plan keeps: it plans until stopped) is
     //    cancelled after its first planning feedback.
     let long = send(PlanPartGoal {
-        part_document: std::fs::read_to_string(repo().join("tests/data/tube-24x28.yaml")).unwrap(),
+        part_document: std::fs::read_to_string(repo().join("tests/data/endless-ring.yaml"))
+            .unwrap(),
         timeout_s: 60.0,
         ..PlanPartGoal::default()
     });

@@ -31,7 +31,7 @@ pub struct Limits {
 }
 
 impl Limits {
-    fn stopped(&self) -> bool {
+    pub(crate) fn stopped(&self) -> bool {
         self.deadline.is_some_and(|d| Instant::now() >= d)
             || self
                 .cancel
@@ -59,6 +59,25 @@ pub fn layered_plan(
     k: usize,
     backend: Backend,
     limits: &Limits,
+) -> Option<Vec<Vec<usize>>> {
+    layered_plan_from(part, graph, k, backend, limits, None)
+}
+
+/// The first weld path's first move `(from, to)` (global block indices, both in the first
+/// layer): where the construction starts and which way it sets off.
+pub type FirstMove = (usize, usize);
+
+/// [`layered_plan`] with its first weld path set off by `first` (when the first layer's
+/// solve allows that move; else `None`). Where a layer starts decides where its seam lies
+/// and so when each block gets the block above it: the warm-start portfolio
+/// (`crate::portfolio`) varies it.
+pub fn layered_plan_from(
+    part: &Part,
+    graph: &WeldGraph,
+    k: usize,
+    backend: Backend,
+    limits: &Limits,
+    first: Option<FirstMove>,
 ) -> Option<Vec<Vec<usize>>> {
     let layers = layer_ranges(part);
     let mut plan: Vec<Vec<usize>> = Vec::new();
@@ -116,9 +135,17 @@ pub fn layered_plan(
         let steer = steer.filter(|s| s.allowed.iter().any(|&ok| ok));
         let starts: Vec<usize> = arriving.iter().map(|&(_, b)| b).collect();
         let new_fragments_left = k.saturating_sub(plan.len());
-        let Some((pieces, continued)) =
-            layer.solve(&starts, steer.as_ref(), new_fragments_left, backend, limits)
-        else {
+        let first_here = first
+            .filter(|_| l == 0)
+            .map(|(from, to)| (from - range.start, to - range.start));
+        let Some((pieces, continued)) = layer.solve(
+            &starts,
+            first_here,
+            steer.as_ref(),
+            new_fragments_left,
+            backend,
+            limits,
+        ) else {
             tracing::debug!(
                 "warm start: no cover of layer z = {} with {} arriving and {new_fragments_left} new weld path(s)",
                 part.block(range.start)[2],
@@ -223,10 +250,12 @@ impl Layer {
     /// The layer's paths (global indices, in order) and how many of them start at the
     /// first of `arriving` (in that order: path i starts at `arriving[i]`), as many as
     /// the solve allows; steered where `steer` allows when they can. Paths beyond those each
-    /// take one of `new_fragments_left`.
+    /// take one of `new_fragments_left`. `first` (local blocks): the first path's first move,
+    /// when no path arrives.
     fn solve(
         &self,
         arriving: &[usize],
+        first: Option<(usize, usize)>,
         steer: Option<&Steer>,
         new_fragments_left: usize,
         backend: Backend,
@@ -242,7 +271,13 @@ impl Layer {
             for paths in fewest.max(continued).max(1)..=new_fragments_left + continued {
                 // With as few paths as the colours allow, a start on the minority colour
                 // is impossible, and a SAT solver is slow to prove parity: skip it.
-                if paths == fewest && !starts.iter().all(|&b| self.path_may_start(b)) {
+                let own_start = first.filter(|_| starts.is_empty()).map(|(from, _)| from);
+                if paths == fewest
+                    && !starts
+                        .iter()
+                        .chain(&own_start)
+                        .all(|&b| self.path_may_start(b))
+                {
                     continue;
                 }
                 // The encoding of a big layer takes seconds: within the run's limits.
@@ -266,6 +301,10 @@ impl Layer {
                         .enumerate()
                         .map(|(i, &b)| enc.starts_fragment(b, i))
                         .collect();
+                    if let Some((from, to)) = first.filter(|_| starts.is_empty()) {
+                        assume.push(enc.starts_fragment(from, 0));
+                        assume.push(enc.edge(from, to)?);
+                    }
                     if let Some(steer) = steer {
                         let barred = (0..steer.allowed.len()).filter(|&b| !steer.allowed[b]);
                         if steer.ends {

@@ -11,6 +11,7 @@
 pub mod cadical;
 pub mod constructive;
 pub mod encoding;
+mod portfolio;
 pub mod sat;
 mod search;
 
@@ -552,11 +553,45 @@ fn search_plans(
             deadline: opts.timeout.and_then(|t| started.checked_add(t)),
             cancel: opts.cancel.clone(),
         };
-        if let Some(warm) = constructive::layered_plan(part, &graph, k, opts.solver, &limits) {
+        if let Some(mut warm) = constructive::layered_plan(part, &graph, k, opts.solver, &limits) {
             any_valid = true;
-            search.set_phases(&warm);
             // Stopped before a verdict: the loop below sees the timeout.
-            if let Some(verdict) = search.judge(&warm)? {
+            let mut verdict = search.judge(&warm)?;
+            if let Some(CandidateVerdict::Violated {
+                block,
+                kind,
+                prefix_len,
+                ..
+            }) = verdict.filter(portfolio::worth_trying)
+            {
+                tracing::info!(
+                    "warm start: the layer-by-layer plan breaks the window of {block:?} ({kind:?}) after {prefix_len} blocks; trying other starts"
+                );
+                // At most half the time left: the search keeps the rest.
+                let half_left = constructive::Limits {
+                    deadline: limits.deadline.map(|d| {
+                        let now = Instant::now();
+                        now + d.saturating_duration_since(now) / 2
+                    }),
+                    cancel: limits.cancel.clone(),
+                };
+                let portfolio = portfolio::Portfolio {
+                    part,
+                    graph: &graph,
+                    k,
+                    backend: opts.solver,
+                    limits: &half_left,
+                    model: &base,
+                };
+                let varied = portfolio.varied_start(&warm);
+                if let Some(varied) = varied {
+                    // The simulator is the authority: judged like any candidate.
+                    verdict = search.judge(&varied)?;
+                    warm = varied;
+                }
+            }
+            search.set_phases(&warm);
+            if let Some(verdict) = verdict {
                 tracing::info!(
                 "warm start: a plan of {} weld path(s) built layer by layer in {:.2} s: {verdict:?}",
                 warm.len(),

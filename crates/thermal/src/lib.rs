@@ -1304,10 +1304,20 @@ pub fn simulate_until(
     deadline: Option<Instant>,
     cancel: Option<Arc<AtomicBool>>,
 ) -> Result<Option<Outcome>, NotCooled> {
-    let mut sim = Simulation::new(model).recording().with_deadline(deadline);
+    let mut sim = Simulation::new(model).with_deadline(deadline);
     if let Some(flag) = cancel {
         sim = sim.with_cancel(flag);
     }
+    simulate_in(sim, fragments)
+}
+
+/// [`simulate_until`] on a simulation set up by the caller (threads, deadline, cancel),
+/// recording crossings; `Ok(None)` when its deadline or cancel stopped it.
+pub fn simulate_in(
+    sim: Simulation<'_>,
+    fragments: &[Vec<usize>],
+) -> Result<Option<Outcome>, NotCooled> {
+    let mut sim = sim.recording();
     let mut violation = None;
     'plan: for fragment in fragments {
         for (p, &b) in fragment.iter().enumerate() {

@@ -1,0 +1,333 @@
+//! A portfolio of warm starts: when the layer-by-layer plan breaks a t8/5 window, the same
+//! construction is set off from other places, each variant simulated, and the best
+//! feasible one becomes the warm start.
+//!
+//! Why the start: a weld path that walks each layer back over the one below leaves a seam
+//! where a layer starts, and a block's distance from that seam decides how soon the block
+//! above it is deposited and reheats it. On a tall tube that moves a windowed block's
+//! t8/5 by hundreds of seconds (measured in the README), while the builder's other
+//! choices stay valid. The variants start at places spread evenly along the base plan's
+//! first layer (halves, then quarters, eighths, ...), setting off both ways; they are
+//! judged in rounds of a fixed size on all cores, and the first round with a feasible
+//! variant gives the one with the largest margin (ties: the earlier variant), so the
+//! answer does not depend on the number of cores or on which thread finishes first.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+use waam_part::graph::WeldGraph;
+use waam_part::Part;
+use waam_thermal::{self as thermal, ThermalModel};
+
+use crate::constructive::{self, FirstMove, Limits};
+use crate::sat::Backend;
+use crate::CandidateVerdict;
+
+/// The shortest violating prefix worth a portfolio. Below it the search's learned clause
+/// (the prefix, shortened) rules out many plans at once and the search finds a feasible
+/// plan in milliseconds, sooner than the variants are built; above it (a tall part broken
+/// high up: thousands of literals) a clause rules out next to nothing.
+const WORTH_FROM_PREFIX: usize = 500;
+
+/// Whether the base plan's verdict calls for other starts: a window broken late in it.
+pub fn worth_trying(verdict: &CandidateVerdict) -> bool {
+    matches!(verdict, CandidateVerdict::Violated { prefix_len, .. } if *prefix_len >= WORTH_FROM_PREFIX)
+}
+
+/// Variants judged together; fixed, so the choice is the same on any machine.
+const ROUND: usize = 8;
+/// Places along the first layer tried at most (each set off both ways): 32, a start every
+/// 3% of the way (on a generated 26 x 18 tube whose windows are those of a hidden plan, 16
+/// places found no feasible variant and 32 did; see the README).
+const MAX_STARTS: usize = 32;
+
+/// What every variant is built and judged with.
+pub struct Portfolio<'a> {
+    pub part: &'a Part,
+    pub graph: &'a WeldGraph,
+    pub k: usize,
+    pub backend: Backend,
+    pub limits: &'a Limits,
+    pub model: &'a ThermalModel,
+}
+
+/// A variant built and simulated: `(plan, margin)` with the margin `None` when it breaks a
+/// window; `None` when it could not be built or the run stopped its simulation.
+type Judged = Option<(Vec<Vec<usize>>, Option<f64>)>;
+
+impl Portfolio<'_> {
+    /// A feasible variant of `base` (a layer-by-layer plan that breaks a window), the best
+    /// of the first round that has one; `None` when no variant keeps every window (or the
+    /// run stopped first).
+    pub fn varied_start(&self, base: &[Vec<usize>]) -> Option<Vec<Vec<usize>>> {
+        let moves = first_moves(self.part, self.graph, base);
+        for (r, round) in moves.chunks(ROUND).enumerate() {
+            if self.limits.stopped() {
+                return None;
+            }
+            let judged = self.judge_round(round, cores());
+            let tried = judged.iter().filter(|j| j.is_some()).count();
+            let best = judged
+                .into_iter()
+                .enumerate()
+                .filter_map(|(i, j)| j.and_then(|(plan, margin)| Some((i, plan, margin?))))
+                // Largest margin; on a tie the earlier variant (max_by keeps the last maximum).
+                .max_by(|a, b| a.2.total_cmp(&b.2).then(b.0.cmp(&a.0)));
+            tracing::info!(
+                "warm-start portfolio: round {} ({} variants built and judged): {}",
+                r + 1,
+                tried,
+                best.as_ref()
+                    .map_or("none feasible".to_string(), |(i, _, m)| {
+                        format!("variant {} feasible, margin {m:.2} s", r * ROUND + i)
+                    })
+            );
+            if let Some((_, plan, _)) = best {
+                return Some(plan);
+            }
+        }
+        None
+    }
+
+    /// Each variant of a round built and simulated by `workers` threads; slot i holds
+    /// variant i whichever thread judged it, and whenever.
+    fn judge_round(&self, round: &[FirstMove], workers: usize) -> Vec<Judged> {
+        let next = AtomicUsize::new(0);
+        let results: Mutex<Vec<Judged>> = Mutex::new(vec![None; round.len()]);
+        std::thread::scope(|scope| {
+            for _ in 0..workers.clamp(1, round.len().max(1)) {
+                scope.spawn(|| loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(&first) = round.get(i) else { break };
+                    let judged = self.judge_variant(first);
+                    results.lock().expect("no worker panics")[i] = judged;
+                });
+            }
+        });
+        results.into_inner().expect("no worker panics")
+    }
+
+    /// One variant built and simulated (on one thread: the variants are the parallel work).
+    fn judge_variant(&self, first: FirstMove) -> Judged {
+        let Portfolio {
+            part,
+            graph,
+            k,
+            backend,
+            limits,
+            model,
+        } = *self;
+        let (from, to) = (part.block(first.0), part.block(first.1));
+        let Some(plan) =
+            constructive::layered_plan_from(part, graph, k, backend, limits, Some(first))
+        else {
+            tracing::debug!("warm-start variant {from:?} -> {to:?}: not built");
+            return None;
+        };
+        let sim = thermal::Simulation::new(model)
+            .with_threads(1)
+            .with_deadline(limits.deadline);
+        let sim = match &limits.cancel {
+            Some(c) => sim.with_cancel(c.clone()),
+            None => sim,
+        };
+        let outcome = thermal::simulate_in(sim, &plan).ok()??;
+        let margin = match &outcome.violation {
+            Some(v) => {
+                tracing::debug!(
+                    "warm-start variant {from:?} -> {to:?}: {:?} window of {:?} broken at {:.1} s (t8/5 {:.2} s)",
+                    v.kind,
+                    part.block(v.block),
+                    v.time_s,
+                    v.t85_s
+                );
+                None
+            }
+            None => {
+                let m = model.margin(&outcome.crossings);
+                tracing::debug!("warm-start variant {from:?} -> {to:?}: feasible, margin {m:.2} s");
+                Some(m)
+            }
+        };
+        Some((plan, margin))
+    }
+}
+
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// The first moves to try: from places spread evenly along the base plan's first layer
+/// (in the order the first weld path welds it: 1/2, 1/4, 3/4, 1/8, ... of the way), each
+/// setting off forwards and backwards along that order, where the weld graph allows; the
+/// base plan's own first move left out.
+fn first_moves(part: &Part, graph: &WeldGraph, base: &[Vec<usize>]) -> Vec<FirstMove> {
+    let Some(first) = base.first() else {
+        return Vec::new();
+    };
+    let z0 = part.block(first[0])[2];
+    let layer: Vec<usize> = first
+        .iter()
+        .copied()
+        .take_while(|&b| part.block(b)[2] == z0)
+        .collect();
+    let n = layer.len();
+    let own = (layer[0], layer.get(1).copied().unwrap_or(layer[0]));
+    let mut moves = Vec::new();
+    for i in 0..MAX_STARTS.min(n) {
+        let p = (van_der_corput(i) * n as f64) as usize;
+        for q in [p + 1, p + n - 1] {
+            let m = (layer[p], layer[q % n]);
+            if m != own && graph.has_edge(m.0, m.1) && !moves.contains(&m) {
+                moves.push(m);
+            }
+        }
+    }
+    moves
+}
+
+/// 0, 1/2, 1/4, 3/4, 1/8, 3/8, ...: each prefix spread evenly over [0, 1).
+fn van_der_corput(mut i: usize) -> f64 {
+    let (mut x, mut scale) = (0.0, 0.5);
+    while i > 0 {
+        x += scale * (i & 1) as f64;
+        i >>= 1;
+        scale /= 2.0;
+    }
+    x
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A one-block 5 x 5 ring, `h` layers, with a window on a high corner block.
+    fn ring(h: i64, window: waam_part::Window) -> Part {
+        let blocks = (0..h)
+            .flat_map(|z| {
+                (0..5).flat_map(move |y| {
+                    (0..5)
+                        .filter(move |&x| y % 4 == 0 || x % 4 == 0)
+                        .map(move |x| [x, y, z])
+                })
+            })
+            .collect();
+        let mut part = Part::from_blocks("ring".into(), [6.0, 6.0, 2.5], [0.0; 3], 1, blocks)
+            .expect("a valid part");
+        let corner = part.index_of([0, 0, h - 2]).expect("a corner block");
+        part.set_window(corner, window);
+        part
+    }
+
+    fn no_limits() -> Limits {
+        Limits {
+            deadline: None,
+            cancel: None,
+        }
+    }
+
+    fn on_one_path<'a>(
+        part: &'a Part,
+        graph: &'a WeldGraph,
+        limits: &'a Limits,
+        model: &'a ThermalModel,
+    ) -> Portfolio<'a> {
+        Portfolio {
+            part,
+            graph,
+            k: 1,
+            backend: Backend::Cadical,
+            limits,
+            model,
+        }
+    }
+
+    #[test]
+    fn every_variant_is_valid_and_judged_by_the_simulator() {
+        // A window no start can keep (at most 1 s between 800 and 500 °C high on a wall):
+        // every variant is built and simulated, and none is claimed.
+        let part = ring(
+            12,
+            waam_part::Window {
+                min_s: 0.0,
+                max_s: 1.0,
+            },
+        );
+        let graph = WeldGraph::new(&part);
+        let model = ThermalModel::new(&part, &graph);
+        let base = constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &no_limits())
+            .expect("a ring has a layer-by-layer plan");
+        let moves = first_moves(&part, &graph, &base);
+        assert!(moves.len() >= 8, "{} first moves", moves.len());
+        let limits = no_limits();
+        let portfolio = on_one_path(&part, &graph, &limits, &model);
+        let judged = portfolio.judge_round(&moves, 2);
+        for (m, j) in moves.iter().zip(&judged) {
+            let (plan, margin) = j.as_ref().expect("each start of a ring can be built");
+            assert_eq!(plan[0][..2], [m.0, m.1], "the variant sets off as asked");
+            waam_part::plan::Plan::from_indices(&part, plan)
+                .validate(&part, &graph)
+                .expect("a valid plan");
+            assert!(margin.is_none(), "no plan keeps a 1 s window");
+        }
+        assert!(portfolio.varied_start(&base).is_none());
+    }
+
+    #[test]
+    fn a_round_judges_the_same_on_any_number_of_threads() {
+        // Each variant lands in its own slot whatever thread judged it and when.
+        let part = ring(
+            10,
+            waam_part::Window {
+                min_s: 0.0,
+                max_s: 1e6,
+            },
+        );
+        let graph = WeldGraph::new(&part);
+        let model = ThermalModel::new(&part, &graph);
+        let base = constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &no_limits())
+            .expect("a ring has a layer-by-layer plan");
+        let moves = first_moves(&part, &graph, &base);
+        let limits = no_limits();
+        let portfolio = on_one_path(&part, &graph, &limits, &model);
+        let judge = |workers| portfolio.judge_round(&moves, workers);
+        let one = judge(1);
+        assert!(one
+            .iter()
+            .all(|j| j.as_ref().is_some_and(|(_, m)| m.is_some())));
+        for workers in [2, 3, 8] {
+            assert_eq!(judge(workers), one, "{workers} threads");
+        }
+    }
+
+    #[test]
+    fn a_cancelled_run_builds_and_claims_nothing() {
+        let part = ring(
+            10,
+            waam_part::Window {
+                min_s: 0.0,
+                max_s: 1.0,
+            },
+        );
+        let graph = WeldGraph::new(&part);
+        let model = ThermalModel::new(&part, &graph);
+        let base = constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &no_limits())
+            .expect("a ring has a layer-by-layer plan");
+        let limits = Limits {
+            deadline: None,
+            cancel: Some(std::sync::Arc::new(std::sync::atomic::AtomicBool::new(
+                true,
+            ))),
+        };
+        let portfolio = on_one_path(&part, &graph, &limits, &model);
+        let moves = first_moves(&part, &graph, &base);
+        assert!(portfolio.judge_round(&moves, 2).iter().all(Option::is_none));
+        assert!(portfolio.varied_start(&base).is_none());
+    }
+
+    #[test]
+    fn van_der_corput_halves_then_quarters() {
+        let v: Vec<f64> = (0..6).map(van_der_corput).collect();
+        assert_eq!(v, [0.0, 0.5, 0.25, 0.75, 0.125, 0.625]);
+    }
+}
