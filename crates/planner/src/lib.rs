@@ -13,6 +13,7 @@ pub mod constructive;
 pub mod encoding;
 pub mod sat;
 mod search;
+pub mod thermal_prefix;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -162,6 +163,12 @@ pub struct Stats {
     /// Worst-case t8/5 margin of the best plan so far, s (None: no plan yet, or no windows).
     pub best_margin_s: Option<f64>,
     pub learned_clauses: u64,
+    /// Of the learned clauses, those learned inside the search from a partial assignment
+    /// whose plan prefix broke a window (before any complete model); deposits simulated
+    /// for them, and prefix steps confirmed again without simulating.
+    pub inside_clauses: u64,
+    pub inside_deposits: u64,
+    pub inside_reused: u64,
     pub clause_len_min: Option<usize>,
     pub clause_len_max: Option<usize>,
     pub clause_len_mean: Option<f64>,
@@ -523,6 +530,7 @@ fn search_plans(
         });
     }
     let mut search = new_search(part, &graph, k, opts, opts.lookahead_budget, started);
+    search.judge_inside();
     let base = ThermalModel::new(part, &graph);
     let mut best: Option<Found> = None;
     let mut proven = true;
@@ -637,6 +645,13 @@ fn search_plans(
         if best.as_ref().is_some_and(|b| b.fragments.len() <= f) {
             break;
         }
+    }
+    // Prefixes cut inside the search may have ruled out every plan before a complete one
+    // came out: whether valid plans exist at all is then one solve for structure only.
+    if best.is_none() && proven && !any_valid && search.stats.inside_clauses > 0 {
+        let mut structure = new_search(part, &graph, k, opts, 0, started);
+        any_valid = structure.next_candidate(&[]).is_some();
+        proven &= !structure.interrupted;
     }
     let no_plan = match (&best, proven) {
         (None, true) if !any_valid => Some(no_valid_plan(part, &graph, k, opts, started)),
@@ -783,6 +798,7 @@ fn enumerate_from(
     sink: &mut dyn FnMut(&[Vec<usize>]) -> std::io::Result<()>,
 ) -> Result<Counts, PlanError> {
     let mut search = new_search(part, graph, k, opts, opts.lookahead_budget, started);
+    search.judge_inside();
     let (mut feasible, mut complete) = (0u64, true);
     while let Some(candidate) = search.next_candidate(&[]) {
         let Some(verdict) = search.judge(&candidate)? else {

@@ -22,6 +22,7 @@ use waam_thermal::{self as thermal, Phase, Simulation, Snapshot, ThermalModel, V
 
 use super::encoding::{Acyclicity, Decoded, Encoding};
 use super::sat::{Backend, Lit, SatSolver};
+use super::thermal_prefix::{PrefixLiterals, ThermalPrefix};
 use super::{CandidateVerdict, ExecutedCheck, Stats};
 
 /// One SAT instance with its thermal loop.
@@ -30,7 +31,7 @@ pub struct Search<'p> {
     pub graph: &'p WeldGraph,
     pub enc: Encoding,
     solver: Box<dyn SatSolver>,
-    thermal: ThermalModel,
+    thermal: Arc<ThermalModel>,
     acyclicity: Acyclicity,
     /// Simulated steps allowed for proving shorter clauses, per violation.
     lookahead_budget: usize,
@@ -86,7 +87,7 @@ impl<'p> Search<'p> {
             graph,
             enc,
             solver,
-            thermal: ThermalModel::new(part, graph),
+            thermal: Arc::new(ThermalModel::new(part, graph)),
             acyclicity,
             lookahead_budget,
             stats,
@@ -142,8 +143,45 @@ impl<'p> Search<'p> {
 
     /// Judges later candidates by `model` (e.g. narrowed windows while optimizing).
     pub fn set_thermal(&mut self, model: ThermalModel) {
-        self.thermal = model;
+        self.thermal = Arc::new(model);
         self.cache = PrefixCache::default();
+        self.solver.set_prefix_model(Arc::clone(&self.thermal));
+    }
+
+    /// Judges plan prefixes inside the search too, where the backend can (CaDiCaL): a
+    /// prefix that breaks a window is ruled out by its clause before any complete model
+    /// holds it (see [`crate::thermal_prefix`]). Complete models are still judged here.
+    /// Call before the first solve, and only for searches that judge plans (a count of
+    /// valid plans must not).
+    pub fn judge_inside(&mut self) {
+        if !self.thermal.has_windows() {
+            return; // nothing can break
+        }
+        let n = self.part.len();
+        let k = self.enc.max_fragments();
+        let lits = PrefixLiterals {
+            blocks: n,
+            max_fragments: k,
+            edges: self.enc.edges().collect(),
+            starts: (0..n)
+                .map(|v| (0..k).map(|i| self.enc.starts_fragment(v, i)).collect())
+                .collect(),
+            ends: (0..n).map(|v| self.enc.ends_at(v)).collect(),
+        };
+        let prefix = ThermalPrefix::new(&lits, Arc::clone(&self.thermal));
+        self.solver.judge_prefixes(prefix);
+    }
+
+    /// Counts what the prefix check did inside the last solve.
+    fn take_prefix_report(&mut self) {
+        let report = self.solver.take_prefix_report();
+        for (&len, &block) in report.clause_lens.iter().zip(&report.violated) {
+            self.stats.record_clause(len);
+            self.violations[block] += 1;
+        }
+        self.stats.inside_clauses += report.clause_lens.len() as u64;
+        self.stats.inside_deposits += report.deposits;
+        self.stats.inside_reused += report.reused;
     }
 
     /// The next plan the solver allows, cutting cycles until the model is one;
@@ -157,6 +195,7 @@ impl<'p> Search<'p> {
             let inside = self.solver.cycle_cuts();
             self.stats.cycle_cuts += inside - self.inside_cuts;
             self.inside_cuts = inside;
+            self.take_prefix_report();
             if sat != Some(true) {
                 self.interrupted |= sat.is_none();
                 self.stats.sat_s += dt;
