@@ -11,6 +11,7 @@
 pub mod cadical;
 pub mod constructive;
 pub mod encoding;
+mod prefix_cache;
 pub mod sat;
 mod search;
 pub mod thermal_prefix;

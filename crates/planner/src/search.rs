@@ -18,9 +18,10 @@ use std::time::Instant;
 use waam_access::{Obstacle, TorchAccess};
 use waam_part::graph::WeldGraph;
 use waam_part::Part;
-use waam_thermal::{self as thermal, Phase, Simulation, Snapshot, ThermalModel, Violation};
+use waam_thermal::{self as thermal, Phase, Simulation, ThermalModel, Violation};
 
 use super::encoding::{Acyclicity, Decoded, Encoding};
+use super::prefix_cache::{prefix_keys, resume, PrefixCache};
 use super::sat::{Backend, Lit, SatSolver};
 use super::thermal_prefix::{PrefixLiterals, ThermalPrefix};
 use super::{CandidateVerdict, ExecutedCheck, Stats};
@@ -181,7 +182,7 @@ impl<'p> Search<'p> {
         }
         self.stats.inside_clauses += report.clause_lens.len() as u64;
         self.stats.inside_deposits += report.deposits;
-        self.stats.inside_reused += report.reused;
+        self.stats.inside_reused += report.reused + report.resumed;
     }
 
     /// The next plan the solver allows, cutting cycles until the model is one;
@@ -547,140 +548,4 @@ pub fn fragments_of(seq: &[(usize, bool)]) -> Vec<Vec<usize>> {
         out.last_mut().expect("just pushed").push(b);
     }
     out
-}
-
-/// A simulation at the longest cached prefix of `seq` (of a length that is a multiple of
-/// `spacing`), and that prefix's length.
-fn resume<'m>(
-    model: &'m ThermalModel,
-    cache: &PrefixCache,
-    spacing: usize,
-    seq: &[(usize, bool)],
-    keys: &[Key],
-) -> (Simulation<'m>, usize) {
-    let mut sim = Simulation::new(model);
-    for len in (1..=seq.len()).rev().filter(|len| len % spacing == 0) {
-        if let Some(snap) = cache.get(keys[len - 1], len) {
-            sim.restore_from_trail(snap, seq);
-            return (sim, len);
-        }
-    }
-    (sim, 0)
-}
-
-/// A 128-bit hash of a deposit sequence prefix (two independent 64-bit mixes).
-type Key = (u64, u64);
-
-/// The key of every prefix of `seq`: `keys[j]` is the key of `seq[..=j]`.
-fn prefix_keys(seq: &[(usize, bool)]) -> Vec<Key> {
-    let mut h = (0x9e37_79b9_7f4a_7c15u64, 0xc2b2_ae3d_27d4_eb4fu64);
-    seq.iter()
-        .map(|&(b, new)| {
-            let x = (b as u64) << 1 | new as u64;
-            h = (
-                mix(h.0 ^ x),
-                mix(h.1.wrapping_add(x.wrapping_mul(0xff51_afd7_ed55_8ccd))),
-            );
-            h
-        })
-        .collect()
-}
-
-/// splitmix64's finalizer.
-fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
-
-/// Snapshots of simulated prefixes within a byte budget ([`PrefixCache::BUDGET_BYTES`]).
-/// When a new snapshot would not fit, the least recently used half of the snapshots is
-/// dropped (a use is an insert or a resume from it): the prefixes the solver's latest
-/// candidates share stay, old branches go. A snapshot of `m` welded blocks costs about
-/// 8·m bytes (plus the t8/5 counters): about 0.5 MB at the end of a 62,614-block part, so
-/// the budget holds at least ~500 of the largest.
-#[derive(Default)]
-struct PrefixCache {
-    map: rustc_hash::FxHashMap<Key, (Snapshot, std::cell::Cell<u64>)>,
-    /// Bytes held by the snapshots in `map` (their buffers and entries).
-    bytes: usize,
-    /// Use counter: the last use of an entry is its tick.
-    tick: std::cell::Cell<u64>,
-}
-
-impl PrefixCache {
-    /// The most bytes of snapshots kept: 256 MiB.
-    const BUDGET_BYTES: usize = 256 << 20;
-
-    fn use_tick(&self) -> u64 {
-        let t = self.tick.get() + 1;
-        self.tick.set(t);
-        t
-    }
-
-    fn cost(snap: &Snapshot) -> usize {
-        snap.bytes() + std::mem::size_of::<(Key, std::cell::Cell<u64>)>()
-    }
-
-    fn get(&self, key: Key, len: usize) -> Option<&Snapshot> {
-        let (snap, used) = self.map.get(&key).filter(|(s, _)| s.welded() == len)?;
-        used.set(self.use_tick());
-        Some(snap)
-    }
-
-    fn insert(&mut self, key: Key, sim: &Simulation<'_>) {
-        if let Some((_, used)) = self.map.get(&key) {
-            used.set(self.use_tick());
-            return;
-        }
-        let snap = sim.snapshot();
-        let cost = Self::cost(&snap);
-        if cost > Self::BUDGET_BYTES {
-            return;
-        }
-        while self.bytes + cost > Self::BUDGET_BYTES {
-            self.evict_older_half();
-        }
-        self.bytes += cost;
-        let tick = self.use_tick();
-        self.map.insert(key, (snap, std::cell::Cell::new(tick)));
-    }
-
-    /// Drops the least recently used half of the snapshots.
-    fn evict_older_half(&mut self) {
-        let mut ticks: Vec<u64> = self.map.values().map(|(_, t)| t.get()).collect();
-        let half = ticks.len() / 2;
-        let (_, &mut median, _) = ticks.select_nth_unstable(half);
-        self.map.retain(|_, (_, t)| t.get() > median);
-        self.bytes = self.map.values().map(|(s, _)| Self::cost(s)).sum();
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_prefix_cache_keeps_its_byte_budget_and_the_recent_snapshots() {
-        let blocks: Vec<[i64; 3]> = (0..64).map(|x| [x, 0, 0]).collect();
-        let part = Part::from_blocks("w".into(), [6.0, 6.0, 2.5], [0.0; 3], 1, blocks).unwrap();
-        let graph = WeldGraph::new(&part);
-        let model = ThermalModel::new(&part, &graph);
-        let mut sim = Simulation::new(&model);
-        for b in 0..64 {
-            sim.deposit(b, b == 0).unwrap();
-        }
-        let mut cache = PrefixCache::default();
-        let per = PrefixCache::cost(&sim.snapshot());
-        let fits = PrefixCache::BUDGET_BYTES / per;
-        for k in 0..fits as u64 + 10 {
-            cache.insert((k, 0), &sim);
-            // Keep the first key in use: it must survive every eviction.
-            assert!(cache.get((0, 0), 64).is_some());
-            assert!(cache.bytes <= PrefixCache::BUDGET_BYTES);
-        }
-        assert!(cache.map.len() < fits + 10);
-        assert!(cache.get((fits as u64 + 9, 0), 64).is_some());
-    }
 }

@@ -10,9 +10,10 @@
 //! plan: the clause "not all of these literals" (the same as
 //! [`crate::encoding::Encoding::prefix_literals`] gives) cuts no feasible plan.
 //!
-//! The simulation keeps snapshots along the prefix; when the solver backtracks, the prefix
-//! shrinks only as far as its literals were unassigned, and when the solver fixes the same
-//! steps again (after a restart, say) they are confirmed without simulating them again.
+//! When the solver backtracks, the prefix shrinks only as far as its literals were
+//! unassigned, and when the solver fixes the same steps again (after a restart, say) they
+//! are confirmed without simulating them again; a prefix met before on another branch
+//! resumes from its snapshot in a [`PrefixCache`].
 
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
@@ -20,6 +21,7 @@ use std::time::Instant;
 
 use waam_thermal::{Phase, Simulation, Snapshot, ThermalModel};
 
+use super::prefix_cache::{extend_key, Key, PrefixCache, EMPTY_KEY};
 use super::sat::Lit;
 
 const NONE: u32 = u32::MAX;
@@ -76,8 +78,10 @@ pub struct PrefixReport {
     pub violated: Vec<usize>,
     /// Deposits simulated.
     pub deposits: u64,
-    /// Prefix steps confirmed without simulating them again.
+    /// Prefix steps confirmed again after a backtrack, without simulating them again.
     pub reused: u64,
+    /// Prefix steps resumed from a snapshot of the same prefix met on another branch.
+    pub resumed: u64,
 }
 
 /// A simulation together with the model it borrows.
@@ -123,14 +127,18 @@ pub struct ThermalPrefix {
     /// The simulated prefix; its first `confirmed` steps hold under the assignment.
     prefix: Vec<Step>,
     confirmed: usize,
+    /// The prefix as (block, new fragment), and the cache key of each of its prefixes.
+    order: Vec<(usize, bool)>,
+    keys: Vec<Key>,
     /// Per block: its position in `prefix` (NONE: not in it).
     position: Vec<u32>,
     owned: OwnedSimulation,
     /// Deposits of `prefix` the simulation's state is after (DIRTY: to be restored).
     simulated: usize,
-    /// `snaps[j]`: the state after `j * spacing` deposits of `prefix`.
-    snaps: Vec<Snapshot>,
-    spare: Vec<Snapshot>,
+    /// The state before any deposit.
+    empty: Snapshot,
+    cache: PrefixCache,
+    /// Prefix lengths that are snapshotted (multiples of it).
     spacing: usize,
     /// The complete prefix passed its cooldown (reset when the prefix changes).
     cooled: bool,
@@ -178,13 +186,15 @@ impl ThermalPrefix {
             levels: Vec::new(),
             prefix: Vec::new(),
             confirmed: 0,
+            order: Vec::new(),
+            keys: Vec::new(),
             position: vec![NONE; n],
             owned: OwnedSimulation::new(model, None, None),
             simulated: 0,
-            snaps: Vec::new(),
-            spare: Vec::new(),
-            // Snapshots of every prefix cost n²/2 temperatures: at most ~256 on big parts.
-            spacing: (n / 256).max(1),
+            empty: Snapshot::default(),
+            cache: PrefixCache::default(),
+            // Snapshots of every prefix cost n²/2 temperatures: space them on big parts.
+            spacing: (n / 1000).max(1),
             cooled: false,
             stopped: false,
             deadline: None,
@@ -222,8 +232,8 @@ impl ThermalPrefix {
 
     /// Starts the simulation over from the empty prefix.
     fn reset_simulation(&mut self) {
-        self.spare.append(&mut self.snaps);
-        self.snaps.push(self.owned.sim.snapshot());
+        self.empty = self.owned.sim.snapshot();
+        self.cache = PrefixCache::default();
         self.truncate(0);
         self.simulated = 0;
         self.stopped = false;
@@ -354,9 +364,6 @@ impl ThermalPrefix {
                 continue;
             }
             self.truncate(self.confirmed);
-            if !self.restore(self.confirmed) {
-                return false;
-            }
             if self.deposit(step) {
                 return true;
             }
@@ -376,30 +383,45 @@ impl ThermalPrefix {
         for s in self.prefix.drain(len.min(self.prefix.len())..) {
             self.position[s.block as usize] = NONE;
         }
+        self.order.truncate(len);
+        self.keys.truncate(len);
         self.confirmed = self.confirmed.min(len);
-        let keep = len / self.spacing + 1;
-        if self.snaps.len() > keep {
-            self.spare.extend(self.snaps.drain(keep..));
-        }
         if self.simulated > len {
             self.simulated = DIRTY;
         }
         self.cooled = false;
     }
 
-    /// Brings the simulation to the state after the first `len` steps of the prefix
-    /// (false: stopped by the deadline or a cancel).
+    /// Brings the simulation to the state after the first `len` steps of the prefix,
+    /// from the longest snapshot of it (false: stopped by the deadline or a cancel).
     fn restore(&mut self, len: usize) -> bool {
         if self.simulated == len {
             return true;
         }
-        let from = (len / self.spacing).min(self.snaps.len() - 1);
-        self.owned.sim.restore(&self.snaps[from]);
-        self.simulated = from * self.spacing;
-        for j in from * self.spacing..len {
-            let s = self.prefix[j];
+        let current = if self.simulated < len {
+            self.simulated
+        } else {
+            0
+        };
+        let cached = (current + 1..=len)
+            .rev()
+            .filter(|j| j % self.spacing == 0)
+            .find_map(|j| Some((j, self.cache.get(self.keys[j - 1], j)?)));
+        match cached {
+            Some((j, snap)) => {
+                self.owned.sim.restore_from_trail(snap, &self.order);
+                self.simulated = j;
+            }
+            None if self.simulated < len => {}
+            None => {
+                self.owned.sim.restore(&self.empty);
+                self.simulated = 0;
+            }
+        }
+        for j in self.simulated..len {
+            let (b, new) = self.order[j];
             // Deposited before without a violation: it deposits the same way again.
-            let ok = self.owned.sim.deposit(s.block as usize, s.new).is_ok();
+            let ok = self.owned.sim.deposit(b, new).is_ok();
             self.report.deposits += 1;
             if self.owned.sim.cancelled() || !ok {
                 self.stopped = true;
@@ -407,34 +429,61 @@ impl ThermalPrefix {
                 return false;
             }
             self.simulated = j + 1;
+            self.remember();
         }
         true
     }
 
-    /// Deposits `step` after the prefix; true on a violation (its clause is queued).
+    /// Snapshots the simulation's state (after `simulated` steps) where the spacing asks.
+    fn remember(&mut self) {
+        if self.simulated % self.spacing == 0 {
+            self.cache
+                .insert(self.keys[self.simulated - 1], &self.owned.sim);
+        }
+    }
+
+    /// Deposits `step` after the prefix (all of it confirmed); true on a violation (its
+    /// clause is queued).
     fn deposit(&mut self, step: Step) -> bool {
-        let result = self.owned.sim.deposit(step.block as usize, step.new);
-        self.report.deposits += 1;
-        if self.owned.sim.cancelled() {
-            self.stopped = true;
-            self.simulated = DIRTY;
-            return false;
+        let len = self.prefix.len();
+        let key = extend_key(
+            self.keys.last().copied().unwrap_or(EMPTY_KEY),
+            step.block as usize,
+            step.new,
+        );
+        self.order.push((step.block as usize, step.new));
+        self.keys.push(key);
+        if let Some(snap) = self.cache.get(key, len + 1) {
+            // This very prefix was simulated on another branch.
+            self.owned.sim.restore_from_trail(snap, &self.order);
+            self.report.resumed += 1;
+        } else {
+            if !self.restore(len) {
+                self.order.pop();
+                self.keys.pop();
+                return false;
+            }
+            let result = self.owned.sim.deposit(step.block as usize, step.new);
+            self.report.deposits += 1;
+            if self.owned.sim.cancelled() {
+                self.stopped = true;
+            }
+            if self.stopped || result.is_err() {
+                self.simulated = DIRTY;
+                if let (Err(v), false) = (result, self.stopped) {
+                    self.prefix.push(step); // for the clause only
+                    self.learn(v.prefix_len, v.phase != Phase::Deposit, v.block);
+                    self.prefix.pop();
+                }
+                self.order.pop();
+                self.keys.pop();
+                return !self.stopped;
+            }
         }
-        if let Err(v) = result {
-            self.simulated = DIRTY;
-            self.prefix.push(step); // for the clause only
-            self.learn(v.prefix_len, v.phase != Phase::Deposit, v.block);
-            self.prefix.pop();
-            return true;
-        }
-        self.position[step.block as usize] = self.prefix.len() as u32;
+        self.position[step.block as usize] = len as u32;
         self.prefix.push(step);
-        self.simulated = self.prefix.len();
-        if self.simulated % self.spacing == 0 && self.snaps.len() == self.simulated / self.spacing {
-            let mut snap = self.spare.pop().unwrap_or_default();
-            self.owned.sim.snapshot_into(&mut snap);
-            self.snaps.push(snap);
-        }
+        self.simulated = len + 1;
+        self.remember();
         false
     }
 
