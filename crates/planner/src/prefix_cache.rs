@@ -1,7 +1,20 @@
 //! Snapshots of simulated plan prefixes, so that a prefix shared by many candidates (or
 //! reached again by the solver) is simulated once.
 
+use std::cell::RefCell;
+use std::rc::Rc;
+
 use waam_thermal::{Simulation, Snapshot, ThermalModel};
+
+/// One cache shared by the thermal loop and the prefix check inside the search: a plan
+/// the solver hands out was simulated inside it already, up to its cooldown.
+pub type SharedCache = Rc<RefCell<PrefixCache>>;
+
+/// Which prefix lengths are snapshotted (multiples of it): snapshots of every prefix cost
+/// n²/2 temperatures, so they are spaced on big parts.
+pub fn snapshot_spacing(blocks: usize) -> usize {
+    (blocks / 1000).max(1)
+}
 
 /// A simulation at the longest cached prefix of `seq` (of a length that is a multiple of
 /// `spacing`), and that prefix's length.

@@ -11,6 +11,7 @@
 //!   step counted there is one the weld-graph rules allow (a successor of the last block, or
 //!   a new fragment at any block whose support is welded), so no feasible plan is cut off.
 
+use std::rc::Rc;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Instant;
@@ -21,7 +22,7 @@ use waam_part::Part;
 use waam_thermal::{self as thermal, Phase, Simulation, ThermalModel, Violation};
 
 use super::encoding::{Acyclicity, Decoded, Encoding};
-use super::prefix_cache::{prefix_keys, resume, PrefixCache};
+use super::prefix_cache::{prefix_keys, resume, snapshot_spacing, PrefixCache, SharedCache};
 use super::sat::{Backend, Lit, SatSolver};
 use super::thermal_prefix::{PrefixLiterals, ThermalPrefix};
 use super::{CandidateVerdict, ExecutedCheck, Stats};
@@ -39,7 +40,7 @@ pub struct Search<'p> {
     pub stats: Stats,
     /// Violations per window block (to name the one broken most often).
     pub violations: Vec<usize>,
-    cache: PrefixCache,
+    cache: SharedCache,
     /// Layers given the eager rank order (hybrid acyclicity).
     ranked_layers: Vec<i64>,
     spacing: usize,
@@ -93,10 +94,9 @@ impl<'p> Search<'p> {
             lookahead_budget,
             stats,
             violations: vec![0; n],
-            cache: PrefixCache::default(),
+            cache: SharedCache::default(),
             ranked_layers: Vec::new(),
-            // Snapshots of every prefix cost n²/2 temperatures: space them on big parts.
-            spacing: (n / 1000).max(1),
+            spacing: snapshot_spacing(n),
             interrupted: false,
             inside_cuts: 0,
             torch: None,
@@ -145,7 +145,7 @@ impl<'p> Search<'p> {
     /// Judges later candidates by `model` (e.g. narrowed windows while optimizing).
     pub fn set_thermal(&mut self, model: ThermalModel) {
         self.thermal = Arc::new(model);
-        self.cache = PrefixCache::default();
+        *self.cache.borrow_mut() = PrefixCache::default();
         self.solver.set_prefix_model(Arc::clone(&self.thermal));
     }
 
@@ -169,7 +169,7 @@ impl<'p> Search<'p> {
                 .collect(),
             ends: (0..n).map(|v| self.enc.ends_at(v)).collect(),
         };
-        let prefix = ThermalPrefix::new(&lits, Arc::clone(&self.thermal));
+        let prefix = ThermalPrefix::new(&lits, Arc::clone(&self.thermal), Rc::clone(&self.cache));
         self.solver.judge_prefixes(prefix);
     }
 
@@ -341,7 +341,13 @@ impl<'p> Search<'p> {
         let whole = len == seq.len();
         let seq = &seq[..len];
         let keys = prefix_keys(seq);
-        let (sim, at) = resume(&self.thermal, &self.cache, self.spacing, seq, &keys);
+        let (sim, at) = resume(
+            &self.thermal,
+            &self.cache.borrow(),
+            self.spacing,
+            seq,
+            &keys,
+        );
         let mut sim = sim.with_deadline(self.deadline);
         if let Some(cancel) = &self.cancel {
             sim = sim.with_cancel(Arc::clone(cancel));
@@ -358,7 +364,7 @@ impl<'p> Search<'p> {
                 return Ok(Judged::Violated(v));
             }
             if (j + 1) % self.spacing == 0 {
-                self.cache.insert(keys[j], &sim);
+                self.cache.borrow_mut().insert(keys[j], &sim);
             }
         }
         if !whole {
@@ -458,7 +464,13 @@ impl<'p> Search<'p> {
     /// The simulation state after `prefix` (from the nearest cached snapshot).
     fn state_after(&self, prefix: &[(usize, bool)]) -> Option<Simulation<'_>> {
         let keys = prefix_keys(prefix);
-        let (mut sim, at) = resume(&self.thermal, &self.cache, self.spacing, prefix, &keys);
+        let (mut sim, at) = resume(
+            &self.thermal,
+            &self.cache.borrow(),
+            self.spacing,
+            prefix,
+            &keys,
+        );
         for &(b, new) in &prefix[at..] {
             sim.deposit(b, new).ok()?;
         }

@@ -15,13 +15,14 @@
 //! are confirmed without simulating them again; a prefix met before on another branch
 //! resumes from its snapshot in a [`PrefixCache`].
 
+use std::rc::Rc;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Instant;
 
 use waam_thermal::{Phase, Simulation, Snapshot, ThermalModel};
 
-use super::prefix_cache::{extend_key, Key, PrefixCache, EMPTY_KEY};
+use super::prefix_cache::{extend_key, snapshot_spacing, Key, PrefixCache, SharedCache, EMPTY_KEY};
 use super::sat::Lit;
 
 const NONE: u32 = u32::MAX;
@@ -137,7 +138,7 @@ pub struct ThermalPrefix {
     simulated: usize,
     /// The state before any deposit.
     empty: Snapshot,
-    cache: PrefixCache,
+    cache: SharedCache,
     /// Prefix lengths that are snapshotted (multiples of it).
     spacing: usize,
     /// The complete prefix passed its cooldown (reset when the prefix changes).
@@ -151,7 +152,13 @@ pub struct ThermalPrefix {
 }
 
 impl ThermalPrefix {
-    pub fn new(lits: &PrefixLiterals, model: Arc<ThermalModel>) -> ThermalPrefix {
+    /// The check of the prefixes of `lits` by `model`, keeping its snapshots in `cache`
+    /// (the thermal loop's).
+    pub fn new(
+        lits: &PrefixLiterals,
+        model: Arc<ThermalModel>,
+        cache: SharedCache,
+    ) -> ThermalPrefix {
         let max_var = lits
             .edges
             .iter()
@@ -192,9 +199,8 @@ impl ThermalPrefix {
             owned: OwnedSimulation::new(model, None, None),
             simulated: 0,
             empty: Snapshot::default(),
-            cache: PrefixCache::default(),
-            // Snapshots of every prefix cost n²/2 temperatures: space them on big parts.
-            spacing: (n / 1000).max(1),
+            cache,
+            spacing: snapshot_spacing(n),
             cooled: false,
             stopped: false,
             deadline: None,
@@ -233,7 +239,7 @@ impl ThermalPrefix {
     /// Starts the simulation over from the empty prefix.
     fn reset_simulation(&mut self) {
         self.empty = self.owned.sim.snapshot();
-        self.cache = PrefixCache::default();
+        *self.cache.borrow_mut() = PrefixCache::default();
         self.truncate(0);
         self.simulated = 0;
         self.stopped = false;
@@ -403,10 +409,12 @@ impl ThermalPrefix {
         } else {
             0
         };
+        let cache = Rc::clone(&self.cache);
+        let cache = cache.borrow();
         let cached = (current + 1..=len)
             .rev()
             .filter(|j| j % self.spacing == 0)
-            .find_map(|j| Some((j, self.cache.get(self.keys[j - 1], j)?)));
+            .find_map(|j| Some((j, cache.get(self.keys[j - 1], j)?)));
         match cached {
             Some((j, snap)) => {
                 self.owned.sim.restore_from_trail(snap, &self.order);
@@ -418,6 +426,7 @@ impl ThermalPrefix {
                 self.simulated = 0;
             }
         }
+        drop(cache);
         for j in self.simulated..len {
             let (b, new) = self.order[j];
             // Deposited before without a violation: it deposits the same way again.
@@ -438,6 +447,7 @@ impl ThermalPrefix {
     fn remember(&mut self) {
         if self.simulated % self.spacing == 0 {
             self.cache
+                .borrow_mut()
                 .insert(self.keys[self.simulated - 1], &self.owned.sim);
         }
     }
@@ -453,9 +463,12 @@ impl ThermalPrefix {
         );
         self.order.push((step.block as usize, step.new));
         self.keys.push(key);
-        if let Some(snap) = self.cache.get(key, len + 1) {
+        let cache = Rc::clone(&self.cache);
+        let cached = cache.borrow().get(key, len + 1).map(|snap| {
             // This very prefix was simulated on another branch.
             self.owned.sim.restore_from_trail(snap, &self.order);
+        });
+        if cached.is_some() {
             self.report.resumed += 1;
         } else {
             if !self.restore(len) {
