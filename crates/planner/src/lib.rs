@@ -14,6 +14,7 @@ pub mod encoding;
 mod prefix_cache;
 pub mod sat;
 mod search;
+mod shortening;
 pub mod thermal_prefix;
 
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -24,6 +24,7 @@ use waam_thermal::{self as thermal, Phase, Simulation, ThermalModel, Violation};
 use super::encoding::{Acyclicity, Decoded, Encoding};
 use super::prefix_cache::{prefix_keys, resume, snapshot_spacing, PrefixCache, SharedCache};
 use super::sat::{Backend, Lit, SatSolver};
+use super::shortening::shorten;
 use super::thermal_prefix::{PrefixLiterals, ThermalPrefix};
 use super::{CandidateVerdict, ExecutedCheck, Stats};
 
@@ -169,7 +170,13 @@ impl<'p> Search<'p> {
                 .collect(),
             ends: (0..n).map(|v| self.enc.ends_at(v)).collect(),
         };
-        let prefix = ThermalPrefix::new(&lits, Arc::clone(&self.thermal), Rc::clone(&self.cache));
+        let prefix = ThermalPrefix::new(
+            &lits,
+            Arc::clone(&self.thermal),
+            Rc::clone(&self.cache),
+            Arc::new(self.graph.clone()),
+            self.lookahead_budget,
+        );
         self.solver.judge_prefixes(prefix);
     }
 
@@ -183,6 +190,8 @@ impl<'p> Search<'p> {
         self.stats.inside_clauses += report.clause_lens.len() as u64;
         self.stats.inside_deposits += report.deposits;
         self.stats.inside_reused += report.reused + report.resumed;
+        self.stats.shortened += report.shortened;
+        self.stats.lookahead_block_steps += report.lookahead_block_steps;
     }
 
     /// The next plan the solver allows, cutting cycles until the model is one;
@@ -385,44 +394,18 @@ impl<'p> Search<'p> {
     /// Learns the clause of the violating prefix, shortened where every alternative
     /// next step is proven to violate too. Returns the clause's length.
     fn learn(&mut self, seq: &[(usize, bool)], v: &Violation) -> usize {
-        let n = self.part.len();
-        // The doomed prefix: `len` blocks, its last fragment closed or still open.
-        let mut len = v.prefix_len;
-        let mut closed = v.phase != Phase::Deposit;
-        let mut budget = self.lookahead_budget as i64;
-        // An empty doomed prefix (len 0) proves that no plan is feasible: its clause is empty.
-        while budget > 0 && len > 0 {
-            if closed && len == n {
-                closed = false; // a complete plan is the same whether closed or not
-                continue;
-            }
-            // The shorter target, the step from it that is known doomed, and which kinds
-            // of step remain to be tried from it.
-            let (target_len, target_closed, skip, try_continue, try_new) = if closed {
-                (len, false, None, true, false)
-            } else {
-                let (b, new) = seq[len - 1];
-                if new {
-                    (len - 1, true, Some((b, true)), false, true)
-                } else {
-                    (len - 1, false, Some((b, false)), true, true)
-                }
-            };
-            let Some(base) = self.state_after(&seq[..target_len]) else {
-                break;
-            };
-            let (proven, cost) =
-                self.all_steps_violate(&base, &seq[..target_len], skip, try_continue, try_new);
-            budget -= cost as i64;
-            self.stats.lookahead_block_steps += cost;
-            if !proven {
-                break;
-            }
-            self.stats.shortened += 1;
-            len = target_len;
-            closed = target_closed;
-        }
-        self.learn_clause(&fragments_of(&seq[..len]), closed)
+        let r = shorten(
+            self.graph,
+            self.enc.max_fragments(),
+            seq,
+            v.prefix_len,
+            v.phase != Phase::Deposit,
+            self.lookahead_budget,
+            |len| self.state_after(&seq[..len]),
+        );
+        self.stats.lookahead_block_steps += r.cost;
+        self.stats.shortened += r.dropped;
+        self.learn_clause(&fragments_of(&seq[..r.len]), r.closed)
     }
 
     /// Learns what rules out the plans in which the torch meets `obstacle` at the last
@@ -475,70 +458,6 @@ impl<'p> Search<'p> {
             sim.deposit(b, new).ok()?;
         }
         Some(sim)
-    }
-
-    /// Whether every allowed next step after `prefix` (state `base`) breaks a window within
-    /// its own steps, and the block-steps simulated to find out. `skip`: a step (block,
-    /// new fragment) already proven doomed. The steps are: moving on to a successor of the last
-    /// block (`try_continue`), or closing the fragment and starting a new one at any block
-    /// whose support is welded (`try_new`, if fragments remain). A complete prefix has one
-    /// continuation: the cooldown.
-    fn all_steps_violate(
-        &self,
-        base: &Simulation<'_>,
-        prefix: &[(usize, bool)],
-        skip: Option<(usize, bool)>,
-        try_continue: bool,
-        try_new: bool,
-    ) -> (bool, u64) {
-        let n = self.part.len();
-        let placed = |b: usize| base.is_welded(b);
-        let allowed = |b: usize, new: bool| {
-            !placed(b) && Some((b, new)) != skip && self.graph.below(b).is_none_or(placed)
-        };
-        let start = base.snapshot();
-        let mut sim = base.clone();
-        let mut cost = 0u64;
-        let mut spent = |sim: &Simulation<'_>| {
-            cost += (sim.steps() - base.steps()) * sim.welded() as u64;
-        };
-        if prefix.len() == n {
-            let r = sim.finish();
-            spent(&sim);
-            return (matches!(r, Ok(Err(_))), cost);
-        }
-        if try_continue {
-            if let Some(&(last, _)) = prefix.last() {
-                for &c in self.graph.successors(last) {
-                    if !allowed(c as usize, false) {
-                        continue;
-                    }
-                    sim.restore(&start);
-                    let r = sim.deposit(c as usize, false);
-                    spent(&sim);
-                    if r.is_ok() {
-                        return (false, cost);
-                    }
-                }
-            }
-        }
-        if try_new && base.fragments() < self.enc.max_fragments() {
-            sim.restore(&start);
-            let transit = sim.transit();
-            spent(&sim);
-            if transit.is_ok() {
-                let after = sim.snapshot();
-                for c in (0..n).filter(|&c| allowed(c, true)) {
-                    sim.restore(&after);
-                    let r = sim.deposit_after_transit(c);
-                    spent(&sim);
-                    if r.is_ok() {
-                        return (false, cost);
-                    }
-                }
-            }
-        }
-        (true, cost)
     }
 }
 

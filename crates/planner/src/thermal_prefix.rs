@@ -24,6 +24,8 @@ use waam_thermal::{Phase, Simulation, Snapshot, ThermalModel};
 
 use super::prefix_cache::{extend_key, snapshot_spacing, Key, PrefixCache, SharedCache, EMPTY_KEY};
 use super::sat::Lit;
+use super::shortening::shorten;
+use waam_part::graph::WeldGraph;
 
 const NONE: u32 = u32::MAX;
 /// `simulated` when the simulation's state is no prefix's (it must be restored).
@@ -79,6 +81,9 @@ pub struct PrefixReport {
     pub violated: Vec<usize>,
     /// Deposits simulated.
     pub deposits: u64,
+    /// Steps dropped from the clauses by proof, and block-steps simulated for it.
+    pub shortened: u64,
+    pub lookahead_block_steps: u64,
     /// Prefix steps confirmed again after a backtrack, without simulating them again.
     pub reused: u64,
     /// Prefix steps resumed from a snapshot of the same prefix met on another branch.
@@ -116,6 +121,11 @@ impl OwnedSimulation {
 pub struct ThermalPrefix {
     meaning: Vec<Meaning>,
     ends: Vec<Lit>,
+    /// For proving shorter clauses: the weld graph, the most fragments, and the block-steps
+    /// allowed per clause (0: learn the plain violating prefix).
+    graph: Arc<WeldGraph>,
+    max_fragments: usize,
+    lookahead_budget: usize,
     n: usize,
     /// Per block: its chosen successor and the move's literal.
     next: Vec<(u32, Lit)>,
@@ -158,6 +168,8 @@ impl ThermalPrefix {
         lits: &PrefixLiterals,
         model: Arc<ThermalModel>,
         cache: SharedCache,
+        graph: Arc<WeldGraph>,
+        lookahead_budget: usize,
     ) -> ThermalPrefix {
         let max_var = lits
             .edges
@@ -185,6 +197,9 @@ impl ThermalPrefix {
         let mut prefix = ThermalPrefix {
             meaning,
             ends: lits.ends.clone(),
+            graph,
+            max_fragments: lits.max_fragments,
+            lookahead_budget,
             n,
             next: vec![unset; n],
             ended: vec![false; n],
@@ -525,7 +540,25 @@ impl ThermalPrefix {
 
     /// Queues the clause ruling out the plans that begin with the first `len` steps (the
     /// last fragment ending there when `closed`).
+    /// The prefix is shortened first where that is proven ([`shorten`]).
     fn learn(&mut self, len: usize, closed: bool, window: usize) {
+        let seq: Vec<(usize, bool)> = self.prefix[..len]
+            .iter()
+            .map(|s| (s.block as usize, s.new))
+            .collect();
+        let graph = Arc::clone(&self.graph);
+        let (k, budget) = (self.max_fragments, self.lookahead_budget);
+        let r = shorten(&graph, k, &seq, len, closed, budget, |l| {
+            // The steps before the violating one deposited without a violation.
+            if self.restore(l) {
+                Some(self.owned.sim.clone())
+            } else {
+                None
+            }
+        });
+        self.report.shortened += r.dropped;
+        self.report.lookahead_block_steps += r.cost;
+        let (len, closed) = (r.len, r.closed);
         let steps = &self.prefix[..len];
         let mut clause: Vec<Lit> = steps.iter().map(|s| !s.lit).collect();
         for pair in steps.windows(2).filter(|p| p[1].new) {
