@@ -47,7 +47,8 @@ pub fn new_solver(backend: sat::Backend) -> Box<dyn sat::SatSolver> {
 pub struct Options {
     pub acyclicity: Acyclicity,
     /// Block-steps the thermal model may simulate per violation to prove a shorter
-    /// clause (0: learn the plain violating prefix, as the paper does).
+    /// clause (0: learn the plain violating prefix, as the paper does), in the thermal loop
+    /// and inside the search alike.
     pub lookahead_budget: usize,
     /// Stop and return the best found so far (not proven) after this long.
     pub timeout: Option<Duration>,

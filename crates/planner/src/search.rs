@@ -1,15 +1,14 @@
 //! The thermal loop: the SAT solver proposes a plan, the thermal model judges it, and a
 //! violation teaches the solver a clause that rules out the violating prefix.
 //!
-//! Two things make it fast:
+//! What makes it fast:
+//! - with CaDiCaL, prefixes are judged inside the search ([`crate::thermal_prefix`]), so the
+//!   complete models that come out are (nearly) only the feasible plans;
 //! - candidates share prefixes, so the simulation of a new candidate resumes from the
-//!   snapshot of the longest prefix it shares with *any* earlier candidate (a cache of
-//!   prefix snapshots keyed by a 128-bit hash of the deposit sequence);
-//! - before a prefix clause is learned, it is shortened where that is *proven*: when every
-//!   possible next step after a shorter prefix also breaks a window within that step, the
-//!   shorter prefix already forces a violation, and its clause is learned instead. Every
-//!   step counted there is one the weld-graph rules allow (a successor of the last block, or
-//!   a new fragment at any block whose support is welded), so no feasible plan is cut off.
+//!   snapshot of the longest prefix it shares with *any* earlier candidate or with a prefix
+//!   judged inside the search ([`crate::prefix_cache`]);
+//! - before a prefix clause is learned, it is shortened where that is *proven*
+//!   ([`crate::shortening`]).
 
 use std::rc::Rc;
 use std::sync::atomic::AtomicBool;

@@ -13,7 +13,7 @@
 //! When the solver backtracks, the prefix shrinks only as far as its literals were
 //! unassigned, and when the solver fixes the same steps again (after a restart, say) they
 //! are confirmed without simulating them again; a prefix met before on another branch
-//! resumes from its snapshot in a [`PrefixCache`].
+//! resumes from its snapshot in the prefix cache it shares with the thermal loop.
 
 use std::rc::Rc;
 use std::sync::atomic::AtomicBool;
