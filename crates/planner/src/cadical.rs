@@ -81,8 +81,14 @@ impl Drop for Cadical {
             _solver: Inner,
             _propagator: Option<Rc<RefCell<Inside>>>,
         }
+        // The prefix check shares its snapshot cache (an `Rc`) with the thermal loop, which
+        // stays on this thread: it is dropped here.
+        if let Some(inside) = &self.inside {
+            inside.borrow_mut().prefix = None;
+        }
         // SAFETY: CaDiCaL keeps no thread-local state, and every clone of the propagator's
-        // `Rc` (ours and the one the solver's store holds) is inside the parcel.
+        // `Rc` (ours and the one the solver's store holds) is inside the parcel; what the
+        // propagator still holds (the cycle chains) is owned by it alone.
         unsafe impl Send for Parcel {}
         let parcel = Parcel {
             _solver: std::mem::take(&mut self.inner),
