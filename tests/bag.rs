@@ -191,7 +191,13 @@ fn plan_with_a_robot_records_the_motion_and_every_candidates_verdict() {
         .iter()
         .filter(|c| c.verdict != PlanCandidate::FEASIBLE)
         .collect();
-    assert!(!violated.is_empty(), "s1-wall has infeasible plans");
+    // With CaDiCaL most infeasible plans are cut inside the search, from a partial
+    // assignment: they are no candidates, and their clauses are counted apart.
+    let inside = stats["inside_clauses"].as_u64().unwrap();
+    assert!(
+        !violated.is_empty() || inside > 0,
+        "s1-wall has infeasible plans"
+    );
     let mut clause_sum = 0u64;
     for c in &violated {
         assert!(
@@ -208,8 +214,10 @@ fn plan_with_a_robot_records_the_motion_and_every_candidates_verdict() {
     }
     let mean = stats["clause_len_mean"].as_f64().unwrap();
     let learned = stats["learned_clauses"].as_u64().unwrap();
-    assert_eq!(learned, violated.len() as u64);
-    assert!((clause_sum as f64 - mean * learned as f64).abs() < 1e-6);
+    assert_eq!(learned, violated.len() as u64 + inside);
+    if inside == 0 {
+        assert!((clause_sum as f64 - mean * learned as f64).abs() < 1e-6);
+    }
 }
 
 /// Issue #18: the node makes its input durable before planning it. `waam publish` (the node,

@@ -70,6 +70,43 @@ fn eager_acyclicity_and_plain_clauses_count_the_same() {
     }
 }
 
+/// With CaDiCaL the thermal check runs inside the search: every plan that breaks a window is
+/// cut from a partial assignment by its prefix clause, so the only complete models judged
+/// by the loop are the feasible plans; varisat judges complete models only. Same counts.
+#[test]
+fn the_thermal_check_inside_the_search_leaves_only_feasible_models() {
+    for (name, _, feasible) in expected_counts().iter().filter(|(_, p, f)| p > f) {
+        let part = read_part(name);
+        if part.len() > 50 {
+            continue; // ex2 and ex3: the counts test covers them
+        }
+        let count = |solver| {
+            let opts = Options {
+                solver,
+                ..Options::default()
+            };
+            planner::count(&part, &opts, false, &mut |_| {}).unwrap()
+        };
+        let (inside, outside) = (count(Backend::Cadical), count(Backend::Varisat));
+        assert_eq!(
+            (inside.feasible, outside.feasible),
+            (*feasible, *feasible),
+            "{name}"
+        );
+        assert_eq!(inside.stats.candidates, *feasible, "{name}: CaDiCaL models");
+        assert_eq!(
+            inside.stats.inside_clauses, inside.stats.learned_clauses,
+            "{name}"
+        );
+        assert!(inside.stats.inside_clauses > 0, "{name}");
+        assert_eq!(outside.stats.inside_clauses, 0, "{name}");
+        assert!(
+            outside.stats.candidates > *feasible,
+            "{name}: varisat models"
+        );
+    }
+}
+
 /// A random small part: up to 12 blocks in a 4 x 3 x 3 grid, with random windows.
 fn small_part() -> impl Strategy<Value = Part> {
     grown_part("random", [4, 3, 3], 12, 4)

@@ -32,6 +32,8 @@ use pindakaas::solver::{Assumptions, SolveResult, TermSignal, TerminateCallback}
 use pindakaas::{ClauseDatabase, Valuation};
 
 use super::sat::{Lit, SatSolver};
+use super::thermal_prefix::{PrefixReport, ThermalPrefix};
+use waam_thermal::ThermalModel;
 
 /// CaDiCaL 3 as a [`SatSolver`].
 pub struct Cadical {
@@ -40,9 +42,10 @@ pub struct Cadical {
     vars: usize,
     clauses: usize,
     buf: Vec<pindakaas::Lit>,
-    cycles: Option<Rc<RefCell<NoCycles>>>,
-    /// The run's deadline and cancel flag ([`SatSolver::set_interrupt`]).
-    stop: (Option<Instant>, Option<Arc<AtomicBool>>),
+    /// The user propagator, once one is connected.
+    inside: Option<Rc<RefCell<Inside>>>,
+    deadline: Option<Instant>,
+    cancel: Option<Arc<AtomicBool>>,
 }
 
 /// Set by a process that exits once its run is stopped (the `waam` CLI): a big solver
@@ -72,8 +75,9 @@ impl Default for Cadical {
             vars: 0,
             clauses: 0,
             buf: Vec::new(),
-            cycles: None,
-            stop: (None, None),
+            inside: None,
+            deadline: None,
+            cancel: None,
         }
     }
 }
@@ -88,16 +92,22 @@ impl Drop for Cadical {
         /// The solver with its propagator: the only two owners of that `Rc` move together.
         struct Parcel {
             _solver: Inner,
-            _propagator: Option<Rc<RefCell<NoCycles>>>,
+            _propagator: Option<Rc<RefCell<Inside>>>,
+        }
+        // The prefix check shares its snapshot cache (an `Rc`) with the thermal loop, which
+        // stays on this thread: it is dropped here.
+        if let Some(inside) = &self.inside {
+            inside.borrow_mut().prefix = None;
         }
         // SAFETY: CaDiCaL keeps no thread-local state, and every clone of the propagator's
-        // `Rc` (ours and the one the solver's store holds) is inside the parcel.
+        // `Rc` (ours and the one the solver's store holds) is inside the parcel; what the
+        // propagator still holds (the cycle chains) is owned by it alone.
         unsafe impl Send for Parcel {}
         let parcel = Parcel {
             _solver: std::mem::take(&mut self.inner),
-            _propagator: self.cycles.take(),
+            _propagator: self.inside.take(),
         };
-        let (deadline, cancel) = &self.stop;
+        let (deadline, cancel) = (&self.deadline, &self.cancel);
         let stopped = deadline.is_some_and(|d| Instant::now() >= d)
             || cancel.as_ref().is_some_and(|c| c.load(Ordering::Relaxed));
         if stopped && LEAVE_TO_EXIT.load(Ordering::Relaxed) {
@@ -166,7 +176,11 @@ impl SatSolver for Cadical {
     }
 
     fn set_interrupt(&mut self, deadline: Option<Instant>, cancel: Option<Arc<AtomicBool>>) {
-        self.stop = (deadline, cancel.clone());
+        self.deadline = deadline;
+        self.cancel = cancel.clone();
+        if let Some(prefix) = self.propagator().borrow_mut().prefix.as_mut() {
+            prefix.set_interrupt(deadline, cancel.clone());
+        }
         if deadline.is_none() && cancel.is_none() {
             self.inner
                 .set_terminate_callback(None::<fn() -> TermSignal>);
@@ -184,19 +198,135 @@ impl SatSolver for Cadical {
     }
 
     fn exclude_cycles(&mut self, blocks: usize, edges: &[(usize, usize, Lit)]) -> bool {
-        let propagator = Rc::new(RefCell::new(NoCycles::new(blocks, edges)));
-        self.inner.connect_propagator(Rc::clone(&propagator));
+        self.propagator().borrow_mut().cycles = Some(NoCycles::new(blocks, edges));
         for &(_, _, e) in edges {
             self.inner.add_observed_var(to_pk(e).var());
         }
-        self.cycles = Some(propagator);
         true
     }
 
     fn cycle_cuts(&self) -> u64 {
-        self.cycles.as_ref().map_or(0, |c| c.borrow().cuts)
+        self.inside
+            .as_ref()
+            .and_then(|p| p.borrow().cycles.as_ref().map(|c| c.cuts))
+            .unwrap_or(0)
+    }
+
+    fn judge_prefixes(&mut self, mut prefix: ThermalPrefix) -> bool {
+        prefix.set_interrupt(self.deadline, self.cancel.clone());
+        let observed: Vec<Lit> = prefix.observed().collect();
+        self.propagator().borrow_mut().prefix = Some(prefix);
+        for l in observed {
+            self.inner.add_observed_var(to_pk(l).var());
+        }
+        true
+    }
+
+    fn set_prefix_model(&mut self, model: Arc<ThermalModel>) {
+        if let Some(prefix) = self.propagator().borrow_mut().prefix.as_mut() {
+            prefix.set_model(model);
+        }
+    }
+
+    fn take_prefix_report(&mut self) -> PrefixReport {
+        self.inside
+            .as_ref()
+            .and_then(|p| p.borrow_mut().prefix.as_mut().map(|t| t.take_report()))
+            .unwrap_or_default()
     }
 }
+
+impl Cadical {
+    /// The user propagator, connected on first use (CaDiCaL takes one only).
+    fn propagator(&mut self) -> &Rc<RefCell<Inside>> {
+        self.inside.get_or_insert_with(|| {
+            let inside = Rc::new(RefCell::new(Inside::default()));
+            self.inner.connect_propagator(Rc::clone(&inside));
+            inside
+        })
+    }
+}
+
+/// What the user propagator checks inside the search: no cycles, and (when asked) no plan
+/// prefix that breaks a window.
+#[derive(Default)]
+struct Inside {
+    cycles: Option<NoCycles>,
+    prefix: Option<ThermalPrefix>,
+}
+
+impl Propagator for Inside {
+    fn notify_assignment(&mut self, lits: &[pindakaas::Lit]) {
+        if let Some(c) = self.cycles.as_mut() {
+            c.notify_assignment(lits);
+        }
+        if let Some(p) = self.prefix.as_mut() {
+            for &l in lits {
+                p.notify(Lit::from_dimacs(i32::from(l)));
+            }
+        }
+    }
+
+    fn notify_new_decision_level(&mut self) {
+        if let Some(c) = self.cycles.as_mut() {
+            c.notify_new_decision_level();
+        }
+        if let Some(p) = self.prefix.as_mut() {
+            p.new_level();
+        }
+    }
+
+    fn notify_backtrack(&mut self, new_level: usize, _restart: bool) {
+        if let Some(c) = self.cycles.as_mut() {
+            c.notify_backtrack(new_level);
+        }
+        if let Some(p) = self.prefix.as_mut() {
+            p.backtrack(new_level);
+        }
+    }
+
+    fn propagate(&mut self, _slv: &mut dyn SolvingActions) -> Option<pindakaas::Lit> {
+        if let Some(lit) = self.cycles.as_mut().and_then(NoCycles::propagate) {
+            return Some(lit);
+        }
+        // A broken window queues its clause, which the solver asks for next.
+        if let Some(p) = self.prefix.as_mut() {
+            p.check();
+        }
+        None
+    }
+
+    fn explain_propagation(&mut self, propagated: pindakaas::Lit, clause: ClauseBuilder<'_>) {
+        if let Some(c) = self.cycles.as_mut() {
+            c.explain_propagation(propagated, clause);
+        }
+    }
+
+    fn check_solution(&mut self, _slv: &mut dyn SolvingActions, solution: Solution<'_>) -> bool {
+        let cycles = self
+            .cycles
+            .as_mut()
+            .is_some_and(|c| c.model_cycles(&solution));
+        let broken = !cycles && self.prefix.as_mut().is_some_and(ThermalPrefix::check);
+        !(cycles || broken)
+    }
+
+    fn provide_clause(
+        &mut self,
+        _slv: &mut dyn SolvingActions,
+        mut clause: ClauseBuilder<'_>,
+    ) -> Option<ClausePersistence> {
+        if let Some((lits, persistence)) = self.cycles.as_mut().and_then(|c| c.clauses.pop()) {
+            clause.extend(lits.into_iter().map(to_pk));
+            return Some(persistence);
+        }
+        let lits = self.prefix.as_mut()?.pop_clause()?;
+        clause.extend(lits.into_iter().map(to_pk));
+        Some(ClausePersistence::Irredundant)
+    }
+}
+
+impl PropagatorConfig for Inside {}
 
 const NONE: u32 = u32::MAX;
 
@@ -371,7 +501,7 @@ impl NoCycles {
     }
 }
 
-impl Propagator for NoCycles {
+impl NoCycles {
     fn notify_assignment(&mut self, lits: &[pindakaas::Lit]) {
         for &l in lits {
             if l.is_negated() {
@@ -390,7 +520,7 @@ impl Propagator for NoCycles {
         self.levels.push(self.trail.len());
     }
 
-    fn notify_backtrack(&mut self, new_level: usize, _restart: bool) {
+    fn notify_backtrack(&mut self, new_level: usize) {
         if let Some(&len) = self.levels.get(new_level) {
             self.undo_to(len);
             self.levels.truncate(new_level);
@@ -398,7 +528,7 @@ impl Propagator for NoCycles {
         self.pending.clear();
     }
 
-    fn propagate(&mut self, _slv: &mut dyn SolvingActions) -> Option<pindakaas::Lit> {
+    fn propagate(&mut self) -> Option<pindakaas::Lit> {
         while let Some((t, h)) = self.pending.pop() {
             if self.closes(t, h) {
                 let e = self.edge_lit(t, h)?;
@@ -417,23 +547,7 @@ impl Propagator for NoCycles {
         self.chain_negated(h, t, &mut reason);
         clause.extend(reason.into_iter().map(to_pk));
     }
-
-    fn check_solution(&mut self, _slv: &mut dyn SolvingActions, solution: Solution<'_>) -> bool {
-        !self.model_cycles(&solution)
-    }
-
-    fn provide_clause(
-        &mut self,
-        _slv: &mut dyn SolvingActions,
-        mut clause: ClauseBuilder<'_>,
-    ) -> Option<ClausePersistence> {
-        let (lits, persistence) = self.clauses.pop()?;
-        clause.extend(lits.into_iter().map(to_pk));
-        Some(persistence)
-    }
 }
-
-impl PropagatorConfig for NoCycles {}
 
 #[cfg(test)]
 mod tests {

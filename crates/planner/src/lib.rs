@@ -12,8 +12,11 @@ pub mod cadical;
 pub mod constructive;
 pub mod encoding;
 mod portfolio;
+mod prefix_cache;
 pub mod sat;
 mod search;
+mod shortening;
+pub mod thermal_prefix;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -45,7 +48,8 @@ pub fn new_solver(backend: sat::Backend) -> Box<dyn sat::SatSolver> {
 pub struct Options {
     pub acyclicity: Acyclicity,
     /// Block-steps the thermal model may simulate per violation to prove a shorter
-    /// clause (0: learn the plain violating prefix, as the paper does).
+    /// clause (0: learn the plain violating prefix, as the paper does), in the thermal loop
+    /// and inside the search alike.
     pub lookahead_budget: usize,
     /// Stop and return the best found so far (not proven) after this long.
     pub timeout: Option<Duration>,
@@ -163,6 +167,12 @@ pub struct Stats {
     /// Worst-case t8/5 margin of the best plan so far, s (None: no plan yet, or no windows).
     pub best_margin_s: Option<f64>,
     pub learned_clauses: u64,
+    /// Of the learned clauses, those learned inside the search from a partial assignment
+    /// whose plan prefix broke a window (before any complete model); deposits simulated
+    /// for them, and prefix steps confirmed again without simulating.
+    pub inside_clauses: u64,
+    pub inside_deposits: u64,
+    pub inside_reused: u64,
     pub clause_len_min: Option<usize>,
     pub clause_len_max: Option<usize>,
     pub clause_len_mean: Option<f64>,
@@ -541,6 +551,7 @@ fn search_plans(
     let Some(mut search) = new_search(part, &graph, k, opts, opts.lookahead_budget, started) else {
         return Ok(stopped_early(started));
     };
+    search.judge_inside();
     let base = ThermalModel::new(part, &graph);
     let mut best: Option<Found> = None;
     let mut proven = true;
@@ -688,6 +699,17 @@ fn search_plans(
         }
         if best.as_ref().is_some_and(|b| b.fragments.len() <= f) {
             break;
+        }
+    }
+    // Prefixes cut inside the search may have ruled out every plan before a complete one
+    // came out: whether valid plans exist at all is then one solve for structure only.
+    if best.is_none() && proven && !any_valid && search.stats.inside_clauses > 0 {
+        match new_search(part, &graph, k, opts, 0, started) {
+            Some(mut structure) => {
+                any_valid = structure.next_candidate(&[]).is_some();
+                proven &= !structure.interrupted;
+            }
+            None => proven = false,
         }
     }
     let no_plan = match (&best, proven) {
@@ -849,6 +871,7 @@ fn enumerate_from(
             stats: stopped_early(started).stats,
         });
     };
+    search.judge_inside();
     let (mut feasible, mut complete) = (0u64, true);
     while let Some(candidate) = search.next_candidate(&[]) {
         let Some(verdict) = search.judge(&candidate)? else {

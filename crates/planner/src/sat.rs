@@ -10,6 +10,9 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use varisat::ExtendFormula;
+use waam_thermal::ThermalModel;
+
+use crate::thermal_prefix::{PrefixReport, ThermalPrefix};
 
 /// Which SAT solver runs the search.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
@@ -88,6 +91,12 @@ impl Lit {
     pub fn to_dimacs(self) -> i32 {
         self.0
     }
+
+    /// From DIMACS form (non-zero).
+    pub fn from_dimacs(lit: i32) -> Lit {
+        debug_assert_ne!(lit, 0);
+        Lit(lit)
+    }
 }
 
 impl std::ops::Not for Lit {
@@ -132,6 +141,21 @@ pub trait SatSolver {
     fn cycle_cuts(&self) -> u64 {
         0
     }
+    /// Simulates the plan prefix of every partial assignment inside the search and rules
+    /// out the prefixes that break a window, as they arise. True when the backend does;
+    /// false when only the complete models are judged (between solves).
+    fn judge_prefixes(&mut self, prefix: ThermalPrefix) -> bool {
+        let _ = prefix;
+        false
+    }
+    /// Judges the prefixes by `model` from now on (with [`SatSolver::judge_prefixes`]).
+    fn set_prefix_model(&mut self, model: Arc<ThermalModel>) {
+        let _ = model;
+    }
+    /// What the prefix check did since the last call.
+    fn take_prefix_report(&mut self) -> PrefixReport {
+        PrefixReport::default()
+    }
 }
 
 impl<S: SatSolver + ?Sized> SatSolver for Box<S> {
@@ -161,6 +185,15 @@ impl<S: SatSolver + ?Sized> SatSolver for Box<S> {
     }
     fn cycle_cuts(&self) -> u64 {
         (**self).cycle_cuts()
+    }
+    fn judge_prefixes(&mut self, prefix: ThermalPrefix) -> bool {
+        (**self).judge_prefixes(prefix)
+    }
+    fn set_prefix_model(&mut self, model: Arc<ThermalModel>) {
+        (**self).set_prefix_model(model)
+    }
+    fn take_prefix_report(&mut self) -> PrefixReport {
+        (**self).take_prefix_report()
     }
 }
 

@@ -1,16 +1,16 @@
 //! The thermal loop: the SAT solver proposes a plan, the thermal model judges it, and a
 //! violation teaches the solver a clause that rules out the violating prefix.
 //!
-//! Two things make it fast:
+//! What makes it fast:
+//! - with CaDiCaL, prefixes are judged inside the search ([`crate::thermal_prefix`]), so the
+//!   complete models that come out are (nearly) only the feasible plans;
 //! - candidates share prefixes, so the simulation of a new candidate resumes from the
-//!   snapshot of the longest prefix it shares with *any* earlier candidate (a cache of
-//!   prefix snapshots keyed by a 128-bit hash of the deposit sequence);
-//! - before a prefix clause is learned, it is shortened where that is *proven*: when every
-//!   possible next step after a shorter prefix also breaks a window within that step, the
-//!   shorter prefix already forces a violation, and its clause is learned instead. Every
-//!   step counted there is one the weld-graph rules allow (a successor of the last block, or
-//!   a new fragment at any block whose support is welded), so no feasible plan is cut off.
+//!   snapshot of the longest prefix it shares with *any* earlier candidate or with a prefix
+//!   judged inside the search ([`crate::prefix_cache`]);
+//! - before a prefix clause is learned, it is shortened where that is *proven*
+//!   ([`crate::shortening`]).
 
+use std::rc::Rc;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Instant;
@@ -18,10 +18,13 @@ use std::time::Instant;
 use waam_access::{Obstacle, TorchAccess};
 use waam_part::graph::WeldGraph;
 use waam_part::Part;
-use waam_thermal::{self as thermal, Phase, Simulation, Snapshot, ThermalModel, Violation};
+use waam_thermal::{self as thermal, Phase, Simulation, ThermalModel, Violation};
 
 use super::encoding::{Acyclicity, Decoded, Encoding};
+use super::prefix_cache::{prefix_keys, resume, snapshot_spacing, PrefixCache, SharedCache};
 use super::sat::{Backend, Lit, SatSolver};
+use super::shortening::shorten;
+use super::thermal_prefix::{PrefixLiterals, ThermalPrefix};
 use super::{CandidateVerdict, ExecutedCheck, Stats};
 
 /// One SAT instance with its thermal loop.
@@ -30,14 +33,14 @@ pub struct Search<'p> {
     pub graph: &'p WeldGraph,
     pub enc: Encoding,
     solver: Box<dyn SatSolver>,
-    thermal: ThermalModel,
+    thermal: Arc<ThermalModel>,
     acyclicity: Acyclicity,
     /// Simulated steps allowed for proving shorter clauses, per violation.
     lookahead_budget: usize,
     pub stats: Stats,
     /// Violations per window block (to name the one broken most often).
     pub violations: Vec<usize>,
-    cache: PrefixCache,
+    cache: SharedCache,
     /// Layers given the eager rank order (hybrid acyclicity).
     ranked_layers: Vec<i64>,
     spacing: usize,
@@ -91,15 +94,14 @@ impl<'p> Search<'p> {
             graph,
             enc,
             solver,
-            thermal: ThermalModel::new(part, graph),
+            thermal: Arc::new(ThermalModel::new(part, graph)),
             acyclicity,
             lookahead_budget,
             stats,
             violations: vec![0; n],
-            cache: PrefixCache::default(),
+            cache: SharedCache::default(),
             ranked_layers: Vec::new(),
-            // Snapshots of every prefix cost n²/2 temperatures: space them on big parts.
-            spacing: (n / 1000).max(1),
+            spacing: snapshot_spacing(n),
             interrupted: false,
             inside_cuts: 0,
             torch: None,
@@ -149,8 +151,53 @@ impl<'p> Search<'p> {
 
     /// Judges later candidates by `model` (e.g. narrowed windows while optimizing).
     pub fn set_thermal(&mut self, model: ThermalModel) {
-        self.thermal = model;
-        self.cache = PrefixCache::default();
+        self.thermal = Arc::new(model);
+        *self.cache.borrow_mut() = PrefixCache::default();
+        self.solver.set_prefix_model(Arc::clone(&self.thermal));
+    }
+
+    /// Judges plan prefixes inside the search too, where the backend can (CaDiCaL): a
+    /// prefix that breaks a window is ruled out by its clause before any complete model
+    /// holds it (see [`crate::thermal_prefix`]). Complete models are still judged here.
+    /// Call before the first solve, and only for searches that judge plans (a count of
+    /// valid plans must not).
+    pub fn judge_inside(&mut self) {
+        if !self.thermal.has_windows() {
+            return; // nothing can break
+        }
+        let n = self.part.len();
+        let k = self.enc.max_fragments();
+        let lits = PrefixLiterals {
+            blocks: n,
+            max_fragments: k,
+            edges: self.enc.edges().collect(),
+            starts: (0..n)
+                .map(|v| (0..k).map(|i| self.enc.starts_fragment(v, i)).collect())
+                .collect(),
+            ends: (0..n).map(|v| self.enc.ends_at(v)).collect(),
+        };
+        let prefix = ThermalPrefix::new(
+            &lits,
+            Arc::clone(&self.thermal),
+            Rc::clone(&self.cache),
+            Arc::new(self.graph.clone()),
+            self.lookahead_budget,
+        );
+        self.solver.judge_prefixes(prefix);
+    }
+
+    /// Counts what the prefix check did inside the last solve.
+    fn take_prefix_report(&mut self) {
+        let report = self.solver.take_prefix_report();
+        for (&len, &block) in report.clause_lens.iter().zip(&report.violated) {
+            self.stats.record_clause(len);
+            self.violations[block] += 1;
+        }
+        self.stats.inside_clauses += report.clause_lens.len() as u64;
+        self.stats.inside_deposits += report.deposits;
+        self.stats.inside_reused += report.reused + report.resumed;
+        self.stats.shortened += report.shortened;
+        self.stats.lookahead_block_steps += report.lookahead_block_steps;
     }
 
     /// The next plan the solver allows, cutting cycles until the model is one;
@@ -164,6 +211,7 @@ impl<'p> Search<'p> {
             let inside = self.solver.cycle_cuts();
             self.stats.cycle_cuts += inside - self.inside_cuts;
             self.inside_cuts = inside;
+            self.take_prefix_report();
             if sat != Some(true) {
                 self.interrupted |= sat.is_none();
                 self.stats.sat_s += dt;
@@ -317,7 +365,13 @@ impl<'p> Search<'p> {
         let whole = len == seq.len();
         let seq = &seq[..len];
         let keys = prefix_keys(seq);
-        let (sim, at) = resume(&self.thermal, &self.cache, self.spacing, seq, &keys);
+        let (sim, at) = resume(
+            &self.thermal,
+            &self.cache.borrow(),
+            self.spacing,
+            seq,
+            &keys,
+        );
         let mut sim = sim.with_deadline(self.deadline);
         if let Some(cancel) = &self.cancel {
             sim = sim.with_cancel(Arc::clone(cancel));
@@ -334,7 +388,7 @@ impl<'p> Search<'p> {
                 return Ok(Judged::Violated(v));
             }
             if (j + 1) % self.spacing == 0 {
-                self.cache.insert(keys[j], &sim);
+                self.cache.borrow_mut().insert(keys[j], &sim);
             }
         }
         if !whole {
@@ -355,44 +409,18 @@ impl<'p> Search<'p> {
     /// Learns the clause of the violating prefix, shortened where every alternative
     /// next step is proven to violate too. Returns the clause's length.
     fn learn(&mut self, seq: &[(usize, bool)], v: &Violation) -> usize {
-        let n = self.part.len();
-        // The doomed prefix: `len` blocks, its last fragment closed or still open.
-        let mut len = v.prefix_len;
-        let mut closed = v.phase != Phase::Deposit;
-        let mut budget = self.lookahead_budget as i64;
-        // An empty doomed prefix (len 0) proves that no plan is feasible: its clause is empty.
-        while budget > 0 && len > 0 {
-            if closed && len == n {
-                closed = false; // a complete plan is the same whether closed or not
-                continue;
-            }
-            // The shorter target, the step from it that is known doomed, and which kinds
-            // of step remain to be tried from it.
-            let (target_len, target_closed, skip, try_continue, try_new) = if closed {
-                (len, false, None, true, false)
-            } else {
-                let (b, new) = seq[len - 1];
-                if new {
-                    (len - 1, true, Some((b, true)), false, true)
-                } else {
-                    (len - 1, false, Some((b, false)), true, true)
-                }
-            };
-            let Some(base) = self.state_after(&seq[..target_len]) else {
-                break;
-            };
-            let (proven, cost) =
-                self.all_steps_violate(&base, &seq[..target_len], skip, try_continue, try_new);
-            budget -= cost as i64;
-            self.stats.lookahead_block_steps += cost;
-            if !proven {
-                break;
-            }
-            self.stats.shortened += 1;
-            len = target_len;
-            closed = target_closed;
-        }
-        self.learn_clause(&fragments_of(&seq[..len]), closed)
+        let r = shorten(
+            self.graph,
+            self.enc.max_fragments(),
+            seq,
+            v.prefix_len,
+            v.phase != Phase::Deposit,
+            self.lookahead_budget,
+            |len| self.state_after(&seq[..len]),
+        );
+        self.stats.lookahead_block_steps += r.cost;
+        self.stats.shortened += r.dropped;
+        self.learn_clause(&fragments_of(&seq[..r.len]), r.closed)
     }
 
     /// Learns what rules out the plans in which the torch meets `obstacle` at the last
@@ -434,75 +462,17 @@ impl<'p> Search<'p> {
     /// The simulation state after `prefix` (from the nearest cached snapshot).
     fn state_after(&self, prefix: &[(usize, bool)]) -> Option<Simulation<'_>> {
         let keys = prefix_keys(prefix);
-        let (mut sim, at) = resume(&self.thermal, &self.cache, self.spacing, prefix, &keys);
+        let (mut sim, at) = resume(
+            &self.thermal,
+            &self.cache.borrow(),
+            self.spacing,
+            prefix,
+            &keys,
+        );
         for &(b, new) in &prefix[at..] {
             sim.deposit(b, new).ok()?;
         }
         Some(sim)
-    }
-
-    /// Whether every allowed next step after `prefix` (state `base`) breaks a window within
-    /// its own steps, and the block-steps simulated to find out. `skip`: a step (block,
-    /// new fragment) already proven doomed. The steps are: moving on to a successor of the last
-    /// block (`try_continue`), or closing the fragment and starting a new one at any block
-    /// whose support is welded (`try_new`, if fragments remain). A complete prefix has one
-    /// continuation: the cooldown.
-    fn all_steps_violate(
-        &self,
-        base: &Simulation<'_>,
-        prefix: &[(usize, bool)],
-        skip: Option<(usize, bool)>,
-        try_continue: bool,
-        try_new: bool,
-    ) -> (bool, u64) {
-        let n = self.part.len();
-        let placed = |b: usize| base.is_welded(b);
-        let allowed = |b: usize, new: bool| {
-            !placed(b) && Some((b, new)) != skip && self.graph.below(b).is_none_or(placed)
-        };
-        let start = base.snapshot();
-        let mut sim = base.clone();
-        let mut cost = 0u64;
-        let mut spent = |sim: &Simulation<'_>| {
-            cost += (sim.steps() - base.steps()) * sim.welded() as u64;
-        };
-        if prefix.len() == n {
-            let r = sim.finish();
-            spent(&sim);
-            return (matches!(r, Ok(Err(_))), cost);
-        }
-        if try_continue {
-            if let Some(&(last, _)) = prefix.last() {
-                for &c in self.graph.successors(last) {
-                    if !allowed(c as usize, false) {
-                        continue;
-                    }
-                    sim.restore(&start);
-                    let r = sim.deposit(c as usize, false);
-                    spent(&sim);
-                    if r.is_ok() {
-                        return (false, cost);
-                    }
-                }
-            }
-        }
-        if try_new && base.fragments() < self.enc.max_fragments() {
-            sim.restore(&start);
-            let transit = sim.transit();
-            spent(&sim);
-            if transit.is_ok() {
-                let after = sim.snapshot();
-                for c in (0..n).filter(|&c| allowed(c, true)) {
-                    sim.restore(&after);
-                    let r = sim.deposit_after_transit(c);
-                    spent(&sim);
-                    if r.is_ok() {
-                        return (false, cost);
-                    }
-                }
-            }
-        }
-        (true, cost)
     }
 }
 
@@ -524,140 +494,4 @@ pub fn fragments_of(seq: &[(usize, bool)]) -> Vec<Vec<usize>> {
         out.last_mut().expect("just pushed").push(b);
     }
     out
-}
-
-/// A simulation at the longest cached prefix of `seq` (of a length that is a multiple of
-/// `spacing`), and that prefix's length.
-fn resume<'m>(
-    model: &'m ThermalModel,
-    cache: &PrefixCache,
-    spacing: usize,
-    seq: &[(usize, bool)],
-    keys: &[Key],
-) -> (Simulation<'m>, usize) {
-    let mut sim = Simulation::new(model);
-    for len in (1..=seq.len()).rev().filter(|len| len % spacing == 0) {
-        if let Some(snap) = cache.get(keys[len - 1], len) {
-            sim.restore_from_trail(snap, seq);
-            return (sim, len);
-        }
-    }
-    (sim, 0)
-}
-
-/// A 128-bit hash of a deposit sequence prefix (two independent 64-bit mixes).
-type Key = (u64, u64);
-
-/// The key of every prefix of `seq`: `keys[j]` is the key of `seq[..=j]`.
-fn prefix_keys(seq: &[(usize, bool)]) -> Vec<Key> {
-    let mut h = (0x9e37_79b9_7f4a_7c15u64, 0xc2b2_ae3d_27d4_eb4fu64);
-    seq.iter()
-        .map(|&(b, new)| {
-            let x = (b as u64) << 1 | new as u64;
-            h = (
-                mix(h.0 ^ x),
-                mix(h.1.wrapping_add(x.wrapping_mul(0xff51_afd7_ed55_8ccd))),
-            );
-            h
-        })
-        .collect()
-}
-
-/// splitmix64's finalizer.
-fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
-
-/// Snapshots of simulated prefixes within a byte budget ([`PrefixCache::BUDGET_BYTES`]).
-/// When a new snapshot would not fit, the least recently used half of the snapshots is
-/// dropped (a use is an insert or a resume from it): the prefixes the solver's latest
-/// candidates share stay, old branches go. A snapshot of `m` welded blocks costs about
-/// 8·m bytes (plus the t8/5 counters): about 0.5 MB at the end of a 62,614-block part, so
-/// the budget holds at least ~500 of the largest.
-#[derive(Default)]
-struct PrefixCache {
-    map: rustc_hash::FxHashMap<Key, (Snapshot, std::cell::Cell<u64>)>,
-    /// Bytes held by the snapshots in `map` (their buffers and entries).
-    bytes: usize,
-    /// Use counter: the last use of an entry is its tick.
-    tick: std::cell::Cell<u64>,
-}
-
-impl PrefixCache {
-    /// The most bytes of snapshots kept: 256 MiB.
-    const BUDGET_BYTES: usize = 256 << 20;
-
-    fn use_tick(&self) -> u64 {
-        let t = self.tick.get() + 1;
-        self.tick.set(t);
-        t
-    }
-
-    fn cost(snap: &Snapshot) -> usize {
-        snap.bytes() + std::mem::size_of::<(Key, std::cell::Cell<u64>)>()
-    }
-
-    fn get(&self, key: Key, len: usize) -> Option<&Snapshot> {
-        let (snap, used) = self.map.get(&key).filter(|(s, _)| s.welded() == len)?;
-        used.set(self.use_tick());
-        Some(snap)
-    }
-
-    fn insert(&mut self, key: Key, sim: &Simulation<'_>) {
-        if let Some((_, used)) = self.map.get(&key) {
-            used.set(self.use_tick());
-            return;
-        }
-        let snap = sim.snapshot();
-        let cost = Self::cost(&snap);
-        if cost > Self::BUDGET_BYTES {
-            return;
-        }
-        while self.bytes + cost > Self::BUDGET_BYTES {
-            self.evict_older_half();
-        }
-        self.bytes += cost;
-        let tick = self.use_tick();
-        self.map.insert(key, (snap, std::cell::Cell::new(tick)));
-    }
-
-    /// Drops the least recently used half of the snapshots.
-    fn evict_older_half(&mut self) {
-        let mut ticks: Vec<u64> = self.map.values().map(|(_, t)| t.get()).collect();
-        let half = ticks.len() / 2;
-        let (_, &mut median, _) = ticks.select_nth_unstable(half);
-        self.map.retain(|_, (_, t)| t.get() > median);
-        self.bytes = self.map.values().map(|(s, _)| Self::cost(s)).sum();
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_prefix_cache_keeps_its_byte_budget_and_the_recent_snapshots() {
-        let blocks: Vec<[i64; 3]> = (0..64).map(|x| [x, 0, 0]).collect();
-        let part = Part::from_blocks("w".into(), [6.0, 6.0, 2.5], [0.0; 3], 1, blocks).unwrap();
-        let graph = WeldGraph::new(&part);
-        let model = ThermalModel::new(&part, &graph);
-        let mut sim = Simulation::new(&model);
-        for b in 0..64 {
-            sim.deposit(b, b == 0).unwrap();
-        }
-        let mut cache = PrefixCache::default();
-        let per = PrefixCache::cost(&sim.snapshot());
-        let fits = PrefixCache::BUDGET_BYTES / per;
-        for k in 0..fits as u64 + 10 {
-            cache.insert((k, 0), &sim);
-            // Keep the first key in use: it must survive every eviction.
-            assert!(cache.get((0, 0), 64).is_some());
-            assert!(cache.bytes <= PrefixCache::BUDGET_BYTES);
-        }
-        assert!(cache.map.len() < fits + 10);
-        assert!(cache.get((fits as u64 + 9, 0), 64).is_some());
-    }
 }

@@ -536,9 +536,16 @@ impl<'m> Simulation<'m> {
     /// Rebuilds the state of a snapshot that was taken after depositing
     /// `order[..snap.welded()]` (as (block, new fragment) pairs), on any simulation of
     /// the same model: the way to resume a saved prefix in a new simulation.
+    /// Deposits this simulation shares with `order` are kept (only the rest is placed).
     pub fn restore_from_trail(&mut self, snap: &Snapshot, order: &[(usize, bool)]) {
-        self.truncate(0);
-        for &(b, new_fragment) in &order[..snap.welded] {
+        let common = self
+            .order
+            .iter()
+            .zip(&order[..snap.welded])
+            .take_while(|&(&s, &(b, _))| s as usize == b)
+            .count();
+        self.truncate(common);
+        for &(b, new_fragment) in &order[common..snap.welded] {
             self.place(b, new_fragment);
         }
         self.restore(snap);

@@ -454,7 +454,7 @@ fn bench_planner(dir: &std::path::Path, all_up_to: usize, json: bool) -> anyhow:
     paths.sort();
     if !json {
         println!(
-            "{:<16} {:>6} {:>3} {:>11} {:>6} {:>11} {:>9} {:>8} {:>8} {:>8} {:>6}",
+            "{:<16} {:>6} {:>3} {:>11} {:>6} {:>11} {:>9} {:>8} {:>8} {:>8} {:>8} {:>6}",
             "part",
             "blocks",
             "k",
@@ -463,6 +463,7 @@ fn bench_planner(dir: &std::path::Path, all_up_to: usize, json: bool) -> anyhow:
             "all (s)",
             "feasible",
             "cands",
+            "inside",
             "SAT %",
             "sim %",
             "clause"
@@ -486,13 +487,16 @@ fn bench_planner(dir: &std::path::Path, all_up_to: usize, json: bool) -> anyhow:
             );
             continue;
         }
-        let (all_s, feas, cands, sat, sim, clause) = match &all {
+        // "inside": clauses learned inside the search from a prefix that broke a window
+        // (their simulations count as SAT time, they run inside the solver).
+        let (all_s, feas, cands, inside, sat, sim, clause) = match &all {
             Some(a) => {
                 let s = &a.stats;
                 (
                     format!("{:.4}", s.total_s),
                     a.feasible.to_string(),
                     s.candidates.to_string(),
+                    s.inside_clauses.to_string(),
                     format!("{:.0}", 100.0 * s.sat_s / s.total_s.max(1e-12)),
                     format!("{:.0}", 100.0 * s.simulator_s / s.total_s.max(1e-12)),
                     s.clause_len_mean.map_or("-".into(), |m| format!("{m:.1}")),
@@ -505,10 +509,11 @@ fn bench_planner(dir: &std::path::Path, all_up_to: usize, json: bool) -> anyhow:
                 "-".into(),
                 "-".into(),
                 "-".into(),
+                "-".into(),
             ),
         };
         println!(
-            "{:<16} {:>6} {:>3} {:>11.4} {:>6} {:>11} {:>9} {:>8} {:>8} {:>8} {:>6}",
+            "{:<16} {:>6} {:>3} {:>11.4} {:>6} {:>11} {:>9} {:>8} {:>8} {:>8} {:>8} {:>6}",
             part.name,
             part.len(),
             part.max_fragments,
@@ -517,6 +522,7 @@ fn bench_planner(dir: &std::path::Path, all_up_to: usize, json: bool) -> anyhow:
             all_s,
             feas,
             cands,
+            inside,
             sat,
             sim,
             clause

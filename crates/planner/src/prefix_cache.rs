@@ -1,0 +1,163 @@
+//! Snapshots of simulated plan prefixes, so that a prefix shared by many candidates (or
+//! reached again by the solver) is simulated once.
+
+use std::cell::RefCell;
+use std::rc::Rc;
+
+use waam_thermal::{Simulation, Snapshot, ThermalModel};
+
+/// One cache shared by the thermal loop and the prefix check inside the search: a plan
+/// the solver hands out was simulated inside it already, up to its cooldown.
+pub type SharedCache = Rc<RefCell<PrefixCache>>;
+
+/// Which prefix lengths are snapshotted (multiples of it): snapshots of every prefix cost
+/// n²/2 temperatures, so they are spaced on big parts.
+pub fn snapshot_spacing(blocks: usize) -> usize {
+    (blocks / 1000).max(1)
+}
+
+/// A simulation at the longest cached prefix of `seq` (of a length that is a multiple of
+/// `spacing`), and that prefix's length.
+pub fn resume<'m>(
+    model: &'m ThermalModel,
+    cache: &PrefixCache,
+    spacing: usize,
+    seq: &[(usize, bool)],
+    keys: &[Key],
+) -> (Simulation<'m>, usize) {
+    let mut sim = Simulation::new(model);
+    for len in (1..=seq.len()).rev().filter(|len| len % spacing == 0) {
+        if let Some(snap) = cache.get(keys[len - 1], len) {
+            sim.restore_from_trail(snap, seq);
+            return (sim, len);
+        }
+    }
+    (sim, 0)
+}
+
+/// A 128-bit hash of a deposit sequence prefix (two independent 64-bit mixes).
+pub type Key = (u64, u64);
+
+/// The key of every prefix of `seq`: `keys[j]` is the key of `seq[..=j]`.
+pub fn prefix_keys(seq: &[(usize, bool)]) -> Vec<Key> {
+    let mut h = EMPTY_KEY;
+    seq.iter()
+        .map(|&(b, new)| {
+            h = extend_key(h, b, new);
+            h
+        })
+        .collect()
+}
+
+/// The key of the empty prefix.
+pub const EMPTY_KEY: Key = (0x9e37_79b9_7f4a_7c15, 0xc2b2_ae3d_27d4_eb4f);
+
+/// The key of a prefix (key `h`) followed by depositing `b` (a new fragment if `new`).
+pub fn extend_key(h: Key, b: usize, new: bool) -> Key {
+    let x = (b as u64) << 1 | new as u64;
+    (
+        mix(h.0 ^ x),
+        mix(h.1.wrapping_add(x.wrapping_mul(0xff51_afd7_ed55_8ccd))),
+    )
+}
+
+/// splitmix64's finalizer.
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// Snapshots of simulated prefixes within a byte budget ([`PrefixCache::BUDGET_BYTES`]).
+/// When a new snapshot would not fit, the least recently used half of the snapshots is
+/// dropped (a use is an insert or a resume from it): the prefixes the solver's latest
+/// candidates share stay, old branches go. A snapshot of `m` welded blocks costs about
+/// 8·m bytes (plus the t8/5 counters): about 0.5 MB at the end of a 62,614-block part, so
+/// the budget holds at least ~500 of the largest.
+#[derive(Default)]
+pub struct PrefixCache {
+    map: rustc_hash::FxHashMap<Key, (Snapshot, std::cell::Cell<u64>)>,
+    /// Bytes held by the snapshots in `map` (their buffers and entries).
+    bytes: usize,
+    /// Use counter: the last use of an entry is its tick.
+    tick: std::cell::Cell<u64>,
+}
+
+impl PrefixCache {
+    /// The most bytes of snapshots kept: 256 MiB.
+    const BUDGET_BYTES: usize = 256 << 20;
+
+    fn use_tick(&self) -> u64 {
+        let t = self.tick.get() + 1;
+        self.tick.set(t);
+        t
+    }
+
+    fn cost(snap: &Snapshot) -> usize {
+        snap.bytes() + std::mem::size_of::<(Key, std::cell::Cell<u64>)>()
+    }
+
+    pub fn get(&self, key: Key, len: usize) -> Option<&Snapshot> {
+        let (snap, used) = self.map.get(&key).filter(|(s, _)| s.welded() == len)?;
+        used.set(self.use_tick());
+        Some(snap)
+    }
+
+    pub fn insert(&mut self, key: Key, sim: &Simulation<'_>) {
+        if let Some((_, used)) = self.map.get(&key) {
+            used.set(self.use_tick());
+            return;
+        }
+        let snap = sim.snapshot();
+        let cost = Self::cost(&snap);
+        if cost > Self::BUDGET_BYTES {
+            return;
+        }
+        while self.bytes + cost > Self::BUDGET_BYTES {
+            self.evict_older_half();
+        }
+        self.bytes += cost;
+        let tick = self.use_tick();
+        self.map.insert(key, (snap, std::cell::Cell::new(tick)));
+    }
+
+    /// Drops the least recently used half of the snapshots.
+    fn evict_older_half(&mut self) {
+        let mut ticks: Vec<u64> = self.map.values().map(|(_, t)| t.get()).collect();
+        let half = ticks.len() / 2;
+        let (_, &mut median, _) = ticks.select_nth_unstable(half);
+        self.map.retain(|_, (_, t)| t.get() > median);
+        self.bytes = self.map.values().map(|(s, _)| Self::cost(s)).sum();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use waam_part::graph::WeldGraph;
+    use waam_part::Part;
+
+    #[test]
+    fn the_prefix_cache_keeps_its_byte_budget_and_the_recent_snapshots() {
+        let blocks: Vec<[i64; 3]> = (0..64).map(|x| [x, 0, 0]).collect();
+        let part = Part::from_blocks("w".into(), [6.0, 6.0, 2.5], [0.0; 3], 1, blocks).unwrap();
+        let graph = WeldGraph::new(&part);
+        let model = ThermalModel::new(&part, &graph);
+        let mut sim = Simulation::new(&model);
+        for b in 0..64 {
+            sim.deposit(b, b == 0).unwrap();
+        }
+        let mut cache = PrefixCache::default();
+        let per = PrefixCache::cost(&sim.snapshot());
+        let fits = PrefixCache::BUDGET_BYTES / per;
+        for k in 0..fits as u64 + 10 {
+            cache.insert((k, 0), &sim);
+            // Keep the first key in use: it must survive every eviction.
+            assert!(cache.get((0, 0), 64).is_some());
+            assert!(cache.bytes <= PrefixCache::BUDGET_BYTES);
+        }
+        assert!(cache.map.len() < fits + 10);
+        assert!(cache.get((fits as u64 + 9, 0), 64).is_some());
+    }
+}
