@@ -10,6 +10,8 @@
 //! can hide only boxes whose grid coordinates are all smaller or equal; drawing in order of
 //! x + y + z therefore never paints a hidden face over a visible one.
 
+use std::fs::File;
+use std::io::BufWriter;
 use std::path::Path;
 
 use plotters::coord::Shift;
@@ -226,79 +228,79 @@ pub fn path_colour(f: usize, k: usize, len: usize) -> RGBColor {
 pub fn plan_png(part: &Part, fragments: &[Vec<usize>], path: &Path) -> Result<(), PlotError> {
     font();
     let err = draw_err(path);
-    let root = BitMapBackend::new(path, PLAN_SIZE).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-    let title = format!(
-        "{}: {} blocks in {} weld path(s) — colour = path, light → dark = weld order",
-        part.name,
-        part.len(),
-        fragments.len()
-    );
-    root.draw(&Text::new(title, (20, 12), (FONT, 20)))
-        .map_err(|e| err(e.to_string()))?;
-    let legend_w = 250;
-    let view = View::fit(
-        part,
-        (10, 50),
-        (PLAN_SIZE.0 - legend_w - 20, PLAN_SIZE.1 - 60),
-    );
-    let mut colours = vec![None; part.len()];
-    for (f, fragment) in fragments.iter().enumerate() {
-        for (k, &b) in fragment.iter().enumerate() {
-            colours[b] = Some(path_colour(f, k, fragment.len()));
-        }
-    }
-    let tops = draw_blocks(&root, part, &view, &colours).map_err(|r| err(r.0))?;
-    // Arc starts: a numbered disc on the first block of every path.
-    for (f, fragment) in fragments.iter().enumerate() {
-        let Some(Some(c)) = fragment.first().map(|&b| tops[b]) else {
-            continue;
-        };
-        root.draw(&Circle::new(c, 11, WHITE.filled()))
-            .and_then(|_| root.draw(&Circle::new(c, 11, BLACK.stroke_width(2))))
-            .and_then(|_| {
-                root.draw(&Text::new(
-                    format!("{}", f + 1),
-                    (c.0 - 5, c.1 - 9),
-                    (FONT, 16).into_font().color(&BLACK),
-                ))
-            })
+    crate::png(path, PLAN_SIZE, &err, |root| {
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let title = format!(
+            "{}: {} blocks in {} weld path(s) — colour = path, light → dark = weld order",
+            part.name,
+            part.len(),
+            fragments.len()
+        );
+        root.draw(&Text::new(title, (20, 12), (FONT, 20)))
             .map_err(|e| err(e.to_string()))?;
-    }
-    // Legend: one gradient bar per path.
-    let x = (PLAN_SIZE.0 - legend_w) as i32;
-    let mut y = 70;
-    for (f, fragment) in fragments.iter().enumerate() {
-        let start = fragment
-            .first()
-            .map(|&b| BlockDisplay(part.block(b)).to_string());
-        root.draw(&Text::new(
-            format!("path {}: {} blocks", f + 1, fragment.len()),
-            (x, y),
-            (FONT, 16),
-        ))
-        .map_err(|e| err(e.to_string()))?;
-        for k in 0..160 {
-            let c = path_colour(f, k as usize, 160);
-            root.draw(&Rectangle::new(
-                [(x + k, y + 22), (x + k + 1, y + 36)],
-                c.filled(),
+        let legend_w = 250;
+        let view = View::fit(
+            part,
+            (10, 50),
+            (PLAN_SIZE.0 - legend_w - 20, PLAN_SIZE.1 - 60),
+        );
+        let mut colours = vec![None; part.len()];
+        for (f, fragment) in fragments.iter().enumerate() {
+            for (k, &b) in fragment.iter().enumerate() {
+                colours[b] = Some(path_colour(f, k, fragment.len()));
+            }
+        }
+        let tops = draw_blocks(root, part, &view, &colours).map_err(|r| err(r.0))?;
+        // Arc starts: a numbered disc on the first block of every path.
+        for (f, fragment) in fragments.iter().enumerate() {
+            let Some(Some(c)) = fragment.first().map(|&b| tops[b]) else {
+                continue;
+            };
+            root.draw(&Circle::new(c, 11, WHITE.filled()))
+                .and_then(|_| root.draw(&Circle::new(c, 11, BLACK.stroke_width(2))))
+                .and_then(|_| {
+                    root.draw(&Text::new(
+                        format!("{}", f + 1),
+                        (c.0 - 5, c.1 - 9),
+                        (FONT, 16).into_font().color(&BLACK),
+                    ))
+                })
+                .map_err(|e| err(e.to_string()))?;
+        }
+        // Legend: one gradient bar per path.
+        let x = (PLAN_SIZE.0 - legend_w) as i32;
+        let mut y = 70;
+        for (f, fragment) in fragments.iter().enumerate() {
+            let start = fragment
+                .first()
+                .map(|&b| BlockDisplay(part.block(b)).to_string());
+            root.draw(&Text::new(
+                format!("path {}: {} blocks", f + 1, fragment.len()),
+                (x, y),
+                (FONT, 16),
             ))
             .map_err(|e| err(e.to_string()))?;
+            for k in 0..160 {
+                let c = path_colour(f, k as usize, 160);
+                root.draw(&Rectangle::new(
+                    [(x + k, y + 22), (x + k + 1, y + 36)],
+                    c.filled(),
+                ))
+                .map_err(|e| err(e.to_string()))?;
+            }
+            root.draw(&Text::new(
+                format!("arc start {} at {}", f + 1, start.unwrap_or_default()),
+                (x, y + 40),
+                (FONT, 13),
+            ))
+            .map_err(|e| err(e.to_string()))?;
+            y += 72;
         }
-        root.draw(&Text::new(
-            format!("arc start {} at {}", f + 1, start.unwrap_or_default()),
-            (x, y + 40),
-            (FONT, 13),
-        ))
-        .map_err(|e| err(e.to_string()))?;
-        y += 72;
-    }
-    root.draw(&Text::new("first → last block", (x, y), (FONT, 13)))
-        .map_err(|e| err(e.to_string()))?;
-    draw_axes(&root, part.block_mm, (x + 40, PLAN_SIZE.1 as i32 - 60)).map_err(|r| err(r.0))?;
-    root.present().map_err(|e| err(e.to_string()))?;
-    Ok(())
+        root.draw(&Text::new("first → last block", (x, y), (FONT, 13)))
+            .map_err(|e| err(e.to_string()))?;
+        draw_axes(root, part.block_mm, (x + 40, PLAN_SIZE.1 as i32 - 60)).map_err(|r| err(r.0))?;
+        Ok(())
+    })
 }
 
 /// The temperatures of one moment of the build.
@@ -592,41 +594,41 @@ fn draw_side<DB: DrawingBackend>(
 pub fn heat_png(part: &Part, build: &HeatBuild, path: &Path) -> Result<(), PlotError> {
     font();
     let err = draw_err(path);
-    let root = BitMapBackend::new(path, HEAT_SIZE).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-    root.draw(&Text::new(
-        format!(
-            "{}: temperatures during the build (thermal model)",
-            part.name
-        ),
-        (20, 10),
-        (FONT, 22),
-    ))
-    .map_err(|e| err(e.to_string()))?;
-    let (main, side) = root.split_horizontally(HEAT_SIZE.0 - SIDE_W);
-    let main = main.margin(40, 0, 0, 0);
-    let side = side.margin(40, 0, 0, 0);
-    let n = build.frames.len();
-    let pick: Vec<&Frame> = if n == 0 {
-        Vec::new()
-    } else {
-        let mut idx: Vec<usize> = [n / 4, n / 2, 3 * n / 4]
-            .iter()
-            .map(|&k| k.saturating_sub(1).min(n - 1))
-            .collect();
-        idx.push(n - 1);
-        idx.dedup();
-        idx.iter().map(|&k| &build.frames[k]).collect()
-    };
-    let (w, h) = main.dim_in_pixel();
-    let panels = main.split_evenly((2, 2));
-    for (panel, frame) in panels.iter().zip(pick) {
-        draw_frame(panel, part, build, frame, (w / 2, h / 2), 16).map_err(|r| err(r.0))?;
-    }
-    let end = build.frames.last().map_or(0.0, |f| f.time_s);
-    draw_side(&side, build, part, end).map_err(|r| err(r.0))?;
-    root.present().map_err(|e| err(e.to_string()))?;
-    Ok(())
+    crate::png(path, HEAT_SIZE, &err, |root| {
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        root.draw(&Text::new(
+            format!(
+                "{}: temperatures during the build (thermal model)",
+                part.name
+            ),
+            (20, 10),
+            (FONT, 22),
+        ))
+        .map_err(|e| err(e.to_string()))?;
+        let (main, side) = root.split_horizontally(HEAT_SIZE.0 - SIDE_W);
+        let main = main.margin(40, 0, 0, 0);
+        let side = side.margin(40, 0, 0, 0);
+        let n = build.frames.len();
+        let pick: Vec<&Frame> = if n == 0 {
+            Vec::new()
+        } else {
+            let mut idx: Vec<usize> = [n / 4, n / 2, 3 * n / 4]
+                .iter()
+                .map(|&k| k.saturating_sub(1).min(n - 1))
+                .collect();
+            idx.push(n - 1);
+            idx.dedup();
+            idx.iter().map(|&k| &build.frames[k]).collect()
+        };
+        let (w, h) = main.dim_in_pixel();
+        let panels = main.split_evenly((2, 2));
+        for (panel, frame) in panels.iter().zip(pick) {
+            draw_frame(panel, part, build, frame, (w / 2, h / 2), 16).map_err(|r| err(r.0))?;
+        }
+        let end = build.frames.last().map_or(0.0, |f| f.time_s);
+        draw_side(&side, build, part, end).map_err(|r| err(r.0))?;
+        Ok(())
+    })
 }
 
 /// Draws `heat.gif`: one frame per entry of `build.frames` (`delay_ms` apart; the last
@@ -640,19 +642,30 @@ pub fn heat_gif(
 ) -> Result<(), PlotError> {
     font();
     let err = draw_err(path);
-    let root = BitMapBackend::gif(path, GIF_SIZE, delay_ms)
-        .map_err(|e| err(e.to_string()))?
-        .into_drawing_area();
+    let file = File::create(path).map_err(|e| err(e.to_string()))?;
+    let (w, h) = (GIF_SIZE.0 as u16, GIF_SIZE.1 as u16);
+    let mut gif =
+        gif::Encoder::new(BufWriter::new(file), w, h, &[]).map_err(|e| err(e.to_string()))?;
+    gif.set_repeat(gif::Repeat::Infinite)
+        .map_err(|e| err(e.to_string()))?;
+    let mut rgb = vec![0; 3 * GIF_SIZE.0 as usize * GIF_SIZE.1 as usize];
     let n = build.frames.len();
     for (k, frame) in build.frames.iter().enumerate() {
-        let repeats = if k + 1 == n { 3 } else { 1 };
-        for _ in 0..repeats {
+        {
+            let root = BitMapBackend::with_buffer(&mut rgb, GIF_SIZE).into_drawing_area();
             root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
             let (main, side) = root.split_horizontally(GIF_SIZE.0 - SIDE_W);
             let (w, h) = main.dim_in_pixel();
             draw_frame(&main, part, build, frame, (w, h), 20).map_err(|r| err(r.0))?;
             draw_side(&side, build, part, frame.time_s).map_err(|r| err(r.0))?;
             root.present().map_err(|e| err(e.to_string()))?;
+        }
+        // Quantized to 256 colours as plotters' GIF backend did (speed 10 of 1..=30).
+        let mut image = gif::Frame::from_rgb_speed(w, h, &rgb, 10);
+        image.delay = ((delay_ms + 5) / 10) as u16; // GIF counts in 1/100 s
+        let repeats = if k + 1 == n { 3 } else { 1 };
+        for _ in 0..repeats {
+            gif.write_frame(&image).map_err(|e| err(e.to_string()))?;
         }
     }
     Ok(())

@@ -62,111 +62,111 @@ pub fn plot_trail(
         hi = [hi[0].max(p[0]), hi[1].max(p[1])];
     }
     let pad = 0.05 * (hi[0] - lo[0]).max(hi[1] - lo[1]) + 1.0;
-    let root = BitMapBackend::new(path, size).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            format!(
-                "{}: weld trail, {} deadheading move{}",
-                model.layer.name,
-                model.deadheads,
-                if model.deadheads == 1 { "" } else { "s" }
-            ),
-            ("sans-serif", 20),
-        )
-        .margin(10)
-        .x_label_area_size(30)
-        .y_label_area_size(40)
-        .build_cartesian_2d(lo[0] - pad..hi[0] + pad, lo[1] - pad..hi[1] + pad)
-        .map_err(|e| err(e.to_string()))?;
-    chart
-        .configure_mesh()
-        .x_desc("x (mm)")
-        .y_desc("y (mm)")
-        .disable_mesh()
-        .draw()
-        .map_err(|e| err(e.to_string()))?;
-    // The walls: the mesh's triangles, lightly.
-    chart
-        .draw_series(model.mesh.triangles.iter().map(|t| {
-            Polygon::new(
-                t.iter()
-                    .map(|&i| (pts[i][0], pts[i][1]))
-                    .collect::<Vec<_>>(),
-                RGBColor(225, 225, 225).filled(),
+    crate::png(path, size, &err, |root| {
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let mut chart = ChartBuilder::on(root)
+            .caption(
+                format!(
+                    "{}: weld trail, {} deadheading move{}",
+                    model.layer.name,
+                    model.deadheads,
+                    if model.deadheads == 1 { "" } else { "s" }
+                ),
+                ("sans-serif", 20),
             )
-        }))
-        .map_err(|e| err(e.to_string()))?;
-    let mut at: Option<[f64; 2]> = None;
-    for (k, m) in trail.moves.iter().enumerate() {
-        let (a, b) = model.ends(m);
-        let (pa, pb) = (model.layer.point(a), model.layer.point(b));
-        if let (true, Some(prev)) = (m.deadhead_before, at) {
-            // Dashed deadheading move.
-            let dashes = 12;
-            let seg: Vec<PathElement<(f64, f64)>> = (0..dashes)
-                .step_by(2)
-                .map(|i| {
-                    let t0 = i as f64 / dashes as f64;
-                    let t1 = (i + 1) as f64 / dashes as f64;
-                    let lerp = |t: f64| {
-                        (
-                            prev[0] + t * (pa[0] - prev[0]),
-                            prev[1] + t * (pa[1] - prev[1]),
-                        )
-                    };
-                    PathElement::new(vec![lerp(t0), lerp(t1)], RED.stroke_width(2))
-                })
-                .collect();
-            chart.draw_series(seg).map_err(|e| err(e.to_string()))?;
-        }
-        chart
-            .draw_series(std::iter::once(PathElement::new(
-                vec![(pa[0], pa[1]), (pb[0], pb[1])],
-                BLUE.stroke_width(3),
-            )))
-            .map_err(|e| err(e.to_string()))?;
-        // Arrow head near the end, and the weld-order number at the middle.
-        let (dx, dy) = (pb[0] - pa[0], pb[1] - pa[1]);
-        let len = (dx * dx + dy * dy).sqrt().max(1e-9);
-        let (ux, uy) = (dx / len, dy / len);
-        let tip = (pa[0] + 0.7 * dx, pa[1] + 0.7 * dy);
-        let w = 0.6;
-        chart
-            .draw_series(std::iter::once(Polygon::new(
-                vec![
-                    (tip.0 + w * ux, tip.1 + w * uy),
-                    (tip.0 - w * ux - w * uy, tip.1 - w * uy + w * ux),
-                    (tip.0 - w * ux + w * uy, tip.1 - w * uy - w * ux),
-                ],
-                BLUE.filled(),
-            )))
+            .margin(10)
+            .x_label_area_size(30)
+            .y_label_area_size(40)
+            .build_cartesian_2d(lo[0] - pad..hi[0] + pad, lo[1] - pad..hi[1] + pad)
             .map_err(|e| err(e.to_string()))?;
         chart
-            .draw_series(std::iter::once(Text::new(
-                format!("{}", k + 1),
-                (pa[0] + 0.4 * dx - 0.8 * uy, pa[1] + 0.4 * dy + 0.8 * ux),
-                ("sans-serif", 16).into_font().color(&BLACK),
-            )))
+            .configure_mesh()
+            .x_desc("x (mm)")
+            .y_desc("y (mm)")
+            .disable_mesh()
+            .draw()
             .map_err(|e| err(e.to_string()))?;
-        if k == 0 {
+        // The walls: the mesh's triangles, lightly.
+        chart
+            .draw_series(model.mesh.triangles.iter().map(|t| {
+                Polygon::new(
+                    t.iter()
+                        .map(|&i| (pts[i][0], pts[i][1]))
+                        .collect::<Vec<_>>(),
+                    RGBColor(225, 225, 225).filled(),
+                )
+            }))
+            .map_err(|e| err(e.to_string()))?;
+        let mut at: Option<[f64; 2]> = None;
+        for (k, m) in trail.moves.iter().enumerate() {
+            let (a, b) = model.ends(m);
+            let (pa, pb) = (model.layer.point(a), model.layer.point(b));
+            if let (true, Some(prev)) = (m.deadhead_before, at) {
+                // Dashed deadheading move.
+                let dashes = 12;
+                let seg: Vec<PathElement<(f64, f64)>> = (0..dashes)
+                    .step_by(2)
+                    .map(|i| {
+                        let t0 = i as f64 / dashes as f64;
+                        let t1 = (i + 1) as f64 / dashes as f64;
+                        let lerp = |t: f64| {
+                            (
+                                prev[0] + t * (pa[0] - prev[0]),
+                                prev[1] + t * (pa[1] - prev[1]),
+                            )
+                        };
+                        PathElement::new(vec![lerp(t0), lerp(t1)], RED.stroke_width(2))
+                    })
+                    .collect();
+                chart.draw_series(seg).map_err(|e| err(e.to_string()))?;
+            }
             chart
-                .draw_series([
-                    EmptyElement::at((pa[0], pa[1])) + Circle::new((0, 0), 7, GREEN.filled())
-                ])
+                .draw_series(std::iter::once(PathElement::new(
+                    vec![(pa[0], pa[1]), (pb[0], pb[1])],
+                    BLUE.stroke_width(3),
+                )))
+                .map_err(|e| err(e.to_string()))?;
+            // Arrow head near the end, and the weld-order number at the middle.
+            let (dx, dy) = (pb[0] - pa[0], pb[1] - pa[1]);
+            let len = (dx * dx + dy * dy).sqrt().max(1e-9);
+            let (ux, uy) = (dx / len, dy / len);
+            let tip = (pa[0] + 0.7 * dx, pa[1] + 0.7 * dy);
+            let w = 0.6;
+            chart
+                .draw_series(std::iter::once(Polygon::new(
+                    vec![
+                        (tip.0 + w * ux, tip.1 + w * uy),
+                        (tip.0 - w * ux - w * uy, tip.1 - w * uy + w * ux),
+                        (tip.0 - w * ux + w * uy, tip.1 - w * uy - w * ux),
+                    ],
+                    BLUE.filled(),
+                )))
                 .map_err(|e| err(e.to_string()))?;
             chart
                 .draw_series(std::iter::once(Text::new(
-                    "start".to_string(),
-                    (pa[0] + 0.5, pa[1] - 0.5),
-                    ("sans-serif", 16).into_font().color(&GREEN),
+                    format!("{}", k + 1),
+                    (pa[0] + 0.4 * dx - 0.8 * uy, pa[1] + 0.4 * dy + 0.8 * ux),
+                    ("sans-serif", 16).into_font().color(&BLACK),
                 )))
                 .map_err(|e| err(e.to_string()))?;
+            if k == 0 {
+                chart
+                    .draw_series([
+                        EmptyElement::at((pa[0], pa[1])) + Circle::new((0, 0), 7, GREEN.filled())
+                    ])
+                    .map_err(|e| err(e.to_string()))?;
+                chart
+                    .draw_series(std::iter::once(Text::new(
+                        "start".to_string(),
+                        (pa[0] + 0.5, pa[1] - 0.5),
+                        ("sans-serif", 16).into_font().color(&GREEN),
+                    )))
+                    .map_err(|e| err(e.to_string()))?;
+            }
+            at = Some(pb);
         }
-        at = Some(pb);
-    }
-    root.present().map_err(|e| err(e.to_string()))?;
-    Ok(())
+        Ok(())
+    })
 }
 
 /// Draws the temperature of mesh node `node` over the trail's time steps, with the target.
@@ -204,44 +204,44 @@ pub fn plot_temperature(
         .fold(target.min(ambient), f64::min)
         - 10.0;
     let end = series.last().map_or(1.0, |p| p.0);
-    let root = BitMapBackend::new(path, size).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-    let p = model.mesh.points[node];
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            format!(
-                "{}: temperature at mesh node {node} ({:.1}, {:.1}) mm",
-                model.layer.name, p[0], p[1]
-            ),
-            ("sans-serif", 20),
-        )
-        .margin(10)
-        .x_label_area_size(35)
-        .y_label_area_size(55)
-        .build_cartesian_2d(0.0..end, tmin..tmax)
-        .map_err(|e| err(e.to_string()))?;
-    chart
-        .configure_mesh()
-        .x_desc("time (s)")
-        .y_desc("temperature (°C)")
-        .draw()
-        .map_err(|e| err(e.to_string()))?;
-    chart
-        .draw_series(LineSeries::new(series, BLUE.stroke_width(2)))
-        .map_err(|e| err(e.to_string()))?
-        .label("node temperature")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE));
-    chart
-        .draw_series(LineSeries::new(vec![(0.0, target), (end, target)], RED))
-        .map_err(|e| err(e.to_string()))?
-        .label("target")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| err(e.to_string()))?;
-    root.present().map_err(|e| err(e.to_string()))?;
-    Ok(())
+    crate::png(path, size, &err, |root| {
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let p = model.mesh.points[node];
+        let mut chart = ChartBuilder::on(root)
+            .caption(
+                format!(
+                    "{}: temperature at mesh node {node} ({:.1}, {:.1}) mm",
+                    model.layer.name, p[0], p[1]
+                ),
+                ("sans-serif", 20),
+            )
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(55)
+            .build_cartesian_2d(0.0..end, tmin..tmax)
+            .map_err(|e| err(e.to_string()))?;
+        chart
+            .configure_mesh()
+            .x_desc("time (s)")
+            .y_desc("temperature (°C)")
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+        chart
+            .draw_series(LineSeries::new(series, BLUE.stroke_width(2)))
+            .map_err(|e| err(e.to_string()))?
+            .label("node temperature")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE));
+        chart
+            .draw_series(LineSeries::new(vec![(0.0, target), (end, target)], RED))
+            .map_err(|e| err(e.to_string()))?
+            .label("target")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+        Ok(())
+    })
 }

@@ -7,9 +7,12 @@
 pub mod blocks;
 pub mod layer;
 
+use std::fs::File;
+use std::io::BufWriter;
 use std::path::Path;
 use std::sync::Once;
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use thiserror::Error;
 
@@ -92,6 +95,34 @@ fn draw_err(path: &Path) -> impl Fn(String) -> PlotError + '_ {
     }
 }
 
+/// Draws a `size` picture with `draw` into memory and writes it to `path` as PNG. The `png`
+/// crate encodes it: plotters' own file output would build the whole `image` crate (JPEG and
+/// BMP codecs too) for this one format, a needless part of the first build.
+fn png<E>(
+    path: &Path,
+    size: (u32, u32),
+    err: impl Fn(String) -> E,
+    draw: impl FnOnce(&DrawingArea<BitMapBackend<'_>, Shift>) -> Result<(), E>,
+) -> Result<(), E> {
+    let mut rgb = vec![0; 3 * size.0 as usize * size.1 as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
+        draw(&root)?;
+        root.present().map_err(|e| err(e.to_string()))?;
+    }
+    let file = File::create(path).map_err(|e| err(e.to_string()))?;
+    let mut encoder = ::png::Encoder::new(BufWriter::new(file), size.0, size.1);
+    encoder.set_color(::png::ColorType::Rgb);
+    encoder.set_depth(::png::BitDepth::Eight);
+    // As plotters (through `image`) wrote them: the smaller files for plots with flat areas.
+    encoder.set_adaptive_filter(::png::AdaptiveFilterType::Adaptive);
+    let mut writer = encoder.write_header().map_err(|e| err(e.to_string()))?;
+    writer
+        .write_image_data(&rgb)
+        .map_err(|e| err(e.to_string()))?;
+    writer.finish().map_err(|e| err(e.to_string()))
+}
+
 /// A range around `values` with a margin, at least `min_span` wide.
 fn range(values: impl Iterator<Item = f64>, min_span: f64) -> (f64, f64) {
     let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
@@ -130,103 +161,105 @@ pub fn toolpath_png(tp: &ToolpathFile, path: &Path) -> Result<(), PlotError> {
         .iter()
         .map(|p| p.position.map(|v| v * 1000.0))
         .collect();
-    let root = BitMapBackend::new(path, TOOLPATH_SIZE).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-    let (left, right) = root.split_horizontally(TOOLPATH_SIZE.0 / 2);
-    // Equal scales on both axes of each panel.
-    let span = |a: usize, b: usize| {
-        let (x0, x1) = range(mm.iter().map(|p| p[a]), 1.0);
-        let (y0, y1) = range(mm.iter().map(|p| p[b]), 1.0);
-        let s = (x1 - x0).max(y1 - y0);
-        let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
-        (
-            (cx - s / 2.0)..(cx + s / 2.0),
-            (cy - s / 2.0)..(cy + s / 2.0),
-        )
-    };
-    for (area, (a, b), title, ylabel) in [
-        (&left, (0, 1), "Toolpath, top view", "y (mm)"),
-        (&right, (0, 2), "Toolpath, side view", "z (mm)"),
-    ] {
-        let (xr, yr) = span(a, b);
-        check_axis(path, "x (mm)", xr.start, xr.end, String::new())?;
-        check_axis(path, "y/z (mm)", yr.start, yr.end, String::new())?;
-        let mut chart = ChartBuilder::on(area)
-            .caption(format!("{title} ({})", tp.frame), (FONT, 24))
-            .margin(15)
-            .x_label_area_size(45)
-            .y_label_area_size(70)
-            .build_cartesian_2d(xr, yr)
-            .map_err(|e| err(e.to_string()))?;
-        chart
-            .configure_mesh()
-            .x_desc("x (mm)")
-            .y_desc(ylabel)
-            .label_style((FONT, 15))
-            .draw()
-            .map_err(|e| err(e.to_string()))?;
-        let xy = |k: usize| (mm[k][a], mm[k][b]);
-        // Polylines of equal arc state (a move's state is its first pose's).
-        let mut start = 0;
-        let (mut weld_label, mut transit_label) = (false, false);
-        for k in 1..=tp.poses.len() {
-            let end_run = k == tp.poses.len() || tp.poses[k].arc_on != tp.poses[start].arc_on;
-            if !end_run {
-                continue;
-            }
-            let last = k.min(tp.poses.len() - 1);
-            let on = tp.poses[start].arc_on;
-            let style = if on {
-                RED.stroke_width(3)
-            } else {
-                BLUE.mix(0.6).stroke_width(1)
-            };
-            let series = chart
-                .draw_series(LineSeries::new((start..=last).map(xy), style))
-                .map_err(|e| err(e.to_string()))?;
-            if on && !weld_label {
-                weld_label = true;
-                series.label("weld (arc on)").legend(|(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(3))
-                });
-            } else if !on && !transit_label {
-                transit_label = true;
-                series
-                    .label("approach / retract / transit")
-                    .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE.mix(0.6)));
-            }
-            start = last;
-        }
-        let ons: Vec<usize> = (0..tp.poses.len())
-            .filter(|&k| tp.poses[k].arc_on && (k == 0 || !tp.poses[k - 1].arc_on))
-            .collect();
-        let offs: Vec<usize> = (1..tp.poses.len())
-            .filter(|&k| !tp.poses[k].arc_on && tp.poses[k - 1].arc_on)
-            .collect();
-        chart
-            .draw_series(ons.iter().map(|&k| Circle::new(xy(k), 6, GREEN.filled())))
-            .map_err(|e| err(e.to_string()))?
-            .label("arc on")
-            .legend(|(x, y)| Circle::new((x + 10, y), 6, GREEN.filled()));
-        chart
-            .draw_series(
-                offs.iter()
-                    .map(|&k| Cross::new(xy(k), 7, BLACK.stroke_width(2))),
+    crate::png(path, TOOLPATH_SIZE, &err, |root| {
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let (left, right) = root.split_horizontally(TOOLPATH_SIZE.0 / 2);
+        // Equal scales on both axes of each panel.
+        let span = |a: usize, b: usize| {
+            let (x0, x1) = range(mm.iter().map(|p| p[a]), 1.0);
+            let (y0, y1) = range(mm.iter().map(|p| p[b]), 1.0);
+            let s = (x1 - x0).max(y1 - y0);
+            let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+            (
+                (cx - s / 2.0)..(cx + s / 2.0),
+                (cy - s / 2.0)..(cy + s / 2.0),
             )
-            .map_err(|e| err(e.to_string()))?
-            .label("arc off")
-            .legend(|(x, y)| Cross::new((x + 10, y), 7, BLACK.stroke_width(2)));
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font((FONT, 15))
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(|e| err(e.to_string()))?;
-    }
-    root.present().map_err(|e| err(e.to_string()))?;
-    Ok(())
+        };
+        for (area, (a, b), title, ylabel) in [
+            (&left, (0, 1), "Toolpath, top view", "y (mm)"),
+            (&right, (0, 2), "Toolpath, side view", "z (mm)"),
+        ] {
+            let (xr, yr) = span(a, b);
+            check_axis(path, "x (mm)", xr.start, xr.end, String::new())?;
+            check_axis(path, "y/z (mm)", yr.start, yr.end, String::new())?;
+            let mut chart = ChartBuilder::on(area)
+                .caption(format!("{title} ({})", tp.frame), (FONT, 24))
+                .margin(15)
+                .x_label_area_size(45)
+                .y_label_area_size(70)
+                .build_cartesian_2d(xr, yr)
+                .map_err(|e| err(e.to_string()))?;
+            chart
+                .configure_mesh()
+                .x_desc("x (mm)")
+                .y_desc(ylabel)
+                .label_style((FONT, 15))
+                .draw()
+                .map_err(|e| err(e.to_string()))?;
+            let xy = |k: usize| (mm[k][a], mm[k][b]);
+            // Polylines of equal arc state (a move's state is its first pose's).
+            let mut start = 0;
+            let (mut weld_label, mut transit_label) = (false, false);
+            for k in 1..=tp.poses.len() {
+                let end_run = k == tp.poses.len() || tp.poses[k].arc_on != tp.poses[start].arc_on;
+                if !end_run {
+                    continue;
+                }
+                let last = k.min(tp.poses.len() - 1);
+                let on = tp.poses[start].arc_on;
+                let style = if on {
+                    RED.stroke_width(3)
+                } else {
+                    BLUE.mix(0.6).stroke_width(1)
+                };
+                let series = chart
+                    .draw_series(LineSeries::new((start..=last).map(xy), style))
+                    .map_err(|e| err(e.to_string()))?;
+                if on && !weld_label {
+                    weld_label = true;
+                    series.label("weld (arc on)").legend(|(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(3))
+                    });
+                } else if !on && !transit_label {
+                    transit_label = true;
+                    series
+                        .label("approach / retract / transit")
+                        .legend(|(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 20, y)], BLUE.mix(0.6))
+                        });
+                }
+                start = last;
+            }
+            let ons: Vec<usize> = (0..tp.poses.len())
+                .filter(|&k| tp.poses[k].arc_on && (k == 0 || !tp.poses[k - 1].arc_on))
+                .collect();
+            let offs: Vec<usize> = (1..tp.poses.len())
+                .filter(|&k| !tp.poses[k].arc_on && tp.poses[k - 1].arc_on)
+                .collect();
+            chart
+                .draw_series(ons.iter().map(|&k| Circle::new(xy(k), 6, GREEN.filled())))
+                .map_err(|e| err(e.to_string()))?
+                .label("arc on")
+                .legend(|(x, y)| Circle::new((x + 10, y), 6, GREEN.filled()));
+            chart
+                .draw_series(
+                    offs.iter()
+                        .map(|&k| Cross::new(xy(k), 7, BLACK.stroke_width(2))),
+                )
+                .map_err(|e| err(e.to_string()))?
+                .label("arc off")
+                .legend(|(x, y)| Cross::new((x + 10, y), 7, BLACK.stroke_width(2)));
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font((FONT, 15))
+                .position(SeriesLabelPosition::UpperRight)
+                .draw()
+                .map_err(|e| err(e.to_string()))?;
+        }
+        Ok(())
+    })
 }
 
 /// The temperature of one windowed block over time.
@@ -351,72 +384,72 @@ pub fn t85_png(part: &Part, curves: &[Curve], path: &Path) -> Result<(), PlotErr
     check_axis(path, "temperature (°C)", y0, y1, hint)?;
     font();
     let err = draw_err(path);
-    let root = BitMapBackend::new(path, T85_SIZE).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-    let title = if curves.is_empty() {
-        format!("{}: no t8/5 windows", part.name)
-    } else {
-        format!(
-            "{}: temperatures of the {} windowed blocks",
-            part.name,
-            curves.len()
-        )
-    };
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, (FONT, 24))
-        .margin(15)
-        .x_label_area_size(45)
-        .y_label_area_size(70)
-        .build_cartesian_2d(0.0..t_end * 1.02, y0..y1)
-        .map_err(|e| err(e.to_string()))?;
-    chart
-        .configure_mesh()
-        .x_desc("time (s)")
-        .y_desc("temperature (°C)")
-        .label_style((FONT, 15))
-        .draw()
-        .map_err(|e| err(e.to_string()))?;
-    for (level, name) in [(HOT_C, "800 °C"), (WARM_C, "500 °C")] {
-        chart
-            .draw_series(LineSeries::new(
-                vec![(0.0, level), (t_end * 1.02, level)],
-                BLACK.mix(0.5).stroke_width(1),
-            ))
+    crate::png(path, T85_SIZE, &err, |root| {
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let title = if curves.is_empty() {
+            format!("{}: no t8/5 windows", part.name)
+        } else {
+            format!(
+                "{}: temperatures of the {} windowed blocks",
+                part.name,
+                curves.len()
+            )
+        };
+        let mut chart = ChartBuilder::on(root)
+            .caption(title, (FONT, 24))
+            .margin(15)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..t_end * 1.02, y0..y1)
             .map_err(|e| err(e.to_string()))?;
         chart
-            .draw_series(std::iter::once(Text::new(
-                name,
-                (t_end * 0.005, level + 15.0),
-                (FONT, 14),
-            )))
-            .map_err(|e| err(e.to_string()))?;
-    }
-    for (i, c) in curves.iter().enumerate() {
-        let colour = Palette99::pick(i).to_rgba();
-        let points = c.samples.iter().map(|&(t, v)| (t, v.clamp(y0, y1)));
-        chart
-            .draw_series(LineSeries::new(points, colour.stroke_width(2)))
-            .map_err(|e| err(e.to_string()))?
-            .label(format!(
-                "{} [{}, {}] s",
-                BlockDisplay(c.block),
-                c.window.min_s,
-                c.window.max_s
-            ))
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-            });
-    }
-    if !curves.is_empty() {
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font((FONT, 13))
-            .position(SeriesLabelPosition::UpperRight)
+            .configure_mesh()
+            .x_desc("time (s)")
+            .y_desc("temperature (°C)")
+            .label_style((FONT, 15))
             .draw()
             .map_err(|e| err(e.to_string()))?;
-    }
-    root.present().map_err(|e| err(e.to_string()))?;
-    Ok(())
+        for (level, name) in [(HOT_C, "800 °C"), (WARM_C, "500 °C")] {
+            chart
+                .draw_series(LineSeries::new(
+                    vec![(0.0, level), (t_end * 1.02, level)],
+                    BLACK.mix(0.5).stroke_width(1),
+                ))
+                .map_err(|e| err(e.to_string()))?;
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    name,
+                    (t_end * 0.005, level + 15.0),
+                    (FONT, 14),
+                )))
+                .map_err(|e| err(e.to_string()))?;
+        }
+        for (i, c) in curves.iter().enumerate() {
+            let colour = Palette99::pick(i).to_rgba();
+            let points = c.samples.iter().map(|&(t, v)| (t, v.clamp(y0, y1)));
+            chart
+                .draw_series(LineSeries::new(points, colour.stroke_width(2)))
+                .map_err(|e| err(e.to_string()))?
+                .label(format!(
+                    "{} [{}, {}] s",
+                    BlockDisplay(c.block),
+                    c.window.min_s,
+                    c.window.max_s
+                ))
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+                });
+        }
+        if !curves.is_empty() {
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font((FONT, 13))
+                .position(SeriesLabelPosition::UpperRight)
+                .draw()
+                .map_err(|e| err(e.to_string()))?;
+        }
+        Ok(())
+    })
 }
