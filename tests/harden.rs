@@ -1251,3 +1251,37 @@ fn bag_paths_out_of_the_folder_and_device_files_are_refused_by_the_commands() {
         }
     }
 }
+
+/// `waam plan` stops its search on Ctrl-C as on its timeout: within a second, with the
+/// answer so far (here none: the ring tower's window is kept by no plan), its recording
+/// closed, and exit code 130.
+#[test]
+fn plan_stops_on_ctrl_c_within_a_second_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let part = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/endless-ring.yaml");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_waam"))
+        .args(["-q", "plan", part.to_str().unwrap(), "--record", "bag"])
+        .current_dir(dir.path())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut stdout = child.stdout.take().unwrap();
+    let (status, stopped_after) = ctrl_c_after(&mut child, Duration::from_millis(2000));
+    let mut text = String::new();
+    stdout.read_to_string(&mut text).unwrap();
+    assert_eq!(status.code(), Some(130), "{status:?} {text}");
+    assert!(stopped_after < Duration::from_secs(1), "{stopped_after:?}");
+    assert!(text.contains("none found before Ctrl-C"), "{text}");
+    let info = Command::new(env!("CARGO_BIN_EXE_waam"))
+        .args(["bag", "info", "bag"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let info_text = String::from_utf8_lossy(&info.stdout);
+    assert!(info.status.success(), "{info:?}");
+    assert!(
+        info_text.contains("Messages:") && !info_text.contains("Truncated"),
+        "{info_text}"
+    );
+}

@@ -3,6 +3,8 @@
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
@@ -12,7 +14,7 @@ use waam_part::plan::Plan;
 use waam_part::Part;
 use waam_planner::{self as planner, Acyclicity, Backend, Options, Stats};
 
-use super::{record, GlobalArgs, EXIT_NO, EXIT_OK};
+use super::{record, GlobalArgs, EXIT_INTERRUPTED, EXIT_NO, EXIT_OK};
 use waam_access::TorchSetup;
 use waam_motion::toolpath::ProcessSettings;
 use waam_pipeline::{Found, Interrupt};
@@ -27,8 +29,10 @@ use waam_pipeline::{Found, Interrupt};
 /// toolpath, joint trajectory, pictures (3-D views, temperatures during the build) and a
 /// rosbag2/MCAP recording, all in a new folder (--out DIR, or waam-out/, else waam-out-2/,
 /// …; an existing non-empty folder is never written into); with --json, --count, --all,
-/// --record or --robot it plans the sample part like any other. Exit code 0: a plan was found; 1: there is none (or
-/// none found before the timeout); 2: bad input.
+/// --record or --robot it plans the sample part like any other. Ctrl-C stops the search as
+/// the timeout does (the best plan so far is still reported, written and recorded). Exit
+/// code 0: a plan was found; 1: there is none (or none found before the timeout); 2: bad
+/// input; 130: stopped by Ctrl-C.
 #[derive(Debug, clap::Args)]
 pub struct PlanArgs {
     /// The part file (YAML, shared part format), or an STL mesh with --pitch. Default: the
@@ -153,6 +157,10 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     // One run, then the process ends: a solver stopped by --timeout is not freed first.
     planner::cadical::leave_stopped_solvers_to_exit();
     let mut opts = options(&args)?;
+    // Ctrl-C (or SIGTERM) stops the search as the timeout does: the best plan found so far
+    // is still reported, written and recorded, and the exit code says it was interrupted.
+    let stop = super::node::stop_on_signal()?;
+    opts.cancel = Some(Arc::clone(&stop));
     let part = match &args.part {
         // Reading counts against --timeout: a block list of a million blocks takes seconds.
         Some(path) => {
@@ -308,12 +316,15 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         let messages = planned.as_ref().map(record::plan_messages).transpose()?;
         record::finish_planning(recorder, planning, &part, &report, messages.as_ref())?;
     }
-    let proof = match (&report.best, report.proven, args.first) {
-        (Some(_), true, false) => "optimal (proven)",
-        (Some(_), true, true) => "first found (not optimized)",
-        (Some(_), false, _) => "best found before the timeout (optimality NOT proven)",
-        (None, true, _) => "no feasible plan (proven)",
-        (None, false, _) => "none found before the timeout (infeasibility NOT proven)",
+    let interrupted = stop.load(Ordering::Relaxed);
+    let proof = match (&report.best, report.proven, args.first, interrupted) {
+        (Some(_), true, false, _) => "optimal (proven)",
+        (Some(_), true, true, _) => "first found (not optimized)",
+        (Some(_), false, _, true) => "best found before Ctrl-C (optimality NOT proven)",
+        (Some(_), false, _, false) => "best found before the timeout (optimality NOT proven)",
+        (None, true, _, _) => "no feasible plan (proven)",
+        (None, false, _, true) => "none found before Ctrl-C (infeasibility NOT proven)",
+        (None, false, _, false) => "none found before the timeout (infeasibility NOT proven)",
     };
     if args.json {
         let plan = report.best.as_ref().map(|b| {
@@ -353,7 +364,11 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         }
     }
     let ok = report.best.is_some() && motion_ok;
-    Ok(ExitCode::from(if ok { EXIT_OK } else { EXIT_NO }))
+    Ok(ExitCode::from(match (interrupted, ok) {
+        (true, _) => EXIT_INTERRUPTED,
+        (false, true) => EXIT_OK,
+        (false, false) => EXIT_NO,
+    }))
 }
 
 fn finite_or_null(x: f64) -> serde_json::Value {

@@ -17,7 +17,7 @@ use waam_ros::planning::{mesh_settings_from_values, options_from, PlanningRecord
 use waam_ros::replay::{self, CaseInput, Replanned, Verdict};
 use waam_rosbag::{Bag, Recorder};
 
-use super::{EXIT_BAD_INPUT, EXIT_NO, EXIT_OK};
+use super::{EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_NO, EXIT_OK};
 
 /// Re-plan every part found in a recording and compare each new plan with the recorded one.
 ///
@@ -73,9 +73,6 @@ pub struct ReplayArgs {
     #[arg(long, value_name = "SECONDS", conflicts_with = "publish")]
     pub timeout: Option<f64>,
 }
-
-/// Exit code of a replay stopped by Ctrl-C (128 + SIGINT, as shells report it).
-const EXIT_INTERRUPTED: u8 = 130;
 
 pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     let started = Instant::now();
