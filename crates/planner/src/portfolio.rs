@@ -219,6 +219,17 @@ mod tests {
         part
     }
 
+    /// The ring of [`ring`] with a window of at most `max_s`, its weld graph, its thermal
+    /// model and its layer-by-layer plan (the portfolio's base).
+    fn ring_and_base(h: i64, max_s: f64) -> (Part, WeldGraph, ThermalModel, Vec<Vec<usize>>) {
+        let part = ring(h, waam_part::Window { min_s: 0.0, max_s });
+        let graph = WeldGraph::new(&part);
+        let model = ThermalModel::new(&part, &graph);
+        let base = constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &no_limits())
+            .expect("a ring has a layer-by-layer plan");
+        (part, graph, model, base)
+    }
+
     fn no_limits() -> Limits {
         Limits {
             deadline: None,
@@ -246,17 +257,7 @@ mod tests {
     fn every_variant_is_valid_and_judged_by_the_simulator() {
         // A window no start can keep (at most 1 s between 800 and 500 °C high on a wall):
         // every variant is built and simulated, and none is claimed.
-        let part = ring(
-            12,
-            waam_part::Window {
-                min_s: 0.0,
-                max_s: 1.0,
-            },
-        );
-        let graph = WeldGraph::new(&part);
-        let model = ThermalModel::new(&part, &graph);
-        let base = constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &no_limits())
-            .expect("a ring has a layer-by-layer plan");
+        let (part, graph, model, base) = ring_and_base(12, 1.0);
         let moves = first_moves(&part, &graph, &base);
         assert!(moves.len() >= 8, "{} first moves", moves.len());
         let limits = no_limits();
@@ -276,17 +277,7 @@ mod tests {
     #[test]
     fn a_round_judges_the_same_on_any_number_of_threads() {
         // Each variant lands in its own slot whatever thread judged it and when.
-        let part = ring(
-            10,
-            waam_part::Window {
-                min_s: 0.0,
-                max_s: 1e6,
-            },
-        );
-        let graph = WeldGraph::new(&part);
-        let model = ThermalModel::new(&part, &graph);
-        let base = constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &no_limits())
-            .expect("a ring has a layer-by-layer plan");
+        let (part, graph, model, base) = ring_and_base(10, 1e6);
         let moves = first_moves(&part, &graph, &base);
         let limits = no_limits();
         let portfolio = on_one_path(&part, &graph, &limits, &model);
@@ -302,17 +293,7 @@ mod tests {
 
     #[test]
     fn a_cancelled_run_builds_and_claims_nothing() {
-        let part = ring(
-            10,
-            waam_part::Window {
-                min_s: 0.0,
-                max_s: 1.0,
-            },
-        );
-        let graph = WeldGraph::new(&part);
-        let model = ThermalModel::new(&part, &graph);
-        let base = constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &no_limits())
-            .expect("a ring has a layer-by-layer plan");
+        let (part, graph, model, base) = ring_and_base(10, 1.0);
         let limits = Limits {
             deadline: None,
             cancel: Some(std::sync::Arc::new(std::sync::atomic::AtomicBool::new(
