@@ -421,8 +421,15 @@ fn print_stats(s: &Stats) {
     }
     if s.candidates > 0 {
         eprintln!(
-            "simulation: {} deposits simulated, {} resumed from saved prefixes, {} cooldown steps",
-            s.deposits_simulated, s.deposits_reused, s.cooldown_steps
+            "simulation: {} deposits simulated, {} resumed from saved prefixes, {} cooldown steps; \
+             inside the search: {} deposits simulated, {} confirmed again, {} cooldowns that \
+             judged a complete plan",
+            s.deposits_simulated,
+            s.deposits_reused,
+            s.cooldown_steps,
+            s.inside_deposits,
+            s.inside_reused,
+            s.cooled_inside
         );
     }
 }

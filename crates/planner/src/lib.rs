@@ -164,6 +164,9 @@ pub struct Stats {
     pub deposits_reused: u64,
     /// Euler steps of cooldowns after complete candidates.
     pub cooldown_steps: u64,
+    /// Complete candidates whose cooldown the check inside the search had already run
+    /// (feasible without simulating them again).
+    pub cooled_inside: u64,
     /// Worst-case t8/5 margin of the best plan so far, s (None: no plan yet, or no windows).
     pub best_margin_s: Option<f64>,
     pub learned_clauses: u64,

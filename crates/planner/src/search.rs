@@ -10,6 +10,7 @@
 //! - before a prefix clause is learned, it is shortened where that is *proven*
 //!   ([`crate::shortening`]).
 
+use std::cell::RefCell;
 use std::rc::Rc;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
@@ -99,7 +100,7 @@ impl<'p> Search<'p> {
             lookahead_budget,
             stats,
             violations: vec![0; n],
-            cache: SharedCache::default(),
+            cache: Rc::new(RefCell::new(PrefixCache::for_blocks(n))),
             ranked_layers: Vec::new(),
             spacing: snapshot_spacing(n),
             interrupted: false,
@@ -152,7 +153,7 @@ impl<'p> Search<'p> {
     /// Judges later candidates by `model` (e.g. narrowed windows while optimizing).
     pub fn set_thermal(&mut self, model: ThermalModel) {
         self.thermal = Arc::new(model);
-        *self.cache.borrow_mut() = PrefixCache::default();
+        self.cache.borrow_mut().clear();
         self.solver.set_prefix_model(Arc::clone(&self.thermal));
     }
 
@@ -365,6 +366,12 @@ impl<'p> Search<'p> {
         let whole = len == seq.len();
         let seq = &seq[..len];
         let keys = prefix_keys(seq);
+        if whole && keys.last().is_some_and(|&k| self.cache.borrow().cooled(k)) {
+            // The check inside the search simulated this very plan to the end of its
+            // cooldown: the same simulation would give the same verdict.
+            self.stats.cooled_inside += 1;
+            return Ok(Judged::Feasible);
+        }
         let (sim, at) = resume(
             &self.thermal,
             &self.cache.borrow(),

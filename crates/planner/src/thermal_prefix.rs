@@ -22,7 +22,7 @@ use std::time::Instant;
 
 use waam_thermal::{Phase, Simulation, Snapshot, ThermalModel};
 
-use super::prefix_cache::{extend_key, snapshot_spacing, Key, PrefixCache, SharedCache, EMPTY_KEY};
+use super::prefix_cache::{extend_key, snapshot_spacing, Key, SharedCache, EMPTY_KEY};
 use super::sat::Lit;
 use super::shortening::shorten;
 use waam_part::graph::WeldGraph;
@@ -254,7 +254,7 @@ impl ThermalPrefix {
     /// Starts the simulation over from the empty prefix.
     fn reset_simulation(&mut self) {
         self.empty = self.owned.sim.snapshot();
-        *self.cache.borrow_mut() = PrefixCache::default();
+        self.cache.borrow_mut().clear();
         self.truncate(0);
         self.simulated = 0;
         self.stopped = false;
@@ -533,8 +533,13 @@ impl ThermalPrefix {
                 self.learn(self.n, false, v.block);
                 true
             }
-            // Feasible, or a part that cannot cool: the thermal loop reports that.
-            _ => false,
+            Ok(Ok(())) => {
+                let key = self.keys[self.n - 1];
+                self.cache.borrow_mut().note_cooled(key);
+                false
+            }
+            // A part that cannot cool: the thermal loop reports that.
+            Err(_) => false,
         }
     }
 
