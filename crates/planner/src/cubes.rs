@@ -366,7 +366,15 @@ impl Job<'_, '_> {
             search.judge_inside();
         }
         let mut stopped = false;
-        while let Some((cube, found)) = self.queue.take(self.stop) {
+        let (mut cubes, mut idle) = (0usize, Duration::ZERO);
+        loop {
+            let asked = Instant::now();
+            let Some((cube, found)) = self.queue.take(self.stop) else {
+                idle += asked.elapsed();
+                break;
+            };
+            idle += asked.elapsed();
+            cubes += 1;
             // Plans of the cube another worker found before it split the cube off.
             for plan in &found {
                 search.block_plan(plan);
@@ -398,6 +406,12 @@ impl Job<'_, '_> {
             }
         }
         search.stats.total_s = self.started.elapsed().as_secs_f64();
+        tracing::debug!(
+            "worker {}: {cubes} cube(s), waited {:.3} s of {:.3} s",
+            self.worker,
+            idle.as_secs_f64(),
+            search.stats.total_s
+        );
         let stopped = stopped || search.interrupted;
         self.exit(search.stats, stopped);
     }
