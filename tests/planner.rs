@@ -68,7 +68,7 @@ fn every_plan_lies_in_exactly_one_cube_at_every_depth() {
         let graph = waam_part::graph::WeldGraph::new(part);
         let plans = brute_force_plans(part, part.max_fragments);
         let mut level = planner::cubes::first_cubes(part, &graph);
-        for depth in 0..4 {
+        for depth in 0..8 {
             for plan in &plans {
                 let holding = level.iter().filter(|c| c.holds(plan)).count();
                 assert_eq!(holding, 1, "{} depth {depth}: {plan:?}", part.name);
@@ -77,7 +77,7 @@ fn every_plan_lies_in_exactly_one_cube_at_every_depth() {
             level = level
                 .into_iter()
                 .flat_map(|c| {
-                    let parts = c.parts(&graph);
+                    let parts = c.parts(&graph, part.max_fragments);
                     if parts.is_empty() {
                         vec![c]
                     } else {

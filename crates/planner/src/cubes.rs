@@ -3,15 +3,18 @@
 //! own solver and prefix cache) taking cubes from a shared queue and enumerating each under
 //! the cube's assumption literals.
 //!
-//! A cube holds the plans whose fragment 0 begins with a given path (or is exactly it).
-//! Every plan lies in exactly one of the first cubes, one per block with nothing below it:
-//! a model has exactly one start of fragment 0 (`used(0)` holds, and at most one block
-//! takes index 0 as a start), and that block has nothing directly below it, since gravity
-//! puts the block below in the same or an earlier fragment, so in fragment 0 after its
-//! first block, and a weld path never moves down. A cube is split by what follows its
-//! path's last block u: exactly one of the moves `e(u,w)` or `end(u)` holds (at most one
-//! move out of a block, and `end(u)` exactly when there is none), so the parts partition
-//! it again.
+//! A cube holds the plans that begin with given fragments (the last one possibly still
+//! open). Every plan lies in exactly one of the first cubes, one per block with nothing
+//! below it: a model has exactly one start of fragment 0 (`used(0)` holds, and at most one
+//! block takes index 0 as a start), and that block has nothing directly below it, since
+//! gravity puts the block below in the same or an earlier fragment, so in fragment 0 after
+//! its first block, and a weld path never moves down. A cube is split one step deeper, and
+//! its parts partition it again:
+//! - an open last fragment at block u: exactly one of the moves `e(u,w)` or `end(u)`
+//!   holds (at most one move out of a block, and `end(u)` exactly when there is none);
+//! - after a closed fragment i: either no fragment i+1 (`!used(i+1)`), or exactly one
+//!   block v starts it (`sz(v,i+1)`; at most one start per index), and by the same
+//!   gravity argument the block below v, if any, is in an earlier fragment.
 //!
 //! Which cubes hold the work is not known beforehand (on the samples a few first blocks
 //! hold nearly all feasible plans), so cubes are split while the search runs: when a worker
@@ -44,56 +47,90 @@ use super::{Progress, Stats};
 /// A plan as fragments of block indices.
 type Fragments = Vec<Vec<usize>>;
 
-/// The plans whose fragment 0 begins with `path` (`closed`: is exactly `path`). The
-/// derived order (paths first, a path before its extensions) is the lexicographic order
-/// of the plans the cubes hold.
+/// The plans that begin with `fragments` (block indices): the last fragment may go on
+/// unless `closed`, and more fragments may follow unless `complete`. The derived order
+/// (fragments first, a prefix before its extensions) is the lexicographic order of the
+/// plans the cubes hold.
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
 pub struct Cube {
-    pub path: Vec<usize>,
+    pub fragments: Vec<Vec<usize>>,
     pub closed: bool,
+    pub complete: bool,
 }
 
 impl Cube {
-    /// Whether the plan `fragments` (block indices) lies in this cube.
-    pub fn holds(&self, fragments: &[Vec<usize>]) -> bool {
-        fragments.first().is_some_and(|f0| {
-            f0.starts_with(&self.path) && (!self.closed || f0.len() == self.path.len())
-        })
+    /// Whether the plan `plan` (fragments of block indices) lies in this cube.
+    pub fn holds(&self, plan: &[Vec<usize>]) -> bool {
+        let Some((last, done)) = self.fragments.split_last() else {
+            return true;
+        };
+        let m = done.len();
+        plan.len() > m
+            && plan[..m] == *done
+            && plan[m].starts_with(last)
+            && (!self.closed || plan[m].len() == last.len())
+            && (!self.complete || plan.len() == m + 1)
     }
 
-    /// The cube split one step deeper, in order: fragment 0 ends with the path, or goes on
-    /// to each successor of the path's last block not on it. Empty when closed.
-    pub fn parts(&self, graph: &WeldGraph) -> Vec<Cube> {
-        let Some(&last) = self.path.last().filter(|_| !self.closed) else {
+    /// The cube split one step deeper, in order (at most `k` fragments). An open last
+    /// fragment ends, or goes on to a successor of its last block; after a closed one the
+    /// plan ends, or the next fragment starts at a block whose block below (if any) is
+    /// welded already (gravity, as for the first block). Empty when nothing is left to
+    /// split.
+    pub fn parts(&self, graph: &WeldGraph, k: usize) -> Vec<Cube> {
+        let (Some(last), false) = (self.fragments.last(), self.complete) else {
             return Vec::new();
         };
-        let mut next: Vec<usize> = graph
-            .successors(last)
+        let mut welded = vec![false; graph.len()];
+        self.fragments
             .iter()
-            .map(|&w| w as usize)
-            .filter(|w| !self.path.contains(w))
-            .collect();
-        next.sort_unstable();
+            .flatten()
+            .for_each(|&b| welded[b] = true);
+        if !self.closed {
+            let end = *last.last().expect("fragments are not empty");
+            let ends = Cube {
+                closed: true,
+                ..self.clone()
+            };
+            let mut next: Vec<usize> = graph.successors(end).iter().map(|&w| w as usize).collect();
+            next.sort_unstable();
+            let goes_on = next.into_iter().filter(|&w| !welded[w]).map(|w| {
+                let mut fragments = self.fragments.clone();
+                fragments.last_mut().expect("not empty").push(w);
+                Cube {
+                    fragments,
+                    closed: false,
+                    complete: false,
+                }
+            });
+            return std::iter::once(ends).chain(goes_on).collect();
+        }
+        if self.fragments.len() >= k {
+            return Vec::new(); // the plan ends here: nothing to split
+        }
         let ends = Cube {
-            path: self.path.clone(),
-            closed: true,
+            complete: true,
+            ..self.clone()
         };
-        let goes_on = next.into_iter().map(|w| Cube {
-            path: [self.path.as_slice(), &[w]].concat(),
-            closed: false,
-        });
-        std::iter::once(ends).chain(goes_on).collect()
+        let starts = (0..graph.len())
+            .filter(|&v| !welded[v] && graph.below(v).is_none_or(|b| welded[b]))
+            .map(|v| {
+                let mut fragments = self.fragments.clone();
+                fragments.push(vec![v]);
+                Cube {
+                    fragments,
+                    closed: false,
+                    complete: false,
+                }
+            });
+        std::iter::once(ends).chain(starts).collect()
     }
 
     /// The literals that hold exactly in the models of this cube's plans.
     fn assumptions(&self, enc: &Encoding) -> Vec<Lit> {
-        let mut lits = vec![enc.starts_fragment(self.path[0], 0)];
-        lits.extend(self.path.windows(2).map(|step| {
-            enc.edge(step[0], step[1])
-                .expect("a cube's path moves along edges")
-        }));
-        if self.closed {
-            lits.push(enc.ends_at(*self.path.last().expect("a cube's path is not empty")));
+        let mut lits = enc.prefix_literals(&self.fragments, self.closed);
+        if self.complete {
+            lits.extend(enc.at_most_fragments(self.fragments.len()));
         }
         lits
     }
@@ -105,8 +142,9 @@ pub fn first_cubes(part: &Part, graph: &WeldGraph) -> Vec<Cube> {
     (0..part.len())
         .filter(|&v| graph.below(v).is_none())
         .map(|v| Cube {
-            path: vec![v],
+            fragments: vec![vec![v]],
             closed: false,
+            complete: false,
         })
         .collect()
 }
@@ -174,6 +212,10 @@ const POLL: Duration = Duration::from_millis(50);
 /// A plan count past which a valid-plan count keeps no more plans of a cube (and so no
 /// longer splits it): the plans found are handed on with a split, and memory is finite.
 const KEEP_AT_MOST: usize = 1 << 16;
+
+/// A split goes on (up to [`SPLIT_DEPTH`] steps deep) until it has this many parts.
+const SPLIT_INTO: usize = 4;
+const SPLIT_DEPTH: usize = 4;
 
 /// Enumerates every plan of `mode` over the cubes of the part, on `opts.threads` workers.
 /// Progress events and the sink run on the calling thread; plans reach the sink in cube
@@ -387,7 +429,14 @@ impl Job<'_, '_> {
                 not_kept: 0,
                 unreported: 0,
             };
+            let cube_started = Instant::now();
             stopped = !self.search_cube(&mut search, &mut current);
+            tracing::trace!(
+                "worker {}: cube {:?} done in {:.3} s",
+                self.worker,
+                current.cube,
+                cube_started.elapsed().as_secs_f64()
+            );
             let count = current.found.len() as u64 + current.not_kept;
             let mut plans = match self.mode {
                 Mode::Feasible => current.found,
@@ -473,16 +522,39 @@ impl Job<'_, '_> {
         }
     }
 
-    /// Splits the current cube one step deeper: keeps the part that holds the latest plan
-    /// found (where the solver is searching), queues the others with their plans found.
-    /// Its own solver keeps every plan found blocked, so it goes on where it was.
+    /// Splits the current cube: keeps the part that holds the latest plan found (where the
+    /// solver is searching; without one, the last part), queues the others with their plans
+    /// found. The kept part is split again while that leaves fewer than
+    /// [`SPLIT_INTO`] parts: where plans go on through a narrow passage, one step gives
+    /// away only parts that end at once. The worker's own solver keeps every plan found
+    /// blocked, so it goes on where it was.
     fn split(&self, enc: &Encoding, current: &mut Current) {
-        let parts = current.cube.parts(self.graph);
-        if parts.is_empty() || current.not_kept > 0 {
+        if current.not_kept > 0 {
+            return;
+        }
+        let latest = current.found.last().cloned();
+        let kept_of = |parts: &[Cube]| {
+            latest.as_ref().map_or(parts.len().saturating_sub(1), |p| {
+                parts.iter().position(|c| c.holds(p)).unwrap_or(0)
+            })
+        };
+        let mut parts = current.cube.parts(self.graph, self.k);
+        for _ in 1..SPLIT_DEPTH {
+            if parts.len() >= SPLIT_INTO || parts.is_empty() {
+                break;
+            }
+            let keep = kept_of(&parts);
+            let deeper = parts[keep].parts(self.graph, self.k);
+            if deeper.is_empty() {
+                break;
+            }
+            // The parts of a part lie where it lay in the order.
+            parts.splice(keep..=keep, deeper);
+        }
+        if parts.is_empty() {
             return;
         }
         let mut found: Vec<Vec<Fragments>> = vec![Vec::new(); parts.len()];
-        let latest = current.found.last().cloned();
         for plan in current.found.drain(..) {
             let at = parts
                 .iter()
@@ -490,9 +562,8 @@ impl Job<'_, '_> {
                 .expect("the parts of a cube partition its plans");
             found[at].push(plan);
         }
-        let keep = latest.map_or(parts.len() - 1, |p| {
-            parts.iter().position(|c| c.holds(&p)).unwrap_or(0)
-        });
+        let keep = kept_of(&parts);
+        tracing::trace!("worker {}: split {:?}", self.worker, current.cube);
         let _ = self.tx.send(Message::Split {
             cube: current.cube.clone(),
             parts: parts.clone(),
