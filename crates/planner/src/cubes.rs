@@ -150,13 +150,16 @@ pub fn first_cubes(part: &Part, graph: &WeldGraph) -> Vec<Cube> {
 }
 
 /// The worker threads a run uses: `opts.threads`, else the thermal model's default (the
-/// available cores unless set).
-fn worker_count(opts: &Options) -> usize {
-    match opts.threads {
+/// available cores unless set); no more than `opts.max_memory_mb` allows, since each
+/// worker holds a search of its own.
+fn worker_count(part: &Part, k: usize, opts: &Options) -> usize {
+    let wanted = match opts.threads {
         0 => thermal::default_threads(),
         n => n,
-    }
-    .max(1)
+    };
+    let per_worker = super::estimated_memory_mb(part.len(), k).max(1);
+    let fit = usize::try_from(opts.max_memory_mb / per_worker).unwrap_or(usize::MAX);
+    wanted.min(fit).max(1)
 }
 
 /// What is enumerated.
@@ -233,7 +236,7 @@ pub(crate) fn conquer(
     sink: &mut dyn FnMut(&[Vec<usize>]) -> std::io::Result<()>,
 ) -> Result<Counts, PlanError> {
     let cubes = first_cubes(part, graph);
-    let workers = worker_count(opts);
+    let workers = worker_count(part, k, opts);
     // The workers' searches stop on this flag, raised here on the run's own cancel or
     // deadline, or when something failed.
     let stop = Arc::new(AtomicBool::new(false));
