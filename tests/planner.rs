@@ -235,6 +235,13 @@ fn the_thermal_check_inside_the_search_leaves_only_feasible_models() {
             "{name}"
         );
         assert!(inside.stats.inside_clauses > 0, "{name}");
+        // Each feasible plan's cooldown was simulated inside the search: the loop does not
+        // simulate it again.
+        assert_eq!(inside.stats.cooldown_steps, 0, "{name}: CaDiCaL cooldowns");
+        assert!(
+            outside.stats.cooldown_steps > 0,
+            "{name}: varisat cooldowns"
+        );
         assert_eq!(outside.stats.inside_clauses, 0, "{name}");
         assert!(
             outside.stats.candidates > *feasible,

@@ -21,7 +21,7 @@ use waam_part::Part;
 use waam_thermal::{self as thermal, Phase, Simulation, ThermalModel, Violation};
 
 use super::encoding::{Acyclicity, Decoded, Encoding};
-use super::prefix_cache::{prefix_keys, resume, snapshot_spacing, PrefixCache, SharedCache};
+use super::prefix_cache::{prefix_keys, resume, snapshot_spacing, Key, PrefixCache, SharedCache};
 use super::sat::{Backend, Lit, SatSolver};
 use super::shortening::shorten;
 use super::thermal_prefix::{PrefixLiterals, ThermalPrefix};
@@ -56,6 +56,9 @@ pub struct Search<'p> {
     executed: Option<ExecutedCheck>,
     /// Why the last candidate was rejected on it.
     pub executed_last: Option<String>,
+    /// The last complete plan (its prefix cache key) whose cooldown the check inside the
+    /// search simulated under the current model and found keeping every window.
+    cooled_inside: Option<Key>,
     /// When simulations stop too (a stopped simulation gives no verdict).
     deadline: Option<Instant>,
     cancel: Option<Arc<AtomicBool>>,
@@ -108,6 +111,7 @@ impl<'p> Search<'p> {
             torch_blocked: vec![0; n],
             executed: None,
             executed_last: None,
+            cooled_inside: None,
             deadline: None,
             cancel: None,
         };
@@ -152,6 +156,7 @@ impl<'p> Search<'p> {
     /// Judges later candidates by `model` (e.g. narrowed windows while optimizing).
     pub fn set_thermal(&mut self, model: ThermalModel) {
         self.thermal = Arc::new(model);
+        self.cooled_inside = None;
         *self.cache.borrow_mut() = PrefixCache::default();
         self.solver.set_prefix_model(Arc::clone(&self.thermal));
     }
@@ -189,6 +194,9 @@ impl<'p> Search<'p> {
     /// Counts what the prefix check did inside the last solve.
     fn take_prefix_report(&mut self) {
         let report = self.solver.take_prefix_report();
+        if report.cooled.is_some() {
+            self.cooled_inside = report.cooled;
+        }
         for (&len, &block) in report.clause_lens.iter().zip(&report.violated) {
             self.stats.record_clause(len);
             self.violations[block] += 1;
@@ -365,6 +373,12 @@ impl<'p> Search<'p> {
         let whole = len == seq.len();
         let seq = &seq[..len];
         let keys = prefix_keys(seq);
+        // The check inside the search simulated this very plan to the end of its cooldown
+        // already (the simulation depends on the deposit sequence alone): once is enough.
+        if whole && keys.last().is_some() && keys.last() == self.cooled_inside.as_ref() {
+            self.stats.deposits_reused += len as u64;
+            return Ok(Judged::Feasible);
+        }
         let (sim, at) = resume(
             &self.thermal,
             &self.cache.borrow(),

@@ -88,6 +88,9 @@ pub struct PrefixReport {
     pub reused: u64,
     /// Prefix steps resumed from a snapshot of the same prefix met on another branch.
     pub resumed: u64,
+    /// The cache key of the last complete prefix whose cooldown kept every window: the
+    /// thermal loop need not cool a candidate with it again.
+    pub cooled: Option<Key>,
 }
 
 /// A simulation together with the model it borrows.
@@ -527,6 +530,9 @@ impl ThermalPrefix {
             return false;
         }
         self.cooled = true;
+        if let Ok(Ok(())) = end {
+            self.report.cooled = self.keys.get(self.n - 1).copied();
+        }
         match end {
             // A complete plan is the same whether its last fragment is closed or not.
             Ok(Err(v)) => {
