@@ -211,6 +211,7 @@ fn eager_acyclicity_and_plain_clauses_count_the_same() {
 /// by the loop are the feasible plans; varisat judges complete models only. Same counts.
 #[test]
 fn the_thermal_check_inside_the_search_leaves_only_feasible_models() {
+    let mut cooled_by_the_loop = false;
     for (name, _, feasible) in expected_counts().iter().filter(|(_, p, f)| p > f) {
         let part = read_part(name);
         if part.len() > 50 {
@@ -236,18 +237,19 @@ fn the_thermal_check_inside_the_search_leaves_only_feasible_models() {
         );
         assert!(inside.stats.inside_clauses > 0, "{name}");
         // Each feasible plan's cooldown was simulated inside the search: the loop does not
-        // simulate it again.
+        // simulate it again (varisat's loop does, where a window is still open at the end).
         assert_eq!(inside.stats.cooldown_steps, 0, "{name}: CaDiCaL cooldowns");
-        assert!(
-            outside.stats.cooldown_steps > 0,
-            "{name}: varisat cooldowns"
-        );
+        cooled_by_the_loop |= outside.stats.cooldown_steps > 0;
         assert_eq!(outside.stats.inside_clauses, 0, "{name}");
         assert!(
             outside.stats.candidates > *feasible,
             "{name}: varisat models"
         );
     }
+    assert!(
+        cooled_by_the_loop,
+        "some part needs a cooldown after its last deposit"
+    );
 }
 
 /// A random small part: up to 12 blocks in a 4 x 3 x 3 grid, with random windows.
