@@ -246,7 +246,7 @@ pub(crate) fn conquer(
     };
     let queue = Queue {
         state: Mutex::new(QueueState {
-            tasks: cubes.iter().map(|c| (c.clone(), Vec::new())).collect(),
+            tasks: cubes.iter().map(|c| (c.clone(), Task::default())).collect(),
             busy: 0,
         }),
         changed: Condvar::new(),
@@ -309,8 +309,18 @@ struct Queue {
     hungry: AtomicUsize,
 }
 
+/// What comes with a cube split off another worker's.
+#[derive(Default)]
+struct Task {
+    /// Its plans found already.
+    found: Vec<Fragments>,
+    /// The thermal clauses the other worker learned in the cube it split: they hold for
+    /// every plan, and many are about this part (the split cube's plans begin alike).
+    clauses: Arc<Vec<Vec<Lit>>>,
+}
+
 struct QueueState {
-    tasks: BTreeMap<Cube, Vec<Fragments>>,
+    tasks: BTreeMap<Cube, Task>,
     /// Workers searching a cube (none, and no cube queued: the run is done).
     busy: usize,
 }
@@ -318,7 +328,7 @@ struct QueueState {
 impl Queue {
     /// The next cube to search (the first in order), or `None` when every cube is done or
     /// the run stops.
-    fn take(&self, stop: &AtomicBool) -> Option<(Cube, Vec<Fragments>)> {
+    fn take(&self, stop: &AtomicBool) -> Option<(Cube, Task)> {
         let mut state = self.state.lock().expect("queue lock");
         loop {
             if stop.load(Ordering::Relaxed) {
@@ -354,7 +364,7 @@ impl Queue {
             && self.state.lock().expect("queue lock").tasks.is_empty()
     }
 
-    fn push(&self, tasks: impl IntoIterator<Item = (Cube, Vec<Fragments>)>) {
+    fn push(&self, tasks: impl IntoIterator<Item = (Cube, Task)>) {
         self.state.lock().expect("queue lock").tasks.extend(tasks);
         self.changed.notify_all();
     }
@@ -385,6 +395,9 @@ struct Current {
     not_kept: u64,
     /// Plans counted since the last progress message (`Mode::Valid`).
     unreported: u64,
+    /// The thermal clauses learned in the cube before its last split, handed on with its
+    /// parts (the ones learned since are [`Search::take_learned`]'s).
+    learned: Arc<Vec<Vec<Lit>>>,
 }
 
 impl Job<'_, '_> {
@@ -408,22 +421,26 @@ impl Job<'_, '_> {
             return;
         };
         if self.mode == Mode::Feasible {
-            search.judge_inside();
+            search.judge_inside_keeping(true);
         }
         let mut stopped = false;
         let (mut cubes, mut idle) = (0usize, Duration::ZERO);
         loop {
             let asked = Instant::now();
-            let Some((cube, found)) = self.queue.take(self.stop) else {
+            let Some((cube, Task { found, clauses })) = self.queue.take(self.stop) else {
                 idle += asked.elapsed();
                 break;
             };
             idle += asked.elapsed();
             cubes += 1;
-            // Plans of the cube another worker found before it split the cube off.
+            // Plans of the cube another worker found before it split the cube off, and
+            // what it learned there.
             for plan in &found {
                 search.block_plan(plan);
             }
+            search.add_learned(&clauses);
+            // Clauses are handed on from the cube they were learned in.
+            search.take_learned();
             let assume = cube.assumptions(&search.enc);
             let mut current = Current {
                 cube,
@@ -431,6 +448,7 @@ impl Job<'_, '_> {
                 found,
                 not_kept: 0,
                 unreported: 0,
+                learned: clauses,
             };
             let cube_started = Instant::now();
             stopped = !self.search_cube(&mut search, &mut current);
@@ -476,7 +494,7 @@ impl Job<'_, '_> {
                 return false;
             }
             if self.queue.starving() {
-                self.split(&search.enc, current);
+                self.split(search, current);
             }
             let Some(candidate) = search.next_candidate(&current.assume) else {
                 return !search.interrupted;
@@ -531,7 +549,7 @@ impl Job<'_, '_> {
     /// [`SPLIT_INTO`] parts: where plans go on through a narrow passage, one step gives
     /// away only parts that end at once. The worker's own solver keeps every plan found
     /// blocked, so it goes on where it was.
-    fn split(&self, enc: &Encoding, current: &mut Current) {
+    fn split(&self, search: &mut Search<'_>, current: &mut Current) {
         if current.not_kept > 0 {
             return;
         }
@@ -573,8 +591,15 @@ impl Job<'_, '_> {
         });
         let mut tasks: Vec<(Cube, Vec<Fragments>)> = parts.into_iter().zip(found).collect();
         let (cube, found) = tasks.remove(keep);
-        self.queue.push(tasks);
-        current.assume = cube.assumptions(enc);
+        let mut learned: Vec<Vec<Lit>> = current.learned.as_ref().clone();
+        learned.extend(search.take_learned());
+        current.learned = Arc::new(learned);
+        let clauses = &current.learned;
+        self.queue.push(tasks.into_iter().map(|(c, found)| {
+            let clauses = Arc::clone(clauses);
+            (c, Task { found, clauses })
+        }));
+        current.assume = cube.assumptions(&search.enc);
         current.cube = cube;
         current.found = found;
     }

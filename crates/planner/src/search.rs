@@ -56,6 +56,8 @@ pub struct Search<'p> {
     executed: Option<ExecutedCheck>,
     /// Why the last candidate was rejected on it.
     pub executed_last: Option<String>,
+    /// Clauses learned inside the search since [`Search::take_learned`], when kept.
+    learned: Vec<Vec<Lit>>,
     /// The last complete plan (its prefix cache key) whose cooldown the check inside the
     /// search simulated under the current model and found keeping every window.
     cooled_inside: Option<Key>,
@@ -112,6 +114,7 @@ impl<'p> Search<'p> {
             executed: None,
             executed_last: None,
             cooled_inside: None,
+            learned: Vec::new(),
             deadline: None,
             cancel: None,
         };
@@ -167,6 +170,12 @@ impl<'p> Search<'p> {
     /// Call before the first solve, and only for searches that judge plans (a count of
     /// valid plans must not).
     pub fn judge_inside(&mut self) {
+        self.judge_inside_keeping(false);
+    }
+
+    /// [`Search::judge_inside`]; `keep`: the clauses it learns are kept for
+    /// [`Search::take_learned`] too.
+    pub fn judge_inside_keeping(&mut self, keep: bool) {
         if !self.thermal.has_windows() {
             return; // nothing can break
         }
@@ -181,13 +190,16 @@ impl<'p> Search<'p> {
                 .collect(),
             ends: (0..n).map(|v| self.enc.ends_at(v)).collect(),
         };
-        let prefix = ThermalPrefix::new(
+        let mut prefix = ThermalPrefix::new(
             &lits,
             Arc::clone(&self.thermal),
             Rc::clone(&self.cache),
             Arc::new(self.graph.clone()),
             self.lookahead_budget,
         );
+        if keep {
+            prefix.keep_clauses();
+        }
         self.solver.judge_prefixes(prefix);
     }
 
@@ -197,6 +209,7 @@ impl<'p> Search<'p> {
         if report.cooled.is_some() {
             self.cooled_inside = report.cooled;
         }
+        self.learned.extend(report.clauses);
         for (&len, &block) in report.clause_lens.iter().zip(&report.violated) {
             self.stats.record_clause(len);
             self.violations[block] += 1;
@@ -261,6 +274,19 @@ impl<'p> Search<'p> {
                     self.stats.acyclicity_s += dt + t2.elapsed().as_secs_f64();
                 }
             }
+        }
+    }
+
+    /// The clauses learned inside the search since the last call (when kept): they hold for
+    /// every search of the same part and windows, so another worker can add them.
+    pub fn take_learned(&mut self) -> Vec<Vec<Lit>> {
+        std::mem::take(&mut self.learned)
+    }
+
+    /// Adds clauses another search of the same part and windows learned.
+    pub fn add_learned(&mut self, clauses: &[Vec<Lit>]) {
+        for c in clauses {
+            self.solver.add_clause(c);
         }
     }
 
