@@ -366,33 +366,36 @@ fn every_plan_written_passes_waam_check() {
 
 #[test]
 fn enumerated_plans_are_all_feasible_and_distinct() {
-    let dir = scratch("all-s1");
-    let part = part_path("s1-wall");
-    let out = waam(&[
-        "-q",
-        "plan",
-        part.to_str().unwrap(),
-        "--all",
-        "--threads",
-        "3",
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
-    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
-    let text = std::fs::read_to_string(dir.join("feasible-plans.yaml")).unwrap();
-    let docs: Vec<&str> = text
-        .split("---\n")
-        .filter(|d| !d.trim().is_empty())
-        .collect();
-    assert_eq!(docs.len(), 21);
-    let p = read_part("s1-wall");
-    let g = waam_part::graph::WeldGraph::new(&p);
-    let mut seen = std::collections::HashSet::new();
-    for d in docs {
-        let plan = waam_part::plan::Plan::from_bytes(d.as_bytes(), false).unwrap();
-        let idx = plan.validate(&p, &g).unwrap();
-        assert!(is_feasible(&p, &idx));
-        assert!(seen.insert(idx));
+    // On 3 worker threads: every plan written passes the plan checks.
+    for (name, feasible) in [("s1-wall", 21), ("s3-ring", 827)] {
+        let dir = scratch(&format!("all-{name}"));
+        let part = part_path(name);
+        let out = waam(&[
+            "-q",
+            "plan",
+            part.to_str().unwrap(),
+            "--all",
+            "--threads",
+            "3",
+            "--out",
+            dir.to_str().unwrap(),
+        ]);
+        assert_eq!(out.status.code(), Some(0), "{name}: {}", stderr(&out));
+        let text = std::fs::read_to_string(dir.join("feasible-plans.yaml")).unwrap();
+        let docs: Vec<&str> = text
+            .split("---\n")
+            .filter(|d| !d.trim().is_empty())
+            .collect();
+        assert_eq!(docs.len(), feasible, "{name}");
+        let p = read_part(name);
+        let g = waam_part::graph::WeldGraph::new(&p);
+        let mut seen = std::collections::HashSet::new();
+        for d in docs {
+            let plan = waam_part::plan::Plan::from_bytes(d.as_bytes(), false).unwrap();
+            let idx = plan.validate(&p, &g).unwrap();
+            assert!(is_feasible(&p, &idx), "{name}: {idx:?}");
+            assert!(seen.insert(idx), "{name}: a plan written twice");
+        }
     }
 }
 
