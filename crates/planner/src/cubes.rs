@@ -352,12 +352,6 @@ impl Queue {
         }
     }
 
-    /// A worker finished its cube.
-    fn done(&self) {
-        self.state.lock().expect("queue lock").busy -= 1;
-        self.changed.notify_all();
-    }
-
     /// Whether a worker waits for a cube and none is queued: a busy one should split.
     fn starving(&self) -> bool {
         self.hungry.load(Ordering::Relaxed) > 0
@@ -367,6 +361,19 @@ impl Queue {
     fn push(&self, tasks: impl IntoIterator<Item = (Cube, Task)>) {
         self.state.lock().expect("queue lock").tasks.extend(tasks);
         self.changed.notify_all();
+    }
+}
+
+/// A worker searching a cube taken off the queue: dropped when it is done with it, even
+/// by a panic (the other workers would wait for it forever otherwise).
+struct Busy<'a>(&'a Queue);
+
+impl Drop for Busy<'_> {
+    fn drop(&mut self) {
+        let mut state = self.0.state.lock().unwrap_or_else(|e| e.into_inner());
+        state.busy -= 1;
+        drop(state);
+        self.0.changed.notify_all();
     }
 }
 
@@ -431,6 +438,7 @@ impl Job<'_, '_> {
                 idle += asked.elapsed();
                 break;
             };
+            let _busy = Busy(self.queue);
             idle += asked.elapsed();
             cubes += 1;
             // Plans of the cube another worker found before it split the cube off, and
@@ -470,7 +478,6 @@ impl Job<'_, '_> {
                 count,
                 finished: !stopped,
             });
-            self.queue.done();
             if stopped {
                 break;
             }
