@@ -219,6 +219,9 @@ const KEEP_AT_MOST: usize = 1 << 16;
 /// A split goes on (up to [`SPLIT_DEPTH`] steps deep) until it has this many parts.
 const SPLIT_INTO: usize = 4;
 const SPLIT_DEPTH: usize = 4;
+/// A busy worker splits its cube when nothing is queued and it has searched this long
+/// since it took or last split it.
+const PRESPLIT: Duration = Duration::from_millis(50);
 
 /// Enumerates every plan of `mode` over the cubes of the part, on `opts.threads` workers.
 /// Progress events and the sink run on the calling thread; plans reach the sink in cube
@@ -352,9 +355,11 @@ impl Queue {
         }
     }
 
-    /// Whether a worker waits for a cube and none is queued: a busy one should split.
-    fn starving(&self) -> bool {
-        self.hungry.load(Ordering::Relaxed) > 0
+    /// Whether a busy worker should split its cube: none is queued, and a worker waits for
+    /// one, or the busy one has not split since `since` (so that the next worker to finish
+    /// finds a cube at once: a worker can split only between two of its candidates).
+    fn starving(&self, since: Instant) -> bool {
+        (self.hungry.load(Ordering::Relaxed) > 0 || since.elapsed() >= PRESPLIT)
             && self.state.lock().expect("queue lock").tasks.is_empty()
     }
 
@@ -405,6 +410,8 @@ struct Current {
     /// The thermal clauses learned in the cube before its last split, handed on with its
     /// parts (the ones learned since are [`Search::take_learned`]'s).
     learned: Arc<Vec<Vec<Lit>>>,
+    /// When the cube was taken or last split.
+    split_at: Instant,
 }
 
 impl Job<'_, '_> {
@@ -457,6 +464,7 @@ impl Job<'_, '_> {
                 not_kept: 0,
                 unreported: 0,
                 learned: clauses,
+                split_at: Instant::now(),
             };
             let cube_started = Instant::now();
             stopped = !self.search_cube(&mut search, &mut current);
@@ -500,8 +508,9 @@ impl Job<'_, '_> {
             if timed_out(self.opts, self.started) {
                 return false;
             }
-            if self.queue.starving() {
+            if self.queue.starving(current.split_at) {
                 self.split(search, current);
+                current.split_at = Instant::now();
             }
             let Some(candidate) = search.next_candidate(&current.assume) else {
                 return !search.interrupted;
