@@ -23,26 +23,162 @@ fn expected_counts() -> Vec<(String, u64, u64)> {
         .collect()
 }
 
+/// On one worker thread and on several (each searching its own cubes of the plans), with
+/// either solver: the published counts.
 #[test]
 fn counts_match_the_published_numbers() {
     let expected = expected_counts();
     assert_eq!(expected.len(), 10, "COUNTS.md lists 10 parts");
-    for solver in [Backend::Cadical, Backend::Varisat] {
+    // varisat on several threads only: the parallel path is the one to check against it.
+    for (solver, threads) in [
+        (Backend::Cadical, 1),
+        (Backend::Cadical, 3),
+        (Backend::Varisat, 3),
+    ] {
         let opts = Options {
             solver,
+            threads,
             ..Options::default()
         };
         for (name, plans, feasible) in &expected {
             let part = read_part(name);
             let counts = planner::count(&part, &opts, true, &mut |_| {}).unwrap();
             assert!(counts.complete);
-            assert_eq!(counts.plans, Some(*plans), "{name} {solver:?}: plans");
-            assert_eq!(
-                counts.feasible, *feasible,
-                "{name} {solver:?}: feasible plans"
-            );
+            let what = format!("{name} {solver:?} on {threads} thread(s)");
+            assert_eq!(counts.plans, Some(*plans), "{what}: plans");
+            assert_eq!(counts.feasible, *feasible, "{what}: feasible plans");
         }
     }
+}
+
+/// Every plan lies in exactly one of the first cubes, and in exactly one part of every
+/// cube that holds it, split after split (the counts of the workers add up exactly).
+#[test]
+fn every_plan_lies_in_exactly_one_cube_at_every_depth() {
+    use proptest::strategy::ValueTree;
+    let mut parts: Vec<Part> = ["s1-wall", "s5-ledge", "s7-pad", "s3-ring"]
+        .iter()
+        .map(|n| read_part(n))
+        .collect();
+    let mut runner = proptest::test_runner::TestRunner::deterministic();
+    for _ in 0..16 {
+        parts.push(small_part().new_tree(&mut runner).unwrap().current());
+    }
+    for part in &parts {
+        let graph = waam_part::graph::WeldGraph::new(part);
+        let plans = brute_force_plans(part, part.max_fragments);
+        let mut level = planner::cubes::first_cubes(part, &graph);
+        for depth in 0..8 {
+            for plan in &plans {
+                let holding = level.iter().filter(|c| c.holds(plan)).count();
+                assert_eq!(holding, 1, "{} depth {depth}: {plan:?}", part.name);
+            }
+            // One step deeper: every cube split (a closed cube holds on as it is).
+            level = level
+                .into_iter()
+                .flat_map(|c| {
+                    let parts = c.parts(&graph, part.max_fragments);
+                    if parts.is_empty() {
+                        vec![c]
+                    } else {
+                        parts
+                    }
+                })
+                .collect();
+        }
+    }
+}
+
+/// The feasible plans of `part` as `enumerate` hands them over on `threads` threads.
+fn enumerated(part: &Part, solver: Backend, threads: usize) -> Vec<Vec<Vec<usize>>> {
+    let opts = Options {
+        solver,
+        threads,
+        ..Options::default()
+    };
+    let mut plans = Vec::new();
+    let counts = planner::enumerate(part, &opts, &mut |_| {}, &mut |p| {
+        plans.push(p.to_vec());
+        Ok(())
+    })
+    .unwrap();
+    assert!(counts.complete);
+    assert_eq!(counts.feasible, plans.len() as u64);
+    plans
+}
+
+/// The same plans in the same order on 1 and 3 threads (and with either solver): the
+/// lexicographic order of their fragments, each plan once and feasible.
+#[test]
+fn all_plans_come_in_the_same_order_on_any_number_of_threads() {
+    for (name, _, feasible) in expected_counts().iter().filter(|(_, _, f)| *f > 0) {
+        let part = read_part(name);
+        let one = enumerated(&part, Backend::Cadical, 1);
+        assert_eq!(one.len() as u64, *feasible, "{name}");
+        assert!(
+            one.windows(2).all(|w| w[0] < w[1]),
+            "{name}: sorted, distinct"
+        );
+        assert_eq!(
+            enumerated(&part, Backend::Cadical, 3),
+            one,
+            "{name}: 3 threads"
+        );
+        if part.len() <= 50 {
+            assert_eq!(
+                enumerated(&part, Backend::Varisat, 3),
+                one,
+                "{name}: varisat"
+            );
+        }
+        for plan in &one {
+            assert!(is_feasible(&part, plan), "{name}: {plan:?}");
+        }
+    }
+}
+
+/// A parallel enumeration stops within a second of its deadline or of a cancel, and says
+/// it is incomplete.
+#[test]
+fn a_parallel_enumeration_stops_within_a_second_of_a_timeout_or_cancel() {
+    let part = read_part("ex3-h-column");
+    let timed = Options {
+        threads: 3,
+        timeout: Some(Duration::from_millis(200)),
+        ..Options::default()
+    };
+    let t = Instant::now();
+    let counts = planner::enumerate(&part, &timed, &mut |_| {}, &mut |_| Ok(())).unwrap();
+    assert!(!counts.complete);
+    assert!(
+        t.elapsed() < Duration::from_millis(1200),
+        "{:?}",
+        t.elapsed()
+    );
+    assert!(counts.feasible < 253);
+
+    let cancel = Arc::new(AtomicBool::new(false));
+    let opts = Options {
+        threads: 3,
+        cancel: Some(Arc::clone(&cancel)),
+        ..Options::default()
+    };
+    let raise = {
+        let cancel = Arc::clone(&cancel);
+        std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(200));
+            cancel.store(true, Ordering::Relaxed);
+            Instant::now()
+        })
+    };
+    let counts = planner::count(&part, &opts, true, &mut |_| {}).unwrap();
+    let raised = raise.join().unwrap();
+    assert!(!counts.complete);
+    assert!(
+        raised.elapsed() < Duration::from_secs(1),
+        "{:?}",
+        raised.elapsed()
+    );
 }
 
 #[test]
@@ -75,6 +211,7 @@ fn eager_acyclicity_and_plain_clauses_count_the_same() {
 /// by the loop are the feasible plans; varisat judges complete models only. Same counts.
 #[test]
 fn the_thermal_check_inside_the_search_leaves_only_feasible_models() {
+    let mut cooled_by_the_loop = false;
     for (name, _, feasible) in expected_counts().iter().filter(|(_, p, f)| p > f) {
         let part = read_part(name);
         if part.len() > 50 {
@@ -99,12 +236,20 @@ fn the_thermal_check_inside_the_search_leaves_only_feasible_models() {
             "{name}"
         );
         assert!(inside.stats.inside_clauses > 0, "{name}");
+        // Each feasible plan's cooldown was simulated inside the search: the loop does not
+        // simulate it again (varisat's loop does, where a window is still open at the end).
+        assert_eq!(inside.stats.cooldown_steps, 0, "{name}: CaDiCaL cooldowns");
+        cooled_by_the_loop |= outside.stats.cooldown_steps > 0;
         assert_eq!(outside.stats.inside_clauses, 0, "{name}");
         assert!(
             outside.stats.candidates > *feasible,
             "{name}: varisat models"
         );
     }
+    assert!(
+        cooled_by_the_loop,
+        "some part needs a cooldown after its last deposit"
+    );
 }
 
 /// A random small part: up to 12 blocks in a 4 x 3 x 3 grid, with random windows.
@@ -221,31 +366,36 @@ fn every_plan_written_passes_waam_check() {
 
 #[test]
 fn enumerated_plans_are_all_feasible_and_distinct() {
-    let dir = scratch("all-s1");
-    let part = part_path("s1-wall");
-    let out = waam(&[
-        "-q",
-        "plan",
-        part.to_str().unwrap(),
-        "--all",
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
-    assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
-    let text = std::fs::read_to_string(dir.join("feasible-plans.yaml")).unwrap();
-    let docs: Vec<&str> = text
-        .split("---\n")
-        .filter(|d| !d.trim().is_empty())
-        .collect();
-    assert_eq!(docs.len(), 21);
-    let p = read_part("s1-wall");
-    let g = waam_part::graph::WeldGraph::new(&p);
-    let mut seen = std::collections::HashSet::new();
-    for d in docs {
-        let plan = waam_part::plan::Plan::from_bytes(d.as_bytes(), false).unwrap();
-        let idx = plan.validate(&p, &g).unwrap();
-        assert!(is_feasible(&p, &idx));
-        assert!(seen.insert(idx));
+    // On 3 worker threads: every plan written passes the plan checks.
+    for (name, feasible) in [("s1-wall", 21), ("s3-ring", 827)] {
+        let dir = scratch(&format!("all-{name}"));
+        let part = part_path(name);
+        let out = waam(&[
+            "-q",
+            "plan",
+            part.to_str().unwrap(),
+            "--all",
+            "--threads",
+            "3",
+            "--out",
+            dir.to_str().unwrap(),
+        ]);
+        assert_eq!(out.status.code(), Some(0), "{name}: {}", stderr(&out));
+        let text = std::fs::read_to_string(dir.join("feasible-plans.yaml")).unwrap();
+        let docs: Vec<&str> = text
+            .split("---\n")
+            .filter(|d| !d.trim().is_empty())
+            .collect();
+        assert_eq!(docs.len(), feasible, "{name}");
+        let p = read_part(name);
+        let g = waam_part::graph::WeldGraph::new(&p);
+        let mut seen = std::collections::HashSet::new();
+        for d in docs {
+            let plan = waam_part::plan::Plan::from_bytes(d.as_bytes(), false).unwrap();
+            let idx = plan.validate(&p, &g).unwrap();
+            assert!(is_feasible(&p, &idx), "{name}: {idx:?}");
+            assert!(seen.insert(idx), "{name}: a plan written twice");
+        }
     }
 }
 

@@ -62,6 +62,11 @@ pub struct PlanArgs {
     /// its blocks and k before anything is built; about 13 KB per block at k = 1).
     #[arg(long, value_name = "MB", default_value_t = waam_planner::DEFAULT_MAX_MEMORY_MB)]
     pub max_memory_mb: u64,
+    /// Worker threads of --all and --count, each searching its own share of the plans
+    /// (default: the available cores). Counts and the order of the plans are the same on
+    /// any number.
+    #[arg(long, value_name = "N", value_parser = super::at_least_one)]
+    pub threads: Option<usize>,
     /// How cycles are excluded: lazily by cuts between solves, or eagerly by a rank order.
     #[arg(long, value_parser = super::acyclicity_parser(), default_value = "lazy")]
     pub acyclicity: Acyclicity,
@@ -149,6 +154,7 @@ pub fn options(args: &PlanArgs) -> anyhow::Result<Options> {
         warm_start: !args.no_warm_start,
         executed: None,
         max_memory_mb: args.max_memory_mb,
+        threads: args.threads.unwrap_or(0),
     })
 }
 

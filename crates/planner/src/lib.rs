@@ -10,6 +10,7 @@
 
 pub mod cadical;
 pub mod constructive;
+pub mod cubes;
 pub mod encoding;
 mod portfolio;
 mod prefix_cache;
@@ -73,6 +74,10 @@ pub struct Options {
     /// Refuse a part whose search would need more memory than this, MB, by the estimate
     /// of [`estimated_memory_mb`] (checked before anything is built).
     pub max_memory_mb: u64,
+    /// Worker threads of [`count`] and [`enumerate`], each searching its own cubes of the
+    /// plans ([`cubes`]; 0: the thermal model's default, the available cores unless set).
+    /// Counts and the order of the plans are the same on any number.
+    pub threads: usize,
 }
 
 /// Why a candidate fails when a robot welds it (its transit cannot be made in the
@@ -129,6 +134,7 @@ impl Default for Options {
             warm_start: true,
             executed: None,
             max_memory_mb: DEFAULT_MAX_MEMORY_MB,
+            threads: 0,
         }
     }
 }
@@ -227,6 +233,89 @@ impl Stats {
         self.clause_len_min = Some(self.clause_len_min.map_or(len, |m| m.min(len)));
         self.clause_len_max = Some(self.clause_len_max.map_or(len, |m| m.max(len)));
         self.clause_len_mean = Some(self.clause_len_sum as f64 / self.learned_clauses as f64);
+    }
+
+    /// Adds another search's statistics (a worker of [`cubes`]): counts and times summed
+    /// (times are then CPU seconds over the workers), the instance size and the run's
+    /// length the largest (every worker encodes the same part), the first feasible plan
+    /// the earliest, the margin the best.
+    fn absorb(&mut self, other: &Stats) {
+        // Destructured, so that a new field cannot be forgotten here.
+        let Stats {
+            variables,
+            clauses,
+            encode_s,
+            candidates,
+            feasible,
+            torch_blocked,
+            executed_rejected,
+            sat_solves,
+            cycle_cuts,
+            first_feasible_s,
+            total_s,
+            sat_s,
+            acyclicity_s,
+            simulator_s,
+            lookahead_s,
+            lookahead_block_steps,
+            shortened,
+            deposits_simulated,
+            deposits_reused,
+            cooldown_steps,
+            cooled_inside,
+            best_margin_s,
+            learned_clauses,
+            inside_clauses,
+            inside_deposits,
+            inside_reused,
+            clause_len_min,
+            clause_len_max,
+            clause_len_mean: _,
+            clause_len_sum,
+        } = other;
+        let earliest = |a: Option<f64>, b: Option<f64>| match (a, b) {
+            (Some(x), Some(y)) => Some(x.min(y)),
+            (x, y) => x.or(y),
+        };
+        let largest = |a: Option<f64>, b: Option<f64>| match (a, b) {
+            (Some(x), Some(y)) => Some(x.max(y)),
+            (x, y) => x.or(y),
+        };
+        self.variables = self.variables.max(*variables);
+        self.clauses = self.clauses.max(*clauses);
+        self.encode_s += encode_s;
+        self.candidates += candidates;
+        self.feasible += feasible;
+        self.torch_blocked += torch_blocked;
+        self.executed_rejected += executed_rejected;
+        self.sat_solves += sat_solves;
+        self.cycle_cuts += cycle_cuts;
+        self.first_feasible_s = earliest(self.first_feasible_s, *first_feasible_s);
+        self.total_s = self.total_s.max(*total_s);
+        self.sat_s += sat_s;
+        self.acyclicity_s += acyclicity_s;
+        self.simulator_s += simulator_s;
+        self.lookahead_s += lookahead_s;
+        self.lookahead_block_steps += lookahead_block_steps;
+        self.shortened += shortened;
+        self.deposits_simulated += deposits_simulated;
+        self.deposits_reused += deposits_reused;
+        self.cooldown_steps += cooldown_steps;
+        self.cooled_inside += cooled_inside;
+        self.best_margin_s = largest(self.best_margin_s, *best_margin_s);
+        self.learned_clauses += learned_clauses;
+        self.inside_clauses += inside_clauses;
+        self.inside_deposits += inside_deposits;
+        self.inside_reused += inside_reused;
+        self.clause_len_min = clause_len_min.map_or(self.clause_len_min, |m| {
+            Some(self.clause_len_min.map_or(m, |s| s.min(m)))
+        });
+        self.clause_len_max = clause_len_max.map_or(self.clause_len_max, |m| {
+            Some(self.clause_len_max.map_or(m, |s| s.max(m)))
+        });
+        self.clause_len_sum += clause_len_sum;
+        self.clause_len_mean = (self.learned_clauses > 0)
+            .then(|| self.clause_len_sum as f64 / self.learned_clauses as f64);
     }
 }
 
@@ -794,7 +883,8 @@ fn margin_under(
     Ok(outcome.map_or(f64::NAN, |o| model.margin(&o.crossings)))
 }
 
-/// Counts the valid plans (`with_plans`) and the feasible plans, exactly.
+/// Counts the valid plans (`with_plans`) and the feasible plans, exactly, on `opts.threads`
+/// workers (see [`cubes`]).
 pub fn count(
     part: &Part,
     opts: &Options,
@@ -807,31 +897,18 @@ pub fn count(
     let k = max_fragments(part, opts);
     let mut complete = true;
     let plans = if with_plans {
-        let Some(mut search) = new_search(part, &graph, k, opts, 0, started) else {
-            return Ok(Counts {
-                plans: Some(0),
-                feasible: 0,
-                complete: false,
-                stats: stopped_early(started).stats,
-            });
-        };
-        let mut plans = 0u64;
-        while let Some(candidate) = search.next_candidate(&[]) {
-            plans += 1;
-            search.block_plan(&candidate);
-            if plans % 256 == 0 {
-                progress(Event::Counting {
-                    plans,
-                    stats: &search.stats,
-                });
-                if timed_out(opts, started) {
-                    complete = false;
-                    break;
-                }
-            }
-        }
-        complete &= !search.interrupted;
-        Some(plans)
+        let valid = cubes::conquer(
+            part,
+            &graph,
+            k,
+            opts,
+            started,
+            cubes::Mode::Valid,
+            progress,
+            &mut |_| Ok(()),
+        )?;
+        complete = valid.complete;
+        valid.plans
     } else {
         None
     };
@@ -842,7 +919,9 @@ pub fn count(
     Ok(counts)
 }
 
-/// Enumerates every feasible plan, handing each to `sink` as it is found.
+/// Enumerates every feasible plan on `opts.threads` workers, handing each to `sink` on the
+/// calling thread, cube by cube as the cubes are done: in the lexicographic order of their
+/// fragments (block indices), the same on any number of threads.
 pub fn enumerate(
     part: &Part,
     opts: &Options,
@@ -855,8 +934,8 @@ pub fn enumerate(
     enumerate_from(part, &graph, k, opts, Instant::now(), progress, sink)
 }
 
-/// The thermal loop to exhaustion, blocking each feasible plan after handing it to `sink`;
-/// timeouts count from `started`.
+/// The thermal loop to exhaustion over the cubes of the plans ([`cubes`]), blocking each
+/// feasible plan after handing it to `sink`; timeouts count from `started`.
 fn enumerate_from(
     part: &Part,
     graph: &WeldGraph,
@@ -866,47 +945,16 @@ fn enumerate_from(
     progress: Progress,
     sink: &mut dyn FnMut(&[Vec<usize>]) -> std::io::Result<()>,
 ) -> Result<Counts, PlanError> {
-    let Some(mut search) = new_search(part, graph, k, opts, opts.lookahead_budget, started) else {
-        return Ok(Counts {
-            plans: None,
-            feasible: 0,
-            complete: false,
-            stats: stopped_early(started).stats,
-        });
-    };
-    search.judge_inside();
-    let (mut feasible, mut complete) = (0u64, true);
-    while let Some(candidate) = search.next_candidate(&[]) {
-        let Some(verdict) = search.judge(&candidate)? else {
-            break; // stopped: `interrupted` marks the count incomplete
-        };
-        if let CandidateVerdict::Feasible = verdict {
-            feasible += 1;
-            search
-                .stats
-                .first_feasible_s
-                .get_or_insert(started.elapsed().as_secs_f64());
-            sink(&candidate)?;
-            search.block_plan(&candidate);
-        }
-        progress(Event::Candidate {
-            fragments: &candidate,
-            verdict,
-            stats: &search.stats,
-        });
-        if timed_out(opts, started) {
-            complete = false;
-            break;
-        }
-    }
-    complete &= !search.interrupted;
-    search.stats.total_s = started.elapsed().as_secs_f64();
-    Ok(Counts {
-        plans: None,
-        feasible,
-        complete,
-        stats: search.stats,
-    })
+    cubes::conquer(
+        part,
+        graph,
+        k,
+        opts,
+        started,
+        cubes::Mode::Feasible,
+        progress,
+        sink,
+    )
 }
 
 /// Explains a part with no valid plan: the fewest fragments it needs, and a layer that

@@ -83,9 +83,6 @@ pub struct PrefixCache {
     bytes: usize,
     /// Use counter: the last use of an entry is its tick.
     tick: std::cell::Cell<u64>,
-    /// Complete plans whose cooldown the check inside the search ran to its end without a
-    /// violation: judging such a plan again would repeat that very simulation.
-    cooled: rustc_hash::FxHashSet<Key>,
 }
 
 impl Default for PrefixCache {
@@ -124,11 +121,10 @@ impl PrefixCache {
             map: Default::default(),
             bytes: 0,
             tick: Default::default(),
-            cooled: Default::default(),
         }
     }
 
-    /// Forgets every snapshot and verdict (for a new thermal model), keeping the budget.
+    /// Forgets every snapshot (for a new thermal model), keeping the budget.
     pub fn clear(&mut self) {
         *self = PrefixCache::with_budget(self.budget);
     }
@@ -165,16 +161,6 @@ impl PrefixCache {
         self.bytes += cost;
         let tick = self.use_tick();
         self.map.insert(key, (snap, std::cell::Cell::new(tick)));
-    }
-
-    /// Notes that the complete plan `key` cooled down without breaking a window.
-    pub fn note_cooled(&mut self, key: Key) {
-        self.cooled.insert(key);
-    }
-
-    /// Whether the complete plan `key` was seen to cool down without breaking a window.
-    pub fn cooled(&self, key: Key) -> bool {
-        self.cooled.contains(&key)
     }
 
     /// Drops the least recently used half of the snapshots.

@@ -22,7 +22,7 @@ use waam_part::Part;
 use waam_thermal::{self as thermal, Phase, Simulation, ThermalModel, Violation};
 
 use super::encoding::{Acyclicity, Decoded, Encoding};
-use super::prefix_cache::{prefix_keys, resume, snapshot_spacing, PrefixCache, SharedCache};
+use super::prefix_cache::{prefix_keys, resume, snapshot_spacing, Key, PrefixCache, SharedCache};
 use super::sat::{Backend, Lit, SatSolver};
 use super::shortening::shorten;
 use super::thermal_prefix::{PrefixLiterals, ThermalPrefix};
@@ -57,6 +57,11 @@ pub struct Search<'p> {
     executed: Option<ExecutedCheck>,
     /// Why the last candidate was rejected on it.
     pub executed_last: Option<String>,
+    /// Clauses learned inside the search since [`Search::take_learned`], when kept.
+    learned: Vec<Vec<Lit>>,
+    /// The last complete plan (its prefix cache key) whose cooldown the check inside the
+    /// search simulated under the current model and found keeping every window.
+    cooled_inside: Option<Key>,
     /// When simulations stop too (a stopped simulation gives no verdict).
     deadline: Option<Instant>,
     cancel: Option<Arc<AtomicBool>>,
@@ -109,6 +114,8 @@ impl<'p> Search<'p> {
             torch_blocked: vec![0; n],
             executed: None,
             executed_last: None,
+            cooled_inside: None,
+            learned: Vec::new(),
             deadline: None,
             cancel: None,
         };
@@ -153,6 +160,7 @@ impl<'p> Search<'p> {
     /// Judges later candidates by `model` (e.g. narrowed windows while optimizing).
     pub fn set_thermal(&mut self, model: ThermalModel) {
         self.thermal = Arc::new(model);
+        self.cooled_inside = None;
         self.cache.borrow_mut().clear();
         self.solver.set_prefix_model(Arc::clone(&self.thermal));
     }
@@ -163,6 +171,12 @@ impl<'p> Search<'p> {
     /// Call before the first solve, and only for searches that judge plans (a count of
     /// valid plans must not).
     pub fn judge_inside(&mut self) {
+        self.judge_inside_keeping(false);
+    }
+
+    /// [`Search::judge_inside`]; `keep`: the clauses it learns are kept for
+    /// [`Search::take_learned`] too.
+    pub fn judge_inside_keeping(&mut self, keep: bool) {
         if !self.thermal.has_windows() {
             return; // nothing can break
         }
@@ -177,19 +191,26 @@ impl<'p> Search<'p> {
                 .collect(),
             ends: (0..n).map(|v| self.enc.ends_at(v)).collect(),
         };
-        let prefix = ThermalPrefix::new(
+        let mut prefix = ThermalPrefix::new(
             &lits,
             Arc::clone(&self.thermal),
             Rc::clone(&self.cache),
             Arc::new(self.graph.clone()),
             self.lookahead_budget,
         );
+        if keep {
+            prefix.keep_clauses();
+        }
         self.solver.judge_prefixes(prefix);
     }
 
     /// Counts what the prefix check did inside the last solve.
     fn take_prefix_report(&mut self) {
         let report = self.solver.take_prefix_report();
+        if report.cooled.is_some() {
+            self.cooled_inside = report.cooled;
+        }
+        self.learned.extend(report.clauses);
         for (&len, &block) in report.clause_lens.iter().zip(&report.violated) {
             self.stats.record_clause(len);
             self.violations[block] += 1;
@@ -254,6 +275,19 @@ impl<'p> Search<'p> {
                     self.stats.acyclicity_s += dt + t2.elapsed().as_secs_f64();
                 }
             }
+        }
+    }
+
+    /// The clauses learned inside the search since the last call (when kept): they hold for
+    /// every search of the same part and windows, so another worker can add them.
+    pub fn take_learned(&mut self) -> Vec<Vec<Lit>> {
+        std::mem::take(&mut self.learned)
+    }
+
+    /// Adds clauses another search of the same part and windows learned.
+    pub fn add_learned(&mut self, clauses: &[Vec<Lit>]) {
+        for c in clauses {
+            self.solver.add_clause(c);
         }
     }
 
@@ -366,9 +400,10 @@ impl<'p> Search<'p> {
         let whole = len == seq.len();
         let seq = &seq[..len];
         let keys = prefix_keys(seq);
-        if whole && keys.last().is_some_and(|&k| self.cache.borrow().cooled(k)) {
-            // The check inside the search simulated this very plan to the end of its
-            // cooldown: the same simulation would give the same verdict.
+        // The check inside the search simulated this very plan to the end of its cooldown
+        // already (the simulation depends on the deposit sequence alone): once is enough.
+        if whole && keys.last().is_some() && keys.last() == self.cooled_inside.as_ref() {
+            self.stats.deposits_reused += len as u64;
             self.stats.cooled_inside += 1;
             return Ok(Judged::Feasible);
         }

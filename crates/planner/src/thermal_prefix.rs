@@ -88,6 +88,11 @@ pub struct PrefixReport {
     pub reused: u64,
     /// Prefix steps resumed from a snapshot of the same prefix met on another branch.
     pub resumed: u64,
+    /// The clauses handed to the solver (kept only when asked: [`ThermalPrefix::keep_clauses`]).
+    pub clauses: Vec<Vec<Lit>>,
+    /// The cache key of the last complete prefix whose cooldown kept every window: the
+    /// thermal loop need not cool a candidate with it again.
+    pub cooled: Option<Key>,
 }
 
 /// A simulation together with the model it borrows.
@@ -159,6 +164,8 @@ pub struct ThermalPrefix {
     cancel: Option<Arc<AtomicBool>>,
     clauses: Vec<Vec<Lit>>,
     report: PrefixReport,
+    /// Copy the clauses into the report (for a search that hands them on).
+    keep_clauses: bool,
 }
 
 impl ThermalPrefix {
@@ -222,6 +229,7 @@ impl ThermalPrefix {
             cancel: None,
             clauses: Vec::new(),
             report: PrefixReport::default(),
+            keep_clauses: false,
         };
         prefix.reset_simulation();
         prefix
@@ -261,6 +269,11 @@ impl ThermalPrefix {
     }
 
     /// What the check did since the last call.
+    /// Copies every clause handed to the solver into the report too.
+    pub fn keep_clauses(&mut self) {
+        self.keep_clauses = true;
+    }
+
     pub fn take_report(&mut self) -> PrefixReport {
         std::mem::take(&mut self.report)
     }
@@ -527,19 +540,17 @@ impl ThermalPrefix {
             return false;
         }
         self.cooled = true;
+        if let Ok(Ok(())) = end {
+            self.report.cooled = self.keys.get(self.n - 1).copied();
+        }
         match end {
             // A complete plan is the same whether its last fragment is closed or not.
             Ok(Err(v)) => {
                 self.learn(self.n, false, v.block);
                 true
             }
-            Ok(Ok(())) => {
-                let key = self.keys[self.n - 1];
-                self.cache.borrow_mut().note_cooled(key);
-                false
-            }
-            // A part that cannot cool: the thermal loop reports that.
-            Err(_) => false,
+            // Feasible, or a part that cannot cool: the thermal loop reports that.
+            _ => false,
         }
     }
 
@@ -576,6 +587,9 @@ impl ThermalPrefix {
         }
         self.report.clause_lens.push(clause.len());
         self.report.violated.push(window);
+        if self.keep_clauses {
+            self.report.clauses.push(clause.clone());
+        }
         self.clauses.push(clause);
     }
 }

@@ -448,6 +448,7 @@ mod tests {
             warm_start: false,
             executed: None,
             max_memory_mb: waam_planner::DEFAULT_MAX_MEMORY_MB,
+            threads: 0,
         };
         let values: Vec<(String, String)> = settings(&opts)
             .into_iter()
