@@ -970,15 +970,26 @@ fn no_valid_plan(
         .into_iter()
         .filter(|&(_, paths, _)| paths > k)
         .max_by_key(|&(z, paths, _)| (paths, std::cmp::Reverse(z)));
-    // The fewest fragments, by asking the solver for structure only (bounded effort, and
-    // within the run's deadline), from the layers' lower bound up.
+    // The fewest fragments, by asking the solver for structure only, from the layers'
+    // lower bound up. The verdict is proven already, so this extra figure gets a few
+    // seconds at most (within the run's deadline): a mesh whose layers fall apart into
+    // many pieces had kept the answer back for the whole timeout.
+    const NEEDS_SEARCH: Duration = Duration::from_secs(5);
+    let left = opts
+        .timeout
+        .map_or(NEEDS_SEARCH, |t| t.saturating_sub(started.elapsed()));
+    let capped = Options {
+        timeout: Some(left.min(NEEDS_SEARCH)),
+        ..opts.clone()
+    };
+    let capped_from = Instant::now();
     let from = (k + 1).max(layer.map_or(0, |(_, paths, _)| paths));
     let mut interrupted = false;
     let needs_at_least = (from..=part.len().min(from + 15)).find(|&f| {
         if interrupted {
             return false;
         }
-        let Some(mut search) = new_search(part, graph, f, opts, 0, started) else {
+        let Some(mut search) = new_search(part, graph, f, &capped, 0, capped_from) else {
             interrupted = true;
             return false;
         };
