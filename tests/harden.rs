@@ -150,6 +150,30 @@ fn a_50_million_second_transit_is_stopped_by_the_timeout() {
     assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
 }
 
+/// A part with no valid plan is answered in seconds, not at the timeout: the layer bound
+/// proves the verdict at once, and the search for how many weld paths the part needs (extra
+/// information) is capped. A voxelized nozzle whose layers fall into 10 pieces joined only
+/// diagonally had kept its answer back for the whole `--timeout 60`.
+#[test]
+fn a_part_with_no_valid_plan_is_answered_in_seconds_not_at_the_timeout() {
+    let dir = tempfile::tempdir().unwrap();
+    let part = data("nozzle-6-6-2.5.yaml");
+    let run = measured(
+        dir.path(),
+        &["plan", part.to_str().unwrap(), "--timeout", "60", "-q"],
+        Duration::from_secs(90),
+    );
+    assert_eq!(run.code, Some(1), "{}", run.describe());
+    assert!(
+        run.stdout
+            .contains("no valid plan with at most 2 fragment(s)")
+            && run.stdout.contains("alone needs 10 weld paths"),
+        "{}",
+        run.describe()
+    );
+    assert!(run.wall < Duration::from_secs(15), "{}", run.describe());
+}
+
 /// Two single blocks apart, so every plan has one transit; `transit_s` long.
 fn two_towers(transit_s: f64) -> String {
     format!(
