@@ -143,7 +143,42 @@ pub struct ThermalModel {
     blocks: Vec<Block>,
     /// The z = 0 blocks are the first `substrate_slots` (blocks are sorted by z).
     substrate_slots: usize,
+    /// Per slot its ±y / ±z neighbour slots, and where four in a row are consecutive: see
+    /// [`neighbour_runs`].
+    near: Vec<[u32; 4]>,
+    runs: Vec<u8>,
     simd: Simd,
+}
+
+/// The ±y / ±z neighbour slots of every slot as the part lays them out, and per slot `s`
+/// the bits d (-y, +y, -z, +z) where slots `s..s + 4` have the consecutive neighbours
+/// `near[s][d] + 0..4`. In a part whose layers repeat and whose rows span alike, most runs
+/// are consecutive: a vector kernel then reads the four neighbours with one load instead of
+/// a gather (slow on some CPUs) and keeps the slot's own value where the neighbour is not
+/// welded. A missing neighbour gets a stand-in slot that continues the run of the slot
+/// before it (its value is never used, only its place).
+fn neighbour_runs(faces: &[[u32; 6]]) -> (Vec<[u32; 4]>, Vec<u8>) {
+    let n = faces.len();
+    let mut near = vec![[0u32; 4]; n];
+    for s in 0..n {
+        for d in 0..4 {
+            near[s][d] = match faces[s][d + 2] {
+                NONE => match s.checked_sub(1).map(|p| near[p][d] as usize + 1) {
+                    Some(next) if next < n => next as u32,
+                    _ => s as u32,
+                },
+                j => j,
+            };
+        }
+    }
+    let runs = (0..n)
+        .map(|s| {
+            (0..4)
+                .filter(|&d| s + 4 <= n && (1..4).all(|j| near[s + j][d] == near[s][d] + j as u32))
+                .fold(0u8, |bits, d| bits | 1 << d)
+        })
+        .collect();
+    (near, runs)
 }
 
 impl ThermalModel {
@@ -162,6 +197,8 @@ impl ThermalModel {
         for &(i, w) in part.windows() {
             windows[i] = Some(w);
         }
+        let faces: Vec<[u32; 6]> = (0..part.len()).map(|i| graph.faces(i)).collect();
+        let (near, runs) = neighbour_runs(&faces);
         ThermalModel {
             params,
             dt,
@@ -169,11 +206,13 @@ impl ThermalModel {
             cooldown_steps: round_steps(params.max_cooldown_s / dt),
             // powf, not powi: the same libm pow the reference checker uses.
             ambient_k4: (params.ambient_c + 273.15).powf(4.0),
-            faces: (0..part.len()).map(|i| graph.faces(i)).collect(),
+            faces,
             on_substrate: part.blocks().iter().map(|b| b[2] == 0).collect(),
             windows,
             blocks: part.blocks().to_vec(),
             substrate_slots: part.blocks().partition_point(|b| b[2] == 0),
+            near,
+            runs,
             simd: Simd::detect(),
         }
     }
@@ -263,9 +302,11 @@ impl Snapshot {
     }
 }
 
-/// Bits of [`Simulation::xflags`]: the -x / +x face-neighbour is welded.
+/// Bits of [`Simulation::welded_faces`]: the face-neighbour on that side is welded.
 const MINUS_X: u8 = 1;
 const PLUS_X: u8 = 2;
+/// The ±y / ±z bits: [`MINUS_Y`] << d for d = 0..4 (-y, +y, -z, +z).
+const MINUS_Y: u8 = 4;
 /// Temperature buffers keep one padding slot at each end, so that the contiguous -x / +x
 /// reads of the first and last slot stay in bounds: slot `s` lives at `temp[s + PAD]`.
 const PAD: usize = 1;
@@ -315,8 +356,8 @@ pub struct Simulation<'m> {
     ny1: Vec<u32>,
     nz0: Vec<u32>,
     nz1: Vec<u32>,
-    /// [`MINUS_X`] / [`PLUS_X`]: that neighbour is welded.
-    xflags: Vec<u8>,
+    /// [`MINUS_X`], [`PLUS_X`], [`MINUS_Y`] << d: that neighbour is welded.
+    welded_faces: Vec<u8>,
     /// r · exposed faces, per slot.
     radiation: Vec<f64>,
     exposed: Vec<u8>,
@@ -354,7 +395,7 @@ impl<'m> Simulation<'m> {
             ny1: slots.clone(),
             nz0: slots.clone(),
             nz1: slots,
-            xflags: vec![0; n],
+            welded_faces: vec![0; n],
             radiation: vec![0.0; n],
             exposed: vec![0; n],
             is_welded: vec![false; n],
@@ -553,15 +594,14 @@ impl<'m> Simulation<'m> {
 
     /// Points face `k` of slot `s` at slot `to` (`s` itself: not welded).
     fn link(&mut self, s: usize, k: usize, to: usize) {
+        let bit = 1u8 << k;
+        if to == s {
+            self.welded_faces[s] &= !bit;
+        } else {
+            self.welded_faces[s] |= bit;
+        }
         match k {
-            0 | 1 => {
-                let bit = if k == 0 { MINUS_X } else { PLUS_X };
-                if to == s {
-                    self.xflags[s] &= !bit;
-                } else {
-                    self.xflags[s] |= bit;
-                }
-            }
+            0 | 1 => {}
             2 => self.ny0[s] = to as u32,
             3 => self.ny1[s] = to as u32,
             4 => self.nz0[s] = to as u32,
@@ -685,7 +725,9 @@ impl<'m> Simulation<'m> {
             ny1: self.ny1.as_ptr(),
             nz0: self.nz0.as_ptr(),
             nz1: self.nz1.as_ptr(),
-            xflags: self.xflags.as_ptr(),
+            welded_faces: self.welded_faces.as_ptr(),
+            near: self.model.near.as_ptr(),
+            runs: self.model.runs.as_ptr(),
             radiation: self.radiation.as_ptr(),
             h: p.conduction_per_s,
             hs: p.substrate_per_s,
@@ -830,7 +872,11 @@ struct Kernel {
     ny1: *const u32,
     nz0: *const u32,
     nz1: *const u32,
-    xflags: *const u8,
+    welded_faces: *const u8,
+    /// Per slot its ±y / ±z neighbour slots as laid out in the part (a stand-in where the
+    /// part has none), and the bits d where slots i..i + 4 have consecutive ones.
+    near: *const [u32; 4],
+    runs: *const u8,
     radiation: *const f64,
     h: f64,
     hs: f64,
@@ -856,24 +902,21 @@ impl Kernel {
     /// other thread may touch `out[a..b]`.
     unsafe fn run(&self, a: usize, b: usize) {
         #[cfg(target_arch = "x86_64")]
-        if self.simd == Simd::Avx512 {
-            return self.range_avx512(a, b);
+        match self.simd {
+            Simd::Avx512 => return self.range_avx512(a, b),
+            Simd::Avx2 => return self.range_avx2(a, b),
+            Simd::Scalar => {}
         }
-        // The z = 0 slots have the substrate term h_s; the others h_s = 0.0 (exactly the
-        // value the spec's [z_i = 0] · h_s gives them, so the sum is the same).
-        let mid = self.n0.clamp(a, b);
-        self.segment(a, mid, self.hs);
-        self.segment(mid, b, 0.0);
+        self.range_scalar(a, b);
     }
 
-    unsafe fn segment(&self, a: usize, b: usize, hs: f64) {
-        match self.simd {
-            #[cfg(target_arch = "x86_64")]
-            Simd::Avx2 => self.segment_avx2(a, b, hs),
-            #[cfg(target_arch = "x86_64")]
-            Simd::Avx512 => self.segment_avx512(a, b, hs),
-            _ => self.segment_scalar(a, b, hs),
-        }
+    /// Slots `a..b` one at a time. The z = 0 slots have the substrate term h_s; the others
+    /// h_s = 0.0 (exactly the value the spec's [z_i = 0] · h_s gives them, so the sum is the
+    /// same).
+    unsafe fn range_scalar(&self, a: usize, b: usize) {
+        let mid = self.n0.clamp(a, b);
+        self.segment_scalar(a, mid, self.hs);
+        self.segment_scalar(mid, b, 0.0);
     }
 
     /// The spec's step for one slot, in the spec's order of operations.
@@ -881,7 +924,7 @@ impl Kernel {
     unsafe fn slot(&self, i: usize, hs: f64) {
         let t = self.t;
         let ti = *t.add(i);
-        let xf = *self.xflags.add(i);
+        let xf = *self.welded_faces.add(i);
         let tmx = if xf & MINUS_X != 0 {
             *t.sub(1).add(i)
         } else {
@@ -912,106 +955,101 @@ impl Kernel {
         }
     }
 
-    /// Four slots at a time: the same operations in the same order on each lane (AVX2
-    /// adds, subtracts and multiplies are the IEEE operations of the scalar code; there is
-    /// no fused multiply-add), the ±y/±z reads are gathers.
+    /// Slots `a..b` four at a time with AVX2, in one pass: the substrate coefficient is
+    /// chosen per lane (h_s below slot n0, 0.0 above, as [`Kernel::range_scalar`] has it)
+    /// and a last partial vector is the vector ending at `b`, which computes some slots
+    /// twice, to the same values (`out` is not read during a step).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn segment_avx2(&self, a: usize, b: usize, hs: f64) {
-        use std::arch::x86_64::*;
-        let t = self.t;
-        let h = _mm256_set1_pd(self.h);
-        let hs_v = _mm256_set1_pd(hs);
-        let amb = _mm256_set1_pd(self.amb);
-        let q = _mm256_set1_pd(self.q);
-        let dt = _mm256_set1_pd(self.dt);
-        let kelvin = _mm256_set1_pd(273.15);
-        let bit_mx = _mm256_set1_epi64x(MINUS_X as i64);
-        let bit_px = _mm256_set1_epi64x(PLUS_X as i64);
+    unsafe fn range_avx2(&self, a: usize, b: usize) {
+        if b - a < 4 {
+            return self.range_scalar(a, b);
+        }
         let mut i = a;
         while i + 4 <= b {
-            let ti = _mm256_loadu_pd(t.add(i));
-            let xf = _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(
-                (self.xflags.add(i) as *const i32).read_unaligned(),
-            ));
-            let m_mx =
-                _mm256_castsi256_pd(_mm256_cmpeq_epi64(_mm256_and_si256(xf, bit_mx), bit_mx));
-            let m_px =
-                _mm256_castsi256_pd(_mm256_cmpeq_epi64(_mm256_and_si256(xf, bit_px), bit_px));
-            let tmx = _mm256_blendv_pd(ti, _mm256_loadu_pd(t.sub(1).add(i)), m_mx);
-            let tpx = _mm256_blendv_pd(ti, _mm256_loadu_pd(t.add(i + 1)), m_px);
-            let idx = |p: *const u32| _mm_loadu_si128(p.add(i) as *const __m128i);
-            let tmy = _mm256_i32gather_pd::<8>(t, idx(self.ny0));
-            let tpy = _mm256_i32gather_pd::<8>(t, idx(self.ny1));
-            let tmz = _mm256_i32gather_pd::<8>(t, idx(self.nz0));
-            let tpz = _mm256_i32gather_pd::<8>(t, idx(self.nz1));
-            let mut f = _mm256_mul_pd(h, _mm256_sub_pd(tmx, ti));
-            f = _mm256_add_pd(f, _mm256_mul_pd(h, _mm256_sub_pd(tpx, ti)));
-            f = _mm256_add_pd(f, _mm256_mul_pd(h, _mm256_sub_pd(tmy, ti)));
-            f = _mm256_add_pd(f, _mm256_mul_pd(h, _mm256_sub_pd(tpy, ti)));
-            f = _mm256_add_pd(f, _mm256_mul_pd(h, _mm256_sub_pd(tmz, ti)));
-            f = _mm256_add_pd(f, _mm256_mul_pd(h, _mm256_sub_pd(tpz, ti)));
-            f = _mm256_add_pd(f, _mm256_mul_pd(hs_v, _mm256_sub_pd(amb, ti)));
-            let tk = _mm256_add_pd(ti, kelvin);
-            let t2 = _mm256_mul_pd(tk, tk);
-            let re = _mm256_loadu_pd(self.radiation.add(i));
-            f = _mm256_sub_pd(
-                f,
-                _mm256_mul_pd(re, _mm256_sub_pd(_mm256_mul_pd(t2, t2), q)),
-            );
-            _mm256_storeu_pd(self.out.add(i), _mm256_add_pd(ti, _mm256_mul_pd(dt, f)));
+            self.lanes_avx2(i);
             i += 4;
         }
-        self.segment_scalar(i, b, hs);
+        if i < b {
+            self.lanes_avx2(b - 4);
+        }
     }
 
-    /// Eight slots at a time, as [`Kernel::segment_avx2`] (masked loads for ±x).
+    /// Slots `i..i + 4` (`i + 4 <= n`): the same operations in the same order on each lane
+    /// as [`Kernel::slot`] (AVX2 adds, subtracts and multiplies are the IEEE operations of
+    /// the scalar code; there is no fused multiply-add). The ±x neighbours are the
+    /// contiguous reads beside the slots; a ±y / ±z neighbour is one load where the four
+    /// slots' neighbours are consecutive (see [`neighbour_runs`]), else a gather; either
+    /// way the slot's own value stands in for an unwelded neighbour.
     #[cfg(target_arch = "x86_64")]
-    #[rustversion::since(1.89)]
-    #[target_feature(enable = "avx512f")]
-    unsafe fn segment_avx512(&self, a: usize, b: usize, hs: f64) {
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn lanes_avx2(&self, i: usize) {
         use std::arch::x86_64::*;
         let t = self.t;
-        let h = _mm512_set1_pd(self.h);
-        let hs_v = _mm512_set1_pd(hs);
-        let amb = _mm512_set1_pd(self.amb);
-        let q = _mm512_set1_pd(self.q);
-        let dt = _mm512_set1_pd(self.dt);
-        let kelvin = _mm512_set1_pd(273.15);
-        let bit_mx = _mm512_set1_epi64(MINUS_X as i64);
-        let bit_px = _mm512_set1_epi64(PLUS_X as i64);
-        let mut i = a;
-        while i + 8 <= b {
-            let ti = _mm512_loadu_pd(t.add(i));
-            let xf = _mm512_cvtepu8_epi64(_mm_loadl_epi64(self.xflags.add(i) as *const __m128i));
-            let tmx = _mm512_mask_loadu_pd(ti, _mm512_test_epi64_mask(xf, bit_mx), t.sub(1).add(i));
-            let tpx = _mm512_mask_loadu_pd(ti, _mm512_test_epi64_mask(xf, bit_px), t.add(i + 1));
-            let idx = |p: *const u32| _mm256_loadu_si256(p.add(i) as *const __m256i);
-            let tmy = _mm512_i32gather_pd::<8>(idx(self.ny0), t);
-            let tpy = _mm512_i32gather_pd::<8>(idx(self.ny1), t);
-            let tmz = _mm512_i32gather_pd::<8>(idx(self.nz0), t);
-            let tpz = _mm512_i32gather_pd::<8>(idx(self.nz1), t);
-            let mut f = _mm512_mul_pd(h, _mm512_sub_pd(tmx, ti));
-            f = _mm512_add_pd(f, _mm512_mul_pd(h, _mm512_sub_pd(tpx, ti)));
-            f = _mm512_add_pd(f, _mm512_mul_pd(h, _mm512_sub_pd(tmy, ti)));
-            f = _mm512_add_pd(f, _mm512_mul_pd(h, _mm512_sub_pd(tpy, ti)));
-            f = _mm512_add_pd(f, _mm512_mul_pd(h, _mm512_sub_pd(tmz, ti)));
-            f = _mm512_add_pd(f, _mm512_mul_pd(h, _mm512_sub_pd(tpz, ti)));
-            f = _mm512_add_pd(f, _mm512_mul_pd(hs_v, _mm512_sub_pd(amb, ti)));
-            let tk = _mm512_add_pd(ti, kelvin);
-            let t2 = _mm512_mul_pd(tk, tk);
-            let re = _mm512_loadu_pd(self.radiation.add(i));
-            f = _mm512_sub_pd(
-                f,
-                _mm512_mul_pd(re, _mm512_sub_pd(_mm512_mul_pd(t2, t2), q)),
-            );
-            _mm512_storeu_pd(self.out.add(i), _mm512_add_pd(ti, _mm512_mul_pd(dt, f)));
-            i += 8;
+        let ti = _mm256_loadu_pd(t.add(i));
+        let faces = _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(
+            (self.welded_faces.add(i) as *const i32).read_unaligned(),
+        ));
+        macro_rules! welded {
+            ($bit:expr) => {{
+                let bit = _mm256_set1_epi64x($bit as i64);
+                _mm256_castsi256_pd(_mm256_cmpeq_epi64(_mm256_and_si256(faces, bit), bit))
+            }};
         }
-        self.segment_avx2(i, b, hs);
+        let tmx = _mm256_blendv_pd(ti, _mm256_loadu_pd(t.sub(1).add(i)), welded!(MINUS_X));
+        let tpx = _mm256_blendv_pd(ti, _mm256_loadu_pd(t.add(i + 1)), welded!(PLUS_X));
+        let runs = *self.runs.add(i);
+        let near = &*self.near.add(i);
+        macro_rules! neighbour {
+            ($d:expr, $slots:expr) => {
+                if runs & (1 << $d) != 0 {
+                    let v = _mm256_loadu_pd(t.add(near[$d] as usize));
+                    _mm256_blendv_pd(ti, v, welded!(MINUS_Y << $d))
+                } else {
+                    let idx = _mm_loadu_si128($slots.add(i) as *const __m128i);
+                    _mm256_i32gather_pd::<8>(t, idx)
+                }
+            };
+        }
+        let tmy = neighbour!(0, self.ny0);
+        let tpy = neighbour!(1, self.ny1);
+        let tmz = neighbour!(2, self.nz0);
+        let tpz = neighbour!(3, self.nz1);
+        // h_s on the lanes below slot n0, +0.0 on the others.
+        let hs_v = if i >= self.n0 {
+            _mm256_setzero_pd()
+        } else {
+            let lane = _mm256_setr_epi64x(i as i64, i as i64 + 1, i as i64 + 2, i as i64 + 3);
+            let below = _mm256_cmpgt_epi64(_mm256_set1_epi64x(self.n0 as i64), lane);
+            _mm256_and_pd(_mm256_castsi256_pd(below), _mm256_set1_pd(self.hs))
+        };
+        let h = _mm256_set1_pd(self.h);
+        let mut f = _mm256_mul_pd(h, _mm256_sub_pd(tmx, ti));
+        f = _mm256_add_pd(f, _mm256_mul_pd(h, _mm256_sub_pd(tpx, ti)));
+        f = _mm256_add_pd(f, _mm256_mul_pd(h, _mm256_sub_pd(tmy, ti)));
+        f = _mm256_add_pd(f, _mm256_mul_pd(h, _mm256_sub_pd(tpy, ti)));
+        f = _mm256_add_pd(f, _mm256_mul_pd(h, _mm256_sub_pd(tmz, ti)));
+        f = _mm256_add_pd(f, _mm256_mul_pd(h, _mm256_sub_pd(tpz, ti)));
+        f = _mm256_add_pd(
+            f,
+            _mm256_mul_pd(hs_v, _mm256_sub_pd(_mm256_set1_pd(self.amb), ti)),
+        );
+        let tk = _mm256_add_pd(ti, _mm256_set1_pd(273.15));
+        let t2 = _mm256_mul_pd(tk, tk);
+        let re = _mm256_loadu_pd(self.radiation.add(i));
+        f = _mm256_sub_pd(
+            f,
+            _mm256_mul_pd(
+                re,
+                _mm256_sub_pd(_mm256_mul_pd(t2, t2), _mm256_set1_pd(self.q)),
+            ),
+        );
+        let out = _mm256_add_pd(ti, _mm256_mul_pd(_mm256_set1_pd(self.dt), f));
+        _mm256_storeu_pd(self.out.add(i), out);
     }
 
-    /// Slots `a..b` eight at a time in one pass, as [`Kernel::segment_avx512`] but with the
+    /// Slots `a..b` eight at a time in one pass, as [`Kernel::lanes_avx2`] but with the
     /// substrate coefficient per lane (h_s on the z = 0 slots, 0.0 on the others, as
     /// [`Kernel::run`] gives them) and the last, partial vector masked: a small part's step
     /// is a handful of vectors, and the two segments' AVX2 and scalar tails showed in its
@@ -1023,7 +1061,7 @@ impl Kernel {
         let mut i = a;
         while i + 8 <= b {
             let idx = [self.ny0, self.ny1, self.nz0, self.nz1].map(|p| p.add(i));
-            self.lanes_avx512(i, 0xff, self.xflags.add(i), idx);
+            self.lanes_avx512(i, 0xff, self.welded_faces.add(i), idx);
             i += 8;
         }
         if i < b {
@@ -1031,7 +1069,7 @@ impl Kernel {
             // slot i itself (a valid slot, read by gathers whose results are not stored).
             let m = b - i;
             let mut xflags = [0u8; 8];
-            std::ptr::copy_nonoverlapping(self.xflags.add(i), xflags.as_mut_ptr(), m);
+            std::ptr::copy_nonoverlapping(self.welded_faces.add(i), xflags.as_mut_ptr(), m);
             let mut idx = [[i as u32; 8]; 4];
             for (buf, p) in idx.iter_mut().zip([self.ny0, self.ny1, self.nz0, self.nz1]) {
                 std::ptr::copy_nonoverlapping(p.add(i), buf.as_mut_ptr(), m);
@@ -1100,16 +1138,8 @@ impl Kernel {
     /// Before rustc 1.89 there is no AVX-512 kernel ([`Simd::detect`] never picks it).
     #[cfg(target_arch = "x86_64")]
     #[rustversion::before(1.89)]
-    unsafe fn segment_avx512(&self, a: usize, b: usize, hs: f64) {
-        self.segment_avx2(a, b, hs)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[rustversion::before(1.89)]
     unsafe fn range_avx512(&self, a: usize, b: usize) {
-        let mid = self.n0.clamp(a, b);
-        self.segment_avx2(a, mid, self.hs);
-        self.segment_avx2(mid, b, 0.0);
+        self.range_avx2(a, b)
     }
 }
 
