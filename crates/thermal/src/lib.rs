@@ -28,6 +28,28 @@ pub const WARM_C: f64 = 500.0;
 /// Tolerance of every t8/5 comparison, seconds.
 pub const TOLERANCE_S: f64 = 1e-9;
 
+/// The least t8/5 count c (whole steps) with `c as f64 * dt > max_s + TOLERANCE_S`, the
+/// spec's test of a maximum: c ↦ c·dt rounds monotonically (c < 2^53 converts exactly), so
+/// the test holds exactly for the counts from this one on. `u64::MAX` where no count
+/// reaches it.
+fn steps_beyond(max_s: f64, dt: f64) -> u64 {
+    let limit = max_s + TOLERANCE_S;
+    let over = |c: u64| c as f64 * dt > limit;
+    let guess = limit / dt;
+    // Also a NaN limit, which no count passes.
+    if guess.is_nan() || guess >= 2f64.powi(52) {
+        return u64::MAX;
+    }
+    let mut c = guess.floor().max(0.0) as u64;
+    while c > 0 && over(c - 1) {
+        c -= 1;
+    }
+    while !over(c) {
+        c += 1;
+    }
+    c
+}
+
 /// Rounds a non-negative step count, halves away from zero.
 fn round_steps(x: f64) -> u64 {
     (x + 0.5).floor() as u64
@@ -370,6 +392,8 @@ pub struct Simulation<'m> {
     w_slot: Vec<u32>,
     w_lo: Vec<f64>,
     w_hi: Vec<f64>,
+    /// The least t8/5 count (whole steps) above `w_hi`: see [`steps_beyond`].
+    w_over: Vec<u64>,
     w_block: Vec<u32>,
     w_count: Vec<u64>,
     crossings: Option<Vec<Crossing>>,
@@ -404,6 +428,7 @@ impl<'m> Simulation<'m> {
             w_slot: Vec::new(),
             w_lo: Vec::new(),
             w_hi: Vec::new(),
+            w_over: Vec::new(),
             w_block: Vec::new(),
             w_count: Vec::new(),
             crossings: None,
@@ -634,6 +659,7 @@ impl<'m> Simulation<'m> {
                 self.w_slot.pop();
                 self.w_lo.pop();
                 self.w_hi.pop();
+                self.w_over.pop();
                 self.w_block.pop();
                 self.w_count.pop();
             }
@@ -674,6 +700,7 @@ impl<'m> Simulation<'m> {
             self.w_slot.push(s as u32);
             self.w_lo.push(w.min_s);
             self.w_hi.push(w.max_s);
+            self.w_over.push(steps_beyond(w.max_s, model.dt));
             self.w_block.push(block as u32);
             self.w_count.push(0);
         }
@@ -689,8 +716,9 @@ impl<'m> Simulation<'m> {
     /// Runs up to `n` steps; stops at the first violation. With `cooling`, stops before a
     /// step once every windowed block is below 500 °C.
     fn run(&mut self, n: u64, phase: Phase, cooling: bool) -> Result<(), Violation> {
+        let mut warm = cooling && self.first_warm().is_some();
         for _ in 0..n {
-            if cooling && self.first_warm().is_none() {
+            if cooling && !warm {
                 return Ok(());
             }
             if let Some(c) = &self.cancel {
@@ -706,7 +734,9 @@ impl<'m> Simulation<'m> {
             }
             self.step();
             self.steps += 1;
-            if let Some((a, kind)) = self.judge_windows() {
+            let (broken, warm_after) = self.judge_windows();
+            warm = warm_after;
+            if let Some((a, kind)) = broken {
                 std::mem::swap(&mut self.temp, &mut self.next);
                 return Err(self.violation(a, kind, phase));
             }
@@ -758,9 +788,11 @@ impl<'m> Simulation<'m> {
     }
 
     /// Updates the t8/5 counters after a step (`temp` before, `next` after) and returns
-    /// the broken window of the lowest block index, if any.
-    fn judge_windows(&mut self) -> Option<(usize, ViolationKind)> {
+    /// the broken window of the lowest block index, if any, and whether some windowed block
+    /// is still at or above 500 °C.
+    fn judge_windows(&mut self) -> (Option<(usize, ViolationKind)>, bool) {
         let dt = self.model.dt;
+        let mut warm = false;
         let mut worst: Option<(usize, ViolationKind)> = None;
         let mut keep = |a: usize, kind, w_block: &[u32]| match worst {
             Some((b, _)) if w_block[b] <= w_block[a] => {}
@@ -769,11 +801,13 @@ impl<'m> Simulation<'m> {
         for a in 0..self.w_slot.len() {
             let s = self.w_slot[a] as usize + PAD;
             let (u, v) = (self.temp[s], self.next[s]);
+            warm |= v >= WARM_C;
             if v > HOT_C {
                 self.w_count[a] = 0;
             } else if v >= WARM_C {
                 self.w_count[a] += 1;
-                if self.w_count[a] as f64 * dt > self.w_hi[a] + TOLERANCE_S {
+                // The same as `count · dt > max_s + TOLERANCE_S`, without the conversion.
+                if self.w_count[a] >= self.w_over[a] {
                     keep(a, ViolationKind::Max, &self.w_block);
                 }
             } else if u >= WARM_C {
@@ -790,7 +824,7 @@ impl<'m> Simulation<'m> {
                 }
             }
         }
-        worst
+        (worst, warm)
     }
 
     fn violation(&self, a: usize, kind: ViolationKind, phase: Phase) -> Violation {
@@ -1988,6 +2022,27 @@ mod identity {
                 .map(|(p, b)| (b, p == 0 || news[p] < 40))
                 .collect();
             (part, seq)
+        }
+    }
+
+    proptest! {
+        /// The integer threshold of a maximum is the spec's float test, count for count.
+        #[test]
+        fn steps_beyond_is_the_float_test(
+            max_s in prop_oneof![0.0f64..400.0, -5.0f64..0.0, Just(f64::INFINITY)],
+            dt in 1e-4f64..2.0,
+        ) {
+            let c = steps_beyond(max_s, dt);
+            let over = |c: u64| c as f64 * dt > max_s + TOLERANCE_S;
+            if c == u64::MAX {
+                prop_assert!(!over(1 << 52));
+            } else {
+                prop_assert!(over(c));
+                prop_assert!(c == 0 || !over(c - 1));
+                for k in c.saturating_sub(50)..c + 50 {
+                    prop_assert_eq!(over(k), k >= c);
+                }
+            }
         }
     }
 
