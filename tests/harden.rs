@@ -840,13 +840,23 @@ fn motion_stops_at_its_timeout() {
 fn check_stops_on_ctrl_c_within_a_second() {
     let dir = tempfile::tempdir().unwrap();
     long_transit_plan(dir.path());
-    let mut child = Command::new(env!("CARGO_BIN_EXE_waam"))
+    use std::os::unix::process::CommandExt;
+    let mut command = Command::new(env!("CARGO_BIN_EXE_waam"));
+    command
         .args(["check", "part.yaml", "plan.yaml"])
         .current_dir(dir.path())
         .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
+        .stderr(Stdio::null());
+    // SIGINT as a terminal gives it: a test run started in the background of a shell
+    // without job control inherits SIGINT ignored, and so would `waam check`, as any tool.
+    // SAFETY: only an async-signal-safe call between fork and exec.
+    unsafe {
+        command.pre_exec(|| {
+            libc::signal(libc::SIGINT, libc::SIG_DFL);
+            Ok(())
+        });
+    }
+    let mut child = command.spawn().unwrap();
     let (status, stopped_after) = ctrl_c_after(&mut child, Duration::from_millis(1000));
     // No handler of its own: SIGINT ends it as it ends any Unix tool.
     use std::os::unix::process::ExitStatusExt;
