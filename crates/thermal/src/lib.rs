@@ -1769,6 +1769,45 @@ mod tests {
         assert_eq!(a.exposed, fresh.exposed);
     }
 
+    /// More heat is not always hotter in this model, so no clause may be shortened on the
+    /// strength of "a later deposit only warms what stands" (issue #12's hint): a block
+    /// welded onto the plate beside a finished tower draws the tower's heat into the
+    /// substrate, and some seconds later the tower is colder than with no deposit at all.
+    #[test]
+    fn a_later_deposit_can_leave_a_standing_block_colder() {
+        let (part, m) = model(
+            "name: fin\nblock_mm: [6,6,2.5]\nmax_fragments: 2\n\
+             blocks: [[0,0,0],[0,0,1],[0,0,2],[1,0,0]]\nthermal: {transit_time_s: 1.0}\n",
+        );
+        let at = |b| part.index_of(b).unwrap();
+        let top = at([0, 0, 2]);
+        let tower = |sim: &mut Simulation| {
+            for (p, b) in [[0, 0, 0], [0, 0, 1], [0, 0, 2]].into_iter().enumerate() {
+                sim.deposit(at(b), p == 0).unwrap();
+            }
+            sim.transit().unwrap();
+        };
+        let temp = |sim: &Simulation| sim.temperatures().find(|t| t.0 == top).unwrap().1;
+        let (mut free, mut fin) = (Simulation::new(&m), Simulation::new(&m));
+        tower(&mut free);
+        tower(&mut fin);
+        fin.deposit_after_transit(at([1, 0, 0])).unwrap();
+        free.transit().unwrap(); // the same 20 steps with nothing deposited
+        let mut colder = Vec::new();
+        for _ in 0..40 {
+            assert_eq!(free.steps(), fin.steps());
+            if temp(&fin) < temp(&free) - 10.0 {
+                colder.push((fin.time_s(), temp(&free), temp(&fin)));
+            }
+            free.transit().unwrap();
+            fin.transit().unwrap();
+        }
+        assert!(
+            !colder.is_empty(),
+            "the deposit beside the tower never left its top colder"
+        );
+    }
+
     /// Fragments of a (block, new fragment) order.
     fn split(order: &[(usize, bool)]) -> Vec<Vec<usize>> {
         let mut out: Vec<Vec<usize>> = Vec::new();
