@@ -492,83 +492,99 @@ fn tail_overshoots(model: &Model, steps: usize) -> Vec<f64> {
 const HISTORY_DEPTH: usize = 3;
 
 /// history[j][d] for j = 0..=depth (see [`Bound`]); `None` when `deadline` passed first.
+///
+/// The walks are visited depth first in weld order, so each is simulated once, from its
+/// prefix's field: a segment's overshoot after j predecessors is a candidate for
+/// history[j] of that segment (the same fields as welding every walk from cold).
 fn history_overshoots(
     model: &Model,
     depth: usize,
     deadline: Option<Instant>,
 ) -> Option<Vec<Vec<f64>>> {
-    let late = || deadline.is_some_and(|d| Instant::now() >= d);
     let dirs = 2 * model.layer.segments.len();
-    let directed = |d: usize| Move {
-        segment: d / 2,
-        reversed: d % 2 == 1,
-        deadhead_before: false,
-    };
-    // Directed segments ending at each node.
-    let mut ending: Vec<Vec<usize>> = vec![Vec::new(); model.layer.nodes.len()];
+    // Directed segments starting at each node.
+    let mut starting: Vec<Vec<usize>> = vec![Vec::new(); model.layer.nodes.len()];
     for d in 0..dirs {
-        ending[model.ends(&directed(d)).1].push(d);
+        starting[model.ends(&directed(d)).0].push(d);
     }
-    let weld = |u: &mut Vec<f64>, d: usize| {
-        let mv = directed(d);
-        let mut o = 0.0;
-        for k in 0..model.steps[mv.segment] {
-            model.heat.step(u, &model.loads[model.position(&mv, k)]);
-            o += overshoot(u, model.target);
-        }
-        o
+    let mut walks = Walks {
+        model,
+        starting,
+        depth,
+        deadline,
+        history: vec![vec![f64::INFINITY; dirs]; depth + 1],
+        walk: Vec::new(),
     };
-    // For each directed segment, its least overshoot after walks of 0..=depth segments.
-    let per_segment = (0..dirs).map(|d| {
-        let mut best = vec![f64::INFINITY; depth + 1];
-        // Walks ending where d starts, as directed moves in weld order.
-        let mut walks: Vec<Vec<usize>> = vec![Vec::new()];
-        for (level, slot) in best.iter_mut().enumerate() {
-            for walk in &walks {
-                if late() {
-                    return best; // thrown away below
-                }
-                let mut u = vec![0.0; model.heat.len()];
-                for &p in walk {
-                    weld(&mut u, p);
-                }
-                *slot = slot.min(weld(&mut u, d));
+    let cold = vec![0.0; model.heat.len()];
+    for d in 0..dirs {
+        walks.extend(d, &cold)?;
+    }
+    let mut history = walks.history;
+    // A segment with no walk of j predecessors keeps its value for fewer.
+    for level in 1..=depth {
+        let (shorter, rest) = history.split_at_mut(level);
+        for (value, &fewer) in rest[0].iter_mut().zip(&shorter[level - 1]) {
+            if value.is_infinite() {
+                *value = fewer;
             }
-            if level == depth {
-                break;
-            }
-            let mut longer = Vec::new();
-            for walk in &walks {
-                let first = walk.first().copied().unwrap_or(d);
-                let start = model.ends(&directed(first)).0;
-                for &p in &ending[start] {
-                    if p / 2 == d / 2 || walk.iter().any(|&q| q / 2 == p / 2) {
-                        continue;
-                    }
-                    let mut w = vec![p];
-                    w.extend_from_slice(walk);
-                    longer.push(w);
-                }
-            }
-            walks = longer;
-        }
-        for level in 1..=depth {
-            if best[level].is_infinite() {
-                best[level] = best[level - 1];
-            }
-        }
-        best
-    });
-    let mut history = vec![vec![0.0; dirs]; depth + 1];
-    for (d, best) in per_segment.enumerate() {
-        if late() {
-            return None;
-        }
-        for (row, value) in history.iter_mut().zip(best) {
-            row[d] = value;
         }
     }
     Some(history)
+}
+
+/// Directed segment d: segment d / 2, reversed when d is odd.
+fn directed(d: usize) -> Move {
+    Move {
+        segment: d / 2,
+        reversed: d % 2 == 1,
+        deadhead_before: false,
+    }
+}
+
+/// The depth-first walk of [`history_overshoots`].
+struct Walks<'a> {
+    model: &'a Model,
+    starting: Vec<Vec<usize>>,
+    depth: usize,
+    deadline: Option<Instant>,
+    history: Vec<Vec<f64>>,
+    /// The walk so far, in weld order.
+    walk: Vec<usize>,
+}
+
+impl Walks<'_> {
+    /// Welds directed segment `d` after the walk (whose field is `u`), records its
+    /// overshoot, and goes on to every segment that can follow it (`None`: too late).
+    fn extend(&mut self, d: usize, u: &[f64]) -> Option<()> {
+        if self.deadline.is_some_and(|t| Instant::now() >= t) {
+            return None;
+        }
+        let model = self.model;
+        let mv = directed(d);
+        let mut v = u.to_vec();
+        let mut o = 0.0;
+        for k in 0..model.steps[mv.segment] {
+            model
+                .heat
+                .step(&mut v, &model.loads[model.position(&mv, k)]);
+            o += overshoot(&v, model.target);
+        }
+        let level = self.walk.len();
+        self.history[level][d] = self.history[level][d].min(o);
+        if level == self.depth {
+            return Some(());
+        }
+        self.walk.push(d);
+        let end = model.ends(&mv).1;
+        for i in 0..self.starting[end].len() {
+            let p = self.starting[end][i];
+            if !self.walk.iter().any(|&q| q / 2 == p / 2) {
+                self.extend(p, &v)?;
+            }
+        }
+        self.walk.pop();
+        Some(())
+    }
 }
 
 /// What is left to do after a search node.
