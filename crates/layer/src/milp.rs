@@ -82,19 +82,14 @@ pub fn solve(model: &Model) -> Result<MilpResult, crate::ModelError> {
         let once: Expression = (0..segs).map(|k| z[k][2 * s] + z[k][2 * s + 1]).sum();
         problem = problem.with(constraint!(once == 1.0));
     }
-    let directed = |d: usize| Move {
-        segment: d / 2,
-        reversed: d % 2 == 1,
-        deadhead_before: false,
-    };
     for k in 0..segs.saturating_sub(1) {
         for v in 0..model.layer.nodes.len() {
             let arrive: Expression = (0..2 * segs)
-                .filter(|&d| model.ends(&directed(d)).1 == v)
+                .filter(|&d| model.ends(&Move::directed(d)).1 == v)
                 .map(|d| z[k][d])
                 .sum();
             let leave: Expression = (0..2 * segs)
-                .filter(|&d| model.ends(&directed(d)).0 == v)
+                .filter(|&d| model.ends(&Move::directed(d)).0 == v)
                 .map(|d| z[k + 1][d])
                 .sum();
             problem = problem.with(constraint!(arrive == leave));
@@ -105,7 +100,7 @@ pub fn solve(model: &Model) -> Result<MilpResult, crate::ModelError> {
         // Heat input of step t: Σ_d z[k][d] dt F(position of d at step j).
         let mut load: Vec<Expression> = vec![Expression::from(0.0); nodes];
         for (d, &zd) in z[k].iter().enumerate() {
-            for &(i, f) in &model.loads[model.position(&directed(d), j)] {
+            for &(i, f) in &model.loads[model.position(&Move::directed(d), j)] {
                 load[i] += dt * f * zd;
             }
         }
@@ -128,7 +123,7 @@ pub fn solve(model: &Model) -> Result<MilpResult, crate::ModelError> {
             let d = (0..2 * segs)
                 .max_by(|&a, &b| solution.value(z[k][a]).total_cmp(&solution.value(z[k][b])))
                 .unwrap_or(0);
-            directed(d)
+            Move::directed(d)
         })
         .collect();
     let objective = dev.iter().flatten().map(|&v| solution.value(v)).sum();

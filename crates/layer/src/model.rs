@@ -27,6 +27,17 @@ pub struct Move {
     pub deadhead_before: bool,
 }
 
+impl Move {
+    /// Directed segment d (segment d / 2, reversed when d is odd), without deadheading.
+    pub fn directed(d: usize) -> Move {
+        Move {
+            segment: d / 2,
+            reversed: d % 2 == 1,
+            deadhead_before: false,
+        }
+    }
+}
+
 /// A trail: the segments in weld order with directions; deadheading between sub-trails.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Trail {

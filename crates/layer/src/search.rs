@@ -467,11 +467,7 @@ fn shortest_transit(model: &Model) -> usize {
 fn tail_overshoots(model: &Model, steps: usize) -> Vec<f64> {
     (0..2 * model.layer.segments.len())
         .map(|d| {
-            let mv = Move {
-                segment: d / 2,
-                reversed: d % 2 == 1,
-                deadhead_before: false,
-            };
+            let mv = Move::directed(d);
             let mut u = vec![0.0; model.heat.len()];
             for k in 0..model.steps[mv.segment] {
                 model
@@ -505,7 +501,7 @@ fn history_overshoots(
     // Directed segments starting at each node.
     let mut starting: Vec<Vec<usize>> = vec![Vec::new(); model.layer.nodes.len()];
     for d in 0..dirs {
-        starting[model.ends(&directed(d)).0].push(d);
+        starting[model.ends(&Move::directed(d)).0].push(d);
     }
     let mut walks = Walks {
         model,
@@ -532,15 +528,6 @@ fn history_overshoots(
     Some(history)
 }
 
-/// Directed segment d: segment d / 2, reversed when d is odd.
-fn directed(d: usize) -> Move {
-    Move {
-        segment: d / 2,
-        reversed: d % 2 == 1,
-        deadhead_before: false,
-    }
-}
-
 /// The depth-first walk of [`history_overshoots`].
 struct Walks<'a> {
     model: &'a Model,
@@ -560,7 +547,7 @@ impl Walks<'_> {
             return None;
         }
         let model = self.model;
-        let mv = directed(d);
+        let mv = Move::directed(d);
         let mut v = u.to_vec();
         let mut o = 0.0;
         for k in 0..model.steps[mv.segment] {
