@@ -267,10 +267,13 @@ fn killed_planning_runs_are_read_by_every_reader_after_reindex() {
             // Chunks close when 1 s old (checked every 0.1 s) and the search records
             // candidates all the time, so what was lost is at most the last ~second
             // (2 s: slack for a loaded machine), plus the quiet motion stage when the kill
-            // came after the search.
+            // came after the search. The killed run's search is not the full run's to the
+            // millisecond: on this VM it ended 0.5 s sooner in one CI run (a kill 122 ms
+            // after the full run's search found 2.5 s of quiet), so the quiet stage is
+            // counted from 70 % of the full run's search.
             let last = ours.messages.iter().map(|m| m.log_time).max().unwrap_or(0);
             let lost_ms = killed_at.saturating_sub(last) / 1_000_000;
-            let quiet_ms = ms.saturating_sub(search_ms);
+            let quiet_ms = ms.saturating_sub(search_ms * 7 / 10);
             assert!(
                 lost_ms < 2000 + quiet_ms,
                 "kill {i} after {ms} ms ({quiet_ms} ms after the search): the last {lost_ms} ms lost"
