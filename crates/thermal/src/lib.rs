@@ -5,7 +5,10 @@
 //! -z, +z), then the substrate term, then radiation, exactly as the spec writes them.
 //!
 //! The simulator is built for the planner, which runs it millions of times:
-//! - blocks live in *slots* in weld order, so the welded set is always slots `0..m`;
+//! - block i lives in slot i, in the part's (z, y, x) order, so the ±x neighbours are the
+//!   slots beside it and the z = 0 blocks come first; a step covers the slots from the
+//!   lowest to the highest welded one (an unwelded slot in between is its own neighbour on
+//!   every face and stays at ambient);
 //! - every slot keeps its six neighbour slots, an absent neighbour pointing at the slot
 //!   itself: `T_self - T_self` is exactly 0, so the inner loop needs no branch;
 //! - the stepping loop allocates nothing;
