@@ -61,14 +61,38 @@ pub fn leave_stopped_solvers_to_exit() {
     LEAVE_TO_EXIT.store(true, Ordering::Relaxed);
 }
 
+/// From about this many path-block pairs (blocks × k; the encoding has some 22 clauses per
+/// pair) the formula is big: see [`Cadical::for_size`].
+pub const BIG_FORMULA_PATH_BLOCKS: usize = 50_000;
+
 impl Default for Cadical {
     fn default() -> Self {
+        Cadical::for_size(0)
+    }
+}
+
+impl Cadical {
+    /// A solver for an encoding of `path_blocks` path-block pairs (blocks × k).
+    ///
+    /// CaDiCaL polls the terminate callback between its phases, and (with the patch in
+    /// `vendor/pindakaas-cadical`) after every conflict, but not inside a phase. On a big
+    /// formula (8·10^6 clauses for a 62,614-block part at k = 6) its clause-database
+    /// reduction, the arena moves of its garbage collection, inprocessing (variable
+    /// elimination with subsumption) and random walks each ran 2–13 s past a deadline:
+    /// there they are switched off, and the callback is asked at every poll (CaDiCaL
+    /// asks every 11th by default), so that `--timeout` and cancel hold within a second.
+    pub fn for_size(path_blocks: usize) -> Cadical {
         let mut inner = Inner::default();
-        // CaDiCaL polls the terminate callback only after a propagation without conflict.
         // Chronological backtracking can climb down thousands of decision levels one
-        // conflict at a time (seen on 10^4-block parts with long prefix clauses), which
-        // would starve the deadline: backjump instead.
+        // conflict at a time (seen on 10^4-block parts with long prefix clauses): backjump.
         inner.set_option("chrono", 0);
+        if path_blocks >= BIG_FORMULA_PATH_BLOCKS {
+            for option in ["reduce", "arena", "inprocessing", "walk", "compact"] {
+                inner.set_option(option, 0);
+            }
+            // A conflict there can take 0.1 s to analyse: ask at every poll, not every 11th.
+            inner.set_option("terminateint", 0);
+        }
         Cadical {
             inner,
             model: Vec::new(),
@@ -581,8 +605,25 @@ mod tests {
 
     #[test]
     fn a_deadline_stops_a_hard_solve() {
+        for path_blocks in [0, BIG_FORMULA_PATH_BLOCKS] {
+            stop_a_hard_solve(Cadical::for_size(path_blocks));
+        }
+    }
+
+    #[test]
+    fn a_big_formula_runs_without_its_long_phases() {
+        let (small, big) = (Cadical::for_size(0), Cadical::for_size(1_000_000));
+        for option in ["reduce", "arena", "inprocessing", "walk", "compact"] {
+            assert_eq!(small.inner.get_option(option), 1, "{option}: CaDiCaL's default");
+            assert_eq!(big.inner.get_option(option), 0, "{option}");
+        }
+        assert_eq!(small.inner.get_option("terminateint"), 10);
+        assert_eq!(big.inner.get_option("terminateint"), 0);
+        assert_eq!(big.inner.get_option("chrono"), 0);
+    }
+
+    fn stop_a_hard_solve(mut s: Cadical) {
         // Pigeonhole 11 into 10: far beyond a millisecond.
-        let mut s = Cadical::default();
         let (p, h) = (11, 10);
         let x: Vec<Vec<Lit>> = (0..p)
             .map(|_| (0..h).map(|_| s.new_lit()).collect())

@@ -36,10 +36,11 @@ pub use encoding::Acyclicity;
 pub use sat::Backend;
 use search::Search;
 
-/// A fresh SAT solver of the `backend`'s kind.
-pub fn new_solver(backend: sat::Backend) -> Box<dyn sat::SatSolver> {
+/// A fresh SAT solver of the `backend`'s kind, for an encoding of `path_blocks` path-block
+/// pairs (blocks × k: CaDiCaL runs a big formula without its long uninterruptible phases).
+pub fn new_solver(backend: sat::Backend, path_blocks: usize) -> Box<dyn sat::SatSolver> {
     match backend {
-        sat::Backend::Cadical => Box::new(cadical::Cadical::default()),
+        sat::Backend::Cadical => Box::new(cadical::Cadical::for_size(path_blocks)),
         sat::Backend::Varisat => Box::new(sat::Varisat::default()),
     }
 }

@@ -273,7 +273,7 @@ mod tests {
     #[test]
     fn solves_under_assumptions() {
         for backend in [Backend::Varisat, Backend::Cadical] {
-            let mut s = crate::new_solver(backend);
+            let mut s = crate::new_solver(backend, 0);
             let (a, b) = (s.new_lit(), s.new_lit());
             s.add_clause(&[a, b]);
             s.add_clause(&[!a, b]);

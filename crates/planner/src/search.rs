@@ -80,7 +80,7 @@ impl<'p> Search<'p> {
         interrupt: thermal::Interrupt,
     ) -> Option<Search<'p>> {
         let started = Instant::now();
-        let mut solver = crate::new_solver(backend);
+        let mut solver = crate::new_solver(backend, part.len().saturating_mul(k));
         let enc = Encoding::new(part, graph, k, acyclicity, &mut solver, &|| {
             interrupt.reached()
         })?;
