@@ -614,7 +614,11 @@ mod tests {
     fn a_big_formula_runs_without_its_long_phases() {
         let (small, big) = (Cadical::for_size(0), Cadical::for_size(1_000_000));
         for option in ["reduce", "arena", "inprocessing", "walk", "compact"] {
-            assert_eq!(small.inner.get_option(option), 1, "{option}: CaDiCaL's default");
+            assert_eq!(
+                small.inner.get_option(option),
+                1,
+                "{option}: CaDiCaL's default"
+            );
             assert_eq!(big.inner.get_option(option), 0, "{option}");
         }
         assert_eq!(small.inner.get_option("terminateint"), 10);
