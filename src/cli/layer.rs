@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use clap::{Args, Subcommand};
@@ -159,7 +159,8 @@ pub struct PlanArgs {
     #[arg(long)]
     pub json: bool,
     /// Stop after this many seconds and return the best trail with its proven gap (no
-    /// trail, exit 1, when the limit comes before a first one).
+    /// trail, exit 1, when the limit comes before a first one). Counted from the start:
+    /// reading the layer and building its heat model count against it.
     #[arg(long, value_name = "S")]
     pub time_limit: Option<f64>,
     /// Refuse a layer whose search would need more memory than this (MB, estimated from
@@ -292,12 +293,14 @@ fn result_json(model: &Model, r: &SearchResult) -> serde_json::Value {
 }
 
 fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
+    let started = Instant::now();
+    let limit = time_limit(args.time_limit)?;
     let (text, layer) = read_layer_text(&args.layer)?;
     let model = build_model(&layer)?;
-    let options = SearchOptions {
-        time_limit: time_limit(args.time_limit)?,
+    let mut options = SearchOptions {
+        time_limit: limit,
         // The limit acts before the first trail too: a large layer answers "no trail".
-        give_up: time_limit(args.time_limit)?,
+        give_up: limit,
         symmetry: !args.no_symmetry,
         max_memory_mb: args.max_memory_mb,
         ..SearchOptions::default()
@@ -340,6 +343,10 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
         model.horizon,
         model.deadheads
     );
+    // Reading the layer, building its heat model, loading the robot count against the
+    // limit too: it is the command's, not the search's.
+    let left = limit.map(|l| l.saturating_sub(started.elapsed()));
+    (options.time_limit, options.give_up) = (left, left);
     let r = search(&model, &options);
     if !r.found() {
         eprintln!(

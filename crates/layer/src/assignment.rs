@@ -18,8 +18,16 @@ pub struct AssignmentDual {
 }
 
 /// Solves max Σ_i gain(i, σ(i)) over injective σ: rows → columns and returns its dual.
-/// `gain` is a row-major `rows × cols` matrix; needs rows ≤ cols. O(rows² · cols).
-pub fn max_assignment_dual(gain: &[f64], rows: usize, cols: usize) -> AssignmentDual {
+/// `gain` is a row-major `rows × cols` matrix; needs rows ≤ cols. O(rows² · cols): a
+/// layer of 420 segments is 3·10^10 operations (80 s here), so `stop` is asked before every
+/// row (one row is at most rows · cols operations, milliseconds) and `None` returned once
+/// it says so.
+pub fn max_assignment_dual(
+    gain: &[f64],
+    rows: usize,
+    cols: usize,
+    stop: impl Fn() -> bool,
+) -> Option<AssignmentDual> {
     assert!(rows <= cols, "more rows than columns");
     assert_eq!(gain.len(), rows * cols, "a rows × cols matrix");
     // Minimise cost = −gain with the classic shortest-augmenting-path method; indices
@@ -30,6 +38,9 @@ pub fn max_assignment_dual(gain: &[f64], rows: usize, cols: usize) -> Assignment
     let mut matched = vec![0usize; cols + 1]; // row matched to column j (0: none)
     let mut way = vec![0usize; cols + 1];
     for i in 1..=rows {
+        if stop() {
+            return None;
+        }
         matched[0] = i;
         let mut j0 = 0;
         let mut min_to = vec![f64::INFINITY; cols + 1];
@@ -83,7 +94,7 @@ pub fn max_assignment_dual(gain: &[f64], rows: usize, cols: usize) -> Assignment
                 .fold(f64::NEG_INFINITY, f64::max)
         })
         .collect();
-    AssignmentDual { row, col }
+    Some(AssignmentDual { row, col })
 }
 
 #[cfg(test)]
@@ -122,7 +133,7 @@ mod tests {
         for (rows, cols) in [(1, 1), (2, 3), (3, 3), (4, 6), (5, 5), (6, 7)] {
             for _ in 0..20 {
                 let gain: Vec<f64> = (0..rows * cols).map(|_| next()).collect();
-                let d = max_assignment_dual(&gain, rows, cols);
+                let d = max_assignment_dual(&gain, rows, cols, || false).unwrap();
                 for i in 0..rows {
                     for j in 0..cols {
                         assert!(d.row[i] + d.col[j] >= gain[i * cols + j]);

@@ -257,11 +257,11 @@ impl Bound {
         for m in 0..h {
             gains_prefix[m + 1] = gains_prefix[m] + gains[m];
         }
-        let (segment_heat, slot_heat_prefix) = assignment_heat(model, &gain_at, h);
+        let (segment_heat, slot_heat_prefix) = assignment_heat(model, &gain_at, h, late)?;
         let hot = model.heat.monotone && model.target >= 0.0 && model.initial >= 0.0;
         let tail_steps = shortest_transit(model);
         let tail = if hot {
-            tail_overshoots(model, tail_steps)
+            tail_overshoots(model, tail_steps, late)?
         } else {
             vec![0.0; 2 * model.layer.segments.len()]
         };
@@ -383,14 +383,20 @@ impl SearchResult {
 
 /// The assignment dual of the heat the welds add (see [`Bound::max_heat`]): per segment the
 /// sum of its positions' row values, and prefix sums of the slot values made
-/// non-decreasing (raising a slot value keeps every gain covered).
-fn assignment_heat(model: &Model, gain_at: &[f64], h: usize) -> (Vec<f64>, Vec<f64>) {
+/// non-decreasing (raising a slot value keeps every gain covered). `None` once `late` says
+/// so.
+fn assignment_heat(
+    model: &Model,
+    gain_at: &[f64],
+    h: usize,
+    late: impl Fn() -> bool,
+) -> Option<(Vec<f64>, Vec<f64>)> {
     let positions = model.positions.len();
     if positions > h {
         // Cannot happen (the horizon holds every weld step); no usable dual then.
-        return (vec![f64::INFINITY; model.steps.len()], vec![0.0; h + 1]);
+        return Some((vec![f64::INFINITY; model.steps.len()], vec![0.0; h + 1]));
     }
-    let dual = max_assignment_dual(gain_at, positions, h);
+    let dual = max_assignment_dual(gain_at, positions, h, late)?;
     let mut col = dual.col;
     for m in 1..h {
         col[m] = col[m].max(col[m - 1]);
@@ -414,7 +420,7 @@ fn assignment_heat(model: &Model, gain_at: &[f64], h: usize) -> (Vec<f64>, Vec<f
     for m in 0..h {
         prefix[m + 1] = prefix[m] + col[m];
     }
-    (segment_heat, prefix)
+    Some((segment_heat, prefix))
 }
 
 impl Bound {
@@ -463,10 +469,14 @@ fn shortest_transit(model: &Model) -> usize {
         .unwrap_or(0)
 }
 
-/// tail[d] for every directed segment (see [`Bound`]).
-fn tail_overshoots(model: &Model, steps: usize) -> Vec<f64> {
+/// tail[d] for every directed segment (see [`Bound`]); `None` once `late` says so (a
+/// layer of 420 segments simulates 840 welds here).
+fn tail_overshoots(model: &Model, steps: usize, late: impl Fn() -> bool) -> Option<Vec<f64>> {
     (0..2 * model.layer.segments.len())
         .map(|d| {
+            if late() {
+                return None;
+            }
             let mv = Move::directed(d);
             let mut u = vec![0.0; model.heat.len()];
             for k in 0..model.steps[mv.segment] {
@@ -479,7 +489,7 @@ fn tail_overshoots(model: &Model, steps: usize) -> Vec<f64> {
                 model.heat.step(&mut u, &[]);
                 o += overshoot(&u, model.target);
             }
-            o
+            Some(o)
         })
         .collect()
 }
