@@ -162,7 +162,7 @@ fn kill_a_planning_run(
     use std::io::BufRead;
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut child = common::run::waam()
-        .env("RUST_LOG", "info")
+        .env("RUST_LOG", "info,waam=debug")
         .args(["plan", "--no-torch", "--robot"])
         .arg(root.join("urdf/waam_robot.urdf"))
         .arg("--record")

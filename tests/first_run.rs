@@ -11,6 +11,7 @@ fn waam_in(dir: &Path, args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_waam"))
         .args(args)
         .current_dir(dir)
+        .env_remove("RUST_LOG")
         .output()
         .unwrap()
 }
@@ -60,6 +61,19 @@ fn first_run_writes_the_whole_chain_into_a_new_folder() {
     assert!(stdout.contains("waam plot waam-out-2"), "{stdout}");
     // No block lists on the terminal.
     assert!(!stdout.contains("fragments:"), "{stdout}");
+    // Issue #32: sentences only, no log lines below warnings, no debug structs, and no
+    // colour escapes in output that goes to a pipe or a file.
+    for text in [&stdout, &stderr] {
+        assert!(!text.contains('\x1b'), "escape codes:\n{text}");
+        assert!(
+            !text.contains(" INFO ") && !text.contains("DEBUG"),
+            "{text}"
+        );
+        assert!(
+            !text.contains(" { ") && !text.contains("Violated"),
+            "{text}"
+        );
+    }
     assert_eq!(
         std::fs::read_to_string(cwd.path().join("waam-out/keep.txt")).unwrap(),
         "mine"

@@ -56,7 +56,8 @@ pub struct GlobalArgs {
     /// Print only the result: no progress bars, no log lines below warnings.
     #[arg(short, long, global = true)]
     pub quiet: bool,
-    /// More log output (-v: debug, -vv: trace). RUST_LOG overrides this.
+    /// More log output (-v: debug, with the search's own narration; -vv: trace). RUST_LOG
+    /// overrides this. Colour only on a terminal, never with NO_COLOR set.
     #[arg(short, long, action = clap::ArgAction::Count, global = true)]
     pub verbose: u8,
 }
@@ -195,6 +196,15 @@ pub fn init_logging(global: &GlobalArgs) {
     tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
+        .with_ansi(colour_on_stderr())
         .with_target(false)
         .init();
+}
+
+/// Colour only on a terminal, and never when `NO_COLOR` is set to anything but the empty
+/// string (no-color.org): logs redirected to a file carry no escape codes.
+fn colour_on_stderr() -> bool {
+    use std::io::IsTerminal;
+    let no_color = std::env::var_os("NO_COLOR").is_some_and(|v| !v.is_empty());
+    !no_color && std::io::stderr().is_terminal()
 }

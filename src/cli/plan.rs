@@ -320,7 +320,14 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     }
     if let Some((recorder, planning)) = session {
         let messages = planned.as_ref().map(record::plan_messages).transpose()?;
-        record::finish_planning(recorder, planning, &part, &report, messages.as_ref())?;
+        let summary =
+            record::finish_planning(recorder, planning, &part, &report, messages.as_ref())?;
+        tracing::info!(
+            "recorded {} messages on {} topics to {}",
+            summary.messages,
+            summary.topics,
+            summary.dir.display()
+        );
     }
     let interrupted = stop.load(Ordering::Relaxed);
     let proof = match (&report.best, report.proven, args.first, interrupted) {

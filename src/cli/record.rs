@@ -38,7 +38,9 @@ pub fn start_planning(
     let recorder = Recorder::create(dir)?;
     record_frames(&recorder, robot)?;
     let planning = PlanningRecorder::start(&recorder, &text, &part.name, opts)?;
-    tracing::info!(
+    // Debug: the first run's summary says where the recording is; the kill test waits for
+    // this line (`RUST_LOG=waam=debug`).
+    tracing::debug!(
         "recording to {}: the part is on disk; planning starts",
         dir.display()
     );
@@ -88,21 +90,14 @@ pub fn plan_messages(planned: &Planned) -> anyhow::Result<PlanMessages> {
 }
 
 /// Records the outcome of a planning run (with the motion's messages when there is one)
-/// and closes the recording.
+/// and closes the recording; what was recorded, for the caller's summary.
 pub fn finish_planning(
     recorder: Recorder,
     planning: PlanningRecorder,
     part: &Part,
     report: &Report,
     motion: Option<&PlanMessages>,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<waam_rosbag::BagSummary> {
     planning.finish(part, report, motion)?;
-    let summary = recorder.finish()?;
-    tracing::info!(
-        "recorded {} messages on {} topics to {}",
-        summary.messages,
-        summary.topics,
-        summary.dir.display()
-    );
-    Ok(())
+    Ok(recorder.finish()?)
 }

@@ -668,7 +668,7 @@ fn search_plans(
                 ..
             }) = verdict.filter(portfolio::worth_trying)
             {
-                tracing::info!(
+                tracing::debug!(
                     "warm start: the layer-by-layer plan breaks the window of {block:?} ({kind:?}) after {prefix_len} blocks; trying other starts"
                 );
                 // At most half the time left: the search keeps the rest.
@@ -696,7 +696,7 @@ fn search_plans(
             }
             search.set_phases(&warm);
             if let Some(verdict) = verdict {
-                tracing::info!(
+                tracing::debug!(
                 "warm start: a plan of {} weld path(s) built layer by layer in {:.2} s: {verdict:?}",
                 warm.len(),
                 started.elapsed().as_secs_f64()

@@ -73,7 +73,7 @@ impl Portfolio<'_> {
                 .filter_map(|(i, j)| j.and_then(|(plan, margin)| Some((i, plan, margin?))))
                 // Largest margin; on a tie the earlier variant (max_by keeps the last maximum).
                 .max_by(|a, b| a.2.total_cmp(&b.2).then(b.0.cmp(&a.0)));
-            tracing::info!(
+            tracing::debug!(
                 "warm-start portfolio: round {} ({} variants built and judged): {}",
                 r + 1,
                 tried,
