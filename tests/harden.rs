@@ -1101,10 +1101,19 @@ fn every_command_line_reproducer_is_a_one_line_error_or_a_bounded_answer() {
         says,
     };
     let cases = [
-        case("P1", &["plan", "p1.yaml"], 0, "1 fragment(s)"),
+        // Issue #30: a part beyond any cell is refused when read, not after planning.
+        case("P1", &["plan", "p1.yaml"], 2, "the part reaches 2.3"),
         case(
             "P2 motion",
-            &["motion", s1, "s1plan.yaml", "--robot", "big.urdf", "--out", "o"],
+            &[
+                "motion",
+                s1,
+                "s1plan.yaml",
+                "--robot",
+                "big.urdf",
+                "--out",
+                "o",
+            ],
             2,
             "joint 'joint_2': origin xyz 1e200 m is beyond 1000 m",
         ),
@@ -1154,14 +1163,22 @@ fn every_command_line_reproducer_is_a_one_line_error_or_a_bounded_answer() {
         case(
             "C2 plan --robot",
             &["plan", "c2.yaml", "--robot", robot],
-            1,
-            "NO MOTION: no robot motion for the plan: the toolpath would need about inf poses, more than max_poses",
+            2,
+            "block_mm / origin_mm: the part reaches inf mm along x",
         ),
         case(
             "C2 motion",
-            &["motion", "c2.yaml", "c2plan.yaml", "--robot", robot, "--out", "o2"],
-            1,
-            "more than max_poses",
+            &[
+                "motion",
+                "c2.yaml",
+                "c2plan.yaml",
+                "--robot",
+                robot,
+                "--out",
+                "o2",
+            ],
+            2,
+            "a part must lie within",
         ),
         case(
             "C2 max_step_mm",
@@ -1181,12 +1198,7 @@ fn every_command_line_reproducer_is_a_one_line_error_or_a_bounded_answer() {
             2,
             "clearance_mm",
         ),
-        case(
-            "H3",
-            &["plot", "h3"],
-            2,
-            "thermal.block_time_s = 1e308",
-        ),
+        case("H3", &["plot", "h3"], 2, "thermal.block_time_s = 1e308"),
         case(
             "YAML 100,000 deep",
             &["plan", "nested.yaml"],

@@ -80,6 +80,10 @@ pub struct Part {
     pub warnings: Vec<String>,
 }
 
+/// Farthest a part may reach from the part frame's origin along any axis, mm (1 km: far
+/// beyond any cell, near enough that positions keep their sub-micrometre precision).
+pub const MAX_EXTENT_MM: f64 = 1e6;
+
 const TOP_KEYS: [&str; 8] = [
     "name",
     "block_mm",
@@ -193,6 +197,22 @@ impl Part {
                 "block {}: negative coordinate",
                 BlockDisplay(*b)
             )));
+        }
+        // The spec asks only for finite, positive pitches; a part whose blocks lie beyond
+        // any cell (block_mm: 1e308 passes that) would be planned and only fail in the
+        // motion stage, or overflow there: refused here, naming the axis.
+        for axis in 0..3 {
+            let top = blocks.iter().map(|b| b[axis]).max().unwrap_or(0);
+            let far = origin_mm[axis] + (top as f64 + 1.0) * block_mm[axis];
+            if !(origin_mm[axis].abs() <= MAX_EXTENT_MM && far.abs() <= MAX_EXTENT_MM) {
+                return Err(rule(format!(
+                    "block_mm / origin_mm: the part reaches {far:e} mm along {} (origin {:e} mm, \
+                     pitch {:e} mm); a part must lie within ±{MAX_EXTENT_MM:e} mm",
+                    ["x", "y", "z"][axis],
+                    origin_mm[axis],
+                    block_mm[axis]
+                )));
+            }
         }
         blocks.sort_by_key(|b| (b[2], b[1], b[0]));
         if let Some(w) = blocks.windows(2).find(|w| w[0] == w[1]) {
@@ -633,9 +653,31 @@ mod tests {
         assert!(Part::parse("{{{{").is_err());
     }
 
+    /// Issue #30: a part beyond any cell (a huge coordinate or pitch) is refused when read,
+    /// naming the axis, instead of overflowing or failing after planning.
     #[test]
-    fn huge_coordinates_do_not_overflow() {
-        let p = Part::parse(&format!("{HEAD}blocks: [[9223372036854775807, 0, 0]]\n")).unwrap();
-        assert_eq!(p.neighbour(p.block(0), [1, 0, 0]), None);
+    fn parts_beyond_any_cell_are_refused_when_read() {
+        let e = Part::parse(&format!("{HEAD}blocks: [[9223372036854775807, 0, 0]]\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("the part reaches 5.5") && e.contains("along x"),
+            "{e}"
+        );
+        let e = Part::parse(
+            "name: c\nblock_mm: [6, 1e308, 2.5]\nmax_fragments: 1\nblocks: [[0,0,0]]\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("along y") && e.contains("pitch 1e308"), "{e}");
+        let e = Part::parse(&format!(
+            "{HEAD}origin_mm: [0, 0, -2e6]\nblocks: [[0,0,0]]\n"
+        ))
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("along z"), "{e}");
+        // A part 1 km long is still a part.
+        Part::parse("name: c\nblock_mm: [1e5, 1, 1]\nmax_fragments: 1\nblocks: [[9,0,0]]\n")
+            .unwrap();
     }
 }

@@ -182,7 +182,7 @@ mod tests {
     #[test]
     fn layers_windows_and_thermal_read_back() {
         let (a, b) = round_trip(
-            "name: 'odd: name #1'\nblock_mm: [6, 0.1, 1e-7]\norigin_mm: [-1.5, 0, 1e12]\nmax_fragments: 3\n\
+            "name: 'odd: name #1'\nblock_mm: [6, 0.1, 1e-7]\norigin_mm: [-1.5, 0, 987654.321]\nmax_fragments: 3\n\
              layers:\n  - |\n    ###\n    #.#\n  - |\n    .\n  - |\n    ..#\n\
              t85:\n  - {box: {min: [0,0,0], max: [2,0,0]}, min_s: 1, max_s: 5}\n  - {block: [2,0,2], min_s: 0.3, max_s: 0.7}\n  - {block: [0,1,0], min_s: 1, max_s: 5}\n\
              thermal: {substeps: 7, radiation_per_s_k3: 3.3e-13}\n",
