@@ -150,6 +150,35 @@ fn a_50_million_second_transit_is_stopped_by_the_timeout() {
     assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
 }
 
+/// Issue #30: with a transit of 5 x 10^7 s, the wall and the ring (two and four windows)
+/// answered `--timeout 5` after 100 and 170 s: clause shortening simulated the transit of
+/// every step it tried without looking at the deadline.
+#[test]
+fn clause_shortening_stops_at_the_timeout() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    for name in ["s1-wall", "s3-ring"] {
+        let text = std::fs::read_to_string(root.join(format!("config/parts/{name}.yaml"))).unwrap();
+        assert!(
+            !text.contains("thermal:"),
+            "{name} has thermal keys already"
+        );
+        let file = dir.path().join(format!("{name}.yaml"));
+        std::fs::write(
+            &file,
+            format!("{text}\nthermal: {{transit_time_s: 5.0e7}}\n"),
+        )
+        .unwrap();
+        let run = measured(
+            dir.path(),
+            &["plan", file.to_str().unwrap(), "--timeout", "3", "-q"],
+            Duration::from_secs(200),
+        );
+        assert_eq!(run.code, Some(1), "{}", run.describe());
+        assert!(run.wall < Duration::from_millis(4500), "{}", run.describe());
+    }
+}
+
 /// A part with no valid plan is answered in seconds, not at the timeout: the layer bound
 /// proves the verdict at once, and the search for how many weld paths the part needs (extra
 /// information) is capped. A voxelized nozzle whose layers fall into 10 pieces joined only

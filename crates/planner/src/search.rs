@@ -451,6 +451,7 @@ impl<'p> Search<'p> {
     /// Learns the clause of the violating prefix, shortened where every alternative
     /// next step is proven to violate too. Returns the clause's length.
     fn learn(&mut self, seq: &[(usize, bool)], v: &Violation) -> usize {
+        let interrupt = self.interrupt();
         let r = shorten(
             self.graph,
             self.enc.max_fragments(),
@@ -458,6 +459,7 @@ impl<'p> Search<'p> {
             v.prefix_len,
             v.phase != Phase::Deposit,
             self.lookahead_budget,
+            &interrupt,
             |len| self.state_after(&seq[..len]),
         );
         self.stats.lookahead_block_steps += r.cost;
@@ -504,17 +506,27 @@ impl<'p> Search<'p> {
     /// The simulation state after `prefix` (from the nearest cached snapshot).
     fn state_after(&self, prefix: &[(usize, bool)]) -> Option<Simulation<'_>> {
         let keys = prefix_keys(prefix);
-        let (mut sim, at) = resume(
+        let (sim, at) = resume(
             &self.thermal,
             &self.cache.borrow(),
             self.spacing,
             prefix,
             &keys,
         );
+        // Replaying may cross long transits: stopped with the search.
+        let mut sim = sim.interrupted_by(&self.interrupt());
         for &(b, new) in &prefix[at..] {
             sim.deposit(b, new).ok()?;
         }
-        Some(sim)
+        (!sim.cancelled()).then_some(sim)
+    }
+
+    /// The deadline and cancel flag the search stops at, for its simulations.
+    fn interrupt(&self) -> thermal::Interrupt {
+        thermal::Interrupt {
+            deadline: self.deadline,
+            cancel: self.cancel.clone(),
+        }
     }
 }
 

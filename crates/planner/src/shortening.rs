@@ -6,7 +6,7 @@
 //! check inside the search both learn through it.
 
 use waam_part::graph::WeldGraph;
-use waam_thermal::Simulation;
+use waam_thermal::{Interrupt, Simulation};
 
 /// A doomed prefix after shortening.
 pub struct Shortened {
@@ -20,6 +20,9 @@ pub struct Shortened {
 
 /// Shortens the doomed prefix `seq[..len]` (its last fragment closed or not) within
 /// `budget` block-steps; `state_after(l)`: the simulation after `seq[..l]` (None: give up).
+/// Stops where it is when `interrupt` says so: a transit of 10^9 steps is simulated here
+/// once per step tried, and the deadline must hold inside it.
+#[allow(clippy::too_many_arguments)]
 pub fn shorten<'m>(
     graph: &WeldGraph,
     max_fragments: usize,
@@ -27,13 +30,14 @@ pub fn shorten<'m>(
     mut len: usize,
     mut closed: bool,
     budget: usize,
+    interrupt: &Interrupt,
     mut state_after: impl FnMut(usize) -> Option<Simulation<'m>>,
 ) -> Shortened {
     let n = graph.len();
     let mut budget = budget as i64;
     let (mut dropped, mut spent) = (0, 0);
     // An empty doomed prefix (len 0) proves that no plan is feasible: its clause is empty.
-    while budget > 0 && len > 0 {
+    while budget > 0 && len > 0 && !interrupt.reached() {
         if closed && len == n {
             closed = false; // a complete plan is the same whether closed or not
             continue;
@@ -56,7 +60,7 @@ pub fn shorten<'m>(
         let (proven, cost) = all_steps_violate(
             graph,
             max_fragments,
-            &base,
+            &base.interrupted_by(interrupt),
             &seq[..target_len],
             skip,
             try_continue,
@@ -84,7 +88,7 @@ pub fn shorten<'m>(
 /// new fragment) already proven doomed. The steps are: moving on to a successor of the last
 /// block (`try_continue`), or closing the fragment and starting a new one at any block
 /// whose support is welded (`try_new`, if fragments remain). A complete prefix has one
-/// continuation: the cooldown.
+/// continuation: the cooldown. A step stopped by `base`'s interrupt proves nothing.
 pub fn all_steps_violate(
     graph: &WeldGraph,
     max_fragments: usize,
@@ -108,7 +112,7 @@ pub fn all_steps_violate(
     if prefix.len() == n {
         let r = sim.finish();
         spent(&sim);
-        return (matches!(r, Ok(Err(_))), cost);
+        return (!sim.cancelled() && matches!(r, Ok(Err(_))), cost);
     }
     if try_continue {
         if let Some(&(last, _)) = prefix.last() {
@@ -119,7 +123,7 @@ pub fn all_steps_violate(
                 sim.restore(&start);
                 let r = sim.deposit(c as usize, false);
                 spent(&sim);
-                if r.is_ok() {
+                if r.is_ok() || sim.cancelled() {
                     return (false, cost);
                 }
             }
@@ -129,13 +133,16 @@ pub fn all_steps_violate(
         sim.restore(&start);
         let transit = sim.transit();
         spent(&sim);
+        if sim.cancelled() {
+            return (false, cost);
+        }
         if transit.is_ok() {
             let after = sim.snapshot();
             for c in (0..n).filter(|&c| allowed(c, true)) {
                 sim.restore(&after);
                 let r = sim.deposit_after_transit(c);
                 spent(&sim);
-                if r.is_ok() {
+                if r.is_ok() || sim.cancelled() {
                     return (false, cost);
                 }
             }

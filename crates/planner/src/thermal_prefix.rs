@@ -564,7 +564,11 @@ impl ThermalPrefix {
             .collect();
         let graph = Arc::clone(&self.graph);
         let (k, budget) = (self.max_fragments, self.lookahead_budget);
-        let r = shorten(&graph, k, &seq, len, closed, budget, |l| {
+        let interrupt = waam_thermal::Interrupt {
+            deadline: self.deadline,
+            cancel: self.cancel.clone(),
+        };
+        let r = shorten(&graph, k, &seq, len, closed, budget, &interrupt, |l| {
             // The steps before the violating one deposited without a violation.
             if self.restore(l) {
                 Some(self.owned.sim.clone())
