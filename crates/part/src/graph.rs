@@ -4,6 +4,11 @@
 //! block one step sideways within its layer or one layer straight up: the torch never
 //! moves down. The graph also keeps the six face neighbours of every block, which the
 //! thermal model needs, so that neighbour lists are computed once per part.
+//!
+//! A graph part (beads along a mesh's contours) gives its moves and its "stands on"
+//! relation directly ([`WeldGraph::from_moves`]): a deposit may stand on several below it.
+//! Gravity reads [`WeldGraph::supports`] either way: on a cube part it is the one block
+//! directly below.
 
 use crate::Part;
 
@@ -31,7 +36,42 @@ pub struct WeldGraph {
     succ: Vec<u32>,
     pred_start: Vec<u32>,
     pred: Vec<u32>,
+    /// What each vertex stands on (gravity), compressed like the successors.
+    sup_start: Vec<u32>,
+    sup: Vec<u32>,
+    /// Face neighbours of cube parts; all [`NONE`] for a graph part.
     faces: Vec<[u32; 6]>,
+}
+
+/// Compressed rows of `lists`: (row starts with a final end, entries).
+fn compressed(lists: impl Iterator<Item = impl IntoIterator<Item = u32>>) -> (Vec<u32>, Vec<u32>) {
+    let (mut start, mut all) = (vec![0u32], Vec::new());
+    for row in lists {
+        all.extend(row);
+        start.push(all.len() as u32);
+    }
+    (start, all)
+}
+
+/// Predecessor rows of the successor rows `(start, succ)` of `n` vertices.
+fn reversed(n: usize, succ_start: &[u32], succ: &[u32]) -> (Vec<u32>, Vec<u32>) {
+    let mut pred_count = vec![0u32; n + 1];
+    for &j in succ {
+        pred_count[j as usize + 1] += 1;
+    }
+    for i in 0..n {
+        pred_count[i + 1] += pred_count[i];
+    }
+    let pred_start = pred_count.clone();
+    let mut fill = pred_count;
+    let mut pred = vec![0u32; succ.len()];
+    for i in 0..n {
+        for &j in &succ[succ_start[i] as usize..succ_start[i + 1] as usize] {
+            pred[fill[j as usize] as usize] = i as u32;
+            fill[j as usize] += 1;
+        }
+    }
+    (pred_start, pred)
 }
 
 impl WeldGraph {
@@ -54,28 +94,36 @@ impl WeldGraph {
             );
         }
         succ_start.push(succ.len() as u32);
-        let mut pred_count = vec![0u32; n + 1];
-        for &j in &succ {
-            pred_count[j as usize + 1] += 1;
-        }
-        for i in 0..n {
-            pred_count[i + 1] += pred_count[i];
-        }
-        let pred_start = pred_count.clone();
-        let mut fill = pred_count;
-        let mut pred = vec![0u32; succ.len()];
-        for i in 0..n {
-            for &j in &succ[succ_start[i] as usize..succ_start[i + 1] as usize] {
-                pred[fill[j as usize] as usize] = i as u32;
-                fill[j as usize] += 1;
-            }
-        }
+        let (pred_start, pred) = reversed(n, &succ_start, &succ);
+        let (sup_start, sup) = compressed(faces.iter().map(|f| Some(f[4]).filter(|&j| j != NONE)));
         WeldGraph {
             succ_start,
             succ,
             pred_start,
             pred,
+            sup_start,
+            sup,
             faces,
+        }
+    }
+
+    /// The weld graph of a graph part: `successors[i]`, the vertices the torch may move to
+    /// from `i` (sideways within its layer or up onto what stands on it), and
+    /// `supports[i]`, the vertices `i` stands on. There are no face neighbours.
+    pub fn from_moves(successors: &[Vec<u32>], supports: &[Vec<u32>]) -> WeldGraph {
+        let n = successors.len();
+        assert_eq!(supports.len(), n, "one support list per vertex");
+        let (succ_start, succ) = compressed(successors.iter().map(|r| r.iter().copied()));
+        let (pred_start, pred) = reversed(n, &succ_start, &succ);
+        let (sup_start, sup) = compressed(supports.iter().map(|r| r.iter().copied()));
+        WeldGraph {
+            succ_start,
+            succ,
+            pred_start,
+            pred,
+            sup_start,
+            sup,
+            faces: vec![[NONE; 6]; n],
         }
     }
 
@@ -107,6 +155,17 @@ impl WeldGraph {
     /// Whether `a -> b` is an edge.
     pub fn has_edge(&self, a: usize, b: usize) -> bool {
         self.successors(a).contains(&(b as u32))
+    }
+
+    /// What `i` stands on: it is never welded in an earlier fragment than any of them (on a
+    /// cube part, the block directly below, if any).
+    pub fn supports(&self, i: usize) -> &[u32] {
+        &self.sup[self.sup_start[i] as usize..self.sup_start[i + 1] as usize]
+    }
+
+    /// Whether `i` stands on nothing (the plate).
+    pub fn on_plate(&self, i: usize) -> bool {
+        self.supports(i).is_empty()
     }
 
     /// The six face neighbours of `i` in [`FACE_DIRS`] order, [`NONE`] where absent.
@@ -146,5 +205,21 @@ mod tests {
         assert_eq!(g.below(c), Some(a));
         assert_eq!(g.above(a), Some(c));
         assert_eq!(g.below(a), None);
+        assert_eq!(g.supports(c), &[a as u32]);
+        assert!(g.on_plate(a) && g.on_plate(b) && !g.on_plate(c));
+    }
+
+    #[test]
+    fn a_graph_part_stands_on_several() {
+        // 0, 1 on the plate side by side; 2 above both; moves 0 <-> 1, 0 -> 2, 1 -> 2.
+        let g = WeldGraph::from_moves(
+            &[vec![1, 2], vec![0, 2], vec![]],
+            &[vec![], vec![], vec![0, 1]],
+        );
+        assert_eq!(g.edge_count(), 4);
+        assert_eq!(g.predecessors(2), &[0, 1]);
+        assert_eq!(g.supports(2), &[0, 1]);
+        assert!(g.on_plate(0) && !g.on_plate(2));
+        assert_eq!(g.below(2), None);
     }
 }

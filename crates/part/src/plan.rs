@@ -201,12 +201,12 @@ impl Plan {
         }
         for (f, ids) in indexed.iter().enumerate() {
             for &i in ids {
-                if let Some(j) = graph.below(i) {
-                    if fragment_of[j] > f {
+                for &j in graph.supports(i) {
+                    if fragment_of[j as usize] > f {
                         return Err(Invalid::Gravity {
                             block: part.block(i),
                             fragment: f + 1,
-                            below_fragment: fragment_of[j] + 1,
+                            below_fragment: fragment_of[j as usize] + 1,
                         });
                     }
                 }

@@ -113,7 +113,7 @@ impl Cube {
             ..self.clone()
         };
         let starts = (0..graph.len())
-            .filter(|&v| !welded[v] && graph.below(v).is_none_or(|b| welded[b]))
+            .filter(|&v| !welded[v] && graph.supports(v).iter().all(|&b| welded[b as usize]))
             .map(|v| {
                 let mut fragments = self.fragments.clone();
                 fragments.push(vec![v]);
@@ -140,7 +140,7 @@ impl Cube {
 /// (nothing below it).
 pub fn first_cubes(part: &Part, graph: &WeldGraph) -> Vec<Cube> {
     (0..part.len())
-        .filter(|&v| graph.below(v).is_none())
+        .filter(|&v| graph.on_plate(v))
         .map(|v| Cube {
             fragments: vec![vec![v]],
             closed: false,

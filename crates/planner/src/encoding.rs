@@ -182,10 +182,11 @@ impl Encoding {
                     solver.add_clause(&[!e, le[u][i], !le[v as usize][i]]);
                 }
             }
-            // Gravity: the block below is welded in the same or an earlier fragment.
-            if let Some(below) = graph.below(u) {
+            // Gravity: what the block stands on is welded in the same or an earlier
+            // fragment (on a cube part, the block below).
+            for &below in graph.supports(u) {
                 for i in 0..k - 1 {
-                    solver.add_clause(&[!le[u][i], le[below][i]]);
+                    solver.add_clause(&[!le[u][i], le[below as usize][i]]);
                 }
             }
         }

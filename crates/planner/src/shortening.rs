@@ -101,7 +101,9 @@ pub fn all_steps_violate(
     let n = graph.len();
     let placed = |b: usize| base.is_welded(b);
     let allowed = |b: usize, new: bool| {
-        !placed(b) && Some((b, new)) != skip && graph.below(b).is_none_or(placed)
+        !placed(b)
+            && Some((b, new)) != skip
+            && graph.supports(b).iter().all(|&s| placed(s as usize))
     };
     let start = base.snapshot();
     let mut sim = base.clone();
