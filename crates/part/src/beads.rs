@@ -1065,6 +1065,20 @@ mod tests {
     }
 
     #[test]
+    fn the_documented_example_reads() {
+        let doc = include_str!("../../../docs/graph-part-format.md");
+        let yaml = doc
+            .split("```yaml\n")
+            .nth(1)
+            .and_then(|rest| rest.split("```").next())
+            .unwrap();
+        let p = BeadPart::parse(yaml).unwrap();
+        assert_eq!((p.len(), p.contacts.len(), p.windows.len()), (3, 3, 3));
+        assert_eq!(p.window_of(2).map(|w| w.max_s), Some(12.0));
+        assert_eq!(p.warnings.len(), 2);
+    }
+
+    #[test]
     fn graph_plan_files_read_alike_in_yaml_and_json() {
         let y = GraphPlan::from_bytes(b"part: ring\nfragments:\n  - [0, 1, 2]\n  - [3]\n", false)
             .unwrap();
