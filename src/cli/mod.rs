@@ -21,6 +21,7 @@ pub mod plot;
 pub mod publish;
 pub mod record;
 pub mod replay;
+pub mod slice;
 pub mod voxelize;
 
 /// Exit code of a run whose answer is "yes" (valid and feasible, plan found, ...).
@@ -73,6 +74,7 @@ pub enum Command {
     Bench(bench::BenchArgs),
     Replay(replay::ReplayArgs),
     Voxelize(voxelize::VoxelizeArgs),
+    Slice(slice::SliceArgs),
     Motion(motion::MotionArgs),
     Plot(plot::PlotArgs),
     Node(node::NodeArgs),
@@ -92,6 +94,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Bench(args) => bench::run(args),
         Command::Replay(args) => replay::run(args),
         Command::Voxelize(args) => voxelize::run(args),
+        Command::Slice(args) => slice::run(args),
         Command::Motion(args) => motion::run(args),
         Command::Plot(args) => plot::run(args),
         Command::Node(args) => node::run(args),

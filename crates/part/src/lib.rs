@@ -8,13 +8,21 @@
 //! Beside the part: [`ThermalParams`] (its `thermal:` keys), the [`graph::WeldGraph`] of
 //! allowed moves, the [`plan::Plan`] format with its validity rules, and [`writer`], which
 //! writes a part back as a part file.
+//!
+//! Graph parts ([`beads::BeadPart`]): a part as deposits along weld beads with their
+//! contacts, for round parts that a grid of blocks cannot follow.
 
+pub mod beads;
 pub mod graph;
 mod params;
 pub mod plan;
 pub mod writer;
 pub mod yaml;
 
+pub use beads::{
+    is_bead_part, Bead, BeadPart, BeadPartError, Contact, ContactKind, Deposit, GraphInvalid,
+    GraphPlan, GraphPlanReadError, WeldMoves,
+};
 pub use params::{ThermalParams, ThermalParamsError, MAX_STEPS};
 
 use std::collections::HashMap;

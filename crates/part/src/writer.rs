@@ -27,7 +27,7 @@ pub fn to_yaml(part: &Part) -> String {
 }
 
 /// A real number that reads back bit for bit (`6.0`, `2.5`, `1e-7`).
-fn real(x: f64) -> String {
+pub(crate) fn real(x: f64) -> String {
     format!("{x:?}")
 }
 
@@ -126,7 +126,7 @@ fn bounding_box(part: &Part, members: &[usize]) -> (Block, Block) {
     (lo, hi)
 }
 
-fn write_thermal(out: &mut String, t: &ThermalParams) {
+pub(crate) fn write_thermal(out: &mut String, t: &ThermalParams) {
     let d = ThermalParams::default();
     let reals = [
         ("ambient_c", t.ambient_c, d.ambient_c),
