@@ -171,10 +171,19 @@ pub fn within<T: Send + 'static>(
     }
 }
 
+/// A part file: a block part, or a graph part (`kind: beads`) in its planning view.
 pub fn read_part(path: &Path) -> anyhow::Result<Part> {
     let bytes =
         std::fs::read(path).with_context(|| format!("cannot read part {}", path.display()))?;
-    let part = Part::from_bytes(&bytes).with_context(|| format!("in part {}", path.display()))?;
+    let graph = std::str::from_utf8(&bytes).is_ok_and(waam_part::is_bead_part);
+    let part = if graph {
+        waam_part::BeadPart::from_bytes(&bytes)
+            .map_err(anyhow::Error::from)
+            .and_then(|beads| Ok(Part::of_beads(beads)?))
+    } else {
+        Ok(Part::from_bytes(&bytes)?)
+    }
+    .with_context(|| format!("in part {}", path.display()))?;
     for warning in &part.warnings {
         tracing::warn!("{}: {warning}", path.display());
     }

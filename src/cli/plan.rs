@@ -295,6 +295,13 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         let path = dir.join("plan.yaml");
         std::fs::write(&path, best.plan(&part).to_yaml())
             .with_context(|| format!("cannot write {}", path.display()))?;
+        // A graph part's plan names its nodes: the part (sliced here from a mesh, perhaps)
+        // goes beside it, so that `waam check DIR/part.yaml DIR/plan.yaml` reads both.
+        if let Some(beads) = part.bead_part() {
+            let path = dir.join("part.yaml");
+            std::fs::write(&path, beads.to_yaml())
+                .with_context(|| format!("cannot write {}", path.display()))?;
+        }
     }
     // The motion is planned only for a feasible plan, and only a validated one is written
     // or recorded.

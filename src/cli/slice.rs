@@ -1,7 +1,7 @@
 //! `waam slice MESH.stl --bead "W H"`: cut a round part into layers of weld beads, as a
 //! graph part (`docs/graph-part-format.md`).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{bail, Context};
@@ -34,10 +34,10 @@ pub struct SliceArgs {
     #[arg(short, long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
     pub k: u32,
     /// Contour rounds from each boundary before a core is filled with a raster.
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(long, default_value_t = DEFAULT_PERIMETERS, value_parser = clap::value_parser!(u32).range(1..))]
     pub perimeters: u32,
     /// Join open contour ends at most this far apart (mm): CAD exports have small gaps.
-    #[arg(long, default_value_t = 0.05, value_name = "MM")]
+    #[arg(long, default_value_t = DEFAULT_JOIN_MM, value_name = "MM")]
     pub join: f64,
     /// The part's name [default: the mesh file's name without extension].
     #[arg(long)]
@@ -53,7 +53,7 @@ pub struct SliceArgs {
     pub layers: bool,
 }
 
-fn parse_bead(text: &str) -> anyhow::Result<[f64; 2]> {
+pub fn parse_bead(text: &str) -> anyhow::Result<[f64; 2]> {
     let v = text
         .split(|c: char| c.is_whitespace() || c == ',')
         .filter(|s| !s.is_empty())
@@ -73,31 +73,56 @@ fn parse_bead(text: &str) -> anyhow::Result<[f64; 2]> {
     }
 }
 
-pub fn run(args: SliceArgs) -> anyhow::Result<ExitCode> {
-    if !(args.join.is_finite() && args.join >= 0.0) {
-        bail!("--join: expected a distance >= 0 mm, got {}", args.join);
-    }
-    let path = &args.mesh;
+/// `--perimeters`' default.
+pub const DEFAULT_PERIMETERS: u32 = 3;
+/// `--join`'s default, mm.
+pub const DEFAULT_JOIN_MM: f64 = 0.05;
+
+/// Reads an STL file and slices it into beads (`waam slice`, and `--bead` wherever a
+/// command takes a mesh).
+pub fn slice_mesh(
+    path: &Path,
+    units: UnitArg,
+    name: Option<String>,
+    bead: [f64; 2],
+    k: u32,
+    perimeters: u32,
+    join_mm: f64,
+) -> anyhow::Result<Sliced> {
     let bytes =
         std::fs::read(path).with_context(|| format!("cannot read mesh {}", path.display()))?;
-    let units = match args.units {
+    let units = match units {
         UnitArg::Mm => Units::Mm,
         UnitArg::M => Units::M,
     };
     let mesh =
         mesh::read_stl(&bytes, units).with_context(|| format!("in mesh {}", path.display()))?;
-    let name = args.name.clone().unwrap_or_else(|| {
+    let name = name.unwrap_or_else(|| {
         path.file_stem()
             .map_or("part".into(), |s| s.to_string_lossy().into_owned())
     });
     let options = SliceOptions {
-        max_fragments: args.k as usize,
-        perimeters: args.perimeters as usize,
-        join_mm: args.join,
-        ..SliceOptions::new(name, args.bead)
+        max_fragments: k as usize,
+        perimeters: perimeters as usize,
+        join_mm,
+        ..SliceOptions::new(name, bead)
     };
-    let sliced = waam_slice::slice(&mesh, &options)
-        .with_context(|| format!("slicing mesh {}", path.display()))?;
+    waam_slice::slice(&mesh, &options).with_context(|| format!("slicing mesh {}", path.display()))
+}
+
+pub fn run(args: SliceArgs) -> anyhow::Result<ExitCode> {
+    if !(args.join.is_finite() && args.join >= 0.0) {
+        bail!("--join: expected a distance >= 0 mm, got {}", args.join);
+    }
+    let sliced = slice_mesh(
+        &args.mesh,
+        args.units,
+        args.name.clone(),
+        args.bead,
+        args.k,
+        args.perimeters,
+        args.join,
+    )?;
     let text = sliced.part.to_yaml();
     // What we write must read back: a failure here is a bug of ours, not bad input.
     BeadPart::parse(&text).context("internal error: the written graph part does not read back")?;

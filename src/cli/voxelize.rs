@@ -31,8 +31,13 @@ pub struct VoxelizeArgs {
 #[derive(Debug, Clone, clap::Args)]
 pub struct MeshArgs {
     /// Block pitch "X Y Z" in millimetres: bead width, bead width, layer height (e.g. "6 6 2.5").
-    #[arg(long, value_parser = parse_pitch)]
+    #[arg(long, value_parser = parse_pitch, conflicts_with = "bead")]
     pub pitch: Option<[f64; 3]>,
+    /// Bead width and layer height "W H" in millimetres (e.g. "6 2.5"): slice the mesh into
+    /// beads along its contours (a graph part, as `waam slice` does) instead of voxelizing
+    /// it into blocks. Round parts (tubes, nozzles, flanges) want this.
+    #[arg(long, value_parser = super::slice::parse_bead)]
+    pub bead: Option<[f64; 2]>,
     /// k: the most weld paths (arc starts) a plan of the part may use.
     #[arg(short, long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
     pub k: u32,
@@ -67,9 +72,13 @@ pub enum UnitArg {
 impl MeshArgs {
     /// Reads and voxelizes an STL file into a part, logging what it did.
     pub fn voxelize(&self, path: &Path) -> anyhow::Result<Part> {
+        if let Some(bead) = self.bead {
+            return self.slice(path, bead);
+        }
         let Some(pitch) = self.pitch else {
             bail!(
-                "{}: a mesh needs --pitch \"X Y Z\" (block size in mm)",
+                "{}: a mesh needs --pitch \"X Y Z\" (block size in mm) or --bead \"W H\" \
+                 (bead width and layer height in mm)",
                 path.display()
             );
         };
@@ -104,6 +113,45 @@ impl MeshArgs {
             voxels.part.len()
         );
         Ok(voxels.part)
+    }
+
+    /// Slices an STL file into beads (`--bead`): the planning view of its graph part, with
+    /// the `--window` rules applied by layer.
+    fn slice(&self, path: &Path, bead: [f64; 2]) -> anyhow::Result<Part> {
+        let mut beads = super::slice::slice_mesh(
+            path,
+            self.units,
+            self.name.clone(),
+            bead,
+            self.k,
+            super::slice::DEFAULT_PERIMETERS,
+            super::slice::DEFAULT_JOIN_MM,
+        )?
+        .part;
+        for rule in &self.windows {
+            let whole_layers = rule.min[..2] == [0, 0] && rule.max[..2] == [i64::MAX; 2];
+            if !whole_layers {
+                bail!(
+                    "--window: a graph part (--bead) takes windows on every node (\"MIN_S MAX_S\") \
+                     or on whole layers, not on block boxes"
+                );
+            }
+            let layers = rule.min[2]..=rule.max[2];
+            for i in 0..beads.nodes.len() {
+                if layers.contains(&(beads.nodes[i].layer as i64)) {
+                    beads.set_window(i, rule.window);
+                }
+            }
+        }
+        tracing::info!(
+            "{}: sliced into {} nodes on {} layers (bead {} x {} mm)",
+            path.display(),
+            beads.len(),
+            beads.layers(),
+            bead[0],
+            bead[1]
+        );
+        Part::of_beads(beads).with_context(|| format!("in mesh {}", path.display()))
     }
 
     /// A part from a part file, or from an STL mesh (by its `.stl` extension): for the

@@ -76,6 +76,13 @@ fn reversed(n: usize, succ_start: &[u32], succ: &[u32]) -> (Vec<u32>, Vec<u32>) 
 
 impl WeldGraph {
     pub fn new(part: &Part) -> WeldGraph {
+        if let Some(beads) = part.bead_part() {
+            let moves = beads.moves();
+            let n = beads.len();
+            let successors: Vec<Vec<u32>> = (0..n).map(|i| moves.successors(i).to_vec()).collect();
+            let supports: Vec<Vec<u32>> = (0..n).map(|i| moves.stands_on(i).to_vec()).collect();
+            return WeldGraph::from_moves(&successors, &supports);
+        }
         let n = part.len();
         let faces: Vec<[u32; 6]> = part
             .blocks()

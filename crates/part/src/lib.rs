@@ -86,6 +86,10 @@ pub struct Part {
     pub thermal: ThermalParams,
     /// Non-fatal remarks made while reading (e.g. a window overriding an earlier one).
     pub warnings: Vec<String>,
+    /// For a graph part ([`Part::of_beads`]): its deposits, contacts and moves; the blocks
+    /// are then stand-ins `[i, 0, layer]` (i: the deposit's rank in its layer) that give
+    /// every stage its layers and indices, and the geometry comes from here.
+    beads: Option<std::sync::Arc<BeadPart>>,
 }
 
 /// Farthest a part may reach from the part frame's origin along any axis, mm (1 km: far
@@ -237,7 +241,56 @@ impl Part {
             windows: Vec::new(),
             thermal: ThermalParams::default(),
             warnings: Vec::new(),
+            beads: None,
         })
+    }
+
+    /// The planning view of a graph part: deposit i is block i, a stand-in `[rank in its
+    /// layer, 0, layer]`, with the graph part's windows and thermal constants. Deposits
+    /// must be listed layer by layer (as [`BeadPart::parse`] and the slicer give them).
+    pub fn of_beads(beads: BeadPart) -> Result<Part, PartError> {
+        if let Some(i) =
+            (1..beads.nodes.len()).find(|&i| beads.nodes[i].layer < beads.nodes[i - 1].layer)
+        {
+            return Err(rule(format!(
+                "nodes: node {i} (layer {}) comes after a node of layer {}: list nodes layer by layer",
+                beads.nodes[i].layer,
+                beads.nodes[i - 1].layer
+            )));
+        }
+        let mut rank = 0i64;
+        let blocks: Vec<Block> = beads
+            .nodes
+            .iter()
+            .enumerate()
+            .map(|(i, d)| {
+                rank = match i {
+                    0 => 0,
+                    _ if beads.nodes[i - 1].layer == d.layer => rank + 1,
+                    _ => 0,
+                };
+                [rank, 0, d.layer as i64]
+            })
+            .collect();
+        let [w, h] = beads.bead_mm;
+        let mut part = Part::from_blocks(
+            beads.name.clone(),
+            [w, w, h],
+            [0.0, 0.0, beads.base_z_mm],
+            beads.max_fragments,
+            blocks,
+        )?;
+        part.windows = beads.windows.clone();
+        part.windows.sort_by_key(|&(i, _)| i);
+        part.thermal = beads.thermal;
+        part.warnings = beads.warnings.clone();
+        part.beads = Some(std::sync::Arc::new(beads));
+        Ok(part)
+    }
+
+    /// The graph part behind this part, if it is one.
+    pub fn bead_part(&self) -> Option<&BeadPart> {
+        self.beads.as_deref()
     }
 
     /// Number of blocks.
@@ -302,8 +355,12 @@ impl Part {
         self.blocks.last().map_or(0, |b| b[2].saturating_add(1))
     }
 
-    /// Centre of block `b` in the part frame, millimetres.
+    /// Centre of block `b` in the part frame, millimetres (of a graph part: its deposit's
+    /// centre).
     pub fn centre_mm(&self, b: Block) -> [f64; 3] {
+        if let (Some(beads), Some(i)) = (&self.beads, self.index_of(b)) {
+            return beads.nodes[i].centre_mm;
+        }
         std::array::from_fn(|d| self.origin_mm[d] + (b[d] as f64 + 0.5) * self.block_mm[d])
     }
 

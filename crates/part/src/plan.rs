@@ -20,6 +20,10 @@ pub struct Plan {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub part: Option<String>,
     pub fragments: Vec<Vec<Block>>,
+    /// For a graph part: the same fragments as node ids, which is what its plan file holds
+    /// (docs/graph-part-format.md); the blocks above are then the planning stand-ins.
+    #[serde(skip)]
+    pub nodes: Option<Vec<Vec<usize>>>,
 }
 
 /// A plan file that cannot be read as a plan at all.
@@ -114,6 +118,13 @@ impl Plan {
             let _ = writeln!(out, "part: {quoted}");
         }
         out.push_str("fragments:\n");
+        if let Some(nodes) = &self.nodes {
+            for fragment in nodes {
+                let ids: Vec<String> = fragment.iter().map(usize::to_string).collect();
+                let _ = writeln!(out, "  - [{}]", ids.join(", "));
+            }
+            return out;
+        }
         for fragment in &self.fragments {
             let blocks: Vec<String> = fragment
                 .iter()
@@ -132,6 +143,7 @@ impl Plan {
                 .iter()
                 .map(|f| f.iter().map(|&i| part.block(i)).collect())
                 .collect(),
+            nodes: part.bead_part().map(|_| fragments.to_vec()),
         }
     }
 
@@ -234,6 +246,7 @@ mod tests {
         Plan {
             part: None,
             fragments,
+            nodes: None,
         }
         .validate(&part, &graph)
     }

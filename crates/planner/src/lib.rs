@@ -652,7 +652,8 @@ fn search_plans(
     // The windows are narrowed to the best plan's margin once the search is among plans
     // of its fragment count (a plan with fewer fragments is better whatever its margin).
     let mut narrowed_to_best = false;
-    if opts.warm_start {
+    // The layer-by-layer warm start builds cube layers (a graph part has none to build).
+    if opts.warm_start && part.bead_part().is_none() {
         let limits = constructive::Limits {
             deadline: opts.timeout.and_then(|t| started.checked_add(t)),
             cancel: opts.cancel.clone(),
@@ -1009,8 +1010,10 @@ fn no_valid_plan(
 /// crosses a layer in one piece, so each piece of a layer (a component of its sideways
 /// moves) needs a path, every dead end (a block with one sideways neighbour) ends one, and
 /// since a path alternates between the two colours of a checkerboard (x + y even or odd),
-/// it covers at most one block more of one colour than of the other.
+/// it covers at most one block more of one colour than of the other (cube parts only: the
+/// moves of a graph part do not alternate colours).
 pub fn layer_path_bound(part: &Part, graph: &WeldGraph) -> Vec<(i64, usize, usize)> {
+    let checkerboard = part.bead_part().is_none();
     let n = part.len();
     let z = |i: usize| part.block(i)[2];
     let sideways = |i: usize| {
@@ -1041,7 +1044,12 @@ pub fn layer_path_bound(part: &Part, graph: &WeldGraph) -> Vec<(i64, usize, usiz
                 }
             }
         }
-        let paths = ends.div_ceil(2).max(colours[0].abs_diff(colours[1])).max(1);
+        let parity = if checkerboard {
+            colours[0].abs_diff(colours[1])
+        } else {
+            0
+        };
+        let paths = ends.div_ceil(2).max(parity).max(1);
         match out.last_mut() {
             Some(last) if last.0 == z(s) => {
                 last.1 += paths;
