@@ -26,6 +26,7 @@
 //! - `timeline.rs`: whole plans, on the spec's time line ([`simulate`]) or on a given one
 //!   ([`simulate_on`], [`Timeline`]).
 
+pub mod graph;
 mod interrupt;
 mod kernel;
 mod model;

@@ -1,0 +1,411 @@
+//! The fast step of the graph model, bit for bit [`GraphReference`](super::GraphReference).
+//!
+//! Layout: node i lives in slot i; slots are padded to a multiple of 4 (a *block*, one
+//! AVX2 vector). Every slot has D = max degree *columns*, column k its k-th contact in
+//! contact-list order (the doc's order of summation), stored per block as 4 lanes
+//! (`[block][column][lane]`, so a block's table is one contiguous run of memory):
+//! - the neighbour slot and the coefficient g_ik, while both ends are welded;
+//! - otherwise the slot itself and +0.0: the term is `0.0 * (T_i - T_i) = +0.0`, and
+//!   adding +0.0 to a flux that starts at +0.0 (so is never -0.0) changes no bit: the loop
+//!   needs no branch, and unwelded slots inside the stepped range keep their temperature.
+//!
+//! Per block a bit mask marks the columns whose four neighbour slots are consecutive
+//! (along a contour, or to the layer below, when slots follow the contours): those are
+//! one load instead of a gather.
+
+use super::{GraphModel, NodeGeometry};
+use crate::{Simd, ThermalParams};
+
+/// Lanes of a block (one AVX2 vector of f64).
+const LANES: usize = 4;
+
+/// A running simulation of the graph model with the fast step.
+#[derive(Debug, Clone)]
+pub struct GraphSimulation<'m> {
+    model: &'m GraphModel,
+    simd: Simd,
+    /// Columns per slot: the model's largest degree.
+    cols: usize,
+    /// Temperatures before / after a step, by slot (padding slots at ambient).
+    temp: Vec<f64>,
+    next: Vec<f64>,
+    /// `[block][column][lane]`: neighbour slot (the slot itself while inactive) and g_ik
+    /// (+0.0 while inactive).
+    nbr: Vec<u32>,
+    coef: Vec<f64>,
+    /// Per block: columns in use (the largest degree of its four nodes).
+    used: Vec<u32>,
+    /// Per block: bit k set where column k's four neighbour slots are consecutive.
+    runs: Vec<u64>,
+    /// Per slot s_i and ρ_i, +0.0 while unwelded.
+    substrate: Vec<f64>,
+    radiation: Vec<f64>,
+    welded: Vec<bool>,
+    /// Blocks `lo..hi` span the welded slots (empty: none welded).
+    lo: usize,
+    hi: usize,
+    steps: u64,
+}
+
+impl<'m> GraphSimulation<'m> {
+    /// Every node unwelded at ambient; the best kernel of this CPU.
+    pub fn new(model: &'m GraphModel) -> Self {
+        let n = model.len();
+        let slots = n.div_ceil(LANES) * LANES;
+        let blocks = slots / LANES;
+        let cols = model.max_degree();
+        let mut nbr = vec![0u32; slots * cols];
+        for b in 0..blocks {
+            for k in 0..cols {
+                for l in 0..LANES {
+                    nbr[(b * cols + k) * LANES + l] = (b * LANES + l) as u32;
+                }
+            }
+        }
+        let used = (0..blocks)
+            .map(|b| {
+                (b * LANES..((b + 1) * LANES).min(n))
+                    .map(|i| model.links(i).len() as u32)
+                    .max()
+                    .unwrap_or(0)
+            })
+            .collect();
+        let amb = model.params.ambient_c;
+        GraphSimulation {
+            model,
+            simd: Self::best(Simd::detect()),
+            cols,
+            temp: vec![amb; slots],
+            next: vec![amb; slots],
+            nbr,
+            coef: vec![0.0; slots * cols],
+            used,
+            // Self-pointers are consecutive in every column.
+            runs: vec![u64::MAX; blocks],
+            substrate: vec![0.0; slots],
+            radiation: vec![0.0; slots],
+            welded: vec![false; n],
+            lo: usize::MAX,
+            hi: 0,
+            steps: 0,
+        }
+    }
+
+    /// The kernels built here: AVX2 covers an AVX-512 CPU too.
+    fn best(simd: Simd) -> Simd {
+        if simd >= Simd::Avx2 {
+            Simd::Avx2
+        } else {
+            Simd::Scalar
+        }
+    }
+
+    /// The same simulation stepped by `simd` (the scalar loop if the CPU lacks it).
+    pub fn with_simd(mut self, simd: Simd) -> Self {
+        self.simd = if simd <= Simd::detect() {
+            Self::best(simd)
+        } else {
+            Simd::Scalar
+        };
+        self
+    }
+
+    /// The kernel in use.
+    pub fn simd(&self) -> Simd {
+        self.simd
+    }
+
+    /// Deposits `node`: T = deposit_c, welded from now on, its contacts to welded nodes
+    /// active (no steps: see [`GraphModel::deposit_steps`]).
+    pub fn deposit(&mut self, node: usize) {
+        assert!(!self.welded[node], "node {node} deposited twice");
+        let m = self.model;
+        self.welded[node] = true;
+        self.temp[node] = m.params.deposit_c;
+        self.substrate[node] = m.substrate[node];
+        let first = m.start[node] as usize;
+        for (k, l) in m.links(node).iter().enumerate() {
+            let j = l.other as usize;
+            if !self.welded[j] {
+                continue;
+            }
+            self.activate(node, k, j, l.coef);
+            let back = m.mirror[first + k] as usize;
+            let kj = back - m.start[j] as usize;
+            self.activate(j, kj, node, m.links[back].coef);
+            self.radiation[j] = m.radiation(j, |o| self.welded[o as usize]);
+            self.update_runs(j / LANES);
+        }
+        self.radiation[node] = m.radiation(node, |o| self.welded[o as usize]);
+        self.update_runs(node / LANES);
+        self.lo = self.lo.min(node / LANES);
+        self.hi = self.hi.max(node / LANES + 1);
+    }
+
+    /// Points column `k` of slot `i` at slot `j` with coefficient `g`.
+    fn activate(&mut self, i: usize, k: usize, j: usize, g: f64) {
+        let at = ((i / LANES) * self.cols + k) * LANES + i % LANES;
+        self.nbr[at] = j as u32;
+        self.coef[at] = g;
+    }
+
+    fn update_runs(&mut self, b: usize) {
+        let mut bits = 0u64;
+        for k in 0..self.cols.min(64) {
+            let at = (b * self.cols + k) * LANES;
+            let s = &self.nbr[at..at + LANES];
+            if (1..LANES).all(|l| s[l] == s[0] + l as u32) {
+                bits |= 1 << k;
+            }
+        }
+        self.runs[b] = bits;
+    }
+
+    /// `n` Euler steps of every welded node.
+    pub fn step(&mut self, n: u64) {
+        for _ in 0..n {
+            if self.lo < self.hi {
+                let kernel = self.kernel();
+                // SAFETY: the kernel points into this simulation's buffers, which live and
+                // keep their sizes through the call; blocks lo..hi exist (see `Step::run`).
+                unsafe { kernel.run(self.lo, self.hi) };
+                std::mem::swap(&mut self.temp, &mut self.next);
+            }
+            self.steps += 1;
+        }
+    }
+
+    fn kernel(&mut self) -> Step {
+        let m = self.model;
+        Step {
+            t: self.temp.as_ptr(),
+            out: self.next.as_mut_ptr(),
+            nbr: self.nbr.as_ptr(),
+            coef: self.coef.as_ptr(),
+            used: self.used.as_ptr(),
+            runs: self.runs.as_ptr(),
+            substrate: self.substrate.as_ptr(),
+            radiation: self.radiation.as_ptr(),
+            cols: self.cols,
+            amb: m.params.ambient_c,
+            q: m.ambient_k4,
+            dt: m.dt,
+            simd: self.simd,
+        }
+    }
+
+    /// Temperatures by node, °C (unwelded nodes at ambient).
+    pub fn temperatures(&self) -> &[f64] {
+        &self.temp[..self.model.len()]
+    }
+
+    /// Whether `node` is welded.
+    pub fn is_welded(&self, node: usize) -> bool {
+        self.welded[node]
+    }
+
+    /// Steps done so far.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// Blocks of 4 slots stepped per step (a measure of the work done).
+    pub fn stepped_slots(&self) -> usize {
+        self.hi.saturating_sub(self.lo) * LANES
+    }
+}
+
+/// What one step reads and writes, as raw pointers (so that the AVX2 code can run on
+/// them without bounds checks).
+#[derive(Clone, Copy)]
+struct Step {
+    t: *const f64,
+    out: *mut f64,
+    nbr: *const u32,
+    coef: *const f64,
+    used: *const u32,
+    runs: *const u64,
+    substrate: *const f64,
+    radiation: *const f64,
+    cols: usize,
+    amb: f64,
+    q: f64,
+    dt: f64,
+    simd: Simd,
+}
+
+impl Step {
+    /// Steps blocks `a..b`.
+    ///
+    /// # Safety
+    /// The pointers must be those of a live [`GraphSimulation`] with at least `b` blocks,
+    /// whose neighbour slots are all < its slot count, and `out` must not alias `t`.
+    unsafe fn run(&self, a: usize, b: usize) {
+        #[cfg(target_arch = "x86_64")]
+        if self.simd >= Simd::Avx2 {
+            return self.blocks_avx2(a, b);
+        }
+        self.blocks_scalar(a, b);
+    }
+
+    /// The doc's step slot by slot, columns in order; inactive columns add +0.0.
+    unsafe fn blocks_scalar(&self, a: usize, b: usize) {
+        for blk in a..b {
+            let used = *self.used.add(blk) as usize;
+            for l in 0..LANES {
+                let i = blk * LANES + l;
+                let ti = *self.t.add(i);
+                let mut f = 0.0;
+                for k in 0..used {
+                    let at = (blk * self.cols + k) * LANES + l;
+                    let tj = *self.t.add(*self.nbr.add(at) as usize);
+                    f += *self.coef.add(at) * (tj - ti);
+                }
+                f += *self.substrate.add(i) * (self.amb - ti);
+                let tk = ti + 273.15;
+                let t2 = tk * tk;
+                f -= *self.radiation.add(i) * (t2 * t2 - self.q);
+                *self.out.add(i) = ti + self.dt * f;
+            }
+        }
+    }
+
+    /// Blocks `a..b` with AVX2: each lane does the scalar loop's operations in the same
+    /// order (AVX2 adds, subtracts and multiplies are the IEEE operations; no fused
+    /// multiply-add).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn blocks_avx2(&self, a: usize, b: usize) {
+        use std::arch::x86_64::*;
+        let amb = _mm256_set1_pd(self.amb);
+        let q = _mm256_set1_pd(self.q);
+        let dt = _mm256_set1_pd(self.dt);
+        let kelvin = _mm256_set1_pd(273.15);
+        let t = self.t;
+        for blk in a..b {
+            let i = blk * LANES;
+            let ti = _mm256_loadu_pd(t.add(i));
+            let used = *self.used.add(blk) as usize;
+            let runs = *self.runs.add(blk);
+            let row = blk * self.cols * LANES;
+            let mut f = _mm256_setzero_pd();
+            for k in 0..used {
+                let at = row + k * LANES;
+                let c = _mm256_loadu_pd(self.coef.add(at));
+                let tj = if k < 64 && runs >> k & 1 != 0 {
+                    _mm256_loadu_pd(t.add(*self.nbr.add(at) as usize))
+                } else {
+                    let idx = _mm_loadu_si128(self.nbr.add(at) as *const __m128i);
+                    _mm256_i32gather_pd::<8>(t, idx)
+                };
+                f = _mm256_add_pd(f, _mm256_mul_pd(c, _mm256_sub_pd(tj, ti)));
+            }
+            let s = _mm256_loadu_pd(self.substrate.add(i));
+            f = _mm256_add_pd(f, _mm256_mul_pd(s, _mm256_sub_pd(amb, ti)));
+            let tk = _mm256_add_pd(ti, kelvin);
+            let t2 = _mm256_mul_pd(tk, tk);
+            let r = _mm256_loadu_pd(self.radiation.add(i));
+            f = _mm256_sub_pd(f, _mm256_mul_pd(r, _mm256_sub_pd(_mm256_mul_pd(t2, t2), q)));
+            _mm256_storeu_pd(self.out.add(i), _mm256_add_pd(ti, _mm256_mul_pd(dt, f)));
+        }
+    }
+}
+
+/// A ring-like test part: `layers` layers of `rings` concentric rings (1 or 2) of `ring`
+/// nodes, W = 6 mm, H = 2.5 mm, node lengths varying ±10 %; contacts Along the ring,
+/// Beside between the two rings, Stacked to the two nodes below (each layer shifted by
+/// half a node). Contacts sorted by (lower, higher) node. With `shuffle`, node numbers are
+/// permuted at random (no contiguous neighbours: every column a gather).
+pub fn ring_graph(
+    layers: usize,
+    ring: usize,
+    rings: usize,
+    shuffle: bool,
+) -> (Vec<NodeGeometry>, Vec<(u32, u32, f64)>) {
+    let (w, h) = (6.0, 2.5);
+    let per_layer = ring * rings;
+    let n = layers * per_layer;
+    let id = |z: usize, r: usize, p: usize| z * per_layer + r * ring + p % ring;
+    let len = |p: usize| w * (1.0 + 0.1 * ((p as f64) * 0.7).sin());
+    let mut nodes = Vec::with_capacity(n);
+    for z in 0..layers {
+        for _r in 0..rings {
+            for p in 0..ring {
+                let l = len(p);
+                nodes.push(NodeGeometry {
+                    volume: l * w * h,
+                    surface: 2.0 * l * w + 2.0 * l * h + 2.0 * w * h,
+                    substrate: if z == 0 { l * w } else { 0.0 },
+                });
+            }
+        }
+    }
+    let mut contacts = Vec::new();
+    for z in 0..layers {
+        for r in 0..rings {
+            for p in 0..ring {
+                let i = id(z, r, p);
+                if ring > 1 && (ring > 2 || p == 0) {
+                    contacts.push((i, id(z, r, p + 1), w * h * (0.95 + 0.1 * (p % 3) as f64)));
+                }
+                if r + 1 < rings {
+                    contacts.push((i, id(z, r + 1, p), len(p) * h * 0.9));
+                }
+                if z > 0 {
+                    contacts.push((i, id(z - 1, r, p), 0.6 * len(p) * w));
+                    if ring > 1 {
+                        contacts.push((i, id(z - 1, r, p + 1), 0.4 * len(p) * w));
+                    }
+                }
+            }
+        }
+    }
+    let mut perm: Vec<usize> = (0..n).collect();
+    if shuffle {
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        for i in (1..n).rev() {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            perm.swap(i, (x % (i as u64 + 1)) as usize);
+        }
+        let mut shuffled = nodes.clone();
+        for (i, &p) in perm.iter().enumerate() {
+            shuffled[p] = nodes[i];
+        }
+        nodes = shuffled;
+    }
+    let mut contacts: Vec<(u32, u32, f64)> = contacts
+        .into_iter()
+        .map(|(a, b, area)| {
+            let (a, b) = (perm[a] as u32, perm[b] as u32);
+            (a.min(b), a.max(b), area)
+        })
+        .collect();
+    contacts.sort_by_key(|&(a, b, _)| (a, b));
+    (nodes, contacts)
+}
+
+/// Throughput of the fast step: [`ring_graph`] all welded, `steps` steps on `simd`.
+/// Returns (nodes, node-steps per second).
+pub fn bench_graph(
+    layers: usize,
+    ring: usize,
+    rings: usize,
+    shuffle: bool,
+    simd: Simd,
+    steps: u64,
+) -> (usize, f64) {
+    let (nodes, contacts) = ring_graph(layers, ring, rings, shuffle);
+    let model = GraphModel::new(ThermalParams::default(), 6.0, 2.5, &nodes, &contacts)
+        .expect("a valid ring graph");
+    let mut sim = GraphSimulation::new(&model).with_simd(simd);
+    for i in 0..model.len() {
+        sim.deposit(i);
+    }
+    sim.step(steps.min(20));
+    let start = std::time::Instant::now();
+    sim.step(steps);
+    let secs = start.elapsed().as_secs_f64();
+    (model.len(), model.len() as f64 * steps as f64 / secs)
+}
