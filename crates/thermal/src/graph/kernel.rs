@@ -13,11 +13,17 @@
 //! (along a contour, or to the layer below, when slots follow the contours): those are
 //! one load instead of a gather.
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use super::{GraphModel, NodeGeometry};
 use crate::{Simd, ThermalParams};
 
 /// Lanes of a block (one AVX2 vector of f64).
 const LANES: usize = 4;
+
+/// A `step(n)` runs on several threads once n × stepped slots reaches this: the threads
+/// are started per call (~50 µs), which a few hundred thousand node-steps repay.
+pub const GRAPH_PARALLEL_MIN_WORK: u64 = 1 << 18;
 
 /// A running simulation of the graph model with the fast step.
 #[derive(Debug, Clone)]
@@ -45,6 +51,8 @@ pub struct GraphSimulation<'m> {
     lo: usize,
     hi: usize,
     steps: u64,
+    threads: usize,
+    parallel_min: u64,
 }
 
 impl<'m> GraphSimulation<'m> {
@@ -88,7 +96,23 @@ impl<'m> GraphSimulation<'m> {
             lo: usize::MAX,
             hi: 0,
             steps: 0,
+            threads: 1,
+            parallel_min: GRAPH_PARALLEL_MIN_WORK,
         }
+    }
+
+    /// Steps on up to `threads` threads (scoped threads started per [`Self::step`] call,
+    /// not the block simulator's pool, which is private to it) once a call's work reaches
+    /// [`GRAPH_PARALLEL_MIN_WORK`]. The bits are the same.
+    pub fn with_threads(mut self, threads: usize) -> Self {
+        self.threads = threads.max(1);
+        self
+    }
+
+    /// Threads as in [`Self::with_threads`] from `work` node-steps per call on.
+    pub fn with_parallel_min(mut self, work: u64) -> Self {
+        self.parallel_min = work;
+        self
     }
 
     /// The kernels built here: AVX2 covers an AVX-512 CPU too.
@@ -163,6 +187,11 @@ impl<'m> GraphSimulation<'m> {
 
     /// `n` Euler steps of every welded node.
     pub fn step(&mut self, n: u64) {
+        let blocks = self.hi.saturating_sub(self.lo);
+        let threads = self.threads.min(blocks);
+        if threads > 1 && n.saturating_mul((blocks * LANES) as u64) >= self.parallel_min {
+            return self.step_parallel(n, threads);
+        }
         for _ in 0..n {
             if self.lo < self.hi {
                 let kernel = self.kernel();
@@ -173,6 +202,55 @@ impl<'m> GraphSimulation<'m> {
             }
             self.steps += 1;
         }
+    }
+
+    /// `n` steps on `threads` threads, each on its share of the blocks; a barrier (a
+    /// counter of finished shares) between steps, as every share reads all temperatures.
+    fn step_parallel(&mut self, n: u64, threads: usize) {
+        let forth = self.kernel();
+        let back = Step {
+            t: forth.out,
+            out: forth.t as *mut f64,
+            ..forth
+        };
+        let (lo, hi) = (self.lo, self.hi);
+        let done = AtomicU64::new(0);
+        let work = |t: usize| {
+            let (a, b) = (
+                lo + (hi - lo) * t / threads,
+                lo + (hi - lo) * (t + 1) / threads,
+            );
+            for step in 0..n {
+                let kernel = if step % 2 == 0 { &forth } else { &back };
+                // SAFETY: both buffers live and keep their sizes until the scope ends;
+                // this thread alone writes blocks a..b of `out`, and nobody writes `t`
+                // during this step (the barrier below separates the steps).
+                unsafe { kernel.run(a, b) };
+                done.fetch_add(1, Ordering::Release);
+                let all = threads as u64 * (step + 1);
+                let mut spins = 0u32;
+                while done.load(Ordering::Acquire) < all {
+                    spins += 1;
+                    // On a busy machine the thread we wait for may have lost its core.
+                    if spins > 4096 {
+                        std::thread::yield_now();
+                    } else {
+                        std::hint::spin_loop();
+                    }
+                }
+            }
+        };
+        std::thread::scope(|s| {
+            for t in 1..threads {
+                let work = &work;
+                s.spawn(move || work(t));
+            }
+            work(0);
+        });
+        if n % 2 == 1 {
+            std::mem::swap(&mut self.temp, &mut self.next);
+        }
+        self.steps += n;
     }
 
     fn kernel(&mut self) -> Step {
@@ -233,6 +311,12 @@ struct Step {
     dt: f64,
     simd: Simd,
 }
+
+// SAFETY: a `Step` is shared only inside `GraphSimulation::step_parallel`, which holds the
+// simulation mutably borrowed until every thread has finished; threads write disjoint
+// block ranges of `out` and read `t`, which no one writes during that step.
+unsafe impl Send for Step {}
+unsafe impl Sync for Step {}
 
 impl Step {
     /// Steps blocks `a..b`.
@@ -386,20 +470,23 @@ pub fn ring_graph(
     (nodes, contacts)
 }
 
-/// Throughput of the fast step: [`ring_graph`] all welded, `steps` steps on `simd`.
-/// Returns (nodes, node-steps per second).
+/// Throughput of the fast step: [`ring_graph`] all welded, `steps` steps on `simd` and
+/// `threads` threads. Returns (nodes, node-steps per second).
 pub fn bench_graph(
     layers: usize,
     ring: usize,
     rings: usize,
     shuffle: bool,
     simd: Simd,
+    threads: usize,
     steps: u64,
 ) -> (usize, f64) {
     let (nodes, contacts) = ring_graph(layers, ring, rings, shuffle);
     let model = GraphModel::new(ThermalParams::default(), 6.0, 2.5, &nodes, &contacts)
         .expect("a valid ring graph");
-    let mut sim = GraphSimulation::new(&model).with_simd(simd);
+    let mut sim = GraphSimulation::new(&model)
+        .with_simd(simd)
+        .with_threads(threads);
     for i in 0..model.len() {
         sim.deposit(i);
     }

@@ -116,6 +116,28 @@ proptest! {
     }
 }
 
+proptest! {
+    // Few cases: every step(n) call starts threads, slow on a busy machine.
+    #![proptest_config(ProptestConfig::with_cases(40))]
+    /// The threaded step gives the reference's bits.
+    #[test]
+    fn threaded_step_is_bit_identical_to_the_reference((model, order, runs) in case()) {
+        let mut reference = GraphReference::new(&model);
+        let mut sims = [2, 3].map(|t| GraphSimulation::new(&model).with_threads(t).with_parallel_min(0));
+        for (&node, &steps) in order.iter().zip(&runs) {
+            reference.deposit(node);
+            reference.run(steps);
+            let want = bits(reference.temperatures());
+            for sim in &mut sims {
+                sim.deposit(node);
+                sim.step(steps);
+                prop_assert_eq!(sim.steps(), reference.steps());
+                prop_assert_eq!(bits(sim.temperatures()), want.clone());
+            }
+        }
+    }
+}
+
 prop_compose! {
     /// A random block part (as the block model's own test makes them) and deposit order.
     fn cube_case()(
@@ -316,7 +338,8 @@ fn free_surface_is_floored_at_zero() {
 #[test]
 #[ignore]
 fn bench_graph_throughput() {
-    for simd in Simd::available() {
+    let kernels = Simd::available().into_iter().map(|s| (s, 1));
+    for (simd, threads) in kernels.chain([(Simd::detect(), 2)]) {
         for &(layers, ring, rings, shuffle) in &[
             (100, 100, 1, false),
             (100, 300, 2, false),
@@ -325,9 +348,9 @@ fn bench_graph_throughput() {
         ] {
             let nodes = layers * ring * rings;
             let steps = (2e9 / nodes as f64) as u64;
-            let (n, rate) = bench_graph(layers, ring, rings, shuffle, simd, steps);
+            let (n, rate) = bench_graph(layers, ring, rings, shuffle, simd, threads, steps);
             println!(
-                "bench_graph {simd:?}: {layers} layers x {rings} ring(s) x {ring} = {n} nodes{}: {:.3e} node-steps/s",
+                "bench_graph {simd:?} x {threads} thread(s): {layers} layers x {rings} ring(s) x {ring} = {n} nodes{}: {:.3e} node-steps/s",
                 if shuffle { ", shuffled" } else { "" },
                 rate
             );
