@@ -395,17 +395,26 @@ impl Step {
     }
 }
 
-/// A ring-like test part: `layers` layers of `rings` concentric rings (1 or 2) of `ring`
-/// nodes, W = 6 mm, H = 2.5 mm, node lengths varying ±10 %; contacts Along the ring,
-/// Beside between the two rings, Stacked to the two nodes below (each layer shifted by
-/// half a node). Contacts sorted by (lower, higher) node. With `shuffle`, node numbers are
-/// permuted at random (no contiguous neighbours: every column a gather).
-pub fn ring_graph(
-    layers: usize,
-    ring: usize,
-    rings: usize,
-    shuffle: bool,
-) -> (Vec<NodeGeometry>, Vec<(u32, u32, f64)>) {
+/// A ring-like test part: `layers` layers of `rings` concentric rings of `ring` nodes.
+#[derive(Debug, Clone, Copy)]
+pub struct Ring {
+    pub layers: usize,
+    pub ring: usize,
+    pub rings: usize,
+    /// Number the nodes at random (no consecutive neighbours: every column a gather).
+    pub shuffle: bool,
+}
+
+/// The graph of a [`Ring`]: W = 6 mm, H = 2.5 mm, node lengths varying ±10 %; contacts
+/// Along the ring, Beside to the next ring, Stacked to the two nodes below (as if each
+/// layer were shifted along the ring), listed sorted by (lower, higher) node.
+pub fn ring_graph(spec: Ring) -> (Vec<NodeGeometry>, Vec<(u32, u32, f64)>) {
+    let Ring {
+        layers,
+        ring,
+        rings,
+        shuffle,
+    } = spec;
     let (w, h) = (6.0, 2.5);
     let per_layer = ring * rings;
     let n = layers * per_layer;
@@ -470,18 +479,18 @@ pub fn ring_graph(
     (nodes, contacts)
 }
 
-/// Throughput of the fast step: [`ring_graph`] all welded, `steps` steps on `simd` and
-/// `threads` threads. Returns (nodes, node-steps per second).
+/// Throughput of the fast step: [`ring_graph`] of `spec`, all welded, `steps` steps on `simd` and
+/// `threads` threads, best of `reps` runs (a busy machine takes the core away now and
+/// then). Returns nodes, node-steps per second of wall time, and node-steps per second of
+/// the process's CPU time (Linux, else NaN; with threads it counts barrier waits too).
 pub fn bench_graph(
-    layers: usize,
-    ring: usize,
-    rings: usize,
-    shuffle: bool,
+    spec: Ring,
     simd: Simd,
     threads: usize,
     steps: u64,
-) -> (usize, f64) {
-    let (nodes, contacts) = ring_graph(layers, ring, rings, shuffle);
+    reps: usize,
+) -> (usize, f64, f64) {
+    let (nodes, contacts) = ring_graph(spec);
     let model = GraphModel::new(ThermalParams::default(), 6.0, 2.5, &nodes, &contacts)
         .expect("a valid ring graph");
     let mut sim = GraphSimulation::new(&model)
@@ -491,8 +500,33 @@ pub fn bench_graph(
         sim.deposit(i);
     }
     sim.step(steps.min(20));
-    let start = std::time::Instant::now();
-    sim.step(steps);
-    let secs = start.elapsed().as_secs_f64();
-    (model.len(), model.len() as f64 * steps as f64 / secs)
+    let work = model.len() as f64 * steps as f64;
+    let (mut wall, mut cpu) = (0.0f64, 0.0f64);
+    for _ in 0..reps.max(1) {
+        let (start, cpu_start) = (std::time::Instant::now(), process_cpu_s());
+        sim.step(steps);
+        wall = wall.max(work / start.elapsed().as_secs_f64());
+        cpu = cpu.max(work / (process_cpu_s() - cpu_start));
+    }
+    (model.len(), wall, cpu)
+}
+
+/// CPU time of this process (user + system), s, from /proc (NaN elsewhere).
+fn process_cpu_s() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return f64::NAN;
+    };
+    // Fields after the command name (which may hold spaces): utime and stime are the
+    // 12th and 13th, in clock ticks (100 per second on Linux).
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<f64> = rest
+        .split_whitespace()
+        .skip(11)
+        .take(2)
+        .filter_map(|x| x.parse().ok())
+        .collect();
+    match f[..] {
+        [u, s] => (u + s) / 100.0,
+        _ => f64::NAN,
+    }
 }

@@ -19,7 +19,7 @@ mod reference;
 #[cfg(test)]
 mod tests;
 
-pub use kernel::{bench_graph, ring_graph, GraphSimulation, GRAPH_PARALLEL_MIN_WORK};
+pub use kernel::{bench_graph, ring_graph, GraphSimulation, Ring, GRAPH_PARALLEL_MIN_WORK};
 pub use reference::GraphReference;
 
 use thiserror::Error;
