@@ -141,6 +141,9 @@ impl<'m> GraphSimulation<'m> {
 
     /// Deposits `node`: T = deposit_c, welded from now on, its contacts to welded nodes
     /// active (no steps: see [`GraphModel::deposit_steps`]).
+    ///
+    /// # Panics
+    /// If `node` is already welded.
     pub fn deposit(&mut self, node: usize) {
         assert!(!self.welded[node], "node {node} deposited twice");
         let m = self.model;

@@ -25,7 +25,11 @@ impl<'m> GraphReference<'m> {
     }
 
     /// Deposits `node`: T = deposit_c, welded from now on (no steps).
+    ///
+    /// # Panics
+    /// If `node` is already welded.
     pub fn deposit(&mut self, node: usize) {
+        assert!(!self.welded[node], "node {node} deposited twice");
         self.welded[node] = true;
         self.temp[node] = self.model.params.deposit_c;
     }
