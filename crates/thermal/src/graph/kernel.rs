@@ -25,6 +25,9 @@ const LANES: usize = 4;
 /// are started per call (~50 µs), which a few hundred thousand node-steps repay.
 pub const GRAPH_PARALLEL_MIN_WORK: u64 = 1 << 18;
 
+/// Chunks per thread of one threaded step (more: better balance, more atomics).
+const CHUNKS_PER_THREAD: usize = 4;
+
 /// A running simulation of the graph model with the fast step.
 #[derive(Debug, Clone)]
 pub struct GraphSimulation<'m> {
@@ -207,8 +210,11 @@ impl<'m> GraphSimulation<'m> {
         }
     }
 
-    /// `n` steps on `threads` threads, each on its share of the blocks; a barrier (a
-    /// counter of finished shares) between steps, as every share reads all temperatures.
+    /// `n` steps on `threads` threads. Each step's blocks are cut into chunks that the
+    /// threads claim one at a time (chunk g of the whole run belongs to step g / chunks), so
+    /// a thread the OS has not scheduled delays nothing unless it holds a chunk: the others
+    /// step its share. A step begins once every chunk of the one before has finished, as
+    /// every chunk reads all temperatures.
     fn step_parallel(&mut self, n: u64, threads: usize) {
         let forth = self.kernel();
         let back = Step {
@@ -217,22 +223,39 @@ impl<'m> GraphSimulation<'m> {
             ..forth
         };
         let (lo, hi) = (self.lo, self.hi);
-        let done = AtomicU64::new(0);
-        let work = |t: usize| {
-            let (a, b) = (
-                lo + (hi - lo) * t / threads,
-                lo + (hi - lo) * (t + 1) / threads,
-            );
+        let chunks = (threads * CHUNKS_PER_THREAD).min(hi - lo) as u64;
+        let claimed = AtomicU64::new(0);
+        let finished = AtomicU64::new(0);
+        let work = || {
             for step in 0..n {
-                let kernel = if step % 2 == 0 { &forth } else { &back };
-                // SAFETY: both buffers live and keep their sizes until the scope ends;
-                // this thread alone writes blocks a..b of `out`, and nobody writes `t`
-                // during this step (the barrier below separates the steps).
-                unsafe { kernel.run(a, b) };
-                done.fetch_add(1, Ordering::Release);
-                let all = threads as u64 * (step + 1);
+                let end = (step + 1) * chunks;
+                let mut g = claimed.load(Ordering::Relaxed);
+                // Chunks left in this step: claim one (g >= step · chunks, since every
+                // chunk of the earlier steps has finished, so was claimed).
+                while g < end {
+                    match claimed.compare_exchange_weak(
+                        g,
+                        g + 1,
+                        Ordering::Relaxed,
+                        Ordering::Relaxed,
+                    ) {
+                        Ok(_) => {
+                            let c = (g - step * chunks) as usize;
+                            let cut = |c: usize| lo + (hi - lo) * c / chunks as usize;
+                            let kernel = if step % 2 == 0 { &forth } else { &back };
+                            // SAFETY: both buffers live and keep their sizes until the scope
+                            // ends; this chunk's blocks of `out` are written by this thread
+                            // alone, and no one writes `t` during this step (all chunks of
+                            // the step before have finished, none of the next has begun).
+                            unsafe { kernel.run(cut(c), cut(c + 1)) };
+                            finished.fetch_add(1, Ordering::Release);
+                            g = claimed.load(Ordering::Relaxed);
+                        }
+                        Err(now) => g = now,
+                    }
+                }
                 let mut spins = 0u32;
-                while done.load(Ordering::Acquire) < all {
+                while finished.load(Ordering::Acquire) < end {
                     spins += 1;
                     // On a busy machine the thread we wait for may have lost its core.
                     if spins > 4096 {
@@ -244,11 +267,10 @@ impl<'m> GraphSimulation<'m> {
             }
         };
         std::thread::scope(|s| {
-            for t in 1..threads {
-                let work = &work;
-                s.spawn(move || work(t));
+            for _ in 1..threads {
+                s.spawn(work);
             }
-            work(0);
+            work();
         });
         if n % 2 == 1 {
             std::mem::swap(&mut self.temp, &mut self.next);

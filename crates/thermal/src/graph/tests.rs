@@ -117,8 +117,8 @@ proptest! {
 }
 
 proptest! {
-    // Few cases: every step(n) call starts threads, slow on a busy machine.
-    #![proptest_config(ProptestConfig::with_cases(40))]
+    // Fewer cases: every step(n) call starts threads.
+    #![proptest_config(ProptestConfig::with_cases(100))]
     /// The threaded step gives the reference's bits.
     #[test]
     fn threaded_step_is_bit_identical_to_the_reference((model, order, runs) in case()) {
