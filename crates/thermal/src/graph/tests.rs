@@ -92,27 +92,89 @@ prop_compose! {
     }
 }
 
+/// Deposits `order` with `runs[k]` steps after the k-th deposit on the reference and on
+/// `sims`, comparing every temperature bit after each.
+fn compare(
+    model: &GraphModel,
+    sims: &mut [GraphSimulation<'_>],
+    order: &[usize],
+    runs: &[u64],
+) -> Result<(), TestCaseError> {
+    let mut reference = GraphReference::new(model);
+    for (&node, &steps) in order.iter().zip(runs) {
+        reference.deposit(node);
+        reference.run(steps);
+        let want = bits(reference.temperatures());
+        for sim in sims.iter_mut() {
+            sim.deposit(node);
+            sim.step(steps);
+            prop_assert_eq!(sim.steps(), reference.steps());
+            prop_assert_eq!(
+                bits(sim.temperatures()),
+                want.clone(),
+                "kernel {:?}",
+                sim.simd()
+            );
+        }
+    }
+    Ok(())
+}
+
+fn kernels(model: &GraphModel) -> Vec<GraphSimulation<'_>> {
+    Simd::available()
+        .into_iter()
+        .map(|s| GraphSimulation::new(model).with_simd(s))
+        .collect()
+}
+
+prop_compose! {
+    /// A small [`ring_graph`] (consecutive columns: the AVX2 kernel's loads), random
+    /// constants, weld order and steps.
+    fn ring_case()(
+        layers in 1usize..5,
+        ring in 1usize..14,
+        rings in 1usize..3,
+        shuffle in any::<bool>(),
+        seed in any::<u64>(),
+        runs in proptest::collection::vec(0u64..30, 4 * 13 * 2),
+        h in 0.0f64..3.0,
+        hs in 0.0f64..3.0,
+        r in 0.0f64..5e-12,
+        ambient in -30.0f64..120.0,
+        deposit in 300.0f64..3000.0,
+        substeps in 1u32..25,
+    ) -> (GraphModel, Vec<usize>, Vec<u64>) {
+        let (nodes, contacts) = ring_graph(Ring { layers, ring, rings, shuffle });
+        let p = params(h, hs, r, ambient, deposit, substeps);
+        let model = GraphModel::new(p, 6.0, 2.5, &nodes, &contacts).expect("a ring graph");
+        let n = model.len();
+        // Mostly bottom-up, as plans weld, with random swaps.
+        let mut order: Vec<usize> = (0..n).collect();
+        let mut x = seed | 1;
+        for i in 1..n {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            if x % 4 == 0 {
+                order.swap(i, (x >> 8) as usize % n);
+            }
+        }
+        (model, order, runs[..n].to_vec())
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(300))]
     /// Every kernel of the fast step gives the reference's bits after every deposit.
     #[test]
     fn fast_step_is_bit_identical_to_the_reference((model, order, runs) in case()) {
-        let mut reference = GraphReference::new(&model);
-        let mut sims: Vec<GraphSimulation<'_>> = Simd::available()
-            .into_iter()
-            .map(|s| GraphSimulation::new(&model).with_simd(s))
-            .collect();
-        for (&node, &steps) in order.iter().zip(&runs) {
-            reference.deposit(node);
-            reference.run(steps);
-            let want = bits(reference.temperatures());
-            for sim in &mut sims {
-                sim.deposit(node);
-                sim.step(steps);
-                prop_assert_eq!(sim.steps(), reference.steps());
-                prop_assert_eq!(bits(sim.temperatures()), want.clone(), "kernel {:?}", sim.simd());
-            }
-        }
+        compare(&model, &mut kernels(&model), &order, &runs)?;
+    }
+
+    /// The same on ring graphs.
+    #[test]
+    fn fast_step_is_bit_identical_on_rings((model, order, runs) in ring_case()) {
+        compare(&model, &mut kernels(&model), &order, &runs)?;
     }
 }
 
@@ -122,19 +184,14 @@ proptest! {
     /// The threaded step gives the reference's bits.
     #[test]
     fn threaded_step_is_bit_identical_to_the_reference((model, order, runs) in case()) {
-        let mut reference = GraphReference::new(&model);
         let mut sims = [2, 3].map(|t| GraphSimulation::new(&model).with_threads(t).with_parallel_min(0));
-        for (&node, &steps) in order.iter().zip(&runs) {
-            reference.deposit(node);
-            reference.run(steps);
-            let want = bits(reference.temperatures());
-            for sim in &mut sims {
-                sim.deposit(node);
-                sim.step(steps);
-                prop_assert_eq!(sim.steps(), reference.steps());
-                prop_assert_eq!(bits(sim.temperatures()), want.clone());
-            }
-        }
+        compare(&model, &mut sims, &order, &runs)?;
+    }
+
+    #[test]
+    fn threaded_step_is_bit_identical_on_rings((model, order, runs) in ring_case()) {
+        let mut sims = [2, 3].map(|t| GraphSimulation::new(&model).with_threads(t).with_parallel_min(0));
+        compare(&model, &mut sims, &order, &runs)?;
     }
 }
 
