@@ -420,21 +420,23 @@ fn bench_graph_throughput() {
     }
 }
 
-/// The AVX2 step alone, on one thread (for quick comparisons of kernel changes).
+/// The AVX2 step alone on 1 and 2 threads (for quick comparisons of kernel changes).
 #[test]
 #[ignore]
 fn bench_graph_quick() {
-    for &(ring, rings) in &[(100, 1), (300, 2)] {
-        let spec = Ring {
-            layers: 100,
-            ring,
-            rings,
-            shuffle: false,
-        };
-        let steps = (3e8 / (100 * ring * rings) as f64) as u64;
-        let (n, wall, cpu) = bench_graph(spec, Simd::detect(), 1, steps, 5);
-        println!(
-            "bench_graph_quick {n} nodes: {wall:.3e} node-steps/s (wall), {cpu:.3e} per CPU-second"
-        );
+    for threads in [1, 2] {
+        for &(ring, rings) in &[(100, 1), (300, 2)] {
+            let spec = Ring {
+                layers: 100,
+                ring,
+                rings,
+                shuffle: false,
+            };
+            let steps = (3e8 / (100 * ring * rings) as f64) as u64;
+            let (n, wall, cpu) = bench_graph(spec, Simd::detect(), threads, steps, 5);
+            println!(
+                "bench_graph_quick {n} nodes, {threads} thread(s): {wall:.3e} node-steps/s (wall), {cpu:.3e} per CPU-second"
+            );
+        }
     }
 }
