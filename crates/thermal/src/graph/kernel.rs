@@ -312,7 +312,7 @@ impl<'m> GraphSimulation<'m> {
         self.steps
     }
 
-    /// Blocks of 4 slots stepped per step (a measure of the work done).
+    /// Slots stepped per step, whole blocks of 4 (a measure of the work done).
     pub fn stepped_slots(&self) -> usize {
         self.hi.saturating_sub(self.lo) * LANES
     }
