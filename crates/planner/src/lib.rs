@@ -10,6 +10,7 @@
 
 pub mod cadical;
 pub mod constructive;
+mod contour;
 pub mod cubes;
 pub mod encoding;
 mod portfolio;
@@ -652,22 +653,31 @@ fn search_plans(
     // The windows are narrowed to the best plan's margin once the search is among plans
     // of its fragment count (a plan with fewer fragments is better whatever its margin).
     let mut narrowed_to_best = false;
-    // The layer-by-layer warm start builds cube layers (a graph part has none to build).
-    if opts.warm_start && part.bead_part().is_none() {
+    if opts.warm_start {
         let limits = constructive::Limits {
             deadline: opts.timeout.and_then(|t| started.checked_add(t)),
             cancel: opts.cancel.clone(),
         };
-        if let Some(mut warm) = constructive::layered_plan(part, &graph, k, opts.solver, &limits) {
+        // Cube layers are covered by small SAT solves; a graph part's beads are walked.
+        let graph_part = part.bead_part().is_some();
+        let warm = if graph_part {
+            contour::layered_plan(part, &graph, k, &limits)
+        } else {
+            constructive::layered_plan(part, &graph, k, opts.solver, &limits)
+        };
+        if let Some(mut warm) = warm {
             any_valid = true;
             // Stopped before a verdict: the loop below sees the timeout.
             let mut verdict = search.judge(&warm)?;
+            // The portfolio varies the cube construction's starts.
             if let Some(CandidateVerdict::Violated {
                 block,
                 kind,
                 prefix_len,
                 ..
-            }) = verdict.filter(portfolio::worth_trying)
+            }) = verdict
+                .filter(portfolio::worth_trying)
+                .filter(|_| !graph_part)
             {
                 tracing::debug!(
                     "warm start: the layer-by-layer plan breaks the window of {block:?} ({kind:?}) after {prefix_len} blocks; trying other starts"

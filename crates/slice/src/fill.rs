@@ -4,8 +4,11 @@
 //! - C eroded by 0.75·W is empty: a thin wall (at most 1.5·W wide), welded as ONE bead on
 //!   its centre line;
 //! - else contour beads on the boundary loops of C eroded by W/2 (outer and holes), then the
-//!   same again on C eroded by W, up to `perimeters` rounds; a core left after that is
-//!   filled with a raster of open beads W apart (along x on even layers, y on odd ones).
+//!   same again on C eroded by W, up to `perimeters` rounds, and on as long as the core has
+//!   a hole (an annulus, as on a flange: its rings never shrink to small loops, and a
+//!   raster across it would be cut in two by the hole into many short beads that no few
+//!   weld paths can join); a core left after that is filled with a raster of open beads W
+//!   apart (along x on even layers, y on odd ones).
 //!
 //! The centre line of a thin region is found by erosion: the largest inset that leaves
 //! something (bisection) is its half width; the region eroded to 0.02·W less than that is
@@ -53,7 +56,8 @@ fn fill_region(
     }
     let core = poly::offset(region, -w);
     for inner in poly::regions(&core) {
-        if round < perimeters {
+        let annulus = inner.len() > 1;
+        if round < perimeters || annulus {
             fill_region(&inner, w, perimeters, round + 1, layer, out);
         } else if poly::offset(&inner, -0.75 * w).is_empty() {
             centre_line(&inner, w, out);
