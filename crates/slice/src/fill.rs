@@ -10,7 +10,9 @@
 //!   weld paths can join); a core left after that is filled with a raster of open beads W
 //!   apart (along x on even layers, y on odd ones).
 //!
-//! The centre line of a thin region is found by erosion: the largest inset that leaves
+//! The centre line of a thin ring (one outline, one hole) is its outline moved in by half
+//! its mean width (area over mean perimeter): one closed bead even where the width varies
+//! (a square tube's offset corners). Of any other thin region it is found by erosion: the largest inset that leaves
 //! something (bisection) is its half width; the region eroded to 0.02·W less than that is
 //! a sliver around the centre line, 0.04·W wide. A sliver with a hole is a ring: its outer
 //! loop is the closed bead (within 0.02·W of the true centre). One without holes is a strip:
@@ -47,7 +49,7 @@ fn fill_region(
     layer: u32,
     out: &mut Vec<RawBead>,
 ) {
-    if poly::offset(region, -0.75 * w).is_empty() {
+    if poly::offset(region, -0.75 * w).is_empty() || ring_width(region) <= 1.5 * w {
         centre_line(region, w, out);
         return;
     }
@@ -93,7 +95,39 @@ fn push_open(path: &Path64, w: f64, out: &mut Vec<RawBead>) {
     }
 }
 
+fn perimeter(p: &Path64) -> f64 {
+    let pts = from64(p);
+    (0..pts.len())
+        .map(|i| {
+            let (a, b) = (pts[i], pts[(i + 1) % pts.len()]);
+            (b[0] - a[0]).hypot(b[1] - a[1])
+        })
+        .sum()
+}
+
+/// The mean width of a ring (one outline, one hole: area over mean perimeter); infinite
+/// for any other region. A square tube's wall eroded by a bead is a ring whose corners are
+/// wider than its sides: by its mean width it is one bead, not four corner loops.
+fn ring_width(region: &Paths64) -> f64 {
+    if region.len() != 2 {
+        return f64::INFINITY;
+    }
+    2.0 * poly::area_mm2(region) / (perimeter(&region[0]) + perimeter(&region[1]))
+}
+
 fn centre_line(region: &Paths64, w: f64, out: &mut Vec<RawBead>) {
+    // A thin ring of uneven width, as a square tube's wall whose offset corners are wider
+    // than its sides: erosion would keep only the corners. Its centre line is the outline
+    // moved in by half the mean width, one closed bead: exact for even widths, the middle
+    // on average otherwise.
+    if region.len() == 2 {
+        let half = ring_width(region) / 2.0;
+        let line = poly::offset(&vec![region[0].clone()], -half);
+        if half >= 0.02 * w && line.len() == 1 {
+            push_closed(&line[0], w, out);
+            return;
+        }
+    }
     let (mut lo, mut hi) = (0.0, 0.75 * w);
     for _ in 0..14 {
         let mid = 0.5 * (lo + hi);

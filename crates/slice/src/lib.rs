@@ -305,6 +305,33 @@ mod tests {
     use super::*;
     use waam_part::ContactKind;
 
+    /// A square tube whose 6 mm wall takes three 2 mm beads: two contour rings and the
+    /// middle one. Eroded by a bead, the wall is a ring with wider corners than sides; taken
+    /// by its narrowest place it fell into four corner loops and the sides went unwelded
+    /// (80 % covered).
+    #[test]
+    fn a_square_tube_wall_is_three_rings_not_corner_loops() {
+        let mut cells = Vec::new();
+        for z in 0..3 {
+            for y in 0..24 {
+                for x in 0..24 {
+                    if !((6..18).contains(&x) && (6..18).contains(&y)) {
+                        cells.push([x, y, z]);
+                    }
+                }
+            }
+        }
+        let s = slice(
+            &shapes::voxels(&cells),
+            &SliceOptions::new("tube", [2.0, 1.0]),
+        )
+        .unwrap();
+        for l in &s.layers {
+            assert_eq!((l.beads, l.closed_beads), (3, 3), "{l:?}");
+            assert!(l.covered >= 0.95 && l.outside <= 0.01, "{l:?}");
+        }
+    }
+
     #[test]
     fn a_flanged_tube_is_covered_and_its_graph_reads_back() {
         // Flange r 30..56, 5 mm thick; tube r 30..36, 30 mm tall; W 6, H 2.5.
