@@ -14,8 +14,8 @@ use std::fmt;
 
 use thiserror::Error;
 
+use waam_part::ThermalParams;
 use waam_part::{Block, PartError, Window};
-use waam_thermal::ThermalParams;
 
 pub use stl::read_stl;
 pub use voxel::{voxelize, voxelize_indexed, Voxelized};

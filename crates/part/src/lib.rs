@@ -17,7 +17,8 @@ pub mod graph;
 mod params;
 pub mod plan;
 pub mod writer;
-pub mod yaml;
+/// The bounded YAML check (crate `waam-yaml`), run before a part file is parsed.
+pub use waam_yaml as yaml;
 
 pub use beads::{
     is_bead_part, Bead, BeadPart, BeadPartError, Contact, ContactKind, Deposit, GraphInvalid,

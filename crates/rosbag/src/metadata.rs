@@ -145,7 +145,7 @@ impl From<&str> for MetadataError {
 }
 
 pub fn relative_file_paths(yaml: &str) -> Result<Vec<String>, MetadataError> {
-    waam_part::yaml::check(yaml).map_err(|e| format!("metadata.yaml: {e}"))?;
+    waam_yaml::check(yaml).map_err(|e| format!("metadata.yaml: {e}"))?;
     let value: serde_yaml::Value =
         serde_yaml::from_str(yaml).map_err(|e| format!("metadata.yaml: {e}"))?;
     let info = value

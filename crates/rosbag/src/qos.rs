@@ -156,7 +156,7 @@ pub fn from_yaml(text: &str) -> Result<Vec<Qos>, QosError> {
     if text.trim().is_empty() {
         return Ok(Vec::new());
     }
-    waam_part::yaml::check(text).map_err(|e| format!("offered_qos_profiles: {e}"))?;
+    waam_yaml::check(text).map_err(|e| format!("offered_qos_profiles: {e}"))?;
     let value: serde_yaml::Value =
         serde_yaml::from_str(text).map_err(|e| format!("offered_qos_profiles: {e}"))?;
     let serde_yaml::Value::Sequence(items) = value else {
