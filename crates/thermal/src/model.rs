@@ -4,6 +4,7 @@
 use waam_part::graph::{WeldGraph, NONE};
 use waam_part::{Block, Part, ThermalParams, Window};
 
+use crate::graph::{GraphError, GraphModel, NodeGeometry};
 use crate::kernel::Simd;
 use crate::violation::Crossing;
 
@@ -62,6 +63,9 @@ pub struct ThermalModel {
     pub(crate) near: Vec<[u32; 4]>,
     pub(crate) runs: Vec<u8>,
     pub(crate) simd: Simd,
+    /// A graph part's model (`docs/graph-thermal-model.md`): then the simulation steps it
+    /// instead of the block model, and `faces` are all `NONE`.
+    pub(crate) graph: Option<GraphModel>,
 }
 
 /// The ±y / ±z neighbour slots of every slot as the part lays them out, and per slot `s`
@@ -96,7 +100,24 @@ pub(crate) fn neighbour_runs(faces: &[[u32; 6]]) -> (Vec<[u32; 4]>, Vec<u8>) {
 }
 
 impl ThermalModel {
+    /// The model of `part`: the block model, or for a graph part the graph model of its
+    /// nodes and contacts.
+    ///
+    /// # Panics
+    /// If `part` is a graph part the graph model rejects (see [`ThermalModel::try_new`],
+    /// which callers that take graph parts from outside use; `BeadPart::parse` already
+    /// rejects most such parts).
     pub fn new(part: &Part, graph: &WeldGraph) -> ThermalModel {
+        match ThermalModel::try_new(part, graph) {
+            Ok(model) => model,
+            Err(e) => panic!("graph part {:?}: {e}", part.name),
+        }
+    }
+
+    /// [`ThermalModel::new`], with the graph model's error for a graph part whose numbers
+    /// it cannot take (a node whose volume would take more than `MAX_STEPS` deposit steps,
+    /// say, which the part file's rules alone do not exclude).
+    pub fn try_new(part: &Part, graph: &WeldGraph) -> Result<ThermalModel, GraphError> {
         let params = part.thermal;
         let dt = params.dt();
         // The step reads the ±x neighbours of slot i at i ∓ 1 and the substrate blocks as a
@@ -113,7 +134,29 @@ impl ThermalModel {
         }
         let faces: Vec<[u32; 6]> = (0..part.len()).map(|i| graph.faces(i)).collect();
         let (near, runs) = neighbour_runs(&faces);
-        ThermalModel {
+        let graph_model = match part.bead_part() {
+            None => None,
+            Some(beads) => {
+                let nodes: Vec<NodeGeometry> = beads
+                    .nodes
+                    .iter()
+                    .map(|d| NodeGeometry {
+                        volume: d.volume_mm3,
+                        surface: d.surface_mm2,
+                        substrate: d.substrate_mm2,
+                    })
+                    .collect();
+                // File order: the doc's order of summation.
+                let contacts: Vec<(u32, u32, f64)> = beads
+                    .contacts
+                    .iter()
+                    .map(|c| (c.a as u32, c.b as u32, c.area_mm2))
+                    .collect();
+                let [w, h] = beads.bead_mm;
+                Some(GraphModel::new(params, w, h, &nodes, &contacts)?)
+            }
+        };
+        Ok(ThermalModel {
             params,
             dt,
             transit_steps: round_steps(params.transit_time_s / dt),
@@ -128,6 +171,21 @@ impl ThermalModel {
             near,
             runs,
             simd: Simd::detect(),
+            graph: graph_model,
+        })
+    }
+
+    /// The graph model of a graph part (`None` for a block part).
+    pub fn graph(&self) -> Option<&GraphModel> {
+        self.graph.as_ref()
+    }
+
+    /// Euler steps that follow the deposit of block (node) `i`: `substeps`, or for a graph
+    /// part the node's [`GraphModel::deposit_steps`].
+    pub fn deposit_steps(&self, i: usize) -> u64 {
+        match &self.graph {
+            Some(g) => g.deposit_steps(i),
+            None => self.params.substeps as u64,
         }
     }
 

@@ -9,6 +9,7 @@ use std::time::Instant;
 use waam_part::graph::NONE;
 use waam_part::{BlockDisplay, Window};
 
+use crate::graph::{graph_blocks, graph_slots, GraphTable};
 use crate::interrupt::Interrupt;
 use crate::kernel::Kernel;
 use crate::model::{steps_beyond, ThermalModel, HOT_C, TOLERANCE_S, WARM_C};
@@ -97,6 +98,9 @@ pub struct Simulation<'m> {
     radiation: Vec<f64>,
     exposed: Vec<u8>,
     is_welded: Vec<bool>,
+    /// A graph part's step tables (its model's neighbour columns, s_i and ρ_i), stepped over
+    /// `temp` / `next` instead of the block faces above, which are then empty.
+    graph: Option<GraphTable>,
     /// Welded slots in weld order.
     order: Vec<u32>,
     /// The stepped slot range `lo..hi` after each deposit (`ranges[k]`: after k + 1).
@@ -120,21 +124,28 @@ pub struct Simulation<'m> {
 impl<'m> Simulation<'m> {
     pub fn new(model: &'m ThermalModel) -> Simulation<'m> {
         let n = model.len();
-        let slots: Vec<u32> = (0..n as u32).collect();
+        let graph = model.graph.as_ref().map(GraphTable::new);
+        // A graph part: no block faces; slots in whole blocks of 4 for its kernel.
+        let (faces, buffer) = match graph {
+            Some(_) => (0, graph_slots(n)),
+            None => (n, n),
+        };
+        let slots: Vec<u32> = (0..faces as u32).collect();
         Simulation {
             model,
             welded: 0,
             fragments: 0,
             steps: 0,
-            temp: vec![model.params.ambient_c; n + 2 * PAD],
-            next: vec![model.params.ambient_c; n + 2 * PAD],
+            temp: vec![model.params.ambient_c; buffer + 2 * PAD],
+            next: vec![model.params.ambient_c; buffer + 2 * PAD],
             ny0: slots.clone(),
             ny1: slots.clone(),
             nz0: slots.clone(),
             nz1: slots,
-            welded_faces: vec![0; n],
-            radiation: vec![0.0; n],
-            exposed: vec![0; n],
+            welded_faces: vec![0; faces],
+            radiation: vec![0.0; faces],
+            exposed: vec![0; faces],
+            graph,
             is_welded: vec![false; n],
             order: Vec::new(),
             ranges: Vec::new(),
@@ -238,7 +249,7 @@ impl<'m> Simulation<'m> {
             self.run(self.model.transit_steps, Phase::Transit, false)?;
         }
         self.place(block, new_fragment);
-        self.run(self.model.params.substeps as u64, Phase::Deposit, false)
+        self.run(self.model.deposit_steps(block), Phase::Deposit, false)
     }
 
     /// The transit steps before a new fragment (the first half of `deposit(b, true)`).
@@ -253,7 +264,7 @@ impl<'m> Simulation<'m> {
     /// (the second half of `deposit(b, true)`).
     pub fn deposit_after_transit(&mut self, block: usize) -> Result<(), Violation> {
         self.place(block, true);
-        self.run(self.model.params.substeps as u64, Phase::Deposit, false)
+        self.run(self.model.deposit_steps(block), Phase::Deposit, false)
     }
 
     /// Whether `block` is welded.
@@ -273,7 +284,10 @@ impl<'m> Simulation<'m> {
         match self.first_warm() {
             None => Ok(Ok(())),
             Some(a) => Err(NotCooled {
-                block: BlockDisplay(self.model.blocks[self.w_block[a] as usize]).to_string(),
+                block: match self.graph {
+                    Some(_) => format!("node {}", self.w_block[a]),
+                    None => BlockDisplay(self.model.blocks[self.w_block[a] as usize]).to_string(),
+                },
                 max_cooldown_s: self.model.params.max_cooldown_s,
             }),
         }
@@ -330,6 +344,12 @@ impl<'m> Simulation<'m> {
         self.restore(snap);
     }
 
+    /// A graph part's step tables, for the tests that compare states.
+    #[cfg(test)]
+    pub(crate) fn graph_table(&self) -> Option<&GraphTable> {
+        self.graph.as_ref()
+    }
+
     /// Points face `k` of slot `s` at slot `to` (`s` itself: not welded).
     fn link(&mut self, s: usize, k: usize, to: usize) {
         let bit = 1u8 << k;
@@ -356,14 +376,18 @@ impl<'m> Simulation<'m> {
             self.welded -= 1;
             let s = self.order.pop().expect("a welded slot") as usize;
             self.is_welded[s] = false;
-            for (k, &j) in model.faces[s].iter().enumerate() {
-                let p = j as usize;
-                if j != NONE && self.is_welded[p] {
-                    self.link(p, k ^ 1, p);
-                    self.exposed[p] += 1;
-                    self.radiation[p] = r * self.exposed[p] as f64;
+            if let (Some(g), Some(gm)) = (&mut self.graph, &model.graph) {
+                g.undeposit(gm, s);
+            } else {
+                for (k, &j) in model.faces[s].iter().enumerate() {
+                    let p = j as usize;
+                    if j != NONE && self.is_welded[p] {
+                        self.link(p, k ^ 1, p);
+                        self.exposed[p] += 1;
+                        self.radiation[p] = r * self.exposed[p] as f64;
+                    }
+                    self.link(s, k, s);
                 }
-                self.link(s, k, s);
             }
             // Unwelded slots inside the stepped range are computed too: keep them tame.
             self.temp[s + PAD] = model.params.ambient_c;
@@ -381,13 +405,37 @@ impl<'m> Simulation<'m> {
 
     pub(crate) fn place(&mut self, block: usize, new_fragment: bool) {
         let model = self.model;
-        let r = model.params.radiation_per_s_k3;
         let s = block;
         self.welded += 1;
         self.fragments += new_fragment as usize;
         self.is_welded[s] = true;
         self.order.push(s as u32);
         self.temp[s + PAD] = model.params.deposit_c;
+        if let (Some(g), Some(gm)) = (&mut self.graph, &model.graph) {
+            g.deposit(gm, block);
+        } else {
+            self.place_faces(block);
+        }
+        let (lo, hi) = match self.ranges.last() {
+            Some(&(lo, hi)) => (lo.min(s as u32), hi.max(s as u32 + 1)),
+            None => (s as u32, s as u32 + 1),
+        };
+        self.ranges.push((lo, hi));
+        if let Some(w) = model.windows[block] {
+            self.w_slot.push(s as u32);
+            self.w_lo.push(w.min_s);
+            self.w_hi.push(w.max_s);
+            self.w_over.push(steps_beyond(w.max_s, model.dt));
+            self.w_block.push(block as u32);
+            self.w_count.push(0);
+        }
+    }
+
+    /// Links a deposited block's faces to its welded neighbours (the block model).
+    fn place_faces(&mut self, block: usize) {
+        let model = self.model;
+        let r = model.params.radiation_per_s_k3;
+        let s = block;
         let mut welded_faces = 0u8;
         for (k, &j) in model.faces[block].iter().enumerate() {
             let p = j as usize;
@@ -404,19 +452,6 @@ impl<'m> Simulation<'m> {
         let z0 = model.on_substrate[block];
         self.exposed[s] = 6 - welded_faces - z0 as u8;
         self.radiation[s] = r * self.exposed[s] as f64;
-        let (lo, hi) = match self.ranges.last() {
-            Some(&(lo, hi)) => (lo.min(s as u32), hi.max(s as u32 + 1)),
-            None => (s as u32, s as u32 + 1),
-        };
-        self.ranges.push((lo, hi));
-        if let Some(w) = model.windows[block] {
-            self.w_slot.push(s as u32);
-            self.w_lo.push(w.min_s);
-            self.w_hi.push(w.max_s);
-            self.w_over.push(steps_beyond(w.max_s, model.dt));
-            self.w_block.push(block as u32);
-            self.w_count.push(0);
-        }
     }
 
     /// The first windowed block (in deposit order) at or above 500 °C.
@@ -488,6 +523,23 @@ impl<'m> Simulation<'m> {
             return;
         };
         let (lo, hi) = (lo as usize, hi as usize);
+        if let (Some(g), Some(gm)) = (&self.graph, &self.model.graph) {
+            // The graph kernel steps whole blocks of 4 slots: the buffers hold
+            // `graph_slots` slots after PAD, and slots in the blocks but outside `lo..hi`
+            // are unwelded or padding (coefficients +0.0: they keep ambient).
+            let (a, b) = graph_blocks(lo, hi);
+            let kernel = g.step_over(
+                gm,
+                self.temp[PAD..].as_ptr(),
+                self.next[PAD..].as_mut_ptr(),
+                self.model.simd,
+            );
+            // SAFETY: the tables and both buffers belong to this simulation and outlive
+            // the call; `temp` and `next` are distinct vectors of graph_slots + 2·PAD
+            // slots, and blocks a..b lie within graph_slots.
+            unsafe { kernel.run(a, b) };
+            return;
+        }
         let kernel = self.kernel();
         if self.threads > 1 && hi - lo >= self.parallel_min.max(1) {
             if let Some(pool) = pool::Pool::acquire(self.threads) {

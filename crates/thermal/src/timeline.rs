@@ -106,10 +106,10 @@ pub enum SimulateError {
 }
 
 impl Timeline {
-    /// The spec's time line of a plan: every block `substeps` steps, `transit_steps`
-    /// between fragments, the arc off right after a fragment's last block.
+    /// The spec's time line of a plan: every block `substeps` steps (a graph part's node
+    /// its [`ThermalModel::deposit_steps`]), `transit_steps` between fragments, the arc off
+    /// right after a fragment's last block.
     pub fn modelled(model: &ThermalModel, fragments: &[Vec<usize>]) -> Timeline {
-        let substeps = model.params.substeps as u64;
         let mut now = 0u64;
         let mut deposits = Vec::with_capacity(fragments.len());
         let mut arc_off = Vec::with_capacity(fragments.len());
@@ -118,11 +118,15 @@ impl Timeline {
                 now += model.transit_steps;
             }
             deposits.push(
-                (0..fragment.len() as u64)
-                    .map(|k| now + k * substeps)
+                fragment
+                    .iter()
+                    .map(|&b| {
+                        let at = now;
+                        now += model.deposit_steps(b);
+                        at
+                    })
                     .collect(),
             );
-            now += fragment.len() as u64 * substeps;
             arc_off.push(now);
         }
         Timeline { deposits, arc_off }

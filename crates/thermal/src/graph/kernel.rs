@@ -28,16 +28,14 @@ pub const GRAPH_PARALLEL_MIN_WORK: u64 = 1 << 18;
 /// Chunks per thread of one threaded step (more: better balance, more atomics).
 const CHUNKS_PER_THREAD: usize = 4;
 
-/// A running simulation of the graph model with the fast step.
-#[derive(Debug, Clone)]
-pub struct GraphSimulation<'m> {
-    model: &'m GraphModel,
-    simd: Simd,
+/// The step's per-slot tables of a set of welded nodes: what a deposit changes, apart
+/// from the deposited node's temperature. [`GraphSimulation`] keeps one next to its
+/// temperatures; the planner's `Simulation` keeps one next to its own (it steps them over
+/// its temperature buffers, so snapshots and its t8/5 counters read them as for blocks).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct GraphTable {
     /// Columns per slot: the model's largest degree.
     cols: usize,
-    /// Temperatures before / after a step, by slot (padding slots at ambient).
-    temp: Vec<f64>,
-    next: Vec<f64>,
     /// `[block][column][lane]`: neighbour slot (the slot itself while inactive) and g_ik
     /// (+0.0 while inactive).
     nbr: Vec<u32>,
@@ -50,19 +48,23 @@ pub struct GraphSimulation<'m> {
     substrate: Vec<f64>,
     radiation: Vec<f64>,
     welded: Vec<bool>,
-    /// Blocks `lo..hi` span the welded slots (empty: none welded).
-    lo: usize,
-    hi: usize,
-    steps: u64,
-    threads: usize,
-    parallel_min: u64,
 }
 
-impl<'m> GraphSimulation<'m> {
-    /// Every node unwelded at ambient; the best kernel of this CPU.
-    pub fn new(model: &'m GraphModel) -> Self {
+/// Slots of a model of `n` nodes: padded to whole blocks of 4.
+pub(crate) fn graph_slots(n: usize) -> usize {
+    n.div_ceil(LANES) * LANES
+}
+
+/// Blocks of 4 slots covering slots `lo..hi`.
+pub(crate) fn graph_blocks(lo: usize, hi: usize) -> (usize, usize) {
+    (lo / LANES, hi.div_ceil(LANES))
+}
+
+impl GraphTable {
+    /// Every node unwelded.
+    pub(crate) fn new(model: &GraphModel) -> GraphTable {
         let n = model.len();
-        let slots = n.div_ceil(LANES) * LANES;
+        let slots = graph_slots(n);
         let blocks = slots / LANES;
         let cols = model.max_degree();
         let mut nbr = vec![0u32; slots * cols];
@@ -81,21 +83,168 @@ impl<'m> GraphSimulation<'m> {
                     .unwrap_or(0)
             })
             .collect();
-        let amb = model.params.ambient_c;
-        GraphSimulation {
-            model,
-            simd: Self::best(Simd::detect()),
+        // Self-pointers are consecutive in every column; the bits `update_runs` computes
+        // (none above the columns), so that an undeposit restores the table exactly.
+        let all = if cols >= 64 {
+            u64::MAX
+        } else {
+            (1u64 << cols) - 1
+        };
+        GraphTable {
             cols,
-            temp: vec![amb; slots],
-            next: vec![amb; slots],
             nbr,
             coef: vec![0.0; slots * cols],
             used,
-            // Self-pointers are consecutive in every column.
-            runs: vec![u64::MAX; blocks],
+            runs: vec![all; blocks],
             substrate: vec![0.0; slots],
             radiation: vec![0.0; slots],
             welded: vec![false; n],
+        }
+    }
+
+    /// Makes `node` welded and its contacts to welded nodes active, recomputing ρ of the
+    /// node and of its welded neighbours (the temperature is the caller's).
+    ///
+    /// # Panics
+    /// If `node` is already welded.
+    pub(crate) fn deposit(&mut self, m: &GraphModel, node: usize) {
+        assert!(!self.welded[node], "node {node} deposited twice");
+        self.welded[node] = true;
+        self.substrate[node] = m.substrate[node];
+        self.relink(m, node, true);
+    }
+
+    /// The exact inverse of [`Self::deposit`] of `node`, the last node deposited or any
+    /// other welded one: its contacts inactive again, ρ of its welded neighbours recomputed
+    /// from the welded set as the deposit did, its own s_i and ρ_i +0.0.
+    ///
+    /// # Panics
+    /// If `node` is not welded.
+    pub(crate) fn undeposit(&mut self, m: &GraphModel, node: usize) {
+        assert!(self.welded[node], "node {node} undeposited but not welded");
+        self.welded[node] = false;
+        self.substrate[node] = 0.0;
+        self.relink(m, node, false);
+        self.radiation[node] = 0.0;
+    }
+
+    /// Points the columns of `node`'s contacts with welded nodes (both ends) at each other
+    /// (`on`) or back at themselves, and recomputes the radiation terms that change.
+    fn relink(&mut self, m: &GraphModel, node: usize, on: bool) {
+        let first = m.start[node] as usize;
+        for (k, l) in m.links(node).iter().enumerate() {
+            let j = l.other as usize;
+            if !self.welded[j] {
+                continue;
+            }
+            let back = m.mirror[first + k] as usize;
+            let kj = back - m.start[j] as usize;
+            if on {
+                self.activate(node, k, j, l.coef);
+                self.activate(j, kj, node, m.links[back].coef);
+            } else {
+                self.activate(node, k, node, 0.0);
+                self.activate(j, kj, j, 0.0);
+            }
+            self.radiation[j] = m.radiation(j, |o| self.welded[o as usize]);
+            self.update_runs(j / LANES);
+        }
+        if on {
+            self.radiation[node] = m.radiation(node, |o| self.welded[o as usize]);
+        }
+        self.update_runs(node / LANES);
+    }
+
+    /// Points column `k` of slot `i` at slot `j` with coefficient `g`.
+    fn activate(&mut self, i: usize, k: usize, j: usize, g: f64) {
+        let at = ((i / LANES) * self.cols + k) * LANES + i % LANES;
+        self.nbr[at] = j as u32;
+        self.coef[at] = g;
+    }
+
+    fn update_runs(&mut self, b: usize) {
+        let mut bits = 0u64;
+        for k in 0..self.cols.min(64) {
+            let at = (b * self.cols + k) * LANES;
+            let s = &self.nbr[at..at + LANES];
+            if (1..LANES).all(|l| s[l] == s[0] + l as u32) {
+                bits |= 1 << k;
+            }
+        }
+        self.runs[b] = bits;
+    }
+
+    /// Whether `node` is welded.
+    pub(crate) fn is_welded(&self, node: usize) -> bool {
+        self.welded[node]
+    }
+
+    /// The step from `t` into `out` (slot i at `t[i]`, [`graph_slots`] slots each).
+    ///
+    /// The pointers must stay valid and the buffers keep their sizes for as long as the
+    /// returned [`GraphStep`] runs, and `out` must not alias `t`: see [`GraphStep::run`].
+    pub(crate) fn step_over(
+        &self,
+        m: &GraphModel,
+        t: *const f64,
+        out: *mut f64,
+        simd: Simd,
+    ) -> GraphStep {
+        GraphStep {
+            t,
+            out,
+            nbr: self.nbr.as_ptr(),
+            coef: self.coef.as_ptr(),
+            used: self.used.as_ptr(),
+            runs: self.runs.as_ptr(),
+            substrate: self.substrate.as_ptr(),
+            radiation: self.radiation.as_ptr(),
+            cols: self.cols,
+            amb: m.params.ambient_c,
+            q: m.ambient_k4,
+            dt: m.dt,
+            simd: best_simd(simd),
+        }
+    }
+}
+
+/// The kernels built here: AVX2 covers an AVX-512 CPU too.
+pub(crate) fn best_simd(simd: Simd) -> Simd {
+    if simd >= Simd::Avx2 {
+        Simd::Avx2
+    } else {
+        Simd::Scalar
+    }
+}
+
+/// A running simulation of the graph model with the fast step.
+#[derive(Debug, Clone)]
+pub struct GraphSimulation<'m> {
+    model: &'m GraphModel,
+    simd: Simd,
+    pub(super) table: GraphTable,
+    /// Temperatures before / after a step, by slot (padding slots at ambient).
+    temp: Vec<f64>,
+    next: Vec<f64>,
+    /// Blocks `lo..hi` span the welded slots (empty: none welded).
+    pub(super) lo: usize,
+    pub(super) hi: usize,
+    steps: u64,
+    threads: usize,
+    parallel_min: u64,
+}
+
+impl<'m> GraphSimulation<'m> {
+    /// Every node unwelded at ambient; the best kernel of this CPU.
+    pub fn new(model: &'m GraphModel) -> Self {
+        let slots = graph_slots(model.len());
+        let amb = model.params.ambient_c;
+        GraphSimulation {
+            model,
+            simd: best_simd(Simd::detect()),
+            table: GraphTable::new(model),
+            temp: vec![amb; slots],
+            next: vec![amb; slots],
             lo: usize::MAX,
             hi: 0,
             steps: 0,
@@ -118,19 +267,10 @@ impl<'m> GraphSimulation<'m> {
         self
     }
 
-    /// The kernels built here: AVX2 covers an AVX-512 CPU too.
-    fn best(simd: Simd) -> Simd {
-        if simd >= Simd::Avx2 {
-            Simd::Avx2
-        } else {
-            Simd::Scalar
-        }
-    }
-
     /// The same simulation stepped by `simd` (the scalar loop if the CPU lacks it).
     pub fn with_simd(mut self, simd: Simd) -> Self {
         self.simd = if simd <= Simd::detect() {
-            Self::best(simd)
+            best_simd(simd)
         } else {
             Simd::Scalar
         };
@@ -148,47 +288,31 @@ impl<'m> GraphSimulation<'m> {
     /// # Panics
     /// If `node` is already welded.
     pub fn deposit(&mut self, node: usize) {
-        assert!(!self.welded[node], "node {node} deposited twice");
-        let m = self.model;
-        self.welded[node] = true;
-        self.temp[node] = m.params.deposit_c;
-        self.substrate[node] = m.substrate[node];
-        let first = m.start[node] as usize;
-        for (k, l) in m.links(node).iter().enumerate() {
-            let j = l.other as usize;
-            if !self.welded[j] {
-                continue;
-            }
-            self.activate(node, k, j, l.coef);
-            let back = m.mirror[first + k] as usize;
-            let kj = back - m.start[j] as usize;
-            self.activate(j, kj, node, m.links[back].coef);
-            self.radiation[j] = m.radiation(j, |o| self.welded[o as usize]);
-            self.update_runs(j / LANES);
-        }
-        self.radiation[node] = m.radiation(node, |o| self.welded[o as usize]);
-        self.update_runs(node / LANES);
+        self.table.deposit(self.model, node);
+        self.temp[node] = self.model.params.deposit_c;
         self.lo = self.lo.min(node / LANES);
         self.hi = self.hi.max(node / LANES + 1);
     }
 
-    /// Points column `k` of slot `i` at slot `j` with coefficient `g`.
-    fn activate(&mut self, i: usize, k: usize, j: usize, g: f64) {
-        let at = ((i / LANES) * self.cols + k) * LANES + i % LANES;
-        self.nbr[at] = j as u32;
-        self.coef[at] = g;
-    }
-
-    fn update_runs(&mut self, b: usize) {
-        let mut bits = 0u64;
-        for k in 0..self.cols.min(64) {
-            let at = (b * self.cols + k) * LANES;
-            let s = &self.nbr[at..at + LANES];
-            if (1..LANES).all(|l| s[l] == s[0] + l as u32) {
-                bits |= 1 << k;
+    /// Undoes the deposit of `node` (no steps are undone): unwelded, back at ambient, its
+    /// contacts inactive. After depositing a, b, c and undepositing c the tables are those
+    /// of depositing a and b only, bit for bit.
+    ///
+    /// # Panics
+    /// If `node` is not welded.
+    pub fn undeposit(&mut self, node: usize) {
+        self.table.undeposit(self.model, node);
+        self.temp[node] = self.model.params.ambient_c;
+        let welded = |b: &usize| {
+            (b * LANES..(b * LANES + LANES).min(self.model.len())).any(|i| self.table.welded[i])
+        };
+        match (self.lo..self.hi).find(welded) {
+            Some(lo) => {
+                self.lo = lo;
+                self.hi = (lo..self.hi).rev().find(welded).map_or(lo, |b| b + 1);
             }
+            None => (self.lo, self.hi) = (usize::MAX, 0),
         }
-        self.runs[b] = bits;
     }
 
     /// `n` Euler steps of every welded node.
@@ -202,7 +326,7 @@ impl<'m> GraphSimulation<'m> {
             if self.lo < self.hi {
                 let kernel = self.kernel();
                 // SAFETY: the kernel points into this simulation's buffers, which live and
-                // keep their sizes through the call; blocks lo..hi exist (see `Step::run`).
+                // keep their sizes through the call; blocks lo..hi exist (see `GraphStep::run`).
                 unsafe { kernel.run(self.lo, self.hi) };
                 std::mem::swap(&mut self.temp, &mut self.next);
             }
@@ -217,7 +341,7 @@ impl<'m> GraphSimulation<'m> {
     /// every chunk reads all temperatures.
     fn step_parallel(&mut self, n: u64, threads: usize) {
         let forth = self.kernel();
-        let back = Step {
+        let back = GraphStep {
             t: forth.out,
             out: forth.t as *mut f64,
             ..forth
@@ -278,23 +402,13 @@ impl<'m> GraphSimulation<'m> {
         self.steps += n;
     }
 
-    fn kernel(&mut self) -> Step {
-        let m = self.model;
-        Step {
-            t: self.temp.as_ptr(),
-            out: self.next.as_mut_ptr(),
-            nbr: self.nbr.as_ptr(),
-            coef: self.coef.as_ptr(),
-            used: self.used.as_ptr(),
-            runs: self.runs.as_ptr(),
-            substrate: self.substrate.as_ptr(),
-            radiation: self.radiation.as_ptr(),
-            cols: self.cols,
-            amb: m.params.ambient_c,
-            q: m.ambient_k4,
-            dt: m.dt,
-            simd: self.simd,
-        }
+    fn kernel(&mut self) -> GraphStep {
+        self.table.step_over(
+            self.model,
+            self.temp.as_ptr(),
+            self.next.as_mut_ptr(),
+            self.simd,
+        )
     }
 
     /// Temperatures by node, °C (unwelded nodes at ambient).
@@ -304,7 +418,7 @@ impl<'m> GraphSimulation<'m> {
 
     /// Whether `node` is welded.
     pub fn is_welded(&self, node: usize) -> bool {
-        self.welded[node]
+        self.table.is_welded(node)
     }
 
     /// Steps done so far.
@@ -321,7 +435,7 @@ impl<'m> GraphSimulation<'m> {
 /// What one step reads and writes, as raw pointers (so that the AVX2 code can run on
 /// them without bounds checks).
 #[derive(Clone, Copy)]
-struct Step {
+pub(crate) struct GraphStep {
     t: *const f64,
     out: *mut f64,
     nbr: *const u32,
@@ -337,19 +451,20 @@ struct Step {
     simd: Simd,
 }
 
-// SAFETY: a `Step` is shared only inside `GraphSimulation::step_parallel`, which holds the
-// simulation mutably borrowed until every thread has finished; threads write disjoint
+// SAFETY: a `GraphStep` is shared only inside `GraphSimulation::step_parallel`, which holds
+// the simulation mutably borrowed until every thread has finished; threads write disjoint
 // block ranges of `out` and read `t`, which no one writes during that step.
-unsafe impl Send for Step {}
-unsafe impl Sync for Step {}
+unsafe impl Send for GraphStep {}
+unsafe impl Sync for GraphStep {}
 
-impl Step {
+impl GraphStep {
     /// Steps blocks `a..b`.
     ///
     /// # Safety
-    /// The pointers must be those of a live [`GraphSimulation`] with at least `b` blocks,
-    /// whose neighbour slots are all < its slot count, and `out` must not alias `t`.
-    unsafe fn run(&self, a: usize, b: usize) {
+    /// The tables must be those of a live [`GraphTable`] with at least `b` blocks, `t` and
+    /// `out` live buffers of at least its slot count (every neighbour slot is below it),
+    /// and `out` must not alias `t`.
+    pub(crate) unsafe fn run(&self, a: usize, b: usize) {
         #[cfg(target_arch = "x86_64")]
         if self.simd >= Simd::Avx2 {
             return self.blocks_avx2(a, b);

@@ -22,6 +22,8 @@ mod tests;
 pub use kernel::{bench_graph, ring_graph, GraphSimulation, Ring, GRAPH_PARALLEL_MIN_WORK};
 pub use reference::GraphReference;
 
+pub(crate) use kernel::{graph_blocks, graph_slots, GraphTable};
+
 use thiserror::Error;
 
 use crate::{ThermalParams, MAX_STEPS};

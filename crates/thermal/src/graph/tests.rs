@@ -440,3 +440,402 @@ fn bench_graph_quick() {
         }
     }
 }
+
+// --- Undeposit, and the planner's `Simulation` on graph parts --------------------------
+
+/// Deposits `order` on a fresh fast simulation, `runs[i]` steps after the i-th.
+fn deposited<'m>(model: &'m GraphModel, order: &[usize], runs: &[u64]) -> GraphSimulation<'m> {
+    let mut sim = GraphSimulation::new(model);
+    for (i, &node) in order.iter().enumerate() {
+        sim.deposit(node);
+        sim.step(runs[i]);
+    }
+    sim
+}
+
+#[test]
+fn undeposit_is_the_inverse_of_deposit() {
+    let (nodes, contacts) = ring_graph(Ring {
+        layers: 3,
+        ring: 5,
+        rings: 2,
+        shuffle: false,
+    });
+    let model = GraphModel::new(ThermalParams::default(), 6.0, 2.5, &nodes, &contacts).unwrap();
+    // a, b along the layer-0 ring; c (layer 1) stands on both.
+    let (a, b, c) = (0, 1, 10);
+    let mut three = deposited(&model, &[a, b, c], &[0, 0, 0]);
+    three.undeposit(c);
+    let two = deposited(&model, &[a, b], &[0, 0]);
+    assert_eq!(three.table, two.table);
+    assert_eq!((three.lo, three.hi), (two.lo, two.hi));
+    assert_eq!(bits(three.temperatures()), bits(two.temperatures()));
+    let (mut three, mut two) = (three, two);
+    three.step(37);
+    two.step(37);
+    assert_eq!(bits(three.temperatures()), bits(two.temperatures()));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    /// The step tables are a function of the welded set: undepositing any welded nodes,
+    /// in any order, leaves those of depositing the others only.
+    #[test]
+    fn undeposit_leaves_the_tables_of_the_rest((model, order, runs) in case(), cut in any::<u64>()) {
+        let n = order.len();
+        let mut sim = deposited(&model, &order, &runs);
+        let keep = (cut % (n as u64 + 1)) as usize;
+        // Undo the nodes past `keep` in a scrambled order.
+        let mut undo: Vec<usize> = order[keep..].to_vec();
+        undo.sort_by_key(|&x| (x as u64).wrapping_mul(cut | 1) % 97);
+        for &node in &undo {
+            sim.undeposit(node);
+        }
+        let rest = deposited(&model, &order[..keep], &vec![0; keep]);
+        prop_assert_eq!(&sim.table, &rest.table);
+        prop_assert_eq!((sim.lo, sim.hi), (rest.lo, rest.hi));
+    }
+}
+
+/// A graph part of `layers` rings of `ring` nodes (the [`ring_graph`] geometry), one closed
+/// bead per layer, with `t85` windows (node, min_s, max_s) and `thermal` constants.
+fn ring_part(
+    layers: usize,
+    ring: usize,
+    t85: &[(usize, f64, f64)],
+    thermal: ThermalParams,
+) -> Part {
+    use waam_part::beads::{Bead, BeadPart, Contact, ContactKind, Deposit};
+    let (nodes, contacts) = ring_graph(Ring {
+        layers,
+        ring,
+        rings: 1,
+        shuffle: false,
+    });
+    let radius = 40.0;
+    let corner = |p: usize| {
+        let a = std::f64::consts::TAU * p as f64 / ring as f64;
+        [radius * a.cos(), radius * a.sin()]
+    };
+    let beads: Vec<Bead> = (0..layers)
+        .map(|z| Bead {
+            layer: z as u32,
+            closed: true,
+            points: (0..ring).map(corner).collect(),
+        })
+        .collect();
+    let side = beads[0].length_mm() / ring as f64;
+    let deposits = nodes
+        .iter()
+        .enumerate()
+        .map(|(i, g)| {
+            let (z, p) = (i / ring, i % ring);
+            let [x0, y0] = corner(p);
+            let [x1, y1] = corner(p + 1);
+            Deposit {
+                bead: z,
+                from_mm: p as f64 * side,
+                to_mm: (p + 1) as f64 * side,
+                layer: z as u32,
+                centre_mm: [(x0 + x1) / 2.0, (y0 + y1) / 2.0, (z as f64 + 0.5) * 2.5],
+                volume_mm3: g.volume,
+                surface_mm2: g.surface,
+                substrate_mm2: g.substrate,
+            }
+        })
+        .collect();
+    let contacts = contacts
+        .iter()
+        .map(|&(a, b, area)| Contact {
+            a: a as usize,
+            b: b as usize,
+            area_mm2: area,
+            kind: if a as usize / ring == b as usize / ring {
+                ContactKind::Along
+            } else {
+                ContactKind::Stacked
+            },
+        })
+        .collect();
+    let part = BeadPart {
+        name: "ring".into(),
+        max_fragments: 3,
+        bead_mm: [6.0, 2.5],
+        base_z_mm: 0.0,
+        beads,
+        nodes: deposits,
+        contacts,
+        windows: t85
+            .iter()
+            .map(|&(i, min_s, max_s)| (i, waam_part::Window { min_s, max_s }))
+            .collect(),
+        thermal,
+        warnings: Vec::new(),
+    };
+    Part::of_beads(part).unwrap()
+}
+
+fn graph_thermal(part: &Part) -> ThermalModel {
+    ThermalModel::try_new(part, &WeldGraph::new(part)).unwrap()
+}
+
+/// A plan over 12 nodes in 3 layers: 3 fragments, layer by layer, mixed directions.
+const RING_PLAN: [(usize, bool); 12] = [
+    (0, true),
+    (1, false),
+    (2, false),
+    (3, false),
+    (7, true),
+    (6, false),
+    (5, false),
+    (4, false),
+    (9, true),
+    (10, false),
+    (11, false),
+    (8, false),
+];
+
+/// The t8/5 rules of the doc, by hand over the reference: the first violation (step,
+/// node, max?) of the windowed nodes, judged after every step.
+struct Judge {
+    count: Vec<u64>,
+    dt: f64,
+    windows: Vec<(usize, f64, f64)>,
+}
+
+impl Judge {
+    fn step(&mut self, before: &[f64], after: &[f64], welded: &[bool]) -> Option<(usize, bool)> {
+        let mut first = None;
+        for (a, &(i, lo, hi)) in self.windows.iter().enumerate() {
+            if !welded[i] {
+                continue;
+            }
+            let (u, v) = (before[i], after[i]);
+            let broken = if v > 800.0 {
+                self.count[a] = 0;
+                None
+            } else if v >= 500.0 {
+                self.count[a] += 1;
+                (self.count[a] as f64 * self.dt > hi + 1e-9).then_some(true)
+            } else if u >= 500.0 {
+                (self.count[a] as f64 * self.dt < lo - 1e-9).then_some(false)
+            } else {
+                None
+            };
+            if let (Some(max), None) = (broken, first) {
+                first = Some((i, max));
+            }
+        }
+        first
+    }
+}
+
+/// Runs the reference over the plan's time line (transit, deposit, deposit steps), then
+/// `cooldown` more steps; returns per deposit the welded temperatures in weld order, the
+/// final temperatures, and the first violation (step, node, max?) of `windows`.
+#[allow(clippy::type_complexity)]
+fn reference_run(
+    model: &GraphModel,
+    transit: u64,
+    plan: &[(usize, bool)],
+    windows: &[(usize, f64, f64)],
+    cooldown: u64,
+) -> (Vec<Vec<u64>>, Vec<u64>, Option<(u64, usize, bool)>) {
+    let mut r = GraphReference::new(model);
+    let mut judge = Judge {
+        count: vec![0; windows.len()],
+        dt: model.dt,
+        windows: windows.to_vec(),
+    };
+    let mut violation = None;
+    let mut welded = vec![false; model.len()];
+    let run = |r: &mut GraphReference,
+               judge: &mut Judge,
+               n: u64,
+               welded: &[bool],
+               violation: &mut Option<_>| {
+        for _ in 0..n {
+            let before = r.temperatures().to_vec();
+            r.step();
+            if let Some((i, max)) = judge.step(&before, r.temperatures(), welded) {
+                violation.get_or_insert((r.steps(), i, max));
+            }
+        }
+    };
+    let mut after = Vec::new();
+    let mut order = Vec::new();
+    for (p, &(b, new)) in plan.iter().enumerate() {
+        if new && p > 0 {
+            run(&mut r, &mut judge, transit, &welded, &mut violation);
+        }
+        r.deposit(b);
+        welded[b] = true;
+        if let Some(a) = windows.iter().position(|w| w.0 == b) {
+            judge.count[a] = 0;
+        }
+        order.push(b);
+        run(
+            &mut r,
+            &mut judge,
+            model.deposit_steps(b),
+            &welded,
+            &mut violation,
+        );
+        after.push(
+            order
+                .iter()
+                .map(|&i| r.temperatures()[i].to_bits())
+                .collect(),
+        );
+    }
+    run(&mut r, &mut judge, cooldown, &welded, &mut violation);
+    (after, bits(r.temperatures()), violation)
+}
+
+fn welded_bits(sim: &Simulation) -> Vec<u64> {
+    sim.temperatures().map(|(_, t)| t.to_bits()).collect()
+}
+
+#[test]
+fn simulation_of_a_graph_part_is_the_reference_bit_for_bit() {
+    let windows = [(2, 0.0, 1000.0), (9, 0.0, 1000.0)];
+    let part = ring_part(3, 4, &windows, ThermalParams::default());
+    let model = graph_thermal(&part);
+    let gm = model.graph().expect("a graph model");
+    // The ring's node lengths differ: so do their deposit times.
+    let steps: Vec<u64> = (0..12).map(|i| gm.deposit_steps(i)).collect();
+    assert!(steps.iter().any(|&s| s != steps[0]), "{steps:?}");
+    for simd in [Simd::Scalar, Simd::detect()] {
+        let model = graph_thermal(&part).with_simd(simd);
+        let mut sim = Simulation::new(&model).with_threads(1);
+        let mut per_deposit = Vec::new();
+        for &(b, new) in &RING_PLAN {
+            sim.deposit(b, new).unwrap();
+            per_deposit.push(welded_bits(&sim));
+        }
+        let before = sim.steps();
+        sim.finish().unwrap().unwrap();
+        let cooldown = sim.steps() - before;
+        assert!(cooldown > 0);
+        let (after, last, violation) =
+            reference_run(gm, model.transit_steps, &RING_PLAN, &windows, cooldown);
+        assert_eq!(per_deposit, after, "{simd:?}");
+        let mut fin = vec![0; 12];
+        for (i, t) in sim.temperatures() {
+            fin[i] = t.to_bits();
+        }
+        assert_eq!(fin, last, "{simd:?}");
+        assert_eq!(violation, None);
+        let total: u64 = steps.iter().sum::<u64>() + 2 * model.transit_steps + cooldown;
+        assert_eq!(sim.steps(), total);
+    }
+}
+
+#[test]
+fn snapshots_replay_bit_for_bit_on_a_graph_part() {
+    let part = ring_part(
+        3,
+        4,
+        &[(1, 0.0, 1000.0), (6, 0.0, 1000.0)],
+        ThermalParams::default(),
+    );
+    let model = graph_thermal(&part);
+    let mut a = Simulation::new(&model);
+    for &(b, new) in &RING_PLAN[..5] {
+        a.deposit(b, new).unwrap();
+    }
+    let snap = a.snapshot();
+    // Down another branch (touching the prefix's nodes from above), then back.
+    a.deposit(8, true).unwrap();
+    a.deposit(4, false).unwrap();
+    a.deposit(6, false).unwrap();
+    a.restore(&snap);
+    for &(b, new) in &RING_PLAN[5..] {
+        a.deposit(b, new).unwrap();
+    }
+    let mut fresh = Simulation::new(&model);
+    for &(b, new) in &RING_PLAN {
+        fresh.deposit(b, new).unwrap();
+    }
+    assert_eq!(welded_bits(&a), welded_bits(&fresh));
+    assert_eq!(a.steps(), fresh.steps());
+    assert_eq!(a.graph_table(), fresh.graph_table());
+    assert_eq!(
+        a.finish().unwrap().unwrap(),
+        fresh.finish().unwrap().unwrap()
+    );
+    assert_eq!(welded_bits(&a), welded_bits(&fresh));
+
+    // A snapshot resumed in another simulation that went elsewhere first.
+    let mut other = Simulation::new(&model);
+    for &(b, new) in &[(0, true), (3, false), (4, false), (11, true)] {
+        other.deposit(b, new).unwrap();
+    }
+    other.restore_from_trail(&snap, &RING_PLAN);
+    for &(b, new) in &RING_PLAN[5..] {
+        other.deposit(b, new).unwrap();
+    }
+    let mut fresh = Simulation::new(&model);
+    for &(b, new) in &RING_PLAN {
+        fresh.deposit(b, new).unwrap();
+    }
+    assert_eq!(welded_bits(&other), welded_bits(&fresh));
+    assert_eq!(other.steps(), fresh.steps());
+    assert_eq!(other.graph_table(), fresh.graph_table());
+}
+
+#[test]
+fn a_broken_window_on_a_graph_part_is_the_references() {
+    // Node 5 (layer 1) must stay between 800 and 500 °C for at most 0.5 s: it cools more
+    // slowly once the layer above covers it.
+    for (window, max) in [((5, 0.0, 0.5), true), ((5, 60.0, 1000.0), false)] {
+        let windows = [window];
+        let part = ring_part(3, 4, &windows, ThermalParams::default());
+        let model = graph_thermal(&part);
+        let mut sim = Simulation::new(&model);
+        let mut v = None;
+        for &(b, new) in &RING_PLAN {
+            if let Err(e) = sim.deposit(b, new) {
+                v = Some(e);
+                break;
+            }
+        }
+        let v = match v {
+            Some(v) => v,
+            None => sim.finish().unwrap().unwrap_err(),
+        };
+        let gm = model.graph().unwrap();
+        let (_, _, expected) = reference_run(
+            gm,
+            model.transit_steps,
+            &RING_PLAN,
+            &windows,
+            gm.cooldown_steps,
+        );
+        let (step, node, is_max) = expected.expect("the reference breaks the window");
+        assert_eq!(
+            (v.step, v.block, v.kind == crate::ViolationKind::Max),
+            (step, node, is_max)
+        );
+        assert_eq!(is_max, max);
+    }
+}
+
+#[test]
+fn a_graph_part_the_model_rejects_is_an_error() {
+    let mut thermal = ThermalParams::default();
+    thermal.substeps = 1_000_000;
+    // Nodes of 9000 V0: more than MAX_STEPS deposit steps each.
+    let part = ring_part(1, 3, &[], thermal);
+    let mut beads = part.bead_part().unwrap().clone();
+    for d in &mut beads.nodes {
+        d.volume_mm3 *= 9000.0;
+    }
+    let part = Part::of_beads(beads).unwrap();
+    let err = ThermalModel::try_new(&part, &WeldGraph::new(&part)).unwrap_err();
+    assert!(
+        matches!(err, GraphError::VolumeTooLarge { node: 0, .. }),
+        "{err}"
+    );
+}
