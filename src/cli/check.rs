@@ -23,8 +23,8 @@ use super::{EXIT_NO, EXIT_OK};
 /// Exit code 0: valid, feasible (and reachable); 1: invalid, infeasible, blocked, or not
 /// decided within --timeout; 2: bad input.
 ///
-/// A graph part (`kind: beads`, as `waam slice` writes) takes a plan of node ids; only its
-/// validity is checked (VALID / INVALID), its feasibility not yet (exit 1).
+/// A graph part (`kind: beads`, as `waam slice` writes) takes a plan of node ids and is
+/// checked the same way with the graph thermal model (no torch check yet).
 #[derive(Debug, clap::Args)]
 pub struct CheckArgs {
     /// The part file (YAML, shared part format, or a graph part), or an STL mesh with --pitch.
@@ -252,17 +252,19 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
     }))
 }
 
-/// `waam check` of a graph part (`kind: beads`) and a plan of node ids: the validity rules
-/// only. The thermal model of graph parts is not there yet, so feasibility is not decided:
-/// exit 1 as for a check stopped by --timeout (0 would claim a feasible plan).
+/// `waam check` of a graph part (`kind: beads`) and a plan of node ids: the validity rules,
+/// then the graph thermal model's t8/5 check (docs/graph-thermal-model.md), reported as for
+/// a cube part with nodes for blocks.
 fn check_graph(args: &CheckArgs, bytes: &[u8]) -> anyhow::Result<ExitCode> {
-    use waam_part::{BeadPart, GraphPlan};
+    use waam_part::{BeadPart, GraphPlan, Part};
     if args.torch || args.process.is_some() {
         anyhow::bail!("--torch / --process: torch access is not available for graph parts yet");
     }
-    let part = BeadPart::from_bytes(bytes)
+    let timeout = super::timeout_arg(args.timeout)?;
+    let interrupt = Interrupt::after(timeout);
+    let beads = BeadPart::from_bytes(bytes)
         .with_context(|| format!("in graph part {}", args.part.display()))?;
-    for warning in &part.warnings {
+    for warning in &beads.warnings {
         tracing::warn!("{}: {warning}", args.part.display());
     }
     let plan_bytes = std::fs::read(&args.plan)
@@ -270,41 +272,125 @@ fn check_graph(args: &CheckArgs, bytes: &[u8]) -> anyhow::Result<ExitCode> {
     let is_json = args.plan.extension().is_some_and(|e| e == "json");
     let plan = GraphPlan::from_bytes(&plan_bytes, is_json)
         .with_context(|| format!("in plan {}", args.plan.display()))?;
-    if let Some(name) = plan.part.as_deref().filter(|n| *n != part.name) {
-        tracing::warn!("plan names part {name:?}, the part file is {:?}", part.name);
+    if let Some(name) = plan.part.as_deref().filter(|n| *n != beads.name) {
+        tracing::warn!(
+            "plan names part {name:?}, the part file is {:?}",
+            beads.name
+        );
     }
-    const NO_THERMAL: &str = "the thermal check of graph parts is not available yet";
-    match plan.validate(&part, &part.moves()) {
-        Ok(()) => {
-            if args.json {
-                println!(
-                    "{}",
-                    json!({"valid": true, "feasible": null, "note": NO_THERMAL})
-                );
-            } else {
-                println!(
-                    "VALID: {} fragment(s), {} nodes",
-                    plan.fragments.len(),
-                    part.len()
-                );
-                println!("FEASIBILITY NOT CHECKED: {NO_THERMAL}");
-            }
+    if let Err(invalid) = plan.validate(&beads, &beads.moves()) {
+        if args.json {
+            println!(
+                "{}",
+                json!({
+                    "valid": false,
+                    "feasible": false,
+                    "invalid": {"rule": invalid.rule(), "message": invalid.to_string()},
+                    "violation": null,
+                    "crossings": [],
+                })
+            );
+        } else {
+            println!("INVALID: {invalid}");
+            println!("INFEASIBLE (the plan is not valid)");
         }
-        Err(invalid) => {
-            if args.json {
-                println!(
-                    "{}",
-                    json!({
-                        "valid": false,
-                        "feasible": false,
-                        "invalid": {"rule": invalid.rule(), "message": invalid.to_string()},
-                    })
-                );
+        return Ok(ExitCode::from(EXIT_NO));
+    }
+    let nodes = beads.len();
+    let part =
+        Part::of_beads(beads).with_context(|| format!("in graph part {}", args.part.display()))?;
+    let model = ThermalModel::try_new(&part, &WeldGraph::new(&part))
+        .with_context(|| format!("thermal model of graph part {}", args.part.display()))?;
+    let fragments = &plan.fragments;
+    let outcome = thermal::simulate_until(&model, fragments, interrupt.deadline, None)
+        .with_context(|| format!("simulating plan {}", args.plan.display()))?;
+    let Some(outcome) = outcome else {
+        let limit = timeout.unwrap_or_default().as_secs_f64();
+        if args.json {
+            println!(
+                "{}",
+                json!({"valid": true, "feasible": null, "timeout_s": limit})
+            );
+        } else {
+            println!("VALID: {} fragment(s), {nodes} nodes", fragments.len());
+            println!("TIMEOUT: the simulation did not end within --timeout {limit} s (feasibility not decided)");
+        }
+        return Ok(ExitCode::from(EXIT_NO));
+    };
+    let feasible = outcome.violation.is_none();
+    if args.json {
+        let violation = outcome.violation.as_ref().map(|v| {
+            json!({
+                "node": v.block,
+                "kind": v.kind,
+                "window": {"min_s": v.window.min_s, "max_s": v.window.max_s},
+                "t85_s": v.t85_s,
+                "time_s": v.time_s,
+                "step": v.step,
+                "prefix_len": v.prefix_len,
+                "prefix_fragments": v.prefix_fragments,
+                "phase": v.phase,
+            })
+        });
+        let crossings: Vec<_> = outcome
+            .crossings
+            .iter()
+            .map(|c| json!({"node": c.block, "t85_s": c.t85_s, "time_s": c.time_s}))
+            .collect();
+        let out = json!({
+            "valid": true,
+            "feasible": feasible,
+            "fragments": fragments.len(),
+            "nodes": nodes,
+            "violation": violation,
+            "crossings": crossings,
+            "steps": outcome.steps,
+            "time_s": outcome.time_s,
+        });
+        println!("{out}");
+    } else {
+        println!("VALID: {} fragment(s), {nodes} nodes", fragments.len());
+        println!("{}", if feasible { "FEASIBLE" } else { "INFEASIBLE" });
+        if let Some(v) = &outcome.violation {
+            let closed = if v.phase == thermal::Phase::Deposit {
+                ""
             } else {
-                println!("INVALID: {invalid}");
-                println!("INFEASIBLE (the plan is not valid)");
-            }
+                ", last fragment closed"
+            };
+            println!(
+                "first violation: node {} window [{}, {}] s, {:?}: t8/5 = {:.2} s at t = {:.2} s \
+                 (step {}, {:?}); prefix {} nodes in {} fragment(s){closed}",
+                v.block,
+                v.window.min_s,
+                v.window.max_s,
+                v.kind,
+                v.t85_s,
+                v.time_s,
+                v.step,
+                v.phase,
+                v.prefix_len,
+                v.prefix_fragments,
+            );
+        }
+        println!(
+            "simulated {} steps ({:.2} s)",
+            outcome.steps, outcome.time_s
+        );
+        println!("t8/5 crossings (s) per windowed node:");
+        for &(i, w) in part.windows() {
+            let values: Vec<String> = outcome
+                .crossings
+                .iter()
+                .filter(|c| c.block == i)
+                .map(|c| format!("{:.2}", c.t85_s))
+                .collect();
+            let values = if values.is_empty() {
+                "-".to_string()
+            } else {
+                values.join(" ")
+            };
+            println!("  node {i} [{}, {}]: {values}", w.min_s, w.max_s);
         }
     }
-    Ok(ExitCode::from(EXIT_NO))
+    Ok(ExitCode::from(if feasible { EXIT_OK } else { EXIT_NO }))
 }

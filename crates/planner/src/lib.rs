@@ -20,6 +20,9 @@ mod search;
 mod shortening;
 pub mod thermal_prefix;
 
+#[cfg(test)]
+mod graph_tests;
+
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -494,6 +497,9 @@ pub enum PlanError {
     },
     #[error("writing plans: {0}")]
     Output(#[from] std::io::Error),
+    /// A graph part whose numbers the graph thermal model cannot take.
+    #[error("thermal model of the graph part: {0}")]
+    Graph(#[from] thermal::graph::GraphError),
 }
 
 /// What the planner tells its caller while it runs.
@@ -540,6 +546,11 @@ fn check_size(part: &Part, opts: &Options) -> Result<(), PlanError> {
             estimate_mb,
             limit_mb: opts.max_memory_mb,
         });
+    }
+    // A graph part's thermal model can be refused (`ThermalModel::new` would panic inside
+    // the search): say so before planning.
+    if part.bead_part().is_some() {
+        ThermalModel::try_new(part, &WeldGraph::new(part))?;
     }
     Ok(())
 }
