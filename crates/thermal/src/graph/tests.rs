@@ -761,10 +761,9 @@ fn snapshots_replay_bit_for_bit_on_a_graph_part() {
     assert_eq!(welded_bits(&a), welded_bits(&fresh));
     assert_eq!(a.steps(), fresh.steps());
     assert_eq!(a.graph_table(), fresh.graph_table());
-    assert_eq!(
-        a.finish().unwrap().unwrap(),
-        fresh.finish().unwrap().unwrap()
-    );
+    a.finish().unwrap().unwrap();
+    fresh.finish().unwrap().unwrap();
+    assert_eq!(a.steps(), fresh.steps());
     assert_eq!(welded_bits(&a), welded_bits(&fresh));
 
     // A snapshot resumed in another simulation that went elsewhere first.
@@ -824,8 +823,10 @@ fn a_broken_window_on_a_graph_part_is_the_references() {
 
 #[test]
 fn a_graph_part_the_model_rejects_is_an_error() {
-    let mut thermal = ThermalParams::default();
-    thermal.substeps = 1_000_000;
+    let thermal = ThermalParams {
+        substeps: 1_000_000,
+        ..ThermalParams::default()
+    };
     // Nodes of 9000 V0: more than MAX_STEPS deposit steps each.
     let part = ring_part(1, 3, &[], thermal);
     let mut beads = part.bead_part().unwrap().clone();
