@@ -176,12 +176,13 @@ pub fn read_part(path: &Path) -> anyhow::Result<Part> {
     let bytes =
         std::fs::read(path).with_context(|| format!("cannot read part {}", path.display()))?;
     let graph = std::str::from_utf8(&bytes).is_ok_and(waam_part::is_bead_part);
+    // No `?` inside: every error gets the file's name.
     let part = if graph {
         waam_part::BeadPart::from_bytes(&bytes)
             .map_err(anyhow::Error::from)
-            .and_then(|beads| Ok(Part::of_beads(beads)?))
+            .and_then(|beads| Part::of_beads(beads).map_err(anyhow::Error::from))
     } else {
-        Ok(Part::from_bytes(&bytes)?)
+        Part::from_bytes(&bytes).map_err(anyhow::Error::from)
     }
     .with_context(|| format!("in part {}", path.display()))?;
     for warning in &part.warnings {
