@@ -18,7 +18,7 @@ use waam_motion::robot::limits::JointLimitsFile;
 use waam_motion::toolpath::{ProcessSettings, Toolpath};
 use waam_motion::MotionError;
 use waam_part::Part;
-use waam_pipeline::{Cell, Found, PipelineError};
+use waam_pipeline::{Cell, ChosenPlan, PipelineError, Progress};
 use waam_planner::{self as planner, CandidateVerdict, Event, NoPlan, Options};
 
 fn cell() -> Cell {
@@ -313,7 +313,7 @@ fn waam_motion_refuses_a_plan_the_torch_cannot_weld_unless_no_torch() {
 fn a_plan_given_to_the_pipeline_is_refused_when_the_torch_cannot_weld_it() {
     // The path `waam publish --plan` and the node take: Cell::motion.
     let (part, fragments) = block_beside_a_column();
-    let found = Found {
+    let found = ChosenPlan {
         fragments: fragments.clone(),
         stats: Default::default(),
         proven: false,
@@ -354,23 +354,24 @@ fn two_pads(transit_time_s: f64) -> Part {
     part
 }
 
-/// Plans `part` with the slow robot's check; the verdicts of every candidate in order.
-fn plan_with_robot(part: &Part, cell: &Cell) -> (planner::Report, Vec<CandidateVerdict>) {
-    let opts = Options {
-        torch: cell.settings.torch_setup(),
-        executed: Some(cell.executed_check(part, Default::default())),
-        ..Options::default()
-    };
+/// Plans `part` in `cell` (the pipeline's entry: its torch and its robot's check); the
+/// outcome and the verdicts of every candidate in order.
+fn plan_with_robot(part: &Part, cell: &Cell) -> (waam_pipeline::Outcome, Vec<CandidateVerdict>) {
     let verdicts = Arc::new(Mutex::new(Vec::new()));
     let seen = Arc::clone(&verdicts);
-    let report = planner::plan(part, &opts, &mut |e: Event| {
-        if let Event::Candidate { verdict, .. } = e {
-            seen.lock().unwrap().push(verdict);
-        }
-    })
+    let outcome = waam_pipeline::plan(
+        part,
+        Some(cell),
+        &waam_pipeline::Options::default(),
+        &mut |p| {
+            if let Progress::Planner(Event::Candidate { verdict, .. }) = p {
+                seen.lock().unwrap().push(verdict);
+            }
+        },
+    )
     .unwrap();
     let verdicts = verdicts.lock().unwrap().clone();
-    (report, verdicts)
+    (outcome, verdicts)
 }
 
 #[test]
@@ -381,7 +382,7 @@ fn with_a_slow_robot_the_planner_learns_from_a_transit_it_cannot_make_and_goes_o
     let first: Vec<Vec<usize>> = vec![(0..4).collect(), (4..8).rev().collect()];
     let err = cell.motion(
         part.clone(),
-        Found {
+        ChosenPlan {
             fragments: first,
             stats: Default::default(),
             proven: false,
@@ -394,28 +395,20 @@ fn with_a_slow_robot_the_planner_learns_from_a_transit_it_cannot_make_and_goes_o
         "{:?}",
         err.map(|_| ())
     );
-    let (report, verdicts) = plan_with_robot(&part, &cell);
+    let (outcome, verdicts) = plan_with_robot(&part, &cell);
+    let report = &outcome.report;
     assert!(
         matches!(verdicts[0], CandidateVerdict::ExecutedRejected { .. }),
         "{verdicts:?}"
     );
     assert!(report.stats.executed_rejected >= 1);
     assert!(report.proven);
-    let best = report
-        .best
-        .expect("a plan whose transit the slow robot makes");
+    assert!(
+        report.best.is_some(),
+        "a plan whose transit the slow robot makes"
+    );
     // The plan the planner returns is one the robot welds on the model's time line.
-    let planned = cell
-        .motion(
-            part.clone(),
-            Found {
-                fragments: best.fragments.clone(),
-                stats: Default::default(),
-                proven: true,
-                worst_margin_s: best.margin,
-            },
-        )
-        .unwrap();
+    let planned = outcome.motion.expect("a plan in a cell").unwrap();
     let times = planned.toolpath.executed_times();
     let gap = times.deposits_s[1][0] - times.arc_off_s[0];
     assert!(gap > 0.0, "{gap}");
@@ -427,7 +420,8 @@ fn with_a_slow_robot_the_planner_learns_from_a_transit_it_cannot_make_and_goes_o
 #[test]
 fn with_a_robot_too_slow_for_any_transit_the_planner_proves_there_is_no_plan() {
     let part = two_pads(0.5);
-    let (report, verdicts) = plan_with_robot(&part, &slow_cell());
+    let (outcome, verdicts) = plan_with_robot(&part, &slow_cell());
+    let report = outcome.report;
     assert!(report.best.is_none() && report.proven);
     assert_eq!(verdicts.len(), 8, "{verdicts:?}");
     assert!(verdicts
@@ -541,7 +535,7 @@ fn the_planner_with_the_robot_counts_exactly_the_plans_that_pass_on_their_execut
         .into_iter()
         .filter(|p| common::planner::is_feasible(&part, p))
     {
-        let found = Found {
+        let found = ChosenPlan {
             fragments,
             stats: Default::default(),
             proven: false,
@@ -569,14 +563,9 @@ fn the_planner_with_the_robot_counts_exactly_the_plans_that_pass_on_their_execut
     );
     assert_eq!(counts.feasible, expected, "{failing} fail");
     assert!(counts.stats.executed_rejected > 0);
-    // And the best plan with the robot is one that passes.
-    let report = planner::plan(&part, &opts, &mut |_| {}).unwrap();
-    let best = report.best.unwrap();
-    let found = Found {
-        fragments: best.fragments,
-        stats: Default::default(),
-        proven: true,
-        worst_margin_s: best.margin,
-    };
-    cell.motion(part, found).unwrap();
+    // And the best plan with the robot (the pipeline's entry) is one that passes.
+    let outcome =
+        waam_pipeline::plan(&part, Some(&cell), &Default::default(), &mut |_| {}).unwrap();
+    assert!(outcome.report.best.is_some());
+    outcome.motion.expect("a plan in a cell").unwrap();
 }

@@ -919,8 +919,8 @@ fn a_cancelled_node_job_stops_within_a_second_past_planning() {
     use waam_ros::node::pipeline::{Job, JobError, PlanRequest, PlanningPipeline};
     use waam_ros::node::worker::{Cancel, JobContext, Pipeline};
     // The planner's part: the towers' plan, at once (as a planner that found it).
-    let planner = Arc::new(|_: &PlanRequest| {
-        Ok(waam_pipeline::Found {
+    let planner = Arc::new(|request: &PlanRequest| {
+        request.motion(waam_pipeline::ChosenPlan {
             fragments: vec![vec![0], vec![1]],
             stats: Default::default(),
             proven: false,
@@ -958,7 +958,7 @@ fn the_motion_stage_honours_its_interrupt_and_not_the_planners_stop() {
     use waam_pipeline::{Interrupt, PipelineError};
     let part = Part::parse(&two_towers(5.0e7)).unwrap();
     let cell = waam_ros::node::frames::bundled_cell();
-    let found = waam_pipeline::Found {
+    let found = waam_pipeline::ChosenPlan {
         fragments: vec![vec![0], vec![1]],
         stats: Default::default(),
         proven: false,

@@ -11,7 +11,7 @@ use common::{our_robot, part};
 use waam_motion::toolpath::{PoseKind, ProcessSettings, Toolpath};
 use waam_part::graph::WeldGraph;
 use waam_part::Part;
-use waam_pipeline::{Cell, Found, PipelineError};
+use waam_pipeline::{Cell, ChosenPlan, PipelineError};
 use waam_thermal::{simulate_on, ThermalModel, Timeline};
 
 /// Every sample part, including those without a (feasible) plan.
@@ -41,8 +41,8 @@ fn cell() -> Cell {
     }
 }
 
-fn found(fragments: Vec<Vec<usize>>) -> Found {
-    Found {
+fn found(fragments: Vec<Vec<usize>>) -> ChosenPlan {
+    ChosenPlan {
         fragments,
         stats: Default::default(),
         proven: false,

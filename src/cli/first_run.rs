@@ -6,11 +6,9 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{bail, Context};
-use waam_motion::robot::{Robot, TcpChoice};
-use waam_motion::toolpath::{ProcessSettings, ToolpathFile};
+use waam_motion::toolpath::ToolpathFile;
 use waam_part::Part;
-use waam_pipeline::{Cell, Found, Interrupt, BUNDLED_URDF};
-use waam_planner as planner;
+use waam_pipeline::{CellSource, Interrupt, Objective, Progress, BUNDLED_URDF};
 use waam_plot as plot;
 use waam_rosbag::Bag;
 
@@ -58,7 +56,7 @@ pub fn output_dir(out: Option<&Path>) -> anyhow::Result<PathBuf> {
 pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     let started = Instant::now();
     let part = Part::parse(DEFAULT_PART).context("the bundled sample part")?;
-    let mut opts = super::plan::options(&args)?;
+    let opts = super::plan::options(&args)?;
     let dir = output_dir(args.out.as_deref())?;
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let write = |name: &str, text: &str| -> anyhow::Result<()> {
@@ -66,36 +64,38 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))
     };
     write("part.yaml", DEFAULT_PART)?;
-    // The bundled torch, as with --robot (--no-torch: none, and the moves keep only the
-    // TCP's path clear of the part).
-    let mut settings = ProcessSettings::default();
-    if args.no_torch {
-        settings.torch = None;
+    // The bundled robot and torch, as with --robot (--no-torch: none, and the moves keep
+    // only the TCP's path clear of the part).
+    let cell = CellSource {
+        no_torch: args.no_torch,
+        ..CellSource::default()
     }
-    let choice = TcpChoice {
-        explicit: None,
-        default: settings.tcp.isometry(),
-    };
-    let robot = Robot::from_urdf(BUNDLED_URDF, None, choice).context("the bundled robot")?;
-    let robot_name = robot.name.clone();
-    // The planner checks the same torch: the robot then welds only what the torch reaches.
-    opts.torch = settings.torch_setup();
-    let cell = Cell { settings, robot };
-    // A candidate the robot cannot weld on the model's time line is learned from.
-    opts.executed = Some(cell.executed_check(&part, Interrupt::after(opts.timeout)));
+    .load()
+    .map_err(super::motion::cell_error)?;
+    let robot_name = cell.robot.name.clone();
+    // The planner checks the same torch (the robot then welds only what the torch reaches)
+    // and learns from a candidate the robot cannot weld on the model's time line.
+    let opts = waam_pipeline::planner_options(&part, Some(&cell), &opts);
     let bag_dir = dir.join("recording");
     let (recorder, mut planning) =
         record::start_planning(&bag_dir, None, &part, &opts, Some((&cell, BUNDLED_URDF)))?;
     let mut bar = super::plan::LazyBar::new(global.quiet);
-    let mut progress = |event: planner::Event| {
-        bar.update(event.stats());
-        planning.on_event(&event);
+    let options = waam_pipeline::Options {
+        planner: opts.clone(),
+        objective: if args.first {
+            Objective::First
+        } else {
+            Objective::Best
+        },
+        motion: Interrupt::default(),
     };
-    let report = if args.first {
-        planner::first(&part, &opts, &mut progress)?
-    } else {
-        planner::plan(&part, &opts, &mut progress)?
-    };
+    let outcome = waam_pipeline::plan(&part, Some(&cell), &options, &mut |p| {
+        if let Progress::Planner(event) = p {
+            bar.update(event.stats());
+            planning.on_event(&event);
+        }
+    })?;
+    let report = outcome.report;
     bar.finish();
     let say = |line: String| {
         if !global.quiet {
@@ -152,13 +152,14 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     if global.verbose > 0 || args.print_plan {
         print!("{}", plan.to_yaml());
     }
-    let found = Found {
-        fragments: best.fragments.clone(),
-        stats: report.stats.clone(),
-        proven: report.proven,
-        worst_margin_s: best.margin,
+    let motion = match outcome.motion {
+        Some(Ok(planned)) => Some(planned),
+        Some(Err(e)) => {
+            println!("NO MOTION: {e}");
+            None
+        }
+        None => None,
     };
-    let motion = super::motion::plan_robot_motion(&part, found, &cell);
     let messages = motion.as_ref().map(record::plan_messages).transpose()?;
     record::finish_planning(recorder, planning, &part, &report, messages.as_ref())?;
     let bag = Bag::open(&bag_dir).context("reading back the recording")?;

@@ -1,20 +1,18 @@
 //! `waam motion PART PLAN --robot URDF --out DIR`: toolpath and joint trajectory for an
-//! existing plan. [`RobotArgs`], [`plan_robot_motion`] and [`report_motion`] serve
-//! `waam plan --robot` too.
+//! existing plan. [`RobotArgs`] (the cell, through the pipeline's cell loader) and
+//! [`report_motion`] serve `waam plan --robot` too.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
-use waam_motion::robot::limits::JointLimitsFile;
-use waam_motion::robot::{parse_xyz_rpy, Robot, TcpChoice};
-use waam_motion::toolpath::{PoseKind, ProcessSettings, Toolpath};
+use waam_motion::robot::parse_xyz_rpy;
+use waam_motion::toolpath::{PoseKind, Toolpath};
 use waam_motion::trajectory::JointTrajectory;
 use waam_motion::write_outputs;
 use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
-use waam_part::Part;
-use waam_pipeline::{Cell, Found, PipelineError, Planned};
+use waam_pipeline::{Cell, CellError, CellSource, PipelineError};
 
 use super::{read_part, EXIT_NO, EXIT_OK};
 
@@ -95,32 +93,27 @@ impl OptionalRobotArgs {
 impl RobotArgs {
     /// Reads the process settings and the robot: the cell a plan is welded in.
     pub fn load(&self) -> anyhow::Result<Cell> {
-        let settings = match &self.process {
-            Some(path) => {
-                let text = std::fs::read_to_string(path)
-                    .with_context(|| format!("cannot read process settings {}", path.display()))?;
-                ProcessSettings::from_yaml(&text)
-                    .with_context(|| format!("in process settings {}", path.display()))?
-            }
-            None => ProcessSettings::default(),
-        };
-        let explicit = match &self.tcp {
+        self.load_cell(false)
+    }
+
+    /// [`RobotArgs::load`]; with `no_torch`, without the process settings' torch
+    /// (`--no-torch`).
+    pub fn load_cell(&self, no_torch: bool) -> anyhow::Result<Cell> {
+        let tcp = match &self.tcp {
             Some(text) => Some(parse_xyz_rpy(text).map_err(|e| anyhow::anyhow!("--tcp: {e}"))?),
             None => None,
         };
-        let choice = TcpChoice {
-            explicit,
-            default: settings.tcp.isometry(),
-        };
-        let mut robot = Robot::from_urdf_file(&self.robot, self.tip.as_deref(), choice)
-            .with_context(|| format!("in robot {}", self.robot.display()))?;
-        if let Some(path) = &self.limits {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read joint limits {}", path.display()))?;
-            robot = JointLimitsFile::from_yaml(&text)
-                .and_then(|file| robot.with_limits(&file))
-                .with_context(|| format!("in joint limits {}", path.display()))?;
+        let cell = CellSource {
+            process: self.process.clone(),
+            urdf: Some(self.robot.clone()),
+            tip: self.tip.clone(),
+            tcp,
+            joint_limits: self.limits.clone(),
+            no_torch,
         }
+        .load()
+        .map_err(cell_error)?;
+        let robot = &cell.robot;
         match (&robot.opw_reason, robot.opw().is_some()) {
             (_, true) => tracing::info!(
                 "robot {}: {} -> {}, analytic OPW inverse kinematics",
@@ -136,18 +129,29 @@ impl RobotArgs {
             ),
             (None, false) => {}
         }
-        Ok(Cell { settings, robot })
+        Ok(cell)
     }
 }
 
-/// Checks a plan and plans its motion (the pipeline's last stages). `None`: the plan fails
-/// its check or no motion is possible (the reason is printed).
-pub fn plan_robot_motion(part: &Part, found: Found, cell: &Cell) -> Option<Planned> {
-    match cell.motion(part.clone(), found) {
-        Ok(planned) => Some(planned),
-        Err(e) => {
-            println!("NO MOTION: {e}");
-            None
+/// The cell loader's error, worded by the command line's options.
+pub fn cell_error(e: CellError) -> anyhow::Error {
+    let file = |what: &str, path: &Path| format!("{what} {}", path.display());
+    match e {
+        CellError::ReadProcess { path, source } => {
+            anyhow::Error::new(source).context(file("cannot read process settings", &path))
+        }
+        CellError::Process { path, source } => {
+            anyhow::Error::new(source).context(file("in process settings", &path))
+        }
+        CellError::BundledRobot(source) => anyhow::Error::new(source).context("the bundled robot"),
+        CellError::Robot { path, source } => {
+            anyhow::Error::new(source).context(file("in robot", &path))
+        }
+        CellError::ReadLimits { path, source } => {
+            anyhow::Error::new(source).context(file("cannot read joint limits", &path))
+        }
+        CellError::Limits { path, source } => {
+            anyhow::Error::new(source).context(file("in joint limits", &path))
         }
     }
 }
@@ -272,10 +276,7 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
     };
     // The plan's rules are checked above; its t8/5 windows are `waam check`'s business.
     // The motion is timed to the thermal model all the same (waits at the approach points).
-    let mut cell = args.robot.load()?;
-    if args.no_torch {
-        cell.settings.torch = None;
-    }
+    let cell = args.robot.load_cell(args.no_torch)?;
     // The motion stages have no stopping points of their own: they run on a thread that
     // is left behind at the time limit, and the process ends.
     let left = timeout.map(|t| t.saturating_sub(started.elapsed()));

@@ -17,7 +17,7 @@ use waam_planner::{self as planner, Acyclicity, Backend, Options, Stats};
 use super::{record, GlobalArgs, EXIT_INTERRUPTED, EXIT_NO, EXIT_OK};
 use waam_access::TorchSetup;
 use waam_motion::toolpath::ProcessSettings;
-use waam_pipeline::{Found, Interrupt};
+use waam_pipeline::{Interrupt, Objective, Progress};
 
 /// Plan the weld order of a part: at most k weld paths covering every block, moving
 /// sideways or up, never under what stands, keeping every t8/5 window.
@@ -178,17 +178,15 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     };
     opts.timeout = opts.timeout.map(|t| t.saturating_sub(started.elapsed()));
     // The robot before planning: a bad URDF fails at once, not after the search.
-    let mut robot = args.robot.robot_args().map(|a| a.load()).transpose()?;
+    // --no-torch: nor along the moves.
+    let robot = args
+        .robot
+        .robot_args()
+        .map(|a| a.load_cell(args.no_torch))
+        .transpose()?;
+    // The pipeline checks the cell's torch (the same) and, with a robot, every candidate
+    // on the robot's time line (learned from like a violation).
     opts.torch = torch(&args, robot.as_ref().map(|c| &c.settings));
-    if let (Some(cell), true) = (robot.as_mut(), args.no_torch) {
-        cell.settings.torch = None; // nor along the moves
-    }
-    // With a robot, a candidate the robot cannot weld on the model's time line is a
-    // violation too (its clause is learned and the search goes on).
-    let interrupt = Interrupt::after(opts.timeout).with_cancel(opts.cancel.clone());
-    opts.executed = robot
-        .as_ref()
-        .map(|cell| cell.executed_check(&part, interrupt));
     if !args.json && !global.quiet {
         eprintln!(
             "part {:?}: {} blocks, {} layers, max_fragments {}, {} windowed blocks",
@@ -227,8 +225,10 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
             planning.on_event(&event);
         }
     };
+    // Counting and enumerating with a robot check its torch and its time line too.
+    let searched = waam_pipeline::planner_options(&part, robot.as_ref(), &opts);
     if args.count {
-        let counts = planner::count(&part, &opts, true, &mut progress)?;
+        let counts = planner::count(&part, &searched, true, &mut progress)?;
         bar.finish();
         if args.json {
             println!(
@@ -263,7 +263,7 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
             writeln!(writer, "---")?;
             write!(writer, "{}", Plan::from_indices(&part, fragments).to_yaml())
         };
-        let counts = planner::enumerate(&part, &opts, &mut progress, &mut sink)?;
+        let counts = planner::enumerate(&part, &searched, &mut progress, &mut sink)?;
         writer.flush()?;
         bar.finish();
         if args.json {
@@ -285,11 +285,21 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         }
         return Ok(ExitCode::from(EXIT_OK));
     }
-    let report = if args.first {
-        planner::first(&part, &opts, &mut progress)?
-    } else {
-        planner::plan(&part, &opts, &mut progress)?
+    let pipeline = waam_pipeline::Options {
+        planner: opts,
+        objective: if args.first {
+            Objective::First
+        } else {
+            Objective::Best
+        },
+        motion: Interrupt::default(),
     };
+    let outcome = waam_pipeline::plan(&part, robot.as_ref(), &pipeline, &mut |p| {
+        if let Progress::Planner(event) = p {
+            progress(event);
+        }
+    })?;
+    let report = outcome.report;
     bar.finish();
     if let (Some(dir), Some(best)) = (&args.out, &report.best) {
         let path = dir.join("plan.yaml");
@@ -307,22 +317,19 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     // or recorded.
     let mut motion_ok = true;
     let mut planned = None;
-    if let (Some(cell), Some(best)) = (&robot, &report.best) {
-        let found = Found {
-            fragments: best.fragments.clone(),
-            stats: report.stats.clone(),
-            proven: report.proven,
-            worst_margin_s: best.margin,
-        };
-        planned = super::motion::plan_robot_motion(&part, found, cell);
-        match &planned {
-            Some(p) => {
+    if let (Some(cell), Some(motion)) = (&robot, outcome.motion) {
+        match motion {
+            Ok(p) => {
                 super::motion::report_motion(&p.toolpath, &p.trajectory, args.out.as_deref())?;
                 if let (Some(format), Some(dir)) = (args.export, &args.out) {
                     super::export::export_default(dir, format, cell)?;
                 }
+                planned = Some(p);
             }
-            None => motion_ok = false,
+            Err(e) => {
+                println!("NO MOTION: {e}");
+                motion_ok = false;
+            }
         }
     }
     if let Some((recorder, planning)) = session {

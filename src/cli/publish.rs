@@ -10,7 +10,7 @@ use clap::Args;
 use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
 use waam_part::Part;
-use waam_pipeline::Found;
+use waam_pipeline::ChosenPlan;
 use waam_ros::node::pipeline::{sat_planner, PartInput, PlanFn, PlanRequest};
 use waam_ros::node::{Mode, RunOptions};
 
@@ -100,8 +100,8 @@ fn given_plan(part_text: &str, path: &std::path::Path) -> anyhow::Result<Arc<Pla
     let fragments = plan
         .validate(&part, &WeldGraph::new(&part))
         .map_err(|e| anyhow::anyhow!("plan {} is invalid: {e}", path.display()))?;
-    Ok(Arc::new(move |_: &PlanRequest| {
-        Ok(Found {
+    Ok(Arc::new(move |request: &PlanRequest| {
+        request.motion(ChosenPlan {
             fragments: fragments.clone(),
             stats: Default::default(),
             proven: false,

@@ -10,7 +10,8 @@ use std::time::{Duration, Instant};
 use serde_json::json;
 use waam_part::writer;
 use waam_part::Part;
-use waam_planner::{self as planner, Acyclicity, Options};
+use waam_pipeline::Progress;
+use waam_planner::{Acyclicity, Options};
 use waam_ros::convert::statistics;
 use waam_ros::node::pipeline::mesh_arrays;
 use waam_ros::planning::{mesh_settings_from_values, options_from, PlanningRecorder, RecordError};
@@ -186,13 +187,18 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
                 .map_err(|e| record_error.get_or_insert(RecordError::from(e)))
                 .ok()
         });
-        let mut progress = |event: planner::Event| {
-            if let Some(p) = planning.as_mut() {
+        let mut progress = |progress: Progress| {
+            if let (Some(p), Progress::Planner(event)) = (planning.as_mut(), progress) {
                 p.on_event(&event);
             }
         };
-        let report = match planner::plan(&part, &opts, &mut progress) {
-            Ok(report) => report,
+        // Without a robot: the recorded settings' torch, if any, is checked as recorded.
+        let options = waam_pipeline::Options {
+            planner: opts.clone(),
+            ..waam_pipeline::Options::default()
+        };
+        let report = match waam_pipeline::plan(&part, None, &options, &mut progress) {
+            Ok(outcome) => outcome.report,
             Err(e) => return Replanned::NoPlan(e.to_string()),
         };
         if stopped() {

@@ -7,6 +7,11 @@
 //! [`Cell::motion`] turns a checked plan into a [`Planned`] (toolpath and validated joint
 //! trajectory). Nothing here knows ROS: `waam-ros` turns a [`Planned`] into messages.
 //!
+//! [`plan`] runs these stages from a part on, for every caller (the CLI's `plan`, its first
+//! run, `replay`, `bench scale` and the node): the planner with the cell's torch and robot
+//! checks, then, with a cell, the check and the motion. [`CellSource::load`] sets a cell up
+//! (process settings, URDF, TCP, joint limits, torch).
+//!
 //! One time line: the robot is timed to the thermal model (each weld path's arc strikes
 //! at the model's time, the robot waiting at the approach point; a transit too slow for
 //! `transit_time_s` is an error), and the plan is checked again on the time line the
@@ -32,6 +37,12 @@ use waam_thermal::{self as thermal, ThermalModel, Timeline};
 
 pub use waam_thermal::Interrupt;
 
+mod cell;
+mod run;
+
+pub use cell::{CellError, CellSource};
+pub use run::{plan, planner_options, Objective, Options, Outcome, Progress};
+
 /// The robot the project ships (`urdf/waam_robot.urdf`), used when none is named.
 pub const BUNDLED_URDF: &str = include_str!("../../../urdf/waam_robot.urdf");
 
@@ -42,6 +53,9 @@ pub enum PipelineError {
     Document(#[from] PartError),
     #[error("bad part mesh: {0}")]
     Mesh(#[from] waam_mesh::MeshError),
+    /// The planner could not run (the part too large for its memory limit, ...).
+    #[error(transparent)]
+    Planner(#[from] waam_planner::PlanError),
     #[error("the planner's plan is invalid: {0}")]
     Invalid(#[from] Invalid),
     #[error("the planner's plan cannot be simulated: {0}")]
@@ -289,9 +303,10 @@ fn first_deposits(fragments: &[Vec<usize>], n: usize) -> Vec<Vec<usize>> {
     out
 }
 
-/// A plan the planner found, before its check.
+/// The plan chosen to be welded, before its check: the planner's ([`ChosenPlan::from_report`])
+/// or one given (`waam publish --plan`).
 #[derive(Debug, Clone)]
-pub struct Found {
+pub struct ChosenPlan {
     /// Fragments of block indices, in weld order.
     pub fragments: Vec<Vec<usize>>,
     /// What the planner did to find it.
@@ -306,7 +321,7 @@ pub struct Found {
 #[derive(Debug, Clone)]
 pub struct Planned {
     pub part: Part,
-    pub found: Found,
+    pub found: ChosenPlan,
     pub toolpath: Toolpath,
     pub trajectory: JointTrajectory,
     /// The part frame in the robot's base link (m).
@@ -330,7 +345,7 @@ impl Cell {
     /// Checks `found` ([`check_plan`], [`check_torch`]), plans its motion timed to the
     /// thermal model and checks the plan again on the motion's executed time line
     /// ([`check_executed`]).
-    pub fn motion(&self, part: Part, found: Found) -> Result<Planned, PipelineError> {
+    pub fn motion(&self, part: Part, found: ChosenPlan) -> Result<Planned, PipelineError> {
         self.motion_until(part, found, &Interrupt::default())
     }
 
@@ -339,7 +354,7 @@ impl Cell {
     pub fn motion_until(
         &self,
         part: Part,
-        found: Found,
+        found: ChosenPlan,
         interrupt: &Interrupt,
     ) -> Result<Planned, PipelineError> {
         check_plan_until(&part, &found.fragments, interrupt)?;

@@ -11,7 +11,8 @@ use anyhow::{bail, Context};
 use serde::Serialize;
 use waam_part::graph::WeldGraph;
 use waam_part::Part;
-use waam_planner::{self as planner, Backend, Options, Report};
+use waam_pipeline::{Objective, Progress};
+use waam_planner::{Backend, Options, Report};
 use waam_thermal::ThermalModel;
 
 use crate::cli::plan::LazyBar;
@@ -196,17 +197,25 @@ fn timed(part: &Part, opts: &Options, optimize: bool, stop: &AtomicBool) -> anyh
     let mut bar = LazyBar::new(false);
     let mut warm_start_s = 0.0;
     let started = Instant::now();
-    let mut progress = |event: planner::Event| {
+    let mut progress = |progress: Progress| {
+        let Progress::Planner(event) = progress else {
+            return;
+        };
         if warm_start_s == 0.0 && event.stats().candidates == 1 {
             warm_start_s = started.elapsed().as_secs_f64();
         }
         bar.update(event.stats());
     };
-    let report: Report = if optimize {
-        planner::plan(part, opts, &mut progress)?
-    } else {
-        planner::first(part, opts, &mut progress)?
+    let options = waam_pipeline::Options {
+        planner: opts.clone(),
+        objective: if optimize {
+            Objective::Best
+        } else {
+            Objective::First
+        },
+        ..waam_pipeline::Options::default()
     };
+    let report: Report = waam_pipeline::plan(part, None, &options, &mut progress)?.report;
     bar.finish();
     let s = &report.stats;
     let checked = match &report.best {

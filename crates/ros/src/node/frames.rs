@@ -13,9 +13,7 @@ use super::names::NodeNames;
 use super::params::NodeParams;
 use super::pipeline::PlanningPipeline;
 use crate::planning::PART_FRAME;
-use waam_motion::robot::{Robot, TcpChoice};
-use waam_motion::toolpath::ProcessSettings;
-use waam_pipeline::{Cell, BUNDLED_URDF};
+use waam_pipeline::Cell;
 use waam_rosbag::qos::Qos;
 use waam_rosbag::Recorder;
 use waam_rosmsg::builtin_interfaces::Time;
@@ -112,17 +110,11 @@ impl CellFrames {
     }
 }
 
-/// The node's default cell: the bundled robot and process settings. Recordings made without a
-/// robot tie their part frame to it, as the node with its default parameters does.
+/// The node's default cell: the bundled robot and process settings ([`Cell::bundled`]).
+/// Recordings made without a robot tie their part frame to it, as the node with its default
+/// parameters does.
 pub fn bundled_cell() -> Cell {
-    let settings = ProcessSettings::default();
-    let choice = TcpChoice {
-        explicit: None,
-        default: settings.tcp.isometry(),
-    };
-    let robot =
-        Robot::from_urdf(BUNDLED_URDF, None, choice).expect("the bundled URDF is tested to load");
-    Cell { settings, robot }
+    Cell::bundled()
 }
 
 /// Records what the node publishes for viewers: `/tf_static` of `cell` and, when given, the

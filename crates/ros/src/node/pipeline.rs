@@ -10,11 +10,14 @@ use std::sync::Arc;
 use super::params::NodeParams;
 use super::worker::{JobContext, Pipeline};
 use crate::planning::CandidateRecorder;
-use waam_motion::robot::limits::{JointLimitsFile, LimitsError};
-use waam_motion::robot::{xyz_rpy, Robot, RobotError, TcpChoice};
-use waam_motion::toolpath::{ProcessSettings, SettingsError};
+use waam_motion::robot::limits::LimitsError;
+use waam_motion::robot::{xyz_rpy, RobotError};
+use waam_motion::toolpath::SettingsError;
 use waam_part::{Part, Window};
-use waam_pipeline::{read_input, Cell, Found, Interrupt, PipelineError, BUNDLED_URDF};
+use waam_pipeline::{
+    read_input, Cell, CellError, CellSource, ChosenPlan, Interrupt, Objective, Outcome,
+    PipelineError, Progress,
+};
 pub use waam_pipeline::{MeshSettings, PartInput, Planned};
 use waam_rosbag::Recorder;
 use waam_rosmsg::shape_msgs::Mesh;
@@ -63,6 +66,36 @@ pub enum SetupError {
     Limits { path: String, source: LimitsError },
     #[error("mesh.block_mm: expected three lengths")]
     MeshBlock,
+}
+
+impl From<CellError> for SetupError {
+    /// The cell loader's error, worded by the node's parameters.
+    fn from(e: CellError) -> SetupError {
+        let path = |p: std::path::PathBuf| p.display().to_string();
+        match e {
+            CellError::ReadProcess { path: p, source } => SetupError::ReadProcess {
+                path: path(p),
+                source,
+            },
+            CellError::Process { path: p, source } => SetupError::Process {
+                path: path(p),
+                source,
+            },
+            CellError::BundledRobot(e) => SetupError::BundledRobot(e),
+            CellError::Robot { path: p, source } => SetupError::Robot {
+                path: path(p),
+                source,
+            },
+            CellError::ReadLimits { path: p, source } => SetupError::ReadLimits {
+                path: path(p),
+                source,
+            },
+            CellError::Limits { path: p, source } => SetupError::Limits {
+                path: path(p),
+                source,
+            },
+        }
+    }
 }
 
 /// A `~/part_mesh` message as an input named `name`.
@@ -137,14 +170,54 @@ pub struct PlanRequest<'a> {
     pub ctx: &'a JobContext,
     /// When recording: where the planner's verdict on every candidate goes.
     pub recorder: Option<&'a Recorder>,
-    /// The torch whose access the planner checks (the process settings'), if any.
-    pub torch: Option<waam_access::TorchSetup>,
-    /// The check of every candidate on the cell's robot (its executed time line).
-    pub executed: Option<waam_planner::ExecutedCheck>,
+    /// The cell the plan is welded in: its torch and robot check the planner's candidates,
+    /// and the plan's motion is planned in it.
+    pub cell: &'a Cell,
 }
 
-/// The planner a pipeline calls. `Err` says why there is no plan.
-pub type PlanFn = dyn Fn(&PlanRequest) -> Result<Found, JobError> + Send + Sync;
+impl PlanRequest<'_> {
+    /// The stages after planning for a plan a planner chose (a given plan: `waam publish
+    /// --plan`, tests): the plan checked and its motion planned in the request's cell
+    /// ([`Cell::motion_until`]), stopped by a cancel of the job.
+    pub fn motion(&self, chosen: ChosenPlan) -> Result<Box<Planned>, JobError> {
+        if self.ctx.cancel.is_cancelled() {
+            return Err(JobError::Cancelled);
+        }
+        motion_progress(self.ctx, chosen.fragments.len());
+        let planned =
+            self.cell
+                .motion_until(self.part.clone(), chosen, &motion_interrupt(self.ctx));
+        job_motion(planned)
+    }
+}
+
+/// The stages after planning stop at a superseded or cancelled job, within a simulation
+/// step: the cancel flag, not the planner's stop flag, which a first feasible plan raises.
+fn motion_interrupt(ctx: &JobContext) -> Interrupt {
+    Interrupt::default().with_cancel(Some(ctx.cancel.cancelled_flag()))
+}
+
+fn motion_progress(ctx: &JobContext, fragments: usize) {
+    ctx.progress(
+        "checking plan and robot motion",
+        None,
+        format!("{fragments} fragment(s)"),
+    );
+}
+
+/// The motion stage's answer as the job's.
+fn job_motion(planned: Result<Planned, PipelineError>) -> Result<Box<Planned>, JobError> {
+    match planned {
+        Ok(planned) => Ok(Box::new(planned)),
+        Err(PipelineError::Interrupted(_)) => Err(JobError::Cancelled),
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// The planner a pipeline calls, through to the plan's validated motion in the request's
+/// cell ([`sat_planner`]: the pipeline's entry, [`waam_pipeline::plan`]). `Err` says why
+/// there is no plan or no motion.
+pub type PlanFn = dyn Fn(&PlanRequest) -> Result<Box<Planned>, JobError> + Send + Sync;
 
 /// The node's planning pipeline: the cell (process settings, robot), mesh options and a
 /// planner.
@@ -161,51 +234,21 @@ pub struct PlanningPipeline {
 impl PlanningPipeline {
     /// Loads the process settings and the robot the parameters name.
     pub fn from_params(params: &NodeParams, planner: Arc<PlanFn>) -> Result<Self, SetupError> {
-        let settings = if params.process_file.is_empty() {
-            ProcessSettings::default()
-        } else {
-            let path = params.process_file.clone();
-            let text =
-                std::fs::read_to_string(&path).map_err(|source| SetupError::ReadProcess {
-                    path: path.clone(),
-                    source,
-                })?;
-            ProcessSettings::from_yaml(&text)
-                .map_err(|source| SetupError::Process { path, source })?
-        };
-        let explicit = match params.robot.tcp[..] {
-            [x, y, z, r, p, w] => Some(xyz_rpy(&[x, y, z], &[r, p, w])),
-            _ => None,
-        };
-        let choice = TcpChoice {
-            explicit,
-            default: settings.tcp.isometry(),
-        };
-        let tip = (!params.robot.tip_link.is_empty()).then_some(params.robot.tip_link.as_str());
-        let robot = if params.robot.urdf.is_empty() {
-            Robot::from_urdf(BUNDLED_URDF, tip, choice).map_err(SetupError::BundledRobot)?
-        } else {
-            Robot::from_urdf_file(std::path::Path::new(&params.robot.urdf), tip, choice).map_err(
-                |source| SetupError::Robot {
-                    path: params.robot.urdf.clone(),
-                    source,
-                },
-            )?
-        };
-        let robot = if params.robot.joint_limits.is_empty() {
-            robot
-        } else {
-            let path = params.robot.joint_limits.clone();
-            let text = std::fs::read_to_string(&path).map_err(|source| SetupError::ReadLimits {
-                path: path.clone(),
-                source,
-            })?;
-            JointLimitsFile::from_yaml(&text)
-                .and_then(|file| robot.with_limits(&file))
-                .map_err(|source| SetupError::Limits { path, source })?
-        };
+        let path = |p: &str| (!p.is_empty()).then(|| std::path::PathBuf::from(p));
+        let cell = CellSource {
+            process: path(&params.process_file),
+            urdf: path(&params.robot.urdf),
+            tip: (!params.robot.tip_link.is_empty()).then(|| params.robot.tip_link.clone()),
+            tcp: match params.robot.tcp[..] {
+                [x, y, z, r, p, w] => Some(xyz_rpy(&[x, y, z], &[r, p, w])),
+                _ => None,
+            },
+            joint_limits: path(&params.robot.joint_limits),
+            no_torch: false,
+        }
+        .load()?;
         Ok(PlanningPipeline {
-            cell: Cell { settings, robot },
+            cell,
             mesh: mesh_settings(params)?,
             timeout_s: params.planner.timeout_s,
             max_memory_mb: params.planner.max_memory_mb.max(1) as u64,
@@ -246,63 +289,52 @@ impl Pipeline for PlanningPipeline {
             ),
         );
         let timeout_s = job.timeout_s.unwrap_or(self.timeout_s);
-        let planner_interrupt = Interrupt::after(
-            std::time::Duration::try_from_secs_f64(timeout_s)
-                .ok()
-                .filter(|t| !t.is_zero()),
-        )
-        .with_cancel(Some(ctx.cancel.flag()));
-        let found = (self.planner)(&PlanRequest {
+        (self.planner)(&PlanRequest {
             part: &part,
             timeout_s,
             max_memory_mb: self.max_memory_mb,
             first_feasible: job.first_feasible,
             ctx,
             recorder: self.recorder.as_ref(),
-            torch: self.cell.settings.torch_setup(),
-            // The planner's time limit and a cancel (or an early stop) bound the robot
-            // checks of its candidates too.
-            executed: Some(self.cell.executed_check(&part, planner_interrupt.clone())),
-        })?;
-        if cancelled() {
-            return Err(JobError::Cancelled);
-        }
-        ctx.progress(
-            "checking plan and robot motion",
-            None,
-            format!("{} fragment(s)", found.fragments.len()),
-        );
-        // A superseded or cancelled job stops here too, within a simulation step: the
-        // cancel flag, not the planner's stop flag, which a first feasible plan raises.
-        let interrupt = Interrupt::default().with_cancel(Some(ctx.cancel.cancelled_flag()));
-        match self.cell.motion_until(part, found, &interrupt) {
-            Ok(planned) => Ok(Box::new(planned)),
-            Err(PipelineError::Interrupted(_)) => Err(JobError::Cancelled),
-            Err(e) => Err(e.into()),
-        }
+            cell: &self.cell,
+        })
     }
 }
 
-/// The project's SAT planner ([`waam_planner::plan`]) as the node's planner: best plan by
-/// the documented objective within the time limit.
+/// The pipeline's entry ([`waam_pipeline::plan`]) as the node's planner: the SAT
+/// planner's best plan by the documented objective within the time limit, checked by the
+/// cell's torch and robot, then the plan's validated motion in the cell.
 pub fn sat_planner() -> Arc<PlanFn> {
     Arc::new(|request: &PlanRequest| {
         let (part, timeout_s, ctx) = (request.part, request.timeout_s, request.ctx);
-        let options = waam_planner::Options {
-            timeout: std::time::Duration::try_from_secs_f64(timeout_s)
-                .ok()
-                .filter(|t| !t.is_zero()),
-            // A newer part or a cancelled goal stops this run (inside a solve with CaDiCaL);
-            // the worker then drops it. The first feasible plan stops it too when asked.
-            cancel: Some(ctx.cancel.flag()),
-            torch: request.torch,
-            executed: request.executed.clone(),
-            max_memory_mb: request.max_memory_mb,
-            ..waam_planner::Options::default()
+        let options = waam_pipeline::Options {
+            planner: waam_planner::Options {
+                timeout: std::time::Duration::try_from_secs_f64(timeout_s)
+                    .ok()
+                    .filter(|t| !t.is_zero()),
+                // A newer part or a cancelled goal stops this run (inside a solve with
+                // CaDiCaL); the worker then drops it. The first feasible plan stops it too
+                // when asked. The same time limit and flag bound the robot checks of its
+                // candidates.
+                cancel: Some(ctx.cancel.flag()),
+                max_memory_mb: request.max_memory_mb,
+                ..waam_planner::Options::default()
+            },
+            objective: Objective::Best,
+            motion: motion_interrupt(ctx),
         };
         let mut candidates = request.recorder.map(CandidateRecorder::new);
         let mut last = std::time::Instant::now();
-        let mut progress = |event: waam_planner::Event| {
+        let mut progress = |progress: Progress| {
+            let event = match progress {
+                Progress::Planner(event) => event,
+                Progress::Motion { fragments } => {
+                    if !ctx.cancel.is_cancelled() {
+                        motion_progress(ctx, fragments);
+                    }
+                    return;
+                }
+            };
             if let Some(c) = candidates.as_mut() {
                 c.on_event(&event);
             }
@@ -326,17 +358,19 @@ pub fn sat_planner() -> Arc<PlanFn> {
                 });
             }
         };
-        let report = waam_planner::plan(part, &options, &mut progress)?;
+        let outcome = waam_pipeline::plan(part, Some(request.cell), &options, &mut progress);
         if let Some(Err(e)) = candidates.map(CandidateRecorder::finish) {
             tracing::warn!("recording the planner's candidates: {e}");
         }
-        match report.best {
-            Some(best) => Ok(Found {
-                fragments: best.fragments,
-                worst_margin_s: best.margin,
-                stats: report.stats,
-                proven: report.proven,
-            }),
+        let Outcome { report, motion } = match outcome {
+            Ok(outcome) => outcome,
+            Err(PipelineError::Planner(e)) => return Err(JobError::Planner(e)),
+            Err(e) => return Err(e.into()),
+        };
+        match motion {
+            // Planned past a cancel: not handed on.
+            Some(_) if ctx.cancel.is_cancelled() => Err(JobError::Cancelled),
+            Some(planned) => job_motion(planned),
             None => Err(match report.no_plan {
                 Some(reason) => JobError::NoPlan {
                     part: part.name.clone(),
