@@ -1,16 +1,19 @@
 //! The one helper module of the CLI's tests (`tests/cli/`, one binary): the sample parts with
-//! valid plans and the robots ([`samples`], shared with the library crates' tests,
+//! valid plans and the robots ([`parts`], [`robots`], shared with the library crates' tests,
 //! `tests/support/`), [`planner`] for the planner tests, [`run`] for running `waam` (the one
 //! `fn waam`) and reading its recordings.
 #![allow(dead_code)] // each test module uses a different subset
 
+#[path = "../../support/parts.rs"]
+mod parts;
 #[path = "../../support/planner.rs"]
 pub mod planner;
+#[path = "../../support/robots.rs"]
+mod robots;
 pub mod run;
-#[path = "../../support/samples.rs"]
-mod samples;
 
-pub use samples::*;
+pub use parts::*;
+pub use robots::*;
 
 use std::path::PathBuf;
 

@@ -1,12 +1,15 @@
 //! This crate's test helpers: the repository root, and the helpers its tests share with the
 //! other crates' and the CLI's (`tests/support/` at the root, with the sample parts in
 //! `config/parts` and `tests/data`).
-#![allow(dead_code)] // each test file uses a different subset
+#![allow(dead_code, unused_imports)] // each test file uses a different subset
 
-#[path = "../../../../tests/support/samples.rs"]
-mod samples;
+#[path = "../../../../tests/support/parts.rs"]
+mod parts;
+#[path = "../../../../tests/support/robots.rs"]
+mod robots;
 
-pub use samples::*;
+pub use parts::*;
+pub use robots::*;
 
 use std::path::PathBuf;
 
