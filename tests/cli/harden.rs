@@ -1016,7 +1016,7 @@ struct Case {
 
 /// Issue #18, Done-when: every reproducer that reaches the command line, run as a user
 /// runs it (`-q`), gets a one-line error naming what is wrong (exit 2) or a bounded answer,
-/// within seconds and under 1 GB. (The library-level tests in tests/robustness.rs pin the
+/// within seconds and under 1 GB. (The library-level tests in crates/ros/tests/robustness.rs pin the
 /// messages; this pins what the process does: exit code, one line, time and memory.)
 #[test]
 fn every_command_line_reproducer_is_a_one_line_error_or_a_bounded_answer() {

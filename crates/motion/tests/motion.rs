@@ -58,7 +58,7 @@ fn check(robot: &Robot, tp: &Toolpath, traj: &JointTrajectory, name: &str) {
 fn run_all(robot: &Robot) {
     for name in common::PARTS {
         let (part, fragments) = common::part_and_plan(name);
-        // ex3's sample plan is one the torch cannot weld (tests/torch.rs, tests/access.rs):
+        // ex3's sample plan is one the torch cannot weld (planner and pipeline torch tests):
         // its moves are checked for the TCP only.
         let settings = ProcessSettings {
             torch: ProcessSettings::default()

@@ -187,7 +187,7 @@ fn the_transit_over_a_tall_wall_clears_it_with_the_whole_torch() {
 #[test]
 fn every_sample_part_s_moves_clear_the_whole_torch() {
     let cell = cell();
-    // ex3's sample plan is one the torch cannot weld (tests/torch.rs): not here.
+    // ex3's sample plan is one the torch cannot weld (crates/planner/tests/torch.rs): not here.
     for name in common::PARTS.iter().filter(|&&n| n != "ex3-h-column") {
         let (part, fragments) = part_and_plan(name);
         let (tp, _) = cell.plan_motion(&part, &fragments).unwrap();
@@ -451,7 +451,7 @@ fn a_planner_without_the_torch_learns_it_from_the_cell_s_check() {
 }
 
 /// With a 2 s arc-on dwell some feasible s1-wall plans break a window on the executed time
-/// line (tests/timeline.rs). The planner with the robot's check counts exactly the plans
+/// line (timeline.rs). The planner with the robot's check counts exactly the plans
 /// that keep every window there (brute force: every valid plan, simulated on the model's
 /// time line, then welded by the cell): what it learns from a rejection cuts off no plan
 /// the robot can weld, and every plan it counts is one.

@@ -30,7 +30,7 @@ const SAMPLES: [&str; 10] = [
 
 /// The torch is not modelled here (the plans are planned without it; ex3's first plan is
 /// one the torch cannot weld): the time line is this file's subject, the torch
-/// tests/access.rs's.
+/// access.rs's.
 fn cell() -> Cell {
     Cell {
         settings: ProcessSettings {

@@ -3,7 +3,7 @@
 //! of `waam_motion::clearance`: it samples every move densely and tests each sample point
 //! against every block welded before the move. The torch is not modelled here (the TCP's
 //! line is this file's subject; the torch's nozzle, body and wrist along the moves are
-//! tests/access.rs's): some of these plans are ones the torch cannot weld.
+//! access.rs's): some of these plans are ones the torch cannot weld.
 
 mod common;
 

@@ -1,7 +1,7 @@
 //! A mutation fuzzer per reader, run for a bounded number of cases in the normal test
 //! suite (issue #18): part files, plan files, STL meshes, layer files, process settings,
 //! node parameters, URDF, bags (MCAP) and the CDR of every message a recorded bag holds.
-//! (`tests/robustness.rs` adds structure-aware generators for parts, plans and STL.)
+//! (`robustness.rs` beside it adds structure-aware generators for parts, plans and STL.)
 //! `scripts/test.sh` runs it once more with more cases, bounded in time. Each case takes a
 //! corpus file (`tests/data/fuzz/READER/`)
 //! and applies a few byte edits a fuzzer would (bit flips, boundary integers written over
