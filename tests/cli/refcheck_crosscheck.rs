@@ -311,6 +311,7 @@ fn verdict(part: &Part, graph: &WeldGraph, fragments: &[Vec<Block>]) -> Result<b
     let plan = Plan {
         part: None,
         fragments: fragments.to_vec(),
+        nodes: None,
     };
     let indexed = plan.validate(part, graph).map_err(|e| e.rule())?;
     let model = ThermalModel::new(part, graph);
@@ -609,6 +610,7 @@ fn waam_check_agrees_with_refcheck() {
             let plan = Plan {
                 part: Some(part.name.clone()),
                 fragments,
+                nodes: None,
             };
             let file = if n % 3 == 2 {
                 let f = dir.path().join(format!("{}-{n}.json", part.name));

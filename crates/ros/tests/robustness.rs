@@ -266,10 +266,12 @@ fn exercise(part: &Part) {
     let singles = Plan {
         part: None,
         fragments: part.blocks().iter().map(|&b| vec![b]).collect(),
+        nodes: None,
     };
     let whole = Plan {
         part: None,
         fragments: vec![part.blocks().to_vec()],
+        nodes: None,
     };
     for (part, plan) in [(&many, singles), (part, whole)] {
         if let Ok(fragments) = plan.validate(part, &graph) {
@@ -468,6 +470,7 @@ fn a_million_block_part_parses_and_builds_its_graph() {
     let plan = Plan {
         part: None,
         fragments: vec![path],
+        nodes: None,
     };
     let t = Instant::now();
     let checked = plan.validate(&part, &graph);
