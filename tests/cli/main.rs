@@ -22,6 +22,7 @@ mod layer_part;
 mod limits;
 mod mesh;
 mod planner;
+mod readme_architecture;
 mod refcheck_crosscheck;
 mod replay;
 mod replay_publish;
