@@ -42,10 +42,10 @@ export WAAM_ROS_BUILD_VENV="$PWD/.venv-ros-build" WAAM_ROS_INTERFACES="$PWD/ros/
 step "tests (cargo test)"
 cargo test --workspace --all-targets --all-features
 
-# The fuzz harness (tests/fuzz.rs: one mutation fuzzer per reader over the corpus in
+# The fuzz harness (crates/ros/tests/fuzz.rs: one mutation fuzzer per reader over the corpus in
 # tests/data/fuzz/) ran above with its default 160 cases per reader; once more with 10,000
 # each (a few seconds per reader), bounded in time so that a hang fails the run. The same
 # package selection and features as above, so that the build above is reused (without them
 # cargo resolves other features and rebuilds the binary and its crates: ~2 minutes).
-step "fuzz (tests/fuzz.rs, 10,000 cases per reader)"
+step "fuzz (crates/ros/tests/fuzz.rs, 10,000 cases per reader)"
 WAAM_FUZZ_CASES=10000 timeout 600 cargo test --workspace --all-features --test fuzz

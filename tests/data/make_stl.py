@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the STL fixtures of tests/mesh.rs (run from anywhere; no dependencies).
+"""Writes the STL fixtures of crates/mesh/tests/mesh.rs (run from anywhere; no dependencies).
 
 box_ascii.stl / box_binary.stl   36 x 24 x 10 mm box at (10, -5, 3): 6 x 4 x 4 blocks of 6 x 6 x 2.5
 tube_ascii.stl / tube_binary.stl 24 x 24 x 5 mm square tube, 12 x 12 hole: the blocks of s3-ring

@@ -14,7 +14,7 @@ Node 2: `waam node --ros-args -r __ns:=/cell2 -r __node:=planner2 -r ~/status:=/
 4. Node 2 plans a part on its own topics (its status remapped) while node 1 runs.
 5. Each node offers the URDF in use on <namespace>/robot_description (latched), and reports
    its state and last result on /diagnostics at least once a second.
-(/tf_static is checked in tests/ros_node.rs from its raw bytes: no tf2_msgs wheel exists.)
+(/tf_static is checked in tests/cli/ros_node.rs from its raw bytes: no tf2_msgs wheel exists.)
 """
 
 import time

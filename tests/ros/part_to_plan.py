@@ -3,7 +3,7 @@
 1. a good part (s1-wall): JointTrajectory with the URDF's joint names and increasing times,
    a PoseArray and a Path with one pose per toolpath point, markers with one arc-on and one
    arc-off per fragment, and the status sequence received -> planning -> planned (the raw
-   weld_plan is checked by tests/ros_node.rs: rclpy has no type support for our message);
+   weld_plan is checked by tests/cli/ros_node.rs: rclpy has no type support for our message);
 2. a malformed part: an ERROR status naming the problem, the node keeps running and
    publishes nothing new;
 3. the next good part (s2-corner) is planned and published.

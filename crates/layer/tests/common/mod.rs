@@ -1,0 +1,16 @@
+//! This crate's test helpers: the repository root, and the helpers its tests share with the
+//! other crates' and the CLI's (`tests/support/` at the root, with the sample parts in
+//! `config/parts` and `tests/data`).
+#![allow(dead_code, unused_imports)] // each test file uses a different subset
+
+#[path = "../../../../tests/support/parts.rs"]
+mod parts;
+
+pub use parts::*;
+
+use std::path::PathBuf;
+
+/// The repository root (two folders above this crate).
+pub fn root() -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+}

@@ -1,0 +1,537 @@
+//! The SAT planner: exact counts, soundness against brute force, and the no-plan answers.
+//! (Through the `waam` binary: `tests/cli/planner.rs`.)
+
+mod common;
+
+use common::planner::*;
+use proptest::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use waam_part::Part;
+use waam_planner::{self as planner, Acyclicity, Backend, NoPlan, Options};
+
+/// (part, plans, feasible) from config/parts/COUNTS.md (a copy of shared/parts/COUNTS.md).
+fn expected_counts() -> Vec<(String, u64, u64)> {
+    let text = std::fs::read_to_string(root().join("config/parts/COUNTS.md")).unwrap();
+    text.lines()
+        .filter(|l| l.starts_with("| s") || l.starts_with("| ex"))
+        .filter_map(|l| {
+            let cells: Vec<&str> = l.split('|').map(str::trim).collect();
+            let name = cells[1].split_whitespace().next()?.to_string();
+            Some((name, cells[5].parse().ok()?, cells[6].parse().ok()?))
+        })
+        .collect()
+}
+
+/// On one worker thread and on several (each searching its own cubes of the plans), with
+/// either solver: the published counts.
+#[test]
+fn counts_match_the_published_numbers() {
+    let expected = expected_counts();
+    assert_eq!(expected.len(), 10, "COUNTS.md lists 10 parts");
+    // varisat on several threads only: the parallel path is the one to check against it.
+    for (solver, threads) in [
+        (Backend::Cadical, 1),
+        (Backend::Cadical, 3),
+        (Backend::Varisat, 3),
+    ] {
+        let opts = Options {
+            solver,
+            threads,
+            ..Options::default()
+        };
+        for (name, plans, feasible) in &expected {
+            let part = read_part(name);
+            let counts = planner::count(&part, &opts, true, &mut |_| {}).unwrap();
+            assert!(counts.complete);
+            let what = format!("{name} {solver:?} on {threads} thread(s)");
+            assert_eq!(counts.plans, Some(*plans), "{what}: plans");
+            assert_eq!(counts.feasible, *feasible, "{what}: feasible plans");
+        }
+    }
+}
+
+/// Every plan lies in exactly one of the first cubes, and in exactly one part of every
+/// cube that holds it, split after split (the counts of the workers add up exactly).
+#[test]
+fn every_plan_lies_in_exactly_one_cube_at_every_depth() {
+    use proptest::strategy::ValueTree;
+    let mut parts: Vec<Part> = ["s1-wall", "s5-ledge", "s7-pad", "s3-ring"]
+        .iter()
+        .map(|n| read_part(n))
+        .collect();
+    let mut runner = proptest::test_runner::TestRunner::deterministic();
+    for _ in 0..16 {
+        parts.push(small_part().new_tree(&mut runner).unwrap().current());
+    }
+    for part in &parts {
+        let graph = waam_part::graph::WeldGraph::new(part);
+        let plans = brute_force_plans(part, part.max_fragments);
+        let mut level = planner::cubes::first_cubes(part, &graph);
+        for depth in 0..8 {
+            for plan in &plans {
+                let holding = level.iter().filter(|c| c.holds(plan)).count();
+                assert_eq!(holding, 1, "{} depth {depth}: {plan:?}", part.name);
+            }
+            // One step deeper: every cube split (a closed cube holds on as it is).
+            level = level
+                .into_iter()
+                .flat_map(|c| {
+                    let parts = c.parts(&graph, part.max_fragments);
+                    if parts.is_empty() {
+                        vec![c]
+                    } else {
+                        parts
+                    }
+                })
+                .collect();
+        }
+    }
+}
+
+/// The feasible plans of `part` as `enumerate` hands them over on `threads` threads.
+fn enumerated(part: &Part, solver: Backend, threads: usize) -> Vec<Vec<Vec<usize>>> {
+    let opts = Options {
+        solver,
+        threads,
+        ..Options::default()
+    };
+    let mut plans = Vec::new();
+    let counts = planner::enumerate(part, &opts, &mut |_| {}, &mut |p| {
+        plans.push(p.to_vec());
+        Ok(())
+    })
+    .unwrap();
+    assert!(counts.complete);
+    assert_eq!(counts.feasible, plans.len() as u64);
+    plans
+}
+
+/// The same plans in the same order on 1 and 3 threads (and with either solver): the
+/// lexicographic order of their fragments, each plan once and feasible.
+#[test]
+fn all_plans_come_in_the_same_order_on_any_number_of_threads() {
+    for (name, _, feasible) in expected_counts().iter().filter(|(_, _, f)| *f > 0) {
+        let part = read_part(name);
+        let one = enumerated(&part, Backend::Cadical, 1);
+        assert_eq!(one.len() as u64, *feasible, "{name}");
+        assert!(
+            one.windows(2).all(|w| w[0] < w[1]),
+            "{name}: sorted, distinct"
+        );
+        assert_eq!(
+            enumerated(&part, Backend::Cadical, 3),
+            one,
+            "{name}: 3 threads"
+        );
+        if part.len() <= 50 {
+            assert_eq!(
+                enumerated(&part, Backend::Varisat, 3),
+                one,
+                "{name}: varisat"
+            );
+        }
+        for plan in &one {
+            assert!(is_feasible(&part, plan), "{name}: {plan:?}");
+        }
+    }
+}
+
+/// A parallel enumeration stops within a second of its deadline or of a cancel, and says
+/// it is incomplete.
+#[test]
+fn a_parallel_enumeration_stops_within_a_second_of_a_timeout_or_cancel() {
+    let part = read_part("ex3-h-column");
+    let timed = Options {
+        threads: 3,
+        timeout: Some(Duration::from_millis(200)),
+        ..Options::default()
+    };
+    let t = Instant::now();
+    let counts = planner::enumerate(&part, &timed, &mut |_| {}, &mut |_| Ok(())).unwrap();
+    assert!(!counts.complete);
+    assert!(
+        t.elapsed() < Duration::from_millis(1200),
+        "{:?}",
+        t.elapsed()
+    );
+    assert!(counts.feasible < 253);
+
+    let cancel = Arc::new(AtomicBool::new(false));
+    let opts = Options {
+        threads: 3,
+        cancel: Some(Arc::clone(&cancel)),
+        ..Options::default()
+    };
+    let raise = {
+        let cancel = Arc::clone(&cancel);
+        std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(200));
+            cancel.store(true, Ordering::Relaxed);
+            Instant::now()
+        })
+    };
+    let counts = planner::count(&part, &opts, true, &mut |_| {}).unwrap();
+    let raised = raise.join().unwrap();
+    assert!(!counts.complete);
+    assert!(
+        raised.elapsed() < Duration::from_secs(1),
+        "{:?}",
+        raised.elapsed()
+    );
+}
+
+#[test]
+fn eager_acyclicity_and_plain_clauses_count_the_same() {
+    for name in ["s3-ring", "s7-pad", "s5-ledge"] {
+        let part = read_part(name);
+        let reference = planner::count(&part, &Options::default(), true, &mut |_| {}).unwrap();
+        for opts in [
+            Options {
+                acyclicity: Acyclicity::Eager,
+                ..Options::default()
+            },
+            Options {
+                lookahead_budget: 0,
+                ..Options::default()
+            },
+        ] {
+            let c = planner::count(&part, &opts, true, &mut |_| {}).unwrap();
+            assert_eq!(
+                (c.plans, c.feasible),
+                (reference.plans, reference.feasible),
+                "{name} {opts:?}"
+            );
+        }
+    }
+}
+
+/// With CaDiCaL the thermal check runs inside the search: every plan that breaks a window is
+/// cut from a partial assignment by its prefix clause, so the only complete models judged
+/// by the loop are the feasible plans; varisat judges complete models only. Same counts.
+#[test]
+fn the_thermal_check_inside_the_search_leaves_only_feasible_models() {
+    let mut cooled_by_the_loop = false;
+    for (name, _, feasible) in expected_counts().iter().filter(|(_, p, f)| p > f) {
+        let part = read_part(name);
+        if part.len() > 50 {
+            continue; // ex2 and ex3: the counts test covers them
+        }
+        let count = |solver| {
+            let opts = Options {
+                solver,
+                ..Options::default()
+            };
+            planner::count(&part, &opts, false, &mut |_| {}).unwrap()
+        };
+        let (inside, outside) = (count(Backend::Cadical), count(Backend::Varisat));
+        assert_eq!(
+            (inside.feasible, outside.feasible),
+            (*feasible, *feasible),
+            "{name}"
+        );
+        assert_eq!(inside.stats.candidates, *feasible, "{name}: CaDiCaL models");
+        assert_eq!(
+            inside.stats.inside_clauses, inside.stats.learned_clauses,
+            "{name}"
+        );
+        assert!(inside.stats.inside_clauses > 0, "{name}");
+        // Each feasible plan's cooldown was simulated inside the search: the loop does not
+        // simulate it again (varisat's loop does, where a window is still open at the end).
+        assert_eq!(inside.stats.cooldown_steps, 0, "{name}: CaDiCaL cooldowns");
+        cooled_by_the_loop |= outside.stats.cooldown_steps > 0;
+        assert_eq!(outside.stats.inside_clauses, 0, "{name}");
+        assert!(
+            outside.stats.candidates > *feasible,
+            "{name}: varisat models"
+        );
+    }
+    assert!(
+        cooled_by_the_loop,
+        "some part needs a cooldown after its last deposit"
+    );
+}
+
+/// A random small part: up to 12 blocks in a 4 x 3 x 3 grid, with random windows.
+fn small_part() -> impl Strategy<Value = Part> {
+    grown_part("random", [4, 3, 3], 12, 4)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// The planner's exact counts, with every clause shortening on, equal brute force.
+    #[test]
+    fn counts_equal_brute_force(part in small_part()) {
+        let all = brute_force_plans(&part, part.max_fragments);
+        let feasible = all.iter().filter(|p| is_feasible(&part, p)).count() as u64;
+        for solver in [Backend::Cadical, Backend::Varisat] {
+            for acyclicity in [Acyclicity::Lazy, Acyclicity::Eager] {
+                let opts = Options { acyclicity, solver, ..Options::default() };
+                let counts = planner::count(&part, &opts, true, &mut |_| {}).unwrap();
+                prop_assert_eq!(counts.plans, Some(all.len() as u64), "{:?} {:?}", solver, acyclicity);
+                prop_assert_eq!(counts.feasible, feasible, "{:?} {:?}", solver, acyclicity);
+            }
+        }
+    }
+}
+
+#[test]
+fn the_best_plan_is_feasible_with_fewest_fragments_and_best_margin() {
+    let part = read_part("s7-pad");
+    let report = planner::plan(&part, &Options::default(), &mut |_| {}).unwrap();
+    assert!(report.proven);
+    let best = report.best.unwrap();
+    // Brute force: among feasible plans with the fewest fragments, the largest margin.
+    let graph = waam_part::graph::WeldGraph::new(&part);
+    let model = waam_thermal::ThermalModel::new(&part, &graph);
+    let feasible: Vec<_> = brute_force_plans(&part, part.max_fragments)
+        .into_iter()
+        .filter(|p| is_feasible(&part, p))
+        .collect();
+    let fewest = feasible.iter().map(Vec::len).min().unwrap();
+    let best_margin = feasible
+        .iter()
+        .filter(|p| p.len() == fewest)
+        .map(|p| model.margin(&waam_thermal::simulate(&model, p).unwrap().crossings))
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert_eq!(best.fragments.len(), fewest);
+    assert!(
+        (best.margin - best_margin).abs() < 1e-9,
+        "{} vs {best_margin}",
+        best.margin
+    );
+}
+
+#[test]
+fn no_valid_plan_names_the_fragments_needed_and_the_layer() {
+    let part = read_part("s4-tee-k1");
+    let report = planner::plan(&part, &Options::default(), &mut |_| {}).unwrap();
+    assert!(report.best.is_none() && report.proven);
+    let reason = report.no_plan.unwrap();
+    assert_eq!(
+        reason,
+        NoPlan::NoValidPlan {
+            max_fragments: 1,
+            needs_at_least: Some(2),
+            layer: Some((0, 2, 3))
+        }
+    );
+    assert!(
+        reason.to_string().contains("needs at least 2 fragments"),
+        "{reason}"
+    );
+}
+
+#[test]
+fn all_plans_breaking_windows_names_the_window() {
+    let part = read_part("s6-channel");
+    let report = planner::plan(&part, &Options::default(), &mut |_| {}).unwrap();
+    assert!(report.best.is_none() && report.proven);
+    match report.no_plan.unwrap() {
+        NoPlan::AllBreakWindows { block, times } => {
+            assert!(block == [0, 1, 2] || block == [3, 1, 2], "{block:?}");
+            assert!(times > 0);
+        }
+        other => panic!("expected AllBreakWindows, got {other:?}"),
+    }
+}
+
+/// A ring tower whose one window no plan keeps (tests/data/endless-ring.yaml): the planner
+/// runs until it is stopped.
+fn hard_part() -> std::path::PathBuf {
+    root().join("tests/data/endless-ring.yaml")
+}
+
+#[test]
+fn a_cancel_stops_a_solve_within_a_second() {
+    let part = Part::parse(&std::fs::read_to_string(hard_part()).unwrap()).unwrap();
+    let cancel = Arc::new(AtomicBool::new(false));
+    let opts = Options {
+        cancel: Some(Arc::clone(&cancel)),
+        solver: Backend::Cadical,
+        ..Options::default()
+    };
+    let flag = Arc::clone(&cancel);
+    let setter = std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_secs(1));
+        flag.store(true, Ordering::Relaxed);
+        Instant::now()
+    });
+    let report = planner::plan(&part, &opts, &mut |_| {}).unwrap();
+    let returned = Instant::now();
+    let cancelled = setter.join().unwrap();
+    assert!(report.best.is_none() && !report.proven);
+    assert!(report.no_plan.is_none());
+    assert!(
+        returned.duration_since(cancelled) < Duration::from_secs(1),
+        "returned {:?} after the cancel",
+        returned.duration_since(cancelled)
+    );
+}
+
+/// A part of solid layers (plates are what the global search finds hardest).
+fn solid(w: i64, d: i64, h: i64, k: usize) -> Part {
+    let blocks = (0..h)
+        .flat_map(|z| (0..d).flat_map(move |y| (0..w).map(move |x| [x, y, z])))
+        .collect();
+    Part::from_blocks("solid".into(), [6.0, 6.0, 2.5], [0.0; 3], k, blocks).unwrap()
+}
+
+#[test]
+fn the_warm_start_is_the_first_plan_of_a_solid_block() {
+    for solver in [Backend::Cadical, Backend::Varisat] {
+        let part = solid(10, 10, 10, 1);
+        let opts = Options {
+            solver,
+            ..Options::default()
+        };
+        let report = planner::first(&part, &opts, &mut |_| {}).unwrap();
+        let best = report.best.expect("a plan of a solid cube");
+        assert_eq!(
+            report.stats.candidates, 1,
+            "{solver:?}: the warm start is the plan"
+        );
+        assert_eq!(best.fragments.len(), 1);
+        let graph = waam_part::graph::WeldGraph::new(&part);
+        best.plan(&part).validate(&part, &graph).unwrap();
+    }
+}
+
+#[test]
+fn the_warm_start_changes_no_answer() {
+    // The best plan (fewest weld paths, then largest margin, proven) is the same with and
+    // without the warm start, on every sample part that is quick to optimize.
+    for name in [
+        "ex1-plate-boss",
+        "s1-wall",
+        "s2-corner",
+        "s3-ring",
+        "s4-tee-k1",
+        "s5-ledge",
+        "s6-channel",
+        "s7-pad",
+    ] {
+        let part = read_part(name);
+        let answer = |warm_start| {
+            let opts = Options {
+                warm_start,
+                ..Options::default()
+            };
+            let r = planner::plan(&part, &opts, &mut |_| {}).unwrap();
+            assert!(r.proven, "{name}: proven");
+            r.best.map(|b| (b.fragments.len(), b.margin))
+        };
+        assert_eq!(answer(true), answer(false), "{name}");
+    }
+}
+
+#[test]
+fn a_layer_in_more_pieces_than_k_is_no_plan_at_once() {
+    // Two separate rows per layer, k = 1: each layer alone needs two weld paths.
+    let blocks: Vec<_> = (0..3)
+        .flat_map(|z| (0..4).flat_map(move |x| [[x, 0, z], [x, 2, z]]))
+        .collect();
+    let part = Part::from_blocks("rows".into(), [6.0, 6.0, 2.5], [0.0; 3], 1, blocks).unwrap();
+    let report = planner::plan(&part, &Options::default(), &mut |_| {}).unwrap();
+    assert!(report.best.is_none() && report.proven);
+    assert_eq!(report.stats.candidates, 0);
+    match report.no_plan {
+        Some(NoPlan::NoValidPlan {
+            layer: Some((_, 2, _)),
+            ..
+        }) => {}
+        other => panic!("expected a layer needing 2 weld paths, got {other:?}"),
+    }
+}
+
+/// A one-block rectangular ring `w` x `d`, `h` layers high (a tube), k = 1.
+fn ring_tower(w: i64, d: i64, h: i64) -> Part {
+    let blocks = (0..h)
+        .flat_map(|z| {
+            (0..d).flat_map(move |y| {
+                (0..w)
+                    .filter(move |&x| y == 0 || y == d - 1 || x == 0 || x == w - 1)
+                    .map(move |x| [x, y, z])
+            })
+        })
+        .collect();
+    Part::from_blocks("ring".into(), [6.0, 6.0, 2.5], [0.0; 3], 1, blocks).unwrap()
+}
+
+#[test]
+fn a_warm_start_that_breaks_windows_is_set_off_elsewhere() {
+    // The layer-by-layer plan walks each ring layer back over the one below, so where it
+    // starts decides how soon each block gets the block above it. The windows here are
+    // those of a hidden plan of the same kind started elsewhere on the ring (three blocks,
+    // each [0.95 x shortest, 1.01 x longest t8/5] in it): the plain warm start breaks
+    // them, and the portfolio of other starts finds a plan that keeps them, checked afresh.
+    let mut part = ring_tower(8, 10, 40);
+    let graph = waam_part::graph::WeldGraph::new(&part);
+    let limits = planner::constructive::Limits {
+        deadline: None,
+        cancel: None,
+    };
+    let base = planner::constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &limits)
+        .expect("a ring tower has a layer-by-layer plan");
+    // The hidden plan: the base's first layer (the ring in order) from 13 blocks on, each
+    // layer walked back over the one below.
+    let ring: Vec<[i64; 3]> = base[0][..32].iter().map(|&b| part.block(b)).collect();
+    let rotated: Vec<[i64; 3]> = ring[13..].iter().chain(&ring[..13]).copied().collect();
+    let hidden: Vec<Vec<usize>> = vec![(0..40)
+        .flat_map(|z| {
+            let layer: Vec<[i64; 3]> = if z % 2 == 0 {
+                rotated.clone()
+            } else {
+                rotated.iter().rev().copied().collect()
+            };
+            layer.into_iter().map(move |[x, y, _]| [x, y, z])
+        })
+        .map(|b| part.index_of(b).unwrap())
+        .collect()];
+    let watched: Vec<usize> = [[0, 0, 10], [7, 4, 20], [3, 9, 30]]
+        .iter()
+        .map(|&b| part.index_of(b).unwrap())
+        .collect();
+    let simulate = |part: &Part, plan: &[Vec<usize>]| {
+        let model = waam_thermal::ThermalModel::new(part, &graph);
+        waam_thermal::simulate(&model, plan).unwrap()
+    };
+    for &b in &watched {
+        let wide = waam_part::Window {
+            min_s: 0.0,
+            max_s: 1e6,
+        };
+        part.set_window(b, wide);
+    }
+    let seen = simulate(&part, &hidden).crossings;
+    for &b in &watched {
+        let t85 = || seen.iter().filter(|c| c.block == b).map(|c| c.t85_s);
+        let window = waam_part::Window {
+            min_s: 0.95 * t85().fold(f64::INFINITY, f64::min),
+            max_s: 1.01 * t85().fold(0.0, f64::max),
+        };
+        part.set_window(b, window);
+    }
+    assert!(simulate(&part, &hidden).violation.is_none());
+    assert!(
+        simulate(&part, &base).violation.is_some(),
+        "the plain warm start breaks a window"
+    );
+
+    let run = || planner::first(&part, &Options::default(), &mut |_| {}).unwrap();
+    let report = run();
+    let best = report.best.expect("another start keeps the windows");
+    assert_eq!(
+        report.stats.candidates, 2,
+        "the plain warm start, then the portfolio's choice"
+    );
+    best.plan(&part).validate(&part, &graph).unwrap();
+    assert!(simulate(&part, &best.fragments).violation.is_none());
+    assert_eq!(
+        run().best.unwrap().fragments,
+        best.fragments,
+        "the same choice"
+    );
+}
