@@ -60,9 +60,15 @@ def parse_program(text, arc_on, arc_off):
     return welded
 
 
-def levels(moves, tolerance):
+def flat(move, h):
+    """Whether a move stays at one height (a step up inside a weld path does not)."""
+    a, b = move
+    return abs(a[2] - b[2]) <= 1e-3 * h
+
+
+def levels(moves, tolerance, h):
     """Distinct z levels of the moves that stay at one height, lowest first."""
-    zs = sorted(a[2] for a, b in moves if abs(a[2] - b[2]) <= tolerance)
+    zs = sorted(a[2] for a, b in moves if flat((a, b), h))
     out = []
     for z in zs:
         if not out or z - out[-1][-1] > tolerance:
@@ -114,7 +120,7 @@ def main():
     count = int(np.floor((zmax - zmin) / h + 1e-9))
     if (count - 0.5) * h + zmin >= zmax:
         count -= 1
-    zs = levels(moves, h / 4)
+    zs = levels(moves, h / 4, h)
     if len(zs) != count:
         print(
             f"bead_coverage: the program welds on {len(zs)} levels, the mesh has {count} layers of {h} mm",
@@ -127,7 +133,7 @@ def main():
         lines = [
             LineString([a[:2], b[:2]])
             for a, b in moves
-            if abs(a[2] - level) <= h / 4 and abs(b[2] - level) <= h / 4
+            if flat((a, b), h) and abs(a[2] - level) <= h / 4
         ]
         beads = unary_union([l.buffer(w / 2, cap_style="flat") for l in lines])
         area = section.area
