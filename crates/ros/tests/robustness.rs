@@ -485,15 +485,17 @@ fn a_million_block_part_parses_and_builds_its_graph() {
     );
 }
 
-/// Issue #18, P1: a block at the top of the i64 grid is a part like any other: counting
-/// its layers (what `waam plan` prints first) does not overflow.
+/// Issue #18, P1: a block at the top of the i64 grid overflowed when its layers were
+/// counted; issue #30: such a part lies beyond any cell and is refused when read, naming
+/// the axis, before anything counts its layers.
 #[test]
-fn a_block_at_the_top_of_the_grid_counts_its_layers_without_overflow() {
-    let part = Part::parse(
+fn a_block_at_the_top_of_the_grid_is_refused_when_read() {
+    let err = Part::parse(
         "name: z\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nblocks: [[0,0,9223372036854775807]]\n",
     )
-    .unwrap();
-    assert_eq!(part.layers(), i64::MAX);
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("along z"), "{err}");
 }
 
 /// Issue #18, P5/P6: time limits too long for a `Duration` are refused, naming the key.
