@@ -868,11 +868,11 @@ fn plan_without_a_robot_is_g_code_in_the_part_frame() {
         let mut args = vec!["plan", part];
         args.extend_from_slice(extra);
         args.extend_from_slice(&["--out", d, "-q"]);
-        ok(&waam(&args));
+        ok(&run_at_root(&args));
         assert!(!dir.path().join("trajectory.yaml").exists());
         let tp: ToolpathFile = serde_yaml::from_str(&read(dir.path(), "toolpath.yaml")).unwrap();
         assert_eq!(tp.frame, "part");
-        let stdout = ok(&waam(&["export", d, "--format", "gcode"]));
+        let stdout = ok(&run_at_root(&["export", d, "--format", "gcode"]));
         assert!(stdout.contains("EXPORT: gcode"), "{stdout}");
         let gcode = read(dir.path(), "WAAM.gcode");
         // The toolpath's moves, in mm as written: (G word, X Y Z).
@@ -914,7 +914,7 @@ fn plan_without_a_robot_is_g_code_in_the_part_frame() {
                     .lines()
                     .all(|l| !l.starts_with("G1 ") || l.contains(" F"))
         );
-        let out = waam(&["export", d, "--format", "rapid", "--robot", URDF]);
+        let out = run_at_root(&["export", d, "--format", "rapid", "--robot", URDF]);
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{err}");
         assert!(err.contains("trajectory.yaml"), "{err}");
