@@ -554,11 +554,12 @@ pub(crate) fn build_routes(
         );
         b.time += s.arc_on_dwell_s;
         b.push(ways[0], PoseKind::Weld, true, f, first, true);
-        for i in 1..ways.len() {
-            let (point, at_point) = route.marks[i];
+        for ((way, &(point, at_point)), &step_s) in
+            ways.iter().zip(&route.marks).zip(&route.step_s).skip(1)
+        {
             b.line(
-                ways[i],
-                route.step_s[i],
+                *way,
+                step_s,
                 PoseKind::Weld,
                 true,
                 PoseKind::Weld,
