@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
-use waam_export::{arm_configs, export, read_motion_dir, CellSettings, Format, Program};
+use waam_export::{arm_configs, export, read_toolpath_dir, CellSettings, Format, Program};
 use waam_motion::robot::Robot;
-use waam_motion::toolpath::ProcessSettings;
+use waam_motion::toolpath::{ProcessSettings, PART_FRAME};
 use waam_pipeline::Cell;
 
 use super::motion::RobotArgs;
@@ -17,7 +17,9 @@ use super::EXIT_OK;
 /// INFORM, Fanuc LS, or G-code for a gantry.
 ///
 /// DIR holds toolpath.yaml and trajectory.yaml, as `waam plan PART --robot URDF --out DIR`,
-/// `waam motion` or `waam layer plan --robot URDF --out DIR` write them. The program has one
+/// `waam motion` or `waam layer plan --robot URDF --out DIR` write them; for gcode,
+/// toolpath.yaml alone will do (`waam plan PART --out DIR` without a robot: the part frame,
+/// the toolpath's timing, moves with the arc off as G0). The program has one
 /// target per toolpath pose (in the plate frame: the work object / base / user frame), the
 /// trajectory's timing (speeds, dwells), the arc on exactly where the toolpath has it, and
 /// for the robot formats the arm configuration of the validated joint solution — for which
@@ -26,7 +28,7 @@ use super::EXIT_OK;
 /// (see docs/export.md). Exit code 0: written; 2: bad input.
 #[derive(Debug, clap::Args)]
 pub struct ExportArgs {
-    /// The motion directory (toolpath.yaml, trajectory.yaml).
+    /// The motion directory (toolpath.yaml, trajectory.yaml; gcode: toolpath.yaml alone).
     pub dir: PathBuf,
     /// The program format.
     #[arg(long, value_parser = format_parser())]
@@ -150,18 +152,36 @@ pub fn export_dir(
     name: &str,
     out: &Path,
 ) -> anyhow::Result<Vec<PathBuf>> {
-    let (tp, traj) = read_motion_dir(dir)?;
-    let configs = match (robot, format.is_robot()) {
-        (Some(robot), true) => Some(arm_configs(robot, &tp, &traj)?),
-        (None, true) => anyhow::bail!(
-            "--format {format} needs --robot URDF (the robot the motion in {} was planned for) to write the arm configuration of every target",
-            dir.display()
-        ),
-        (_, false) => None,
-    };
-    let tcp = robot.map_or_else(nalgebra::Isometry3::identity, |r| r.tcp);
-    let program = Program::new(name, &tp, &traj, settings.plate.isometry(), tcp, configs)
-        .with_context(|| format!("in the motion in {}", dir.display()))?;
+    let (tp, traj) = read_toolpath_dir(dir)?;
+    let program = match traj {
+        Some(traj) => {
+            let configs = match (robot, format.is_robot()) {
+                (Some(robot), true) => Some(arm_configs(robot, &tp, &traj)?),
+                (None, true) => anyhow::bail!(
+                    "--format {format} needs --robot URDF (the robot the motion in {} was planned for) to write the arm configuration of every target",
+                    dir.display()
+                ),
+                (_, false) => None,
+            };
+            let tcp = robot.map_or_else(nalgebra::Isometry3::identity, |r| r.tcp);
+            Program::new(name, &tp, &traj, settings.plate.isometry(), tcp, configs)
+        }
+        // A plan without a robot: the toolpath alone, for a gantry.
+        None => {
+            anyhow::ensure!(
+                !format.is_robot(),
+                "--format {format} needs a robot motion: {} has toolpath.yaml but no trajectory.yaml (plan with --robot URDF); --format gcode takes the toolpath alone",
+                dir.display()
+            );
+            let plate = if tp.frame == PART_FRAME {
+                nalgebra::Isometry3::identity()
+            } else {
+                settings.plate.isometry()
+            };
+            Program::from_toolpath(name, &tp, plate)
+        }
+    }
+    .with_context(|| format!("in the motion in {}", dir.display()))?;
     let files = export(&program, format, cell)?;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let mut written = Vec::new();

@@ -16,7 +16,7 @@ use waam_planner::{self as planner, Acyclicity, Backend, Options, Stats};
 
 use super::{record, GlobalArgs, EXIT_INTERRUPTED, EXIT_NO, EXIT_OK};
 use waam_access::TorchSetup;
-use waam_motion::toolpath::ProcessSettings;
+use waam_motion::toolpath::{toolpath_of_plan, ProcessSettings, ToolpathFrame};
 use waam_pipeline::{Interrupt, Objective, Progress};
 
 /// Plan the weld order of a part: at most k weld paths covering every block, moving
@@ -40,7 +40,9 @@ pub struct PlanArgs {
     pub part: Option<PathBuf>,
     #[command(flatten, next_help_heading = "Mesh input (PART is an .stl file)")]
     pub mesh: super::voxelize::MeshArgs,
-    /// Write DIR/plan.yaml (and, with --all, DIR/feasible-plans.yaml).
+    /// Write DIR/plan.yaml and DIR/toolpath.yaml (the torch poses: in the part frame, or
+    /// with --robot in its base link with DIR/trajectory.yaml); with --all,
+    /// DIR/feasible-plans.yaml.
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Return the first feasible plan found, without optimizing.
@@ -312,6 +314,12 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
             std::fs::write(&path, beads.to_yaml())
                 .with_context(|| format!("cannot write {}", path.display()))?;
         }
+        // Without a robot the torch poses are still written, in the part frame (the
+        // mesh's coordinates), for `waam export DIR --format gcode` and `waam plot`; with
+        // one, the validated motion below writes them in its base link.
+        if robot.is_none() {
+            write_part_frame_toolpath(dir, &part, &best.fragments, global.quiet || args.json)?;
+        }
     }
     // The motion is planned only for a feasible plan, and only a validated one is written
     // or recorded.
@@ -396,6 +404,34 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         (false, true) => EXIT_OK,
         (false, false) => EXIT_NO,
     }))
+}
+
+/// Writes `dir/toolpath.yaml`: the plan's torch poses in the part frame, with the bundled
+/// process settings. A toolpath that cannot be built (over the pose budget) is reported
+/// and left out: the plan stands.
+fn write_part_frame_toolpath(
+    dir: &std::path::Path,
+    part: &Part,
+    fragments: &[Vec<usize>],
+    quiet: bool,
+) -> anyhow::Result<()> {
+    let settings = ProcessSettings::default();
+    match toolpath_of_plan(part, fragments, &settings, ToolpathFrame::Part) {
+        Ok(tp) => {
+            let path = dir.join("toolpath.yaml");
+            std::fs::write(&path, tp.to_yaml())
+                .with_context(|| format!("cannot write {}", path.display()))?;
+            if !quiet {
+                eprintln!(
+                    "toolpath: {} poses in the part frame, wrote {}",
+                    tp.poses.len(),
+                    path.display()
+                );
+            }
+        }
+        Err(e) => eprintln!("warning: no toolpath.yaml: {e}"),
+    }
+    Ok(())
 }
 
 fn finite_or_null(x: f64) -> serde_json::Value {

@@ -852,3 +852,71 @@ fn layer_plan_with_export_writes_an_inform_job_at_the_layer_weld_speed() {
     }
     assert!(weld_moves > 10, "{weld_moves} weld moves");
 }
+
+/// Without a robot, `waam plan --out` writes toolpath.yaml in the part frame (a cube part
+/// through its blocks, a graph part sliced from an STL along its beads), and
+/// `waam export --format gcode` takes it alone: one G1 at the weld feed per toolpath move
+/// with the arc on, G0 with it off; the robot formats ask for the trajectory.
+#[test]
+fn plan_without_a_robot_is_g_code_in_the_part_frame() {
+    for (part, extra) in [
+        ("config/parts/s2-corner.yaml", &[][..]),
+        ("tests/data/ring_binary.stl", &["--bead", "6 2.5"][..]),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path().to_str().unwrap();
+        let mut args = vec!["plan", part];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["--out", d, "-q"]);
+        ok(&run_at_root(&args));
+        assert!(!dir.path().join("trajectory.yaml").exists());
+        let tp: ToolpathFile = serde_yaml::from_str(&read(dir.path(), "toolpath.yaml")).unwrap();
+        assert_eq!(tp.frame, "part");
+        let stdout = ok(&run_at_root(&["export", d, "--format", "gcode"]));
+        assert!(stdout.contains("EXPORT: gcode"), "{stdout}");
+        let gcode = read(dir.path(), "WAAM.gcode");
+        // The toolpath's moves, in mm as written: (G word, X Y Z).
+        let xyz = |p: [f64; 3]| {
+            format!(
+                "X{:.3} Y{:.3} Z{:.3}",
+                p[0] * 1000.0,
+                p[1] * 1000.0,
+                p[2] * 1000.0
+            )
+            .replace("-0.000", "0.000")
+        };
+        let want: Vec<(&str, String)> = tp
+            .poses
+            .windows(2)
+            .filter(|w| {
+                let d: f64 = (0..3)
+                    .map(|k| (w[1].position[k] - w[0].position[k]).powi(2))
+                    .sum();
+                d.sqrt() * 1000.0 >= 1e-3
+            })
+            .map(|w| (if w[0].arc_on { "G1" } else { "G0" }, xyz(w[1].position)))
+            .collect();
+        let got: Vec<(&str, String)> = gcode
+            .lines()
+            .skip_while(|l| !l.starts_with("G0 "))
+            .skip(1)
+            .filter(|l| l.starts_with("G0 ") || l.starts_with("G1 "))
+            .map(|l| {
+                let coords: Vec<&str> = l.split(' ').skip(1).take(3).collect();
+                (&l[..2], coords.join(" "))
+            })
+            .collect();
+        assert_eq!(got, want, "{part}");
+        let welds = gcode.lines().filter(|l| l.starts_with("G1 ")).count();
+        assert!(
+            welds > 0
+                && gcode
+                    .lines()
+                    .all(|l| !l.starts_with("G1 ") || l.contains(" F"))
+        );
+        let out = run_at_root(&["export", d, "--format", "rapid", "--robot", URDF]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(err.contains("trajectory.yaml"), "{err}");
+    }
+}

@@ -361,24 +361,38 @@ pub struct Program {
     /// The TCP in the tool flange (the URDF tip link), m.
     pub tcp: Isometry3<f64>,
     pub targets: Vec<Target>,
+    /// The timing is the toolpath's own, not a validated robot trajectory's: a gantry
+    /// makes moves with the arc off at its rapid traverse (G-code `G0`).
+    pub rapid_travel: bool,
 }
 
 /// Reads `DIR/toolpath.yaml` and `DIR/trajectory.yaml`.
 pub fn read_motion_dir(dir: &Path) -> Result<(ToolpathFile, TrajectoryFile), ExportError> {
-    fn read<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, ExportError> {
-        let text = std::fs::read_to_string(path).map_err(|error| ExportError::Read {
-            path: path.display().to_string(),
-            error,
-        })?;
-        serde_yaml::from_str(&text).map_err(|e| ExportError::Parse {
-            path: path.display().to_string(),
-            reason: e.to_string(),
-        })
-    }
     Ok((
-        read(&dir.join("toolpath.yaml"))?,
-        read(&dir.join("trajectory.yaml"))?,
+        read_yaml(&dir.join("toolpath.yaml"))?,
+        read_yaml(&dir.join("trajectory.yaml"))?,
     ))
+}
+
+/// Reads `DIR/toolpath.yaml` and, when there is one, `DIR/trajectory.yaml` (a plan without
+/// a robot has a toolpath in the part frame only).
+pub fn read_toolpath_dir(
+    dir: &Path,
+) -> Result<(ToolpathFile, Option<TrajectoryFile>), ExportError> {
+    let tp = read_yaml(&dir.join("toolpath.yaml"))?;
+    let traj = dir.join("trajectory.yaml");
+    Ok((tp, traj.exists().then(|| read_yaml(&traj)).transpose()?))
+}
+
+fn read_yaml<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, ExportError> {
+    let text = std::fs::read_to_string(path).map_err(|error| ExportError::Read {
+        path: path.display().to_string(),
+        error,
+    })?;
+    serde_yaml::from_str(&text).map_err(|e| ExportError::Parse {
+        path: path.display().to_string(),
+        reason: e.to_string(),
+    })
 }
 
 /// The arm configuration of every trajectory point, from the robot's analytic solver; the
@@ -447,25 +461,51 @@ impl Program {
                 trajectory: traj.points.len(),
             });
         }
+        if let Some(i) = (0..tp.poses.len()).find(|&i| tp.poses[i].arc_on != traj.points[i].arc_on)
+        {
+            return Err(ExportError::BadPoint {
+                point: i,
+                reason: "the toolpath and the trajectory disagree on the arc".into(),
+            });
+        }
+        let times = traj.points.iter().map(|p| p.time_from_start);
+        Program::of_poses(name, tp, times, plate, tcp, configs, false)
+    }
+
+    /// The program of a toolpath alone (`waam plan --out` without a robot; G-code): the
+    /// toolpath's own timing, no arm configuration, and moves with the arc off at the
+    /// machine's rapid traverse (`rapid_travel`). `plate`: the toolpath's frame's placement
+    /// of the part frame (identity for a toolpath in the part frame).
+    pub fn from_toolpath(
+        name: &str,
+        tp: &ToolpathFile,
+        plate: Isometry3<f64>,
+    ) -> Result<Program, ExportError> {
+        let times = tp.poses.iter().map(|p| p.time);
+        Program::of_poses(name, tp, times, plate, Isometry3::identity(), None, true)
+    }
+
+    fn of_poses(
+        name: &str,
+        tp: &ToolpathFile,
+        times: impl Iterator<Item = f64>,
+        plate: Isometry3<f64>,
+        tcp: Isometry3<f64>,
+        configs: Option<Vec<ArmConfig>>,
+        rapid_travel: bool,
+    ) -> Result<Program, ExportError> {
         if tp.poses.is_empty() {
             return Err(ExportError::Empty);
         }
         let mut configs = configs.map(|c| c.into_iter());
         let mut targets: Vec<Target> = Vec::with_capacity(tp.poses.len());
         let mut arc_before = false;
-        for (i, (pose, point)) in tp.poses.iter().zip(&traj.points).enumerate() {
+        for (i, (pose, t)) in tp.poses.iter().zip(times).enumerate() {
             let base = pose.isometry();
-            let t = point.time_from_start;
             if !t.is_finite() || !base.translation.vector.iter().all(|v| v.is_finite()) {
                 return Err(ExportError::BadPoint {
                     point: i,
                     reason: "not a finite pose or time".into(),
-                });
-            }
-            if pose.arc_on != point.arc_on {
-                return Err(ExportError::BadPoint {
-                    point: i,
-                    reason: "the toolpath and the trajectory disagree on the arc".into(),
                 });
             }
             let how = match targets.last() {
@@ -518,6 +558,7 @@ impl Program {
             plate,
             tcp,
             targets,
+            rapid_travel,
         })
     }
 

@@ -54,10 +54,7 @@ pub fn plan_motion_timed(
     arc_on_at_s: Option<&[f64]>,
 ) -> Result<(Toolpath, JointTrajectory), MotionError> {
     let passes = toolpath::passes_from_plan(part, fragments);
-    let timing = match settings.weld_speed_mm_s {
-        Some(v) => WeldTiming::Speed(v),
-        None => WeldTiming::PerPoint(part.thermal.block_time_s),
-    };
+    let timing = WeldTiming::of_plan(part, settings);
     let (tp, traj) =
         plan_passes(&passes, timing, settings, robot, arc_on_at_s).map_err(|mut e| {
             if let MotionError::Trajectory(t) = &mut e {

@@ -11,6 +11,7 @@
 //! A pose's `arc_on` is the arc's state from that pose on: the arc-on marker is the first
 //! pose with the arc on, the arc-off marker the first with it off again.
 
+pub mod beads;
 pub mod settings;
 
 use std::fmt::Write as _;
@@ -19,6 +20,7 @@ use nalgebra::{Isometry3, Point3, Translation3, Unit, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+pub use beads::{toolpath_of_graph_plan, ToolpathFrame, PART_FRAME};
 pub use settings::{ProcessSettings, SettingsError};
 use waam_part::Part;
 
@@ -45,6 +47,27 @@ pub fn passes_from_plan(part: &Part, fragments: &[Vec<usize>]) -> Vec<WeldPass> 
         .collect()
 }
 
+/// The toolpath of a plan of `part` in `frame`: for a graph part
+/// ([`Part::bead_part`]) along its beads ([`toolpath_of_graph_plan`]), for a cube part
+/// through the blocks' top centres ([`passes_from_plan`]) at [`WeldTiming::of_plan`].
+pub fn toolpath_of_plan(
+    part: &Part,
+    fragments: &[Vec<usize>],
+    settings: &ProcessSettings,
+    frame: ToolpathFrame,
+) -> Result<Toolpath, ToolpathError> {
+    if let Some(beads) = part.bead_part() {
+        return toolpath_of_graph_plan(beads, fragments, settings, frame);
+    }
+    let timing = WeldTiming::of_plan(part, settings);
+    let routes: Vec<Route> = passes_from_plan(part, fragments)
+        .iter()
+        .map(|p| Route::of_pass(p, timing))
+        .collect();
+    let (plate, name) = frame.placement(settings);
+    build_routes(&routes, settings, plate, &name)
+}
+
 /// How long the torch takes from one weld point to the next.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum WeldTiming {
@@ -52,6 +75,17 @@ pub enum WeldTiming {
     PerPoint(f64),
     /// A constant speed, mm/s.
     Speed(f64),
+}
+
+impl WeldTiming {
+    /// A block plan's: the process settings' weld speed, else one block per the part's
+    /// `block_time_s`.
+    pub fn of_plan(part: &Part, settings: &ProcessSettings) -> WeldTiming {
+        match settings.weld_speed_mm_s {
+            Some(v) => WeldTiming::Speed(v),
+            None => WeldTiming::PerPoint(part.thermal.block_time_s),
+        }
+    }
 }
 
 /// What a pose is for.
@@ -104,6 +138,13 @@ pub enum ToolpathError {
     EmptyPass(usize),
     #[error("weld pass {pass} point {point} is not a finite point")]
     BadPoint { pass: usize, point: usize },
+    #[error("fragment {pass} position {point}: no node {node} (the part has {nodes})")]
+    UnknownNode {
+        pass: usize,
+        point: usize,
+        node: usize,
+        nodes: usize,
+    },
     #[error(
         "the toolpath would need about {poses:.2e} poses, more than max_poses = {max} \
          (its longest move, {what}, is {longest_mm:.3e} mm at max_step_mm = {step_mm}); \
@@ -124,7 +165,10 @@ pub enum ToolpathError {
 /// its turn / max_step_deg where the torch turns: on the travel lines (6 a pass) and on the
 /// two weld steps around each point where the pass changes direction (the torch heading
 /// changes nowhere else). Travel lines are bounded by the passes' bounding box.
-fn check_pose_budget(passes: &[WeldPass], s: &ProcessSettings) -> Result<(), ToolpathError> {
+fn check_pose_budget<P: AsRef<[Point3<f64>]>>(
+    passes: &[P],
+    s: &ProcessSettings,
+) -> Result<(), ToolpathError> {
     let (poses, longest) = pose_bound(passes, s);
     if poses.is_nan() || poses > s.max_poses as f64 {
         return Err(ToolpathError::TooManyPoses {
@@ -139,14 +183,17 @@ fn check_pose_budget(passes: &[WeldPass], s: &ProcessSettings) -> Result<(), Too
 }
 
 /// The bound of [`check_pose_budget`], and the longest move (mm, what).
-fn pose_bound(passes: &[WeldPass], s: &ProcessSettings) -> (f64, (f64, &'static str)) {
+fn pose_bound<P: AsRef<[Point3<f64>]>>(
+    passes: &[P],
+    s: &ProcessSettings,
+) -> (f64, (f64, &'static str)) {
     let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
     let mut lines = 2.0;
     let mut turning_lines = 2.0;
     let mut weld_mm = 0.0;
     let mut longest = (0.0f64, "a weld step");
     for pass in passes {
-        let pts = &pass.points_mm;
+        let pts = pass.as_ref();
         lines += pts.len() as f64 + 6.0;
         turning_lines += 6.0;
         let direction = |i: usize| {
@@ -170,7 +217,7 @@ fn pose_bound(passes: &[WeldPass], s: &ProcessSettings) -> (f64, (f64, &'static 
                 turning_lines += 2.0;
             }
         }
-        for p in &pass.points_mm {
+        for p in pts {
             for k in 0..3 {
                 lo[k] = lo[k].min(p[k]);
                 hi[k] = hi[k].max(p[k]);
@@ -346,26 +393,85 @@ pub fn build(
     timing: WeldTiming,
     frame: &str,
 ) -> Result<Toolpath, ToolpathError> {
-    if passes.is_empty() {
+    let routes: Vec<Route> = passes.iter().map(|p| Route::of_pass(p, timing)).collect();
+    build_routes(&routes, settings, settings.plate.isometry(), frame)
+}
+
+/// A weld pass as the builder walks it: stations (torch targets, part frame, mm) with the
+/// time from the station before and the pass point each is at or next to. A block plan
+/// has one station per block; a bead path ([`beads`]) also has the centre line's
+/// vertices, which are not deposits (`at_point` false) and so add no deposit time to
+/// [`Toolpath::executed_times`].
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Route {
+    pub points_mm: Vec<Point3<f64>>,
+    /// Time from the station before, s (the first station's is not used).
+    pub step_s: Vec<f64>,
+    /// (pass point, at the point itself) of every station.
+    pub marks: Vec<(usize, bool)>,
+}
+
+impl Route {
+    fn of_pass(pass: &WeldPass, timing: WeldTiming) -> Route {
+        let pts = &pass.points_mm;
+        let step_s = (0..pts.len())
+            .map(|i| match (i, timing) {
+                (0, _) => 0.0,
+                (_, WeldTiming::PerPoint(t)) => t,
+                (_, WeldTiming::Speed(v)) => (pts[i] - pts[i - 1]).norm() / v,
+            })
+            .collect();
+        Route {
+            points_mm: pts.clone(),
+            step_s,
+            marks: (0..pts.len()).map(|i| (i, true)).collect(),
+        }
+    }
+}
+
+impl AsRef<[Point3<f64>]> for Route {
+    fn as_ref(&self) -> &[Point3<f64>] {
+        &self.points_mm
+    }
+}
+
+impl AsRef<[Point3<f64>]> for WeldPass {
+    fn as_ref(&self) -> &[Point3<f64>] {
+        &self.points_mm
+    }
+}
+
+/// The builder shared by block plans, layer trails and bead paths: transit, approach,
+/// arc on, the stations, arc off, retract, with `plate` the part frame in `frame`.
+pub(crate) fn build_routes(
+    routes: &[Route],
+    settings: &ProcessSettings,
+    plate: Isometry3<f64>,
+    frame: &str,
+) -> Result<Toolpath, ToolpathError> {
+    if routes.is_empty() {
         return Err(ToolpathError::NoPasses);
     }
-    for (f, pass) in passes.iter().enumerate() {
-        if pass.points_mm.is_empty() {
+    for (f, route) in routes.iter().enumerate() {
+        if route.points_mm.is_empty() {
             return Err(ToolpathError::EmptyPass(f));
         }
-        if let Some(p) = pass
+        if let Some(i) = route
             .points_mm
             .iter()
             .position(|p| !p.iter().all(|v| v.is_finite()))
         {
-            return Err(ToolpathError::BadPoint { pass: f, point: p });
+            return Err(ToolpathError::BadPoint {
+                pass: f,
+                point: route.marks[i].0,
+            });
         }
     }
-    check_pose_budget(passes, settings)?;
+    check_pose_budget(routes, settings)?;
     let s = settings;
     let mut b = Builder {
         s,
-        plate: s.plate.isometry(),
+        plate,
         poses: Vec::new(),
         at: None,
         time: 0.0,
@@ -377,8 +483,8 @@ pub fn build(
     // The tallest point welded so far (the plate's surface at first).
     let mut tallest = 0.0f64;
     let mut heading = Vector3::x();
-    for (f, pass) in passes.iter().enumerate() {
-        let pts = &pass.points_mm;
+    for (f, route) in routes.iter().enumerate() {
+        let pts = &route.points_mm;
         let hs = headings(pts, heading);
         heading = *hs.last().expect("a pass has points");
         let ways: Vec<Way> = pts
@@ -389,6 +495,7 @@ pub fn build(
                 r: torch_rotation(h, s),
             })
             .collect();
+        let first = route.marks[0].0;
         let approach = back_off(&ways[0]);
         let mut safe = (tallest + s.transit_height_mm()).max(approach.p.z);
         match b.at {
@@ -405,7 +512,7 @@ pub fn build(
                     PoseKind::Transit,
                     false,
                     f,
-                    0,
+                    first,
                     false,
                 );
             }
@@ -418,7 +525,7 @@ pub fn build(
                     },
                     PoseKind::Transit,
                     f,
-                    0,
+                    first,
                 );
                 b.travel(
                     Way {
@@ -427,11 +534,11 @@ pub fn build(
                     },
                     PoseKind::Transit,
                     f,
-                    0,
+                    first,
                 );
             }
         }
-        b.travel(approach, PoseKind::Transit, f, 0);
+        b.travel(approach, PoseKind::Transit, f, first);
         // Approach along the torch axis; its last pose is the arc-on marker.
         let dist = (ways[0].p - approach.p).norm();
         b.line(
@@ -442,38 +549,38 @@ pub fn build(
             PoseKind::ArcOn,
             true,
             f,
-            0,
+            first,
             true,
         );
         b.time += s.arc_on_dwell_s;
-        b.push(ways[0], PoseKind::Weld, true, f, 0, true);
-        for i in 1..ways.len() {
-            let step = match timing {
-                WeldTiming::PerPoint(t) => t,
-                WeldTiming::Speed(v) => (ways[i].p - ways[i - 1].p).norm() / v,
-            };
+        b.push(ways[0], PoseKind::Weld, true, f, first, true);
+        for ((way, &(point, at_point)), &step_s) in
+            ways.iter().zip(&route.marks).zip(&route.step_s).skip(1)
+        {
             b.line(
-                ways[i],
-                step,
+                *way,
+                step_s,
                 PoseKind::Weld,
                 true,
                 PoseKind::Weld,
                 true,
                 f,
-                i,
-                true,
+                point,
+                at_point,
             );
         }
         let last = ways.len() - 1;
+        let (last_point, _) = route.marks[last];
         b.time += s.arc_off_dwell_s;
-        b.push(ways[last], PoseKind::ArcOff, false, f, last, true);
-        b.travel(back_off(&ways[last]), PoseKind::Retract, f, last);
+        b.push(ways[last], PoseKind::ArcOff, false, f, last_point, true);
+        b.travel(back_off(&ways[last]), PoseKind::Retract, f, last_point);
         tallest = pts.iter().map(|p| p.z).fold(tallest, f64::max);
     }
     // Leave the part: up to safe height above the last retract.
     let at = b.at.expect("poses were emitted");
-    let f = passes.len() - 1;
+    let f = routes.len() - 1;
     let safe = (tallest + s.transit_height_mm()).max(at.p.z);
+    let last_point = routes[f].marks.last().expect("a pass has points").0;
     b.travel(
         Way {
             p: Point3::new(at.p.x, at.p.y, safe),
@@ -481,7 +588,7 @@ pub fn build(
         },
         PoseKind::Transit,
         f,
-        passes[f].points_mm.len() - 1,
+        last_point,
     );
     Ok(Toolpath {
         frame: frame.to_string(),

@@ -1,0 +1,527 @@
+//! The toolpath of a graph-part plan: the torch follows the beads' centre lines.
+//!
+//! Each fragment (node ids in weld order) becomes one weld pass. A node's piece of its bead
+//! is the centre line from `from_mm` to `to_mm`, walked forwards or backwards so that
+//! consecutive nodes of one bead join end to start (across the seam of a closed bead too);
+//! between nodes that do not join (a step beside or up) the torch welds a straight
+//! connection. The torch target is the top of the bead's layer, `base_z_mm + (layer + 1)·H`,
+//! as a block plan's is the top centre of the block. Transit, approach, arc on/off and
+//! retract are the block plan's ([`super::build_routes`]).
+//!
+//! Timing: with the process settings' `weld_speed_mm_s`, that speed throughout. Without it,
+//! node i takes the graph thermal model's deposit time `block_time_s · V_i / V0`
+//! (`V0 = W·W·H`, `docs/graph-thermal-model.md`): a constant weld speed `W / block_time_s`
+//! on nodes sliced as `W·H·length`, as a block plan welds one block width per block time.
+//! Node i's time covers its piece and the connection to the next node, so that node i + 1
+//! is deposited (the torch reaches the start of its piece) exactly that time after node i,
+//! as the thermal model deposits them.
+
+use nalgebra::{Isometry3, Point3};
+use waam_part::{Bead, BeadPart, Deposit};
+
+use super::{build_routes, ProcessSettings, Route, Toolpath, ToolpathError};
+
+/// The frame of [`Toolpath::frame`] when the poses are in the part frame (no robot): the
+/// mesh's own coordinates, as the ROS node's `part` frame.
+pub const PART_FRAME: &str = "part";
+
+/// Where a toolpath's poses are given.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ToolpathFrame<'a> {
+    /// The part frame ([`PART_FRAME`]): no robot, the process settings' plate is not used.
+    Part,
+    /// The robot's base link: the part frame placed by the process settings' plate.
+    Robot { base_link: &'a str },
+}
+
+impl ToolpathFrame<'_> {
+    /// The part frame in this frame, and the frame's name.
+    pub fn placement(self, settings: &ProcessSettings) -> (Isometry3<f64>, String) {
+        match self {
+            ToolpathFrame::Part => (Isometry3::identity(), PART_FRAME.to_string()),
+            ToolpathFrame::Robot { base_link } => {
+                (settings.plate.isometry(), base_link.to_string())
+            }
+        }
+    }
+}
+
+/// The toolpath of a graph plan (fragments of node ids), in `frame`. Errors: no fragments,
+/// an empty fragment, a node id the part does not have, a toolpath over the pose budget.
+pub fn toolpath_of_graph_plan(
+    part: &BeadPart,
+    fragments: &[Vec<usize>],
+    settings: &ProcessSettings,
+    frame: ToolpathFrame,
+) -> Result<Toolpath, ToolpathError> {
+    let routes = routes_of_graph_plan(part, fragments, settings.weld_speed_mm_s)?;
+    let (plate, name) = frame.placement(settings);
+    build_routes(&routes, settings, plate, &name)
+}
+
+/// One route per fragment (see the module's description).
+pub(crate) fn routes_of_graph_plan(
+    part: &BeadPart,
+    fragments: &[Vec<usize>],
+    weld_speed_mm_s: Option<f64>,
+) -> Result<Vec<Route>, ToolpathError> {
+    if fragments.is_empty() {
+        return Err(ToolpathError::NoPasses);
+    }
+    let beads: Vec<Line> = part.beads.iter().map(Line::new).collect();
+    let [w, h] = part.bead_mm;
+    let v0 = w * w * h;
+    let mut routes = Vec::with_capacity(fragments.len());
+    for (f, frag) in fragments.iter().enumerate() {
+        if frag.is_empty() {
+            return Err(ToolpathError::EmptyPass(f));
+        }
+        if let Some(k) = frag.iter().position(|&n| n >= part.nodes.len()) {
+            return Err(ToolpathError::UnknownNode {
+                pass: f,
+                point: k,
+                node: frag[k],
+                nodes: part.nodes.len(),
+            });
+        }
+        let nodes: Vec<&Deposit> = frag.iter().map(|&n| &part.nodes[n]).collect();
+        let z = |d: &Deposit| part.base_z_mm + (d.layer as f64 + 1.0) * h;
+        let mut points: Vec<Point3<f64>> = Vec::new();
+        let mut marks: Vec<(usize, bool)> = Vec::new();
+        // The node whose time each step (into a station) counts against.
+        let mut span_of: Vec<usize> = Vec::new();
+        // Where the previous piece ended: (bead, arc length).
+        let mut end: Option<(usize, f64)> = None;
+        for (k, d) in nodes.iter().enumerate() {
+            let forward = direction(&beads, &nodes, k, end, &points);
+            let line = &beads[d.bead];
+            let (from, to) = (line.clamp(d.from_mm), line.clamp(d.to_mm));
+            let mut piece = line.piece(from, to);
+            if !forward {
+                piece.reverse();
+            }
+            let piece: Vec<Point3<f64>> = piece
+                .into_iter()
+                .map(|[x, y]| Point3::new(x, y, z(d)))
+                .collect();
+            match points.last() {
+                // The pieces join: the previous piece's end is this node's deposit point.
+                Some(last) if (piece[0] - last).norm() < JOIN_MM => {
+                    *marks.last_mut().expect("marks follow points") = (k, true);
+                }
+                // A step beside or up: a straight weld, on the previous node's time.
+                _ => {
+                    points.push(piece[0]);
+                    marks.push((k, true));
+                    span_of.push(k.saturating_sub(1));
+                }
+            }
+            for p in &piece[1..] {
+                points.push(*p);
+                marks.push((k, false));
+                span_of.push(k);
+            }
+            end = Some((d.bead, if forward { to } else { from }));
+        }
+        let step_mm: Vec<f64> = (0..points.len())
+            .map(|i| match i {
+                0 => 0.0,
+                _ => (points[i] - points[i - 1]).norm(),
+            })
+            .collect();
+        let step_s = match weld_speed_mm_s {
+            Some(v) => step_mm.iter().map(|d| d / v).collect(),
+            None => {
+                let mut span_mm = vec![0.0; nodes.len()];
+                for (i, d) in step_mm.iter().enumerate().skip(1) {
+                    span_mm[span_of[i]] += d;
+                }
+                let time = |k: usize| part.thermal.block_time_s * nodes[k].volume_mm3 / v0;
+                (0..points.len())
+                    .map(|i| match i {
+                        0 => 0.0,
+                        _ => time(span_of[i]) * step_mm[i] / span_mm[span_of[i]],
+                    })
+                    .collect()
+            }
+        };
+        routes.push(Route {
+            points_mm: points,
+            step_s,
+            marks,
+        });
+    }
+    Ok(routes)
+}
+
+/// Two pieces closer than this (mm) join without a connection.
+const JOIN_MM: f64 = 1e-6;
+
+/// Whether node `k` of a fragment is walked from `from_mm` to `to_mm`: so that it starts
+/// where the previous piece of its bead ended; else so that it ends where the next piece
+/// of its bead starts; else starting at the end nearer the torch (after a step), or ending
+/// nearer the next node; else forwards.
+fn direction(
+    beads: &[Line],
+    nodes: &[&Deposit],
+    k: usize,
+    end: Option<(usize, f64)>,
+    points: &[Point3<f64>],
+) -> bool {
+    let d = nodes[k];
+    let line = &beads[d.bead];
+    let (from, to) = (line.clamp(d.from_mm), line.clamp(d.to_mm));
+    if let Some((_, s)) = end.filter(|&(b, _)| b == d.bead) {
+        if line.same_place(s, from) {
+            return true;
+        }
+        if line.same_place(s, to) {
+            return false;
+        }
+    }
+    if let Some(next) = nodes.get(k + 1).filter(|n| n.bead == d.bead) {
+        let ends = [line.clamp(next.from_mm), line.clamp(next.to_mm)];
+        if ends.iter().any(|&e| line.same_place(to, e)) {
+            return true;
+        }
+        if ends.iter().any(|&e| line.same_place(from, e)) {
+            return false;
+        }
+    }
+    let dist = |s: f64, q: [f64; 2]| {
+        let p = line.at(s);
+        (p[0] - q[0]).hypot(p[1] - q[1])
+    };
+    if let Some(p) = points.last() {
+        return dist(from, [p.x, p.y]) <= dist(to, [p.x, p.y]);
+    }
+    if let Some(next) = nodes.get(k + 1) {
+        let c = [next.centre_mm[0], next.centre_mm[1]];
+        return dist(to, c) <= dist(from, c);
+    }
+    true
+}
+
+/// A bead's centre line with the arc length at each vertex; a closed bead repeats its
+/// first point at the end.
+struct Line {
+    points: Vec<[f64; 2]>,
+    at_mm: Vec<f64>,
+    closed: bool,
+}
+
+impl Line {
+    fn new(bead: &Bead) -> Line {
+        let mut points = bead.points.clone();
+        if bead.closed {
+            points.push(bead.points[0]);
+        }
+        let mut at_mm = Vec::with_capacity(points.len());
+        let mut s = 0.0;
+        for (i, p) in points.iter().enumerate() {
+            if i > 0 {
+                let q = points[i - 1];
+                s += (p[0] - q[0]).hypot(p[1] - q[1]);
+            }
+            at_mm.push(s);
+        }
+        Line {
+            points,
+            at_mm,
+            closed: bead.closed,
+        }
+    }
+
+    fn length(&self) -> f64 {
+        *self.at_mm.last().expect("a bead has points")
+    }
+
+    /// The reader allows `to_mm` a rounding error beyond the length.
+    fn clamp(&self, s: f64) -> f64 {
+        s.clamp(0.0, self.length())
+    }
+
+    /// Whether two arc lengths are one place (the seam of a closed bead: 0 and its length).
+    fn same_place(&self, a: f64, b: f64) -> bool {
+        let eps = 1e-6 * self.length().max(1.0);
+        (a - b).abs() <= eps || (self.closed && ((a - b).abs() - self.length()).abs() <= eps)
+    }
+
+    /// The point at arc length `s`.
+    fn at(&self, s: f64) -> [f64; 2] {
+        let i = self
+            .at_mm
+            .partition_point(|&a| a <= s)
+            .clamp(1, self.points.len() - 1);
+        let (a, b) = (self.points[i - 1], self.points[i]);
+        let len = self.at_mm[i] - self.at_mm[i - 1];
+        let t = if len > 0.0 {
+            ((s - self.at_mm[i - 1]) / len).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t]
+    }
+
+    /// The centre line from `from` to `to` (from < to): its ends and the vertices between.
+    fn piece(&self, from: f64, to: f64) -> Vec<[f64; 2]> {
+        let eps = 1e-9 * self.length().max(1.0);
+        let mut out = vec![self.at(from)];
+        for (p, &s) in self.points.iter().zip(&self.at_mm) {
+            if s > from + eps && s < to - eps {
+                out.push(*p);
+            }
+        }
+        out.push(self.at(to));
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::toolpath::PoseKind;
+    use std::f64::consts::TAU;
+    use waam_part::ThermalParams;
+
+    const R: f64 = 33.0;
+    const W: f64 = 6.0;
+    const H: f64 = 2.5;
+
+    /// Rings of radius R (128 vertices: the polygon is within 0.04 mm of the circle), one
+    /// per layer, cut into pieces of about W, listed layer by layer.
+    fn rings(layers: u32) -> BeadPart {
+        let points: Vec<[f64; 2]> = (0..128)
+            .map(|i| {
+                let a = TAU * i as f64 / 128.0;
+                [R * a.cos(), R * a.sin()]
+            })
+            .collect();
+        let mut beads = Vec::new();
+        let mut nodes = Vec::new();
+        for layer in 0..layers {
+            let bead = Bead {
+                layer,
+                closed: true,
+                points: points.clone(),
+            };
+            let len = bead.length_mm();
+            let n = (len / W).round() as usize;
+            let line = Line::new(&bead);
+            for i in 0..n {
+                let (from_mm, to_mm) = (len * i as f64 / n as f64, len * (i + 1) as f64 / n as f64);
+                let c = line.at(0.5 * (from_mm + to_mm));
+                nodes.push(Deposit {
+                    bead: layer as usize,
+                    from_mm,
+                    to_mm,
+                    layer,
+                    centre_mm: [c[0], c[1], (layer as f64 + 0.5) * H],
+                    volume_mm3: W * H * (to_mm - from_mm),
+                    surface_mm2: 1.0,
+                    substrate_mm2: 0.0,
+                });
+            }
+            beads.push(bead);
+        }
+        BeadPart {
+            name: "ring".into(),
+            max_fragments: 2,
+            bead_mm: [W, H],
+            base_z_mm: 0.0,
+            beads,
+            nodes,
+            contacts: Vec::new(),
+            windows: Vec::new(),
+            thermal: ThermalParams::default(),
+            warnings: Vec::new(),
+        }
+    }
+
+    fn part_frame(part: &BeadPart, fragments: &[Vec<usize>]) -> Toolpath {
+        toolpath_of_graph_plan(
+            part,
+            fragments,
+            &ProcessSettings::default(),
+            ToolpathFrame::Part,
+        )
+        .unwrap()
+    }
+
+    /// Positions of the poses with the arc on, mm.
+    fn welded(tp: &Toolpath) -> Vec<Point3<f64>> {
+        tp.poses
+            .iter()
+            .filter(|p| p.arc_on)
+            .map(|p| Point3::from(p.pose.translation.vector * 1000.0))
+            .collect()
+    }
+
+    #[test]
+    fn a_ring_is_welded_on_its_circle_along_its_tangent() {
+        let part = rings(1);
+        let n = part.nodes.len();
+        // Start in the middle: the fragment crosses the bead's seam.
+        let frag: Vec<usize> = (0..n).map(|i| (i + n / 3) % n).collect();
+        let tp = part_frame(&part, &[frag]);
+        assert_eq!(tp.frame, PART_FRAME);
+        let s = ProcessSettings::default();
+        let on = welded(&tp);
+        assert!(on.len() > 128, "{} poses", on.len());
+        for p in &on {
+            let r = p.x.hypot(p.y);
+            assert!((r - R).abs() < 0.1, "{p} is {r} mm from the centre");
+            assert!((p.z - H).abs() < 1e-9, "{p}: the top of layer 0");
+        }
+        let mut travel = 0.0;
+        for w in on.windows(2) {
+            let d = w[1] - w[0];
+            assert!(d.norm() <= s.max_step_mm + 1e-9);
+            travel += d.norm();
+            if d.norm() < 1e-9 {
+                continue; // the dwells
+            }
+            // Counter-clockwise: along the tangent at the step's middle.
+            let m = nalgebra::center(&w[0], &w[1]);
+            let tangent = nalgebra::Vector3::new(-m.y, m.x, 0.0).normalize();
+            assert!(
+                d.normalize().dot(&tangent) > (3.0f64).to_radians().cos(),
+                "{d}"
+            );
+        }
+        let circle = TAU * R;
+        assert!(
+            (travel - circle).abs() < 0.5,
+            "{travel} mm welded, {circle}"
+        );
+        // The torch leans along the tangent (push) and points down.
+        for p in tp.poses.iter().filter(|p| p.arc_on) {
+            let z = p.pose.rotation * nalgebra::Vector3::z();
+            assert!(z.z < -0.9);
+            let t = p.pose.translation.vector;
+            let tangent = nalgebra::Vector3::new(-t.y, t.x, 0.0).normalize();
+            let lean = nalgebra::Vector3::new(z.x, z.y, 0.0).normalize();
+            assert!(lean.dot(&tangent) > (4.0f64).to_radians().cos(), "{lean}");
+        }
+        // Every node is deposited once, one deposit time after the other.
+        let times = tp.executed_times();
+        assert_eq!(times.deposits_s.len(), 1);
+        let d = &times.deposits_s[0];
+        assert_eq!(d.len(), n);
+        let block = part.thermal.block_time_s;
+        let node_s = block * part.nodes[0].volume_mm3 / (W * W * H);
+        assert!((d[1] - d[0] - s.arc_on_dwell_s - node_s).abs() < 1e-9);
+        for w in d[1..].windows(2) {
+            assert!((w[1] - w[0] - node_s).abs() < 1e-9, "{w:?}");
+        }
+        // That is W per block time.
+        assert!((node_s - (TAU * R / n as f64) / W * block).abs() < 0.05);
+    }
+
+    #[test]
+    fn a_fragment_in_reverse_walks_the_beads_backwards() {
+        let part = rings(1);
+        let n = part.nodes.len();
+        let frag: Vec<usize> = (0..n).rev().map(|i| (i + 5) % n).collect();
+        let tp = part_frame(&part, &[frag]);
+        let on = welded(&tp);
+        let mut travel = 0.0;
+        for w in on.windows(2) {
+            let d = w[1] - w[0];
+            travel += d.norm();
+            if d.norm() > 1e-9 {
+                let m = nalgebra::center(&w[0], &w[1]);
+                assert!(d.x * -m.y + d.y * m.x < 0.0, "clockwise");
+            }
+        }
+        assert!((travel - TAU * R).abs() < 0.5);
+    }
+
+    #[test]
+    fn a_two_layer_spiral_climbs_and_never_goes_down() {
+        let part = rings(2);
+        let frag: Vec<usize> = (0..part.nodes.len()).collect();
+        let tp = part_frame(&part, &[frag]);
+        let on = welded(&tp);
+        assert!(on.windows(2).all(|w| w[1].z >= w[0].z));
+        assert!((on[0].z - H).abs() < 1e-9);
+        assert!((on.last().unwrap().z - 2.0 * H).abs() < 1e-9);
+        // One up move, welded: the arc stays on.
+        let arcs = tp
+            .poses
+            .iter()
+            .filter(|p| p.kind == PoseKind::ArcOn)
+            .count();
+        assert_eq!(arcs, 1);
+        for p in &on {
+            assert!((p.x.hypot(p.y) - R).abs() < 0.1);
+        }
+    }
+
+    #[test]
+    fn two_fragments_have_one_transit_between_them() {
+        let part = rings(2);
+        let n = part.nodes.len() / 2;
+        let frags = vec![(0..n).collect(), (n..2 * n).collect::<Vec<usize>>()];
+        let tp = part_frame(&part, &frags);
+        let kinds: Vec<PoseKind> = tp.poses.iter().map(|p| p.kind).collect();
+        let count = |k: PoseKind| kinds.iter().filter(|&&x| x == k).count();
+        assert_eq!((count(PoseKind::ArcOn), count(PoseKind::ArcOff)), (2, 2));
+        // Runs of transit poses: before the first pass, between the two, after the last.
+        let runs = kinds
+            .windows(2)
+            .filter(|w| w[0] != PoseKind::Transit && w[1] == PoseKind::Transit)
+            .count()
+            + usize::from(kinds[0] == PoseKind::Transit);
+        assert_eq!(runs, 3, "{kinds:?}");
+        let off = kinds.iter().position(|&k| k == PoseKind::ArcOff).unwrap();
+        let on2 = kinds.iter().rposition(|&k| k == PoseKind::ArcOn).unwrap();
+        assert!(kinds[off..on2].contains(&PoseKind::Transit));
+        assert!(tp.poses[off..on2].iter().all(|p| !p.arc_on));
+        // Beside or up moves only inside a fragment: the second starts on layer 1.
+        let second = &tp.poses[on2];
+        assert!((second.pose.translation.z * 1000.0 - 2.0 * H).abs() < 1e-9);
+    }
+
+    #[test]
+    fn robot_frame_places_the_part_by_the_plate_and_weld_speed_is_kept() {
+        let part = rings(1);
+        let frag: Vec<usize> = (0..part.nodes.len()).collect();
+        let s = ProcessSettings {
+            weld_speed_mm_s: Some(8.0),
+            ..ProcessSettings::default()
+        };
+        let tp = toolpath_of_graph_plan(
+            &part,
+            &[frag],
+            &s,
+            ToolpathFrame::Robot {
+                base_link: "base_link",
+            },
+        )
+        .unwrap();
+        assert_eq!(tp.frame, "base_link");
+        let plate = s.plate.isometry();
+        let on: Vec<_> = tp.poses.iter().filter(|p| p.arc_on).collect();
+        for w in on.windows(2) {
+            let d = (w[1].pose.translation.vector - w[0].pose.translation.vector).norm();
+            let dt = w[1].time_s - w[0].time_s;
+            if d > 1e-9 {
+                assert!((d * 1000.0 / dt - 8.0).abs() < 1e-6);
+            }
+        }
+        let p = plate.inverse() * on[0].pose;
+        assert!((p.translation.vector.xy().norm() * 1000.0 - R).abs() < 0.1);
+    }
+
+    #[test]
+    fn bad_fragments_are_refused() {
+        let part = rings(1);
+        let s = ProcessSettings::default();
+        let go = |f: &[Vec<usize>]| toolpath_of_graph_plan(&part, f, &s, ToolpathFrame::Part);
+        assert_eq!(go(&[]), Err(ToolpathError::NoPasses));
+        assert_eq!(go(&[vec![0], vec![]]), Err(ToolpathError::EmptyPass(1)));
+        let e = go(&[vec![0, 999]]).unwrap_err();
+        assert!(e.to_string().contains("node 999"), "{e}");
+    }
+}
