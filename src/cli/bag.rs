@@ -5,7 +5,7 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use serde_json::json;
-use waam_ros::sample::SampleSession;
+use waam_messages::sample::SampleSession;
 use waam_rosbag::{Bag, BagOptions, Recorder};
 
 use super::EXIT_OK;
@@ -283,8 +283,8 @@ fn echo(args: EchoArgs) -> anyhow::Result<ExitCode> {
     if args.transient_local {
         qos.durability = Durability::TransientLocal;
     }
-    let context = waam_ros::replay::publish::context_from_env()?;
-    let got = waam_ros::replay::publish::echo(
+    let context = waam_ros::playback::context_from_env()?;
+    let got = waam_ros::playback::echo(
         &context,
         &args.topic,
         &args.type_name,

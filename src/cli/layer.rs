@@ -13,10 +13,10 @@ use waam_layer::slice::{slice_mesh, stl_text, LayerDoc, LayerParams, SliceOption
 use waam_layer::{plan_layer_motion, plan_layer_motion_at};
 use waam_layer::{search, Layer, Model, SearchOptions, SearchResult};
 use waam_mesh::{read_stl, TriangleMesh, Units};
-use waam_plot::layer::{plot_temperature, plot_trail, TEMPERATURE_SIZE, TRAIL_SIZE};
-use waam_ros::layer::{
+use waam_messages::layer::{
     no_motion_status, plan_messages, planned_status, LayerRecording, MotionOutcome,
 };
+use waam_plot::layer::{plot_temperature, plot_trail, TEMPERATURE_SIZE, TRAIL_SIZE};
 use waam_ros::node::once::publish_once;
 use waam_ros::node::params::TopicParams;
 use waam_rosmsg::builtin_interfaces::Time;

@@ -3,13 +3,13 @@
 use std::path::Path;
 
 use anyhow::Context;
+use waam_messages::convert::PlanMessages;
+use waam_messages::planning::PlanningRecorder;
 use waam_part::writer;
 use waam_part::Part;
 use waam_pipeline::{Cell, Planned};
 use waam_planner::{Options, Report};
-use waam_ros::convert::PlanMessages;
 use waam_ros::node::frames;
-use waam_ros::planning::PlanningRecorder;
 use waam_rosbag::Recorder;
 use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::std_msgs::Header;

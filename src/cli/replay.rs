@@ -8,14 +8,16 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use serde_json::json;
+use waam_messages::convert::statistics;
+use waam_messages::planning::{
+    mesh_settings_from_values, options_from, PlanningRecorder, RecordError,
+};
+use waam_messages::replay::{self, CaseInput, Replanned, Verdict};
 use waam_part::writer;
 use waam_part::Part;
 use waam_pipeline::Progress;
 use waam_planner::{Acyclicity, Options};
-use waam_ros::convert::statistics;
 use waam_ros::node::pipeline::mesh_arrays;
-use waam_ros::planning::{mesh_settings_from_values, options_from, PlanningRecorder, RecordError};
-use waam_ros::replay::{self, CaseInput, Replanned, Verdict};
 use waam_rosbag::{Bag, Recorder};
 
 use super::{EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_NO, EXIT_OK};
@@ -101,7 +103,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     }
     let cases = replay::recorded_cases(&bag)?;
     if cases.is_empty() {
-        let layer_note = if bag.count(waam_ros::topics::LAYER) > 0 {
+        let layer_note = if bag.count(waam_messages::topics::LAYER) > 0 {
             "; it is a layer recording (`waam layer plan --record`), which replay does not \
              re-plan: `waam bag info` and `waam replay --publish` read it"
         } else {

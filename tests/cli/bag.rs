@@ -115,8 +115,8 @@ fn info_names_a_file_that_is_not_a_bag() {
 /// violating prefix and the learned clause.
 #[test]
 fn plan_with_a_robot_records_the_motion_and_every_candidates_verdict() {
+    use waam_messages::topics;
     use waam_part::Part;
-    use waam_ros::topics;
     use waam_rosbag::Bag;
     use waam_rosmsg::geometry_msgs::PoseArray;
     use waam_rosmsg::trajectory_msgs::JointTrajectory;
@@ -277,9 +277,9 @@ fn the_node_has_its_input_on_disk_before_it_plans() {
 #[test]
 fn plan_recordings_tie_every_frame_they_name_to_the_robot_base() {
     use std::collections::BTreeSet;
+    use waam_messages::planning::PART_FRAME;
+    use waam_messages::topics;
     use waam_ros::node::frames::{TCP_FRAME, TF_STATIC};
-    use waam_ros::planning::PART_FRAME;
-    use waam_ros::topics;
     use waam_rosbag::Bag;
     use waam_rosmsg::geometry_msgs::PoseArray;
     use waam_rosmsg::nav_msgs::Path as PathMsg;

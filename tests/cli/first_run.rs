@@ -103,8 +103,8 @@ fn first_run_writes_the_whole_chain_into_a_new_folder() {
     // The recording is readable by our own reader and holds the plan and the motion.
     let bag = Bag::open(&out.join("recording")).unwrap();
     assert!(bag.truncated.is_none());
-    assert_eq!(bag.count(waam_ros::topics::WELD_PLAN), 1);
-    assert_eq!(bag.count(waam_ros::topics::JOINT_TRAJECTORY), 1);
+    assert_eq!(bag.count(waam_messages::topics::WELD_PLAN), 1);
+    assert_eq!(bag.count(waam_messages::topics::JOINT_TRAJECTORY), 1);
     // Pictures of the expected size, with something drawn in many colours.
     for (file, size) in [
         ("plan3d.png", PLAN_SIZE),

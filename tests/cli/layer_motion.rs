@@ -10,9 +10,9 @@ use serde_json::Value;
 use waam_layer::output::TrailFile;
 use waam_layer::plan_layer_motion;
 use waam_layer::{search, Layer, Model, SearchOptions, SearchResult};
+use waam_messages::topics;
 use waam_motion::toolpath::{PoseKind, ProcessSettings};
 use waam_ros::node::frames::TF_STATIC;
-use waam_ros::topics;
 use waam_rosbag::Bag;
 use waam_rosmsg::diagnostic_msgs::DiagnosticArray;
 use waam_rosmsg::sensor_msgs::PointCloud2;
@@ -151,7 +151,7 @@ fn an_unreachable_layer_names_the_wall_and_gives_no_motion() {
 
 #[test]
 fn heat_frames_are_thinned_evenly_and_keep_the_last_step() {
-    use waam_ros::layer::heat_frames;
+    use waam_messages::layer::heat_frames;
     use waam_rosmsg::builtin_interfaces::Time;
     let model = model(PAPER);
     let r = quick_search(&model);

@@ -2,7 +2,7 @@
 //! 20-layer part planned end to end (trails, motion, recording); the library's own tests
 //! are `crates/layer/tests/layer_part.rs`.
 
-use waam_ros::topics;
+use waam_messages::topics;
 use waam_rosbag::Bag;
 
 use crate::common;

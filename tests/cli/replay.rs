@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use serde_json::Value;
-use waam_ros::topics;
+use waam_messages::topics;
 use waam_rosbag::Bag;
 use waam_rosmsg::std_msgs::String as RosString;
 use waam_rosmsg::to_cdr;

@@ -481,7 +481,7 @@ fn tf_static_ties_the_base_to_the_part_and_the_tip_to_the_tcp() {
             .map(|k| v[k].as_f64().unwrap())
             .collect()
     };
-    let part = find(waam_ros::planning::PART_FRAME);
+    let part = find(waam_messages::planning::PART_FRAME);
     assert_eq!(part["header"]["frame_id"], robot.base_link.as_str());
     assert_eq!(xyz(&part), settings.plate.position_m.to_vec());
     assert_eq!(part["transform"]["rotation"]["w"].as_f64(), Some(1.0));
@@ -1000,7 +1000,7 @@ fn follow_joint_trajectory_goals_respect_the_cap_and_switch_the_arc_between_goal
 fn a_mesh_the_node_recorded_replays_identically() {
     use std::time::{Duration, Instant};
 
-    use waam_ros::topics;
+    use waam_messages::topics;
     use waam_rosbag::Bag;
     use waam_rosmsg::geometry_msgs::Point;
     use waam_rosmsg::shape_msgs::{Mesh, MeshTriangle};

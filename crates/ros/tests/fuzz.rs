@@ -190,14 +190,23 @@ fn the_corpus_reads_cleanly() {
     }
 }
 
-fn urdf(bytes: &[u8]) -> Result<waam_motion::robot::Robot, String> {
+/// Why fuzzed bytes are no robot.
+#[derive(Debug, thiserror::Error)]
+enum UrdfInputError {
+    #[error(transparent)]
+    Utf8(#[from] std::str::Utf8Error),
+    #[error(transparent)]
+    Robot(#[from] waam_motion::robot::RobotError),
+}
+
+fn urdf(bytes: &[u8]) -> Result<waam_motion::robot::Robot, UrdfInputError> {
     use waam_motion::robot::{Robot, TcpChoice};
-    let text = std::str::from_utf8(bytes).map_err(|e| e.to_string())?;
+    let text = std::str::from_utf8(bytes)?;
     let choice = TcpChoice {
         explicit: None,
         default: nalgebra::Isometry3::identity(),
     };
-    Robot::from_urdf(text, None, choice).map_err(|e| e.to_string())
+    Ok(Robot::from_urdf(text, None, choice)?)
 }
 
 proptest! {

@@ -86,20 +86,27 @@ fn check_depth(text: &str) -> Result<(), RobotError> {
     }
 }
 
+/// A joint origin whose numbers cannot be right.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+enum OriginError {
+    #[error("origin has a non-finite value")]
+    NotFinite,
+    #[error("origin xyz {0:e} m is beyond {max} m (a typing error?)", max = MAX_OFFSET_M)]
+    Offset(f64),
+    #[error("origin rpy {0:e} rad is beyond {max} rad", max = MAX_ANGLE_RAD)]
+    Angle(f64),
+}
+
 /// A joint origin's numbers: finite and within [`MAX_OFFSET_M`] / [`MAX_ANGLE_RAD`].
-fn check_origin(xyz: &[f64; 3], rpy: &[f64; 3]) -> Result<(), String> {
+fn check_origin(xyz: &[f64; 3], rpy: &[f64; 3]) -> Result<(), OriginError> {
     if xyz.iter().chain(rpy).any(|v| !v.is_finite()) {
-        return Err("origin has a non-finite value".into());
+        return Err(OriginError::NotFinite);
     }
     if let Some(v) = xyz.iter().find(|v| v.abs() > MAX_OFFSET_M) {
-        return Err(format!(
-            "origin xyz {v:e} m is beyond {MAX_OFFSET_M} m (a typing error?)"
-        ));
+        return Err(OriginError::Offset(*v));
     }
     if let Some(v) = rpy.iter().find(|v| v.abs() > MAX_ANGLE_RAD) {
-        return Err(format!(
-            "origin rpy {v:e} rad is beyond {MAX_ANGLE_RAD} rad"
-        ));
+        return Err(OriginError::Angle(*v));
     }
     Ok(())
 }
@@ -290,7 +297,7 @@ impl Robot {
                 reason,
             };
             let o = &j.origin;
-            check_origin(&o.xyz.0, &o.rpy.0).map_err(bad)?;
+            check_origin(&o.xyz.0, &o.rpy.0).map_err(|e| bad(e.to_string()))?;
             let origin = Isometry3::from_parts(
                 Translation3::new(o.xyz.0[0], o.xyz.0[1], o.xyz.0[2]),
                 UnitQuaternion::from_euler_angles(o.rpy.0[0], o.rpy.0[1], o.rpy.0[2]),

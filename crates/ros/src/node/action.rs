@@ -18,6 +18,7 @@ use ros2_client::action_msgs::{
 use ros2_client::{ActionTypeName, Message, Node, QosProfile, ServiceMapping};
 
 use super::names::NodeNames;
+use super::ros::ServeError;
 
 /// A result that can say why there is none (an unknown goal, a node shutting down).
 pub trait Failed: Message + Clone + Send + 'static {
@@ -58,13 +59,13 @@ pub fn serve<G, R, F>(
     mut handler: impl Handler<G, R>,
     replies: Receiver<Reply<R, F>>,
     stop: Arc<AtomicBool>,
-) -> Result<std::thread::JoinHandle<()>, String>
+) -> Result<std::thread::JoinHandle<()>, ServeError>
 where
     G: Message + Clone + Send + 'static,
     R: Failed,
     F: Message + Clone + Send + 'static,
 {
-    let name = names.resolve(relative_name).map_err(|e| e.to_string())?;
+    let name = names.resolve(relative_name)?;
     let service =
         QosProfile::publisher_default().history(ros2_client::qos::History::KeepLast { depth: 10 });
     let server: ActionServer<G, R, F> = node
@@ -82,7 +83,11 @@ where
                     .history(ros2_client::qos::History::KeepLast { depth: 1 }),
             },
         )
-        .map_err(|e| format!("cannot create action {name}: {e:?}"))?;
+        .map_err(|e| ServeError::Create {
+            what: "action",
+            name: name.to_string(),
+            reason: format!("{e:?}"),
+        })?;
     std::thread::Builder::new()
         .name(format!("ros-action-{}", type_name.1))
         .spawn(move || {
@@ -94,7 +99,10 @@ where
                 }
             }
         })
-        .map_err(|e| format!("cannot start the thread of action {name}: {e}"))
+        .map_err(|source| ServeError::Thread {
+            thread: format!("the thread of action {name}"),
+            source,
+        })
 }
 
 struct Goals<R> {

@@ -9,51 +9,14 @@ use super::execute::{oversized_welds, plan_steps, Step};
 use super::execute_action::ExecutePlanFeedback;
 use super::io::{Level, Outputs};
 use super::pipeline::Planned;
-use super::status::Status;
 use super::worker::Cancel;
-use waam_motion::trajectory::JointTrajectory;
-use waam_rosmsg::builtin_interfaces::{Duration as RosDuration, Time};
+use waam_messages::convert::goal_msg;
+use waam_messages::status::JobStatus;
+use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::diagnostic_msgs::DiagnosticStatus;
 use waam_rosmsg::sensor_msgs::JointState;
 use waam_rosmsg::std_msgs::{Bool, Header};
-use waam_rosmsg::trajectory_msgs::{JointTrajectory as TrajectoryMsg, JointTrajectoryPoint};
-
-/// The goal trajectory for points `span`: times count from the point before the span (where
-/// the robot stands), or from `lead_in_s` before the first point for the very first goal;
-/// the last point has zero velocity, since the robot stops there until the next goal.
-pub fn goal_msg(
-    trajectory: &JointTrajectory,
-    span: std::ops::RangeInclusive<usize>,
-    lead_in_s: f64,
-) -> TrajectoryMsg {
-    let points = &trajectory.points;
-    let (first, last) = (*span.start(), *span.end());
-    let t0 = if first == 0 {
-        points[0].time_from_start - lead_in_s
-    } else {
-        points[first - 1].time_from_start
-    };
-    let mut out: Vec<JointTrajectoryPoint> = points[span]
-        .iter()
-        .map(|p| JointTrajectoryPoint {
-            positions: p.positions.clone(),
-            velocities: p.velocities.clone(),
-            accelerations: p.accelerations.clone(),
-            time_from_start: RosDuration::from_secs_f64(p.time_from_start - t0),
-            ..JointTrajectoryPoint::default()
-        })
-        .collect();
-    if let Some(end) = out.last_mut() {
-        end.velocities.iter_mut().for_each(|v| *v = 0.0);
-        end.accelerations.iter_mut().for_each(|a| *a = 0.0);
-    }
-    debug_assert_eq!(out.len(), last + 1 - first);
-    TrajectoryMsg {
-        header: Header::new(Time::default(), ""), // stamp 0: start on receipt
-        joint_names: trajectory.joint_names.clone(),
-        points: out,
-    }
-}
+use waam_rosmsg::trajectory_msgs::JointTrajectory as TrajectoryMsg;
 
 /// Why an execution stopped: the controller's answer, a timeout, or a cancel.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -128,7 +91,7 @@ pub fn run_plan(
     };
     let report = |message: String, level: u8| {
         outputs.status.publish(
-            &Status::Executing {
+            &JobStatus::Executing {
                 job,
                 message,
                 level,

@@ -17,7 +17,28 @@ pub struct Declared {
     /// Read at start only (topics, execution, robot): a change needs a restart.
     pub read_only: bool,
     get: fn(&NodeParams) -> ParameterValue,
-    set: fn(&mut NodeParams, &ParameterValue) -> Result<(), String>,
+    set: fn(&mut NodeParams, &ParameterValue) -> Result<(), ParamError>,
+}
+
+/// A parameter that cannot be set (`-p`, the parameter services), and why.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ParamError {
+    #[error("{name}: expected a {expected}, got a {got}")]
+    Type {
+        name: &'static str,
+        expected: &'static str,
+        got: &'static str,
+    },
+    #[error("{}: this node runs on wall-clock time only (false)", USE_SIM_TIME)]
+    SimTime,
+    #[error("{0}: no such parameter")]
+    Unknown(String),
+    #[error("{0} is read only while the node runs (restart it with -p {0}:=VALUE)")]
+    ReadOnly(String),
+    #[error("{text:?} is not YAML: {reason}")]
+    NotYaml { text: String, reason: String },
+    #[error("{0:?}: not a parameter value (a scalar or a list of one type)")]
+    NotAValue(String),
 }
 
 #[derive(Clone, Copy)]
@@ -146,13 +167,10 @@ macro_rules! declare {
             read_only: $ro,
             get: |p| <$ty as Kind>::to_value(&p.$($field).+),
             set: |p, v| {
-                p.$($field).+ = <$ty as Kind>::from_value(v).ok_or_else(|| {
-                    format!(
-                        "{}: expected a {}, got a {}",
-                        $name,
-                        type_name(<$ty as Kind>::TYPE),
-                        type_name(v.to_parameter_type())
-                    )
+                p.$($field).+ = <$ty as Kind>::from_value(v).ok_or_else(|| ParamError::Type {
+                    name: $name,
+                    expected: type_name(<$ty as Kind>::TYPE),
+                    got: type_name(v.to_parameter_type()),
                 })?;
                 Ok(())
             },
@@ -252,7 +270,7 @@ impl Declared {
     }
 
     /// Sets the value in `params` (type checked; ranges are [`NodeParams::check`]'s).
-    pub fn set(&self, params: &mut NodeParams, value: &ParameterValue) -> Result<(), String> {
+    pub fn set(&self, params: &mut NodeParams, value: &ParameterValue) -> Result<(), ParamError> {
         (self.set)(params, value)
     }
 
@@ -300,28 +318,27 @@ pub fn set(
     name: &str,
     value: &ParameterValue,
     running: bool,
-) -> Result<(), String> {
+) -> Result<(), ParamError> {
     if name == USE_SIM_TIME {
         return match value {
             ParameterValue::Boolean(false) => Ok(()),
-            _ => Err(format!(
-                "{USE_SIM_TIME}: this node runs on wall-clock time only (false)"
-            )),
+            _ => Err(ParamError::SimTime),
         };
     }
-    let d = find(name).ok_or_else(|| format!("{name}: no such parameter"))?;
+    let d = find(name).ok_or_else(|| ParamError::Unknown(name.to_string()))?;
     if running && d.read_only {
-        return Err(format!(
-            "{name} is read only while the node runs (restart it with -p {name}:=VALUE)"
-        ));
+        return Err(ParamError::ReadOnly(name.to_string()));
     }
     d.set(params, value)
 }
 
 /// A `-p` value as rcl reads it: YAML (`5` integer, `5.0` double, `[1, 2]` array, `true`).
-pub fn value_from_yaml(text: &str) -> Result<ParameterValue, String> {
+pub fn value_from_yaml(text: &str) -> Result<ParameterValue, ParamError> {
     use serde_yaml::Value;
-    let v: Value = serde_yaml::from_str(text).map_err(|e| format!("{text:?} is not YAML: {e}"))?;
+    let v: Value = serde_yaml::from_str(text).map_err(|e| ParamError::NotYaml {
+        text: text.to_string(),
+        reason: e.to_string(),
+    })?;
     let scalar = |v: &Value| -> Option<ParameterValue> {
         Some(match v {
             Value::Bool(b) => ParameterValue::Boolean(*b),
@@ -332,7 +349,7 @@ pub fn value_from_yaml(text: &str) -> Result<ParameterValue, String> {
             _ => return None,
         })
     };
-    let bad = || format!("{text:?}: not a parameter value (a scalar or a list of one type)");
+    let bad = || ParamError::NotAValue(text.to_string());
     match &v {
         Value::Sequence(items) => {
             let values: Vec<ParameterValue> = items
@@ -440,7 +457,7 @@ mod tests {
             true,
         );
         assert_eq!(
-            e.unwrap_err(),
+            e.unwrap_err().to_string(),
             "planner.timeout_s: expected a double, got a string"
         );
         let e = set(
@@ -449,7 +466,7 @@ mod tests {
             &ParameterValue::String("/p".into()),
             true,
         );
-        assert!(e.unwrap_err().contains("read only"));
+        assert!(e.unwrap_err().to_string().contains("read only"));
         set(
             &mut p,
             "topics.part",

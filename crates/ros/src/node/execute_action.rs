@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use super::action;
 use super::names::NodeNames;
+use super::ros::ServeError;
 
 /// `ExecutePlan` goal.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
@@ -110,7 +111,7 @@ pub fn serve(
     requests: impl Fn(Request) -> bool + Send + 'static,
     replies: Receiver<Reply>,
     stop: Arc<AtomicBool>,
-) -> Result<std::thread::JoinHandle<()>, String> {
+) -> Result<std::thread::JoinHandle<()>, ServeError> {
     action::serve(
         node,
         names,

@@ -14,6 +14,7 @@ use ros2_client::{ActionClient, ActionTypeName, Node, QosProfile, ServiceMapping
 use super::controller::{Controller, ExecError};
 use super::names::NodeNames;
 use super::params::ExecutionParams;
+use super::ros::ServeError;
 use super::worker::Cancel;
 use waam_rosmsg::control_msgs::{
     FollowJointTrajectoryFeedback as Feedback, FollowJointTrajectoryGoal as Goal,
@@ -86,8 +87,10 @@ impl FjtController {
                 &ActionTypeName::new("control_msgs", "FollowJointTrajectory"),
                 action_qos(),
             )
-            .map_err(|e| {
-                super::NodeError::Ros(format!("cannot create action client {name}: {e:?}"))
+            .map_err(|e| ServeError::Create {
+                what: "action client",
+                name: name.to_string(),
+                reason: format!("{e:?}"),
             })?;
         let start = if params.start_service.is_empty() {
             None
@@ -103,8 +106,10 @@ impl FjtController {
                     qos.clone(),
                     qos,
                 )
-                .map_err(|e| {
-                    super::NodeError::Ros(format!("cannot create service client {service}: {e:?}"))
+                .map_err(|e| ServeError::Create {
+                    what: "service client",
+                    name: service.to_string(),
+                    reason: format!("{e:?}"),
                 })?;
             Some((client, service.to_string()))
         };

@@ -12,7 +12,7 @@ use super::io::{latched_qos, IoError, Output};
 use super::names::NodeNames;
 use super::params::NodeParams;
 use super::pipeline::PlanningPipeline;
-use crate::planning::PART_FRAME;
+use waam_messages::planning::PART_FRAME;
 use waam_pipeline::Cell;
 use waam_rosbag::qos::Qos;
 use waam_rosbag::Recorder;
@@ -28,13 +28,23 @@ pub const TCP_FRAME: &str = "waam_tcp";
 pub const ROBOT_DESCRIPTION: &str = "robot_description";
 pub const TF_STATIC: &str = "/tf_static";
 
+/// The URDF file `robot.urdf` names cannot be read.
+#[derive(Debug, thiserror::Error)]
+#[error("robot.urdf {path}: {source}")]
+pub struct UrdfError {
+    pub path: String,
+    pub source: std::io::Error,
+}
+
 /// The URDF text the parameters name (the bundled robot when `robot.urdf` is "").
-pub fn urdf_text(params: &NodeParams) -> Result<String, String> {
+pub fn urdf_text(params: &NodeParams) -> Result<String, UrdfError> {
     if params.robot.urdf.is_empty() {
         Ok(waam_pipeline::BUNDLED_URDF.to_string())
     } else {
-        std::fs::read_to_string(&params.robot.urdf)
-            .map_err(|e| format!("robot.urdf {}: {e}", params.robot.urdf))
+        std::fs::read_to_string(&params.robot.urdf).map_err(|source| UrdfError {
+            path: params.robot.urdf.clone(),
+            source,
+        })
     }
 }
 

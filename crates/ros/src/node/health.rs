@@ -4,13 +4,22 @@
 
 use std::time::{Duration, Instant};
 
+use waam_messages::status::Status;
 use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
-use waam_rosmsg::std_msgs::Header;
 
 pub const DIAGNOSTICS: &str = "/diagnostics";
 /// How often the health goes out.
 pub const PERIOD: Duration = Duration::from_secs(1);
+
+/// How a job ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outcome {
+    /// A plan, summarised.
+    Planned(String),
+    /// No plan, and why.
+    NoPlan(String),
+}
 
 /// What the event loop knows about the node's work.
 pub struct Health {
@@ -19,8 +28,8 @@ pub struct Health {
     started: Instant,
     /// The job being planned, if any.
     pub planning: Option<u64>,
-    /// The last finished job and its outcome: `Ok(summary)` or `Err(reason)`.
-    pub last: Option<(u64, Result<String, String>)>,
+    /// The last finished job and its outcome.
+    pub last: Option<(u64, Outcome)>,
     pub planned: u64,
     pub failed: u64,
 }
@@ -45,8 +54,10 @@ impl Health {
         };
         let (level, last) = match &self.last {
             None => (DiagnosticStatus::OK, "no part yet".to_string()),
-            Some((job, Ok(summary))) => (DiagnosticStatus::OK, format!("part {job}: {summary}")),
-            Some((job, Err(reason))) => (
+            Some((job, Outcome::Planned(summary))) => {
+                (DiagnosticStatus::OK, format!("part {job}: {summary}"))
+            }
+            Some((job, Outcome::NoPlan(reason))) => (
                 DiagnosticStatus::WARN,
                 format!("part {job}: no plan: {reason}"),
             ),
@@ -64,16 +75,9 @@ impl Health {
         if let Some(job) = self.planning {
             values.push(KeyValue::new("job", job));
         }
-        DiagnosticArray {
-            header: Header::new(stamp, ""),
-            status: vec![DiagnosticStatus {
-                level,
-                name: format!("{}: planner", self.node.trim_start_matches('/')),
-                message: format!("{state}; last: {last}"),
-                hardware_id: self.node.clone(),
-                values,
-            }],
-        }
+        let name = format!("{}: planner", self.node.trim_start_matches('/'));
+        Status::new(level, format!("{state}; last: {last}"), values)
+            .reported_by(stamp, &name, &self.node)
     }
 }
 
@@ -88,7 +92,7 @@ mod tests {
         assert_eq!(msg.status[0].name, "cell1/waam_planner: planner");
         assert_eq!(msg.status[0].level, DiagnosticStatus::OK);
         h.planning = Some(2);
-        h.last = Some((1, Err("cancelled".into())));
+        h.last = Some((1, Outcome::NoPlan("cancelled".into())));
         let s = &h.to_msg(Time::default()).status[0];
         assert_eq!(s.level, DiagnosticStatus::WARN);
         assert_eq!(

@@ -193,7 +193,7 @@ impl Outputs {
             self.logger.base_name(),
             message,
             file!(),
-            crate::convert::NODE_NAME,
+            waam_messages::convert::NODE_NAME,
             line!(),
         );
         if let Some(r) = &self.recorder {
@@ -203,7 +203,7 @@ impl Outputs {
                 name: self.node_name.trim_start_matches('/').replace('/', "."),
                 msg: message.to_string(),
                 file: file!().to_string(),
-                function: crate::convert::NODE_NAME.to_string(),
+                function: waam_messages::convert::NODE_NAME.to_string(),
                 line: line!(),
             };
             if let Err(e) = r.record("/rosout", &Qos::rosout(), &record) {

@@ -23,7 +23,6 @@ pub mod params;
 pub mod pipeline;
 pub mod plan_action;
 pub mod ros;
-pub mod status;
 pub mod stop_service;
 pub mod worker;
 
@@ -36,21 +35,21 @@ use std::time::{Duration, Instant};
 use futures::StreamExt;
 use ros2_client::NodeOptions;
 
-use crate::convert::PlanMessages;
 use controller::{spawn_executor, Controller, ExecCommand, SimController};
 use io::{Inputs, Level, Outputs};
 use names::NodeNames;
 use params::NodeParams;
 use pipeline::{PartInput, PlanFn, Planned, PlanningPipeline};
 use ros::RosEnv;
-use status::Status;
+use waam_messages::convert::PlanMessages;
+use waam_messages::status::JobStatus;
 use waam_rosbag::Recorder;
 use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::diagnostic_msgs::KeyValue;
 use waam_rosmsg::std_msgs::Header;
 use worker::{Cancel, JobFailure, Worker, WorkerEvent};
 
-pub use crate::convert::NODE_NAME;
+pub use waam_messages::convert::NODE_NAME;
 
 /// How a run of the node is set up.
 pub struct RunOptions {
@@ -112,8 +111,14 @@ pub enum NodeError {
     },
     #[error(transparent)]
     Setup(#[from] pipeline::SetupError),
-    #[error("{0}")]
-    Ros(String),
+    #[error("cannot create the ROS 2 node: {0}")]
+    CreateNode(String),
+    #[error("cannot start the ROS 2 spinner: {0}")]
+    Spinner(String),
+    #[error(transparent)]
+    Serve(#[from] ros::ServeError),
+    #[error(transparent)]
+    Urdf(#[from] frames::UrdfError),
     #[error("cannot start a thread: {0}")]
     Thread(#[from] std::io::Error),
 }
@@ -159,7 +164,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     pipeline.recorder = recorder.clone();
     // The robot and the part frame for viewers, latched; the part frame moves with the
     // process settings, so a parameter change publishes them again.
-    let urdf = frames::urdf_text(params).map_err(NodeError::Ros)?;
+    let urdf = frames::urdf_text(params)?;
     let cell_frames = frames::CellFrames::new(&mut node, names)?;
     cell_frames.publish(&urdf, &pipeline, recorder.as_ref());
     let diagnostics = io::Output::<waam_rosmsg::diagnostic_msgs::DiagnosticArray>::new(
@@ -173,7 +178,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     let mut last_health: Option<Instant> = None;
     let mut mesh_settings = pipeline.mesh.clone();
     // The torch the planner checks, in every "received" status: a replay plans with it.
-    let torch_values = crate::planning::torch_values(pipeline.cell.settings.torch_setup());
+    let torch_values = waam_messages::planning::torch_values(pipeline.cell.settings.torch_setup());
 
     let (events, event_rx) = channel::<Event>();
     let worker_events = events.clone();
@@ -197,71 +202,58 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
             let store = param_server::ParamStore::new(
                 params.clone(),
                 Box::new(move |next: &NodeParams| {
-                    let mut pipeline = PlanningPipeline::from_params(next, Arc::clone(&planner))
-                        .map_err(|e| e.to_string())?;
+                    let mut pipeline = PlanningPipeline::from_params(next, Arc::clone(&planner))?;
                     pipeline.recorder = rec.clone();
                     let sent = to_loop
                         .lock()
                         .unwrap_or_else(|e| e.into_inner())
                         .send(Event::Pipeline(Box::new(pipeline)));
-                    sent.map_err(|_| "the node is shutting down".to_string())
+                    sent.map_err(|_| param_server::ChangeError::ShuttingDown)
                 }),
             );
-            params_thread = Some(
-                param_server::serve(
-                    &mut node,
-                    &names.fully_qualified(),
-                    Arc::clone(&store),
-                    Arc::clone(&params_stop),
-                )
-                .map_err(NodeError::Ros)?,
-            );
+            params_thread = Some(param_server::serve(
+                &mut node,
+                &names.fully_qualified(),
+                Arc::clone(&store),
+                Arc::clone(&params_stop),
+            )?);
             let (reply_tx, reply_rx) = channel();
             action_replies = Some(reply_tx);
             let to_loop = std::sync::Mutex::new(events.clone());
-            action_thread = Some(
-                plan_action::serve(
-                    &mut node,
-                    names,
-                    store,
-                    move |request| {
-                        let to_loop = to_loop.lock().unwrap_or_else(|e| e.into_inner());
-                        to_loop.send(Event::Action(request)).is_ok()
-                    },
-                    reply_rx,
-                    Arc::clone(&params_stop),
-                )
-                .map_err(NodeError::Ros)?,
-            );
+            action_thread = Some(plan_action::serve(
+                &mut node,
+                names,
+                store,
+                move |request| {
+                    let to_loop = to_loop.lock().unwrap_or_else(|e| e.into_inner());
+                    to_loop.send(Event::Action(request)).is_ok()
+                },
+                reply_rx,
+                Arc::clone(&params_stop),
+            )?);
             let (reply_tx, reply_rx) = channel();
             execute_replies = Some(reply_tx);
             let to_loop = std::sync::Mutex::new(events.clone());
-            execute_thread = Some(
-                execute_action::serve(
-                    &mut node,
-                    names,
-                    move |request| {
-                        let to_loop = to_loop.lock().unwrap_or_else(|e| e.into_inner());
-                        to_loop.send(Event::Execute(request)).is_ok()
-                    },
-                    reply_rx,
-                    Arc::clone(&params_stop),
-                )
-                .map_err(NodeError::Ros)?,
-            );
+            execute_thread = Some(execute_action::serve(
+                &mut node,
+                names,
+                move |request| {
+                    let to_loop = to_loop.lock().unwrap_or_else(|e| e.into_inner());
+                    to_loop.send(Event::Execute(request)).is_ok()
+                },
+                reply_rx,
+                Arc::clone(&params_stop),
+            )?);
             let to_loop = std::sync::Mutex::new(events.clone());
-            stop_thread = Some(
-                stop_service::serve(
-                    &mut node,
-                    names,
-                    move |answer| {
-                        let to_loop = to_loop.lock().unwrap_or_else(|e| e.into_inner());
-                        to_loop.send(Event::Stop(answer)).is_ok()
-                    },
-                    Arc::clone(&params_stop),
-                )
-                .map_err(NodeError::Ros)?,
-            );
+            stop_thread = Some(stop_service::serve(
+                &mut node,
+                names,
+                move |answer| {
+                    let to_loop = to_loop.lock().unwrap_or_else(|e| e.into_inner());
+                    to_loop.send(Event::Stop(answer)).is_ok()
+                },
+                Arc::clone(&params_stop),
+            )?);
             let inputs = Inputs::new(&mut node, names, &params.topics)?;
             outputs.log(
                 Level::Info,
@@ -400,7 +392,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                             ),
                         ));
                     }
-                    state.status(Status::Error {
+                    state.status(JobStatus::Error {
                         job: Some(job),
                         reason: "stopped by ~/stop".into(),
                     });
@@ -486,7 +478,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                 goals.remove(&job);
                 if worker.cancel(job) {
                     health.planning = None;
-                    state.status(Status::Error {
+                    state.status(JobStatus::Error {
                         job: Some(job),
                         reason: "cancelled by the ~/plan client".into(),
                     });
@@ -510,7 +502,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                 let input = &job_input.input;
                 let source = input.describe();
                 let mut settings = match input {
-                    PartInput::Mesh { name, .. } => crate::planning::mesh_values(
+                    PartInput::Mesh { name, .. } => waam_messages::planning::mesh_values(
                         job_input.mesh.as_ref().unwrap_or(&mesh_settings),
                         name,
                     ),
@@ -518,7 +510,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                 };
                 // The planner's settings too, so that `waam replay` plans the same way (a
                 // recording without them is taken to predate the planner's warm start).
-                settings.extend(crate::planning::settings(&waam_planner::Options {
+                settings.extend(waam_messages::planning::settings(&waam_planner::Options {
                     max_fragments: job_input.max_fragments,
                     ..waam_planner::Options::default()
                 }));
@@ -536,7 +528,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                     goals.insert(job, (goal, Instant::now()));
                 }
                 health.planning = Some(job);
-                state.status(Status::Received {
+                state.status(JobStatus::Received {
                     job,
                     source: source.clone(),
                     cancelled,
@@ -592,11 +584,11 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
                             p.part.len(),
                             p.found.fragments.len()
                         );
-                        health.last = Some((job, Ok(summary)));
+                        health.last = Some((job, health::Outcome::Planned(summary)));
                     }
                     Err(e) => {
                         health.failed += 1;
-                        health.last = Some((job, Err(e.to_string())));
+                        health.last = Some((job, health::Outcome::NoPlan(e.to_string())));
                     }
                 }
                 let done = state.finished(job, result);
@@ -668,10 +660,10 @@ pub fn start_node(env: &RosEnv, names: &NodeNames) -> Result<ros2_client::Node, 
                 .enable_rosout(true)
                 .start_parameter_services(false),
         )
-        .map_err(|e| NodeError::Ros(format!("cannot create the ROS 2 node: {e:?}")))?;
+        .map_err(|e| NodeError::CreateNode(format!("{e:?}")))?;
     let spinner = node
         .spinner()
-        .map_err(|e| NodeError::Ros(format!("cannot start the ROS 2 spinner: {e:?}")))?;
+        .map_err(|e| NodeError::Spinner(format!("{e:?}")))?;
     std::thread::Builder::new()
         .name("ros-spin".into())
         .spawn(move || futures::executor::block_on(spinner.spin()))?;
@@ -710,7 +702,7 @@ struct LoopState {
 }
 
 impl LoopState {
-    fn status(&self, status: Status) {
+    fn status(&self, status: JobStatus) {
         self.outputs.status.publish(
             &status.to_msg(Time::now(), ""),
             self.outputs.recorder.as_ref(),
@@ -726,7 +718,7 @@ impl LoopState {
             }
         }
         self.last_progress = Some((now, progress.stage));
-        self.status(Status::Planning {
+        self.status(JobStatus::Planning {
             job,
             stage: progress.stage.to_string(),
             fraction: progress.fraction,
@@ -749,7 +741,7 @@ impl LoopState {
                 self.success = false;
                 self.outputs
                     .log(Level::Error, &format!("part {job}: {reason}"));
-                self.status(Status::Error {
+                self.status(JobStatus::Error {
                     job: Some(job),
                     reason,
                 });
@@ -760,7 +752,7 @@ impl LoopState {
         if let Some(r) = &self.outputs.recorder {
             record_heat(r, &planned);
         }
-        self.status(Status::Planned {
+        self.status(JobStatus::Planned {
             job,
             values: plan_values(&planned),
         });
@@ -981,14 +973,14 @@ pub fn publish_messages(outputs: &Outputs, m: &PlanMessages) {
 fn record_heat(recorder: &Recorder, planned: &Planned) {
     let graph = waam_part::graph::WeldGraph::new(&planned.part);
     let model = waam_thermal::ThermalModel::new(&planned.part, &graph);
-    if let Err(e) = crate::heat::record_heat(
+    if let Err(e) = waam_messages::heat::record_heat(
         recorder,
         &planned.part,
         &model,
         &planned.found.fragments,
-        crate::planning::PART_FRAME,
+        waam_messages::planning::PART_FRAME,
         Time::now(),
-        crate::heat::HeatOptions::default(),
+        waam_messages::heat::HeatOptions::default(),
     ) {
         tracing::warn!("recording the heat frames: {e}");
     }
@@ -1062,7 +1054,7 @@ fn spawn_inputs(inputs: Inputs, events: Sender<Event>, outputs: Arc<Outputs>) {
                             outputs
                                 .log(Level::Error, &format!("cannot read an input message: {e}"));
                             outputs.status.publish(
-                                &Status::Error {
+                                &JobStatus::Error {
                                     job: None,
                                     reason: format!("cannot read an input message: {e}"),
                                 }

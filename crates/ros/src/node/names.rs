@@ -4,7 +4,7 @@
 use ros2_client::{Name, NodeName};
 
 use super::ros::{resolve_topic, RosEnvError};
-use crate::convert::NODE_NAME;
+use waam_messages::convert::NODE_NAME;
 
 /// One `-r [NODE:]FROM:=TO` rule.
 #[derive(Debug, Clone, PartialEq, Eq)]

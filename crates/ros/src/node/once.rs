@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use super::io::{Level, Outputs};
 use super::params::TopicParams;
 use super::ros::RosEnv;
-use crate::convert::PlanMessages;
+use waam_messages::convert::PlanMessages;
 use waam_rosmsg::diagnostic_msgs::DiagnosticArray;
 
 /// Publishes `messages` (a validated plan's, when there is one) and then `status` on

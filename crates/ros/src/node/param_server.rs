@@ -15,12 +15,35 @@ use ros2_client::rcl_interfaces::*;
 use ros2_client::{Message, Name, Node, ParameterValue, QosProfile, Server, ServiceMapping};
 use ros2_client::{Parameter, ServiceTypeName};
 
-use super::declared::{self, DECLARED, USE_SIM_TIME};
-use super::params::NodeParams;
+use super::declared::{self, ParamError, DECLARED, USE_SIM_TIME};
+use super::params::{NodeParams, ParamRule};
+use super::pipeline::SetupError;
+use super::ros::ServeError;
 
 /// Checks a changed set of parameters beyond their ranges (can the process file be read?)
 /// and, when it returns `Ok`, puts them to use from the next plan.
-pub type OnChange = dyn Fn(&NodeParams) -> Result<(), String> + Send + Sync;
+pub type OnChange = dyn Fn(&NodeParams) -> Result<(), ChangeError> + Send + Sync;
+
+/// Why new parameters were not put to use.
+#[derive(Debug, thiserror::Error)]
+pub enum ChangeError {
+    /// The pipeline cannot be built from them (a process file that cannot be read, ...).
+    #[error(transparent)]
+    Setup(#[from] SetupError),
+    #[error("the node is shutting down")]
+    ShuttingDown,
+}
+
+/// Why a set of parameter changes was refused (all of them: a set is applied whole).
+#[derive(Debug, thiserror::Error)]
+pub enum SetError {
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    #[error(transparent)]
+    Range(#[from] ParamRule),
+    #[error(transparent)]
+    Change(#[from] ChangeError),
+}
 
 /// The node's parameters, shared by the services and whoever reads them.
 pub struct ParamStore {
@@ -58,13 +81,13 @@ impl ParamStore {
     }
 
     /// Applies all of `changes` or none; the error says which one is wrong and why.
-    pub fn set_all(&self, changes: &[(String, ParameterValue)]) -> Result<(), String> {
+    pub fn set_all(&self, changes: &[(String, ParameterValue)]) -> Result<(), SetError> {
         let mut guard = self.params.lock().unwrap_or_else(|e| e.into_inner());
         let mut next = guard.clone();
         for (name, value) in changes {
             declared::set(&mut next, name, value, true)?;
         }
-        next.check().map_err(|e| e.0)?;
+        next.check()?;
         if next != *guard {
             (self.on_change)(&next)?;
             *guard = next;
@@ -128,7 +151,7 @@ pub fn serve(
     fqn: &str,
     store: Arc<ParamStore>,
     stop: Arc<AtomicBool>,
-) -> Result<std::thread::JoinHandle<()>, String> {
+) -> Result<std::thread::JoinHandle<()>, ServeError> {
     let get = server::<GetParametersRequest, GetParametersResponse>(
         node,
         fqn,
@@ -200,7 +223,8 @@ pub fn serve(
                         .map(|change| {
                             let result = store.set_all(std::slice::from_ref(&change));
                             log_set(&change.0, &result);
-                            result.into()
+                            // The service's answer: the reason as text.
+                            result.map_err(|e| e.to_string()).into()
                         })
                         .collect();
                     reply(&set, id, SetParametersResponse { results });
@@ -213,7 +237,7 @@ pub fn serve(
                         &set_atomic,
                         id,
                         SetParametersAtomicallyResponse {
-                            result: result.into(),
+                            result: result.map_err(|e| e.to_string()).into(),
                         },
                     );
                 }
@@ -232,10 +256,13 @@ pub fn serve(
                 }
             }
         })
-        .map_err(|e| format!("cannot start the parameter thread: {e}"))
+        .map_err(|source| ServeError::Thread {
+            thread: "the parameter thread".into(),
+            source,
+        })
 }
 
-fn log_set(name: &str, result: &Result<(), String>) {
+fn log_set(name: &str, result: &Result<(), SetError>) {
     match result {
         Ok(()) => tracing::info!("parameter {name} set; it applies from the next plan"),
         Err(e) => tracing::warn!("parameter set refused: {e}"),
@@ -247,8 +274,11 @@ fn server<Req: Message + Clone + 'static, Resp: Message + 'static>(
     fqn: &str,
     service: &str,
     type_name: &str,
-) -> Result<Server<Req, Resp>, String> {
-    let name = Name::new(fqn, service).map_err(|e| format!("{fqn}/{service}: {e:?}"))?;
+) -> Result<Server<Req, Resp>, ServeError> {
+    let name = Name::new(fqn, service).map_err(|e| ServeError::BadName {
+        name: format!("{fqn}/{service}"),
+        reason: format!("{e:?}"),
+    })?;
     let qos =
         QosProfile::publisher_default().history(ros2_client::qos::History::KeepLast { depth: 10 });
     node.create_server(
@@ -258,7 +288,11 @@ fn server<Req: Message + Clone + 'static, Resp: Message + 'static>(
         qos.clone(),
         qos,
     )
-    .map_err(|e| format!("cannot create service {fqn}/{service}: {e:?}"))
+    .map_err(|e| ServeError::Create {
+        what: "service",
+        name: format!("{fqn}/{service}"),
+        reason: format!("{e:?}"),
+    })
 }
 
 fn take<Req: Message + 'static, Resp: Message + 'static>(
@@ -308,11 +342,11 @@ mod tests {
                 ParameterValue::DoubleArray(vec![1.0, 2.0]),
             )])
             .unwrap_err();
-        assert!(e.contains("mesh.block_mm"), "{e}");
+        assert!(e.to_string().contains("mesh.block_mm"), "{e}");
         let e = store
             .set_all(&[("planner.timeout_s".into(), ParameterValue::Double(-1.0))])
             .unwrap_err();
-        assert!(e.contains("planner.timeout_s"), "{e}");
+        assert!(e.to_string().contains("planner.timeout_s"), "{e}");
         store
             .set_all(&[("planner.timeout_s".into(), ParameterValue::Double(3.0))])
             .unwrap();
@@ -321,7 +355,10 @@ mod tests {
         assert_eq!(d.r#type, 3);
         assert_eq!(d.floating_point_range.len(), 1);
         assert!(!d.description.is_empty());
-        let refused = ParamStore::new(NodeParams::default(), Box::new(|_| Err("no".into())));
+        let refused = ParamStore::new(
+            NodeParams::default(),
+            Box::new(|_| Err(ChangeError::ShuttingDown)),
+        );
         assert!(refused
             .set_all(&[("planner.timeout_s".into(), ParameterValue::Double(3.0))])
             .is_err());

@@ -260,9 +260,9 @@ impl NodeParams {
                 path: path.clone(),
                 source,
             })?;
-            let found = sections(&text, fqn).map_err(|msg| ParamsError::Invalid {
+            let found = sections(&text, fqn).map_err(|e| ParamsError::Invalid {
                 where_: format!(" {}", path.display()),
-                msg,
+                msg: e.to_string(),
             })?;
             merge(&mut merged, &found);
         }
@@ -273,10 +273,10 @@ impl NodeParams {
             .check()
             .map_err(|e| invalid(format!(" {}", join(files)), e.0))?;
         for (name, value) in overrides {
-            super::declared::set(&mut params, name, value, false).map_err(|msg| {
+            super::declared::set(&mut params, name, value, false).map_err(|e| {
                 ParamsError::Override {
                     name: name.clone(),
-                    msg,
+                    msg: e.to_string(),
                 }
             })?;
         }
@@ -299,7 +299,7 @@ impl NodeParams {
             msg,
         };
         waam_part::yaml::check(text).map_err(|e| invalid(format!("not valid YAML: {e}")))?;
-        let merged = sections(text, "/waam_planner").map_err(invalid)?;
+        let merged = sections(text, "/waam_planner").map_err(|e| invalid(e.to_string()))?;
         let params: NodeParams = serde_yaml::from_value(serde_yaml::Value::Mapping(merged))
             .map_err(|e| invalid(format!("ros__parameters: {e}")))?;
         params.check().map_err(|e| invalid(e.0))?;
@@ -424,13 +424,31 @@ fn join(files: &[PathBuf]) -> String {
     names.join(", ")
 }
 
+/// What is wrong with the node sections of a parameters file.
+#[derive(Debug, thiserror::Error)]
+enum SectionError {
+    #[error("not valid YAML: {0}")]
+    Yaml(#[from] serde_yaml::Error),
+    #[error("expected a mapping from node name to ros__parameters")]
+    NotAMapping,
+    #[error("'{0}' must be a mapping with 'ros__parameters'")]
+    SectionNotAMapping(String),
+    #[error("'{name}': unknown key {key:?} (only 'ros__parameters')")]
+    UnknownKey { name: String, key: String },
+    #[error("'{0}.ros__parameters' must be a mapping")]
+    ParametersNotAMapping(String),
+    #[error("no section for this node: expected one of {base}, {fqn}, /** (or an rcl wildcard)")]
+    NoSection { base: String, fqn: String },
+    #[error("use_sim_time: this node runs on wall-clock time only (false)")]
+    SimTime,
+}
+
 /// The `ros__parameters` of every section of `text` whose key addresses the node `fqn`,
 /// merged in file order.
-fn sections(text: &str, fqn: &str) -> Result<serde_yaml::Mapping, String> {
-    let doc: serde_yaml::Value =
-        serde_yaml::from_str(text).map_err(|e| format!("not valid YAML: {e}"))?;
+fn sections(text: &str, fqn: &str) -> Result<serde_yaml::Mapping, SectionError> {
+    let doc: serde_yaml::Value = serde_yaml::from_str(text)?;
     let serde_yaml::Value::Mapping(nodes) = doc else {
-        return Err("expected a mapping from node name to ros__parameters".into());
+        return Err(SectionError::NotAMapping);
     };
     let mut merged = serde_yaml::Mapping::new();
     let mut found = false;
@@ -441,30 +459,31 @@ fn sections(text: &str, fqn: &str) -> Result<serde_yaml::Mapping, String> {
         found = true;
         let section = section
             .as_mapping()
-            .ok_or_else(|| format!("'{name}' must be a mapping with 'ros__parameters'"))?;
+            .ok_or_else(|| SectionError::SectionNotAMapping(name.to_string()))?;
         for (k, v) in section {
             if k.as_str() != Some("ros__parameters") {
-                return Err(format!(
-                    "'{name}': unknown key {:?} (only 'ros__parameters')",
-                    k.as_str().unwrap_or("?")
-                ));
+                return Err(SectionError::UnknownKey {
+                    name: name.to_string(),
+                    key: k.as_str().unwrap_or("?").to_string(),
+                });
             }
             let serde_yaml::Value::Mapping(params) = v else {
-                return Err(format!("'{name}.ros__parameters' must be a mapping"));
+                return Err(SectionError::ParametersNotAMapping(name.to_string()));
             };
             merge(&mut merged, params);
         }
     }
     if !found {
         let base = fqn.rsplit('/').next().unwrap_or(fqn);
-        return Err(format!(
-            "no section for this node: expected one of {base}, {fqn}, /** (or an rcl wildcard)"
-        ));
+        return Err(SectionError::NoSection {
+            base: base.to_string(),
+            fqn: fqn.to_string(),
+        });
     }
     // rcl's node-wide `use_sim_time` is declared by every node; only `false` is honoured.
     if let Some(v) = merged.remove("use_sim_time") {
         if v != serde_yaml::Value::Bool(false) {
-            return Err("use_sim_time: this node runs on wall-clock time only (false)".into());
+            return Err(SectionError::SimTime);
         }
     }
     Ok(merged)

@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use super::params::NodeParams;
 use super::worker::{JobContext, Pipeline};
-use crate::planning::CandidateRecorder;
+use waam_messages::planning::CandidateRecorder;
 use waam_motion::robot::limits::LimitsError;
 use waam_motion::robot::{xyz_rpy, RobotError};
 use waam_motion::toolpath::SettingsError;

@@ -18,7 +18,8 @@ use super::action;
 use super::names::NodeNames;
 use super::param_server::ParamStore;
 use super::params::MAX_WAIT_S;
-use super::pipeline::{mesh_input, mesh_settings, Job, PartInput};
+use super::pipeline::{mesh_input, mesh_settings, Job, PartInput, SetupError};
+use super::ros::ServeError;
 use waam_part::Window;
 use waam_rosmsg::shape_msgs::Mesh;
 use waam_rosmsg::waam_interfaces::WeldPlan;
@@ -98,7 +99,7 @@ impl<F: Fn(Request) -> bool + Send + 'static> action::Handler<PlanPartGoal, Plan
 {
     fn goal(&mut self, id: GoalId, goal: PlanPartGoal) -> Result<(), PlanPartResult> {
         let job = job_of(goal, &self.store)
-            .map_err(|reason| PlanPartResult::failed(PlanPartResult::BAD_INPUT, reason))?;
+            .map_err(|e| PlanPartResult::failed(PlanPartResult::BAD_INPUT, e.to_string()))?;
         if (self.requests)(Request::Goal { goal: id, job }) {
             Ok(())
         } else {
@@ -122,7 +123,7 @@ pub fn serve(
     requests: impl Fn(Request) -> bool + Send + 'static,
     replies: Receiver<Reply>,
     stop: Arc<AtomicBool>,
-) -> Result<std::thread::JoinHandle<()>, String> {
+) -> Result<std::thread::JoinHandle<()>, ServeError> {
     action::serve(
         node,
         names,
@@ -134,27 +135,40 @@ pub fn serve(
     )
 }
 
+/// Why a `~/plan` goal cannot be planned (the goal's field and what it must be).
+#[derive(Debug, thiserror::Error)]
+pub enum GoalError {
+    #[error("the goal has neither a part_document nor a mesh")]
+    NoPart,
+    /// The node's mesh parameters cannot voxelize a mesh.
+    #[error(transparent)]
+    MeshParams(#[from] SetupError),
+    #[error("block_mm: expected [] or three lengths > 0 (mm), got {0:?}")]
+    BlockMm(Vec<f64>),
+    #[error("t85_window_s: expected [] or [min_s, max_s] with 0 <= min_s <= max_s, got {0:?}")]
+    Window(Vec<f64>),
+    #[error("max_fragments: expected 0 or k >= 1, got {0}")]
+    MaxFragments(i32),
+    #[error("timeout_s: expected 0 (the node's) or seconds in (0, {max}], got {0}", max = MAX_WAIT_S)]
+    Timeout(f64),
+}
+
 /// The job a goal asks for, or why it cannot be planned.
-fn job_of(goal: PlanPartGoal, store: &ParamStore) -> Result<Job, String> {
+fn job_of(goal: PlanPartGoal, store: &ParamStore) -> Result<Job, GoalError> {
     let input = if !goal.part_document.is_empty() {
         PartInput::Document(goal.part_document)
     } else if !goal.mesh.vertices.is_empty() {
         mesh_input("goal-mesh".into(), &goal.mesh)
     } else {
-        return Err("the goal has neither a part_document nor a mesh".into());
+        return Err(GoalError::NoPart);
     };
-    let mut mesh = mesh_settings(&store.current()).map_err(|e| e.to_string())?;
+    let mut mesh = mesh_settings(&store.current())?;
     match goal.block_mm[..] {
         [] => {}
         [a, b, c] if [a, b, c].iter().all(|v| v.is_finite() && *v > 0.0) => {
             mesh.block_mm = [a, b, c]
         }
-        _ => {
-            return Err(format!(
-                "block_mm: expected [] or three lengths > 0 (mm), got {:?}",
-                goal.block_mm
-            ))
-        }
+        _ => return Err(GoalError::BlockMm(goal.block_mm)),
     }
     match goal.t85_window_s[..] {
         [] => {}
@@ -163,17 +177,12 @@ fn job_of(goal: PlanPartGoal, store: &ParamStore) -> Result<Job, String> {
         {
             mesh.window = Some(Window { min_s, max_s })
         }
-        _ => {
-            return Err(format!(
-                "t85_window_s: expected [] or [min_s, max_s] with 0 <= min_s <= max_s, got {:?}",
-                goal.t85_window_s
-            ))
-        }
+        _ => return Err(GoalError::Window(goal.t85_window_s)),
     }
     let max_fragments = match goal.max_fragments {
         0 => None,
         k if k > 0 => Some(k as usize),
-        k => return Err(format!("max_fragments: expected 0 or k >= 1, got {k}")),
+        k => return Err(GoalError::MaxFragments(k)),
     };
     if let Some(k) = max_fragments {
         mesh.max_fragments = k;
@@ -181,11 +190,7 @@ fn job_of(goal: PlanPartGoal, store: &ParamStore) -> Result<Job, String> {
     let timeout_s = match goal.timeout_s {
         0.0 => None,
         t if t.is_finite() && t > 0.0 && t <= MAX_WAIT_S => Some(t),
-        t => {
-            return Err(format!(
-                "timeout_s: expected 0 (the node's) or seconds in (0, {MAX_WAIT_S}], got {t}"
-            ))
-        }
+        t => return Err(GoalError::Timeout(t)),
     };
     Ok(Job {
         input,

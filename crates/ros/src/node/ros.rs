@@ -24,6 +24,28 @@ pub enum RosEnvError {
     Dds(String),
 }
 
+/// A service or action server of the node, or its thread, could not be set up.
+#[derive(Debug, thiserror::Error)]
+pub enum ServeError {
+    #[error(transparent)]
+    Name(#[from] RosEnvError),
+    /// A service name `ros2-client` refuses.
+    #[error("{name}: {reason}")]
+    BadName { name: String, reason: String },
+    /// `what` is "service" or "action".
+    #[error("cannot create {what} {name}: {reason}")]
+    Create {
+        what: &'static str,
+        name: String,
+        reason: String,
+    },
+    #[error("cannot start {thread}: {source}")]
+    Thread {
+        thread: String,
+        source: std::io::Error,
+    },
+}
+
 /// How far discovery reaches, as `ROS_AUTOMATIC_DISCOVERY_RANGE` says.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DiscoveryRange {

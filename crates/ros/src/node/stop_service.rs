@@ -11,6 +11,7 @@ use ros2_client::{Node, QosProfile, ServiceMapping, ServiceTypeName};
 
 use super::fjt::{TriggerRequest, TriggerResponse};
 use super::names::NodeNames;
+use super::ros::ServeError;
 
 /// Serves `~/stop` until `stop` is raised; each call hands `request` a channel for the
 /// event loop's one-line answer.
@@ -19,8 +20,8 @@ pub fn serve(
     names: &NodeNames,
     request: impl Fn(Sender<String>) -> bool + Send + 'static,
     stop: Arc<AtomicBool>,
-) -> Result<std::thread::JoinHandle<()>, String> {
-    let name = names.resolve("~/stop").map_err(|e| e.to_string())?;
+) -> Result<std::thread::JoinHandle<()>, ServeError> {
+    let name = names.resolve("~/stop")?;
     let qos =
         QosProfile::publisher_default().history(ros2_client::qos::History::KeepLast { depth: 10 });
     let server = node
@@ -31,7 +32,11 @@ pub fn serve(
             qos.clone(),
             qos,
         )
-        .map_err(|e| format!("cannot create service {name}: {e:?}"))?;
+        .map_err(|e| ServeError::Create {
+            what: "service",
+            name: name.to_string(),
+            reason: format!("{e:?}"),
+        })?;
     std::thread::Builder::new()
         .name("ros-stop".into())
         .spawn(move || {
@@ -63,5 +68,8 @@ pub fn serve(
                 }
             }
         })
-        .map_err(|e| format!("cannot start the stop thread: {e}"))
+        .map_err(|source| ServeError::Thread {
+            thread: "the stop thread".into(),
+            source,
+        })
 }

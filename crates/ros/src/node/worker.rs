@@ -108,7 +108,7 @@ pub trait Pipeline: Send + Sync + 'static {
 }
 
 /// Why a job ended without output.
-#[derive(Debug, thiserror::Error)]
+#[derive(Debug, PartialEq, thiserror::Error)]
 pub enum JobFailure<E> {
     #[error("cancelled: a newer part arrived")]
     Superseded,
@@ -264,7 +264,7 @@ mod tests {
     use std::sync::mpsc::channel;
     use std::time::Duration;
 
-    #[derive(Debug, thiserror::Error)]
+    #[derive(Debug, PartialEq, thiserror::Error)]
     #[error("{0}")]
     struct Stop(&'static str);
 
@@ -293,11 +293,11 @@ mod tests {
 
     fn finished(
         rx: &std::sync::mpsc::Receiver<EventOf<Counter>>,
-    ) -> Vec<(u64, Result<u32, String>)> {
+    ) -> Vec<(u64, Result<u32, JobFailure<Stop>>)> {
         let mut out = Vec::new();
         while let Ok(ev) = rx.recv_timeout(Duration::from_secs(20)) {
             if let WorkerEvent::Finished { job, result } = ev {
-                out.push((job, result.map_err(|e| e.to_string())));
+                out.push((job, result));
                 if out.len() == 2 {
                     break;
                 }
@@ -328,7 +328,12 @@ mod tests {
         let mut results = finished(&rx);
         results.sort_by_key(|r| r.0);
         assert_eq!(results[0].0, first);
-        assert!(results[0].1.as_ref().unwrap_err().contains("cancelled"));
+        assert!(results[0]
+            .1
+            .as_ref()
+            .unwrap_err()
+            .to_string()
+            .contains("cancelled"));
         assert_eq!(results[1], (second, Ok(3)));
         worker.finish(second);
         assert!(!worker.busy());

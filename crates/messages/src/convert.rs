@@ -1,5 +1,6 @@
 //! Domain values as ROS 2 messages, each converted in exactly one place: poses, path,
-//! joint trajectory, the weld plan, markers, the planner's statistics and status reports.
+//! joint trajectory, the weld plan, markers and the planner's statistics (status reports:
+//! [`crate::status`]).
 //!
 //! Every output message of a plan carries the same header (the time of planning, the
 //! robot's base link), so a viewer can line them up.
@@ -8,13 +9,12 @@ use nalgebra::{Isometry3, Point3};
 
 use crate::topics;
 use waam_motion::toolpath::{PoseKind, Toolpath};
-use waam_motion::trajectory::JointTrajectory;
+use waam_motion::trajectory::{JointTrajectory, TrajectoryPoint};
 use waam_part::{BlockDisplay, Part};
 use waam_pipeline::Planned;
 use waam_planner::Stats;
 use waam_rosbag::{BagError, Qos, Recorder};
 use waam_rosmsg::builtin_interfaces::{Duration, Time};
-use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
 use waam_rosmsg::geometry_msgs::{Point, Pose, PoseArray, PoseStamped, Quaternion, Vector3};
 use waam_rosmsg::nav_msgs::Path;
 use waam_rosmsg::std_msgs::{ColorRGBA, Header};
@@ -56,25 +56,6 @@ pub fn statistics(stats: &Stats, proven: bool) -> PlanStatistics {
     }
 }
 
-/// A status report of the node's one component, as a DiagnosticArray.
-pub fn diagnostics(
-    stamp: Time,
-    level: u8,
-    message: &str,
-    values: Vec<KeyValue>,
-) -> DiagnosticArray {
-    DiagnosticArray {
-        header: Header::new(stamp, ""),
-        status: vec![DiagnosticStatus {
-            level,
-            name: NODE_NAME.into(),
-            message: message.into(),
-            hardware_id: NODE_NAME.into(),
-            values,
-        }],
-    }
-}
-
 /// The whole trajectory as a trajectory_msgs/JointTrajectory.
 pub fn trajectory_msg(trajectory: &JointTrajectory, header: &Header) -> TrajectoryMsg {
     TrajectoryMsg {
@@ -83,14 +64,50 @@ pub fn trajectory_msg(trajectory: &JointTrajectory, header: &Header) -> Trajecto
         points: trajectory
             .points
             .iter()
-            .map(|p| JointTrajectoryPoint {
-                positions: p.positions.clone(),
-                velocities: p.velocities.clone(),
-                accelerations: p.accelerations.clone(),
-                time_from_start: Duration::from_secs_f64(p.time_from_start),
-                ..JointTrajectoryPoint::default()
-            })
+            .map(|p| trajectory_point(p, p.time_from_start))
             .collect(),
+    }
+}
+
+/// The goal trajectory for points `span`: times count from the point before the span (where
+/// the robot stands), or from `lead_in_s` before the first point for the very first goal;
+/// the last point has zero velocity, since the robot stops there until the next goal.
+pub fn goal_msg(
+    trajectory: &JointTrajectory,
+    span: std::ops::RangeInclusive<usize>,
+    lead_in_s: f64,
+) -> TrajectoryMsg {
+    let points = &trajectory.points;
+    let (first, last) = (*span.start(), *span.end());
+    let t0 = if first == 0 {
+        points[0].time_from_start - lead_in_s
+    } else {
+        points[first - 1].time_from_start
+    };
+    let mut out: Vec<JointTrajectoryPoint> = points[span]
+        .iter()
+        .map(|p| trajectory_point(p, p.time_from_start - t0))
+        .collect();
+    if let Some(end) = out.last_mut() {
+        end.velocities.iter_mut().for_each(|v| *v = 0.0);
+        end.accelerations.iter_mut().for_each(|a| *a = 0.0);
+    }
+    debug_assert_eq!(out.len(), last + 1 - first);
+    TrajectoryMsg {
+        header: Header::new(Time::default(), ""), // stamp 0: start on receipt
+        joint_names: trajectory.joint_names.clone(),
+        points: out,
+    }
+}
+
+/// One trajectory point, reached `time_from_start` seconds after its trajectory's start.
+fn trajectory_point(p: &TrajectoryPoint, time_from_start: f64) -> JointTrajectoryPoint {
+    JointTrajectoryPoint {
+        positions: p.positions.clone(),
+        velocities: p.velocities.clone(),
+        accelerations: p.accelerations.clone(),
+        time_from_start: Duration::from_secs_f64(time_from_start),
+        ..JointTrajectoryPoint::default()
     }
 }
 
@@ -490,7 +507,6 @@ pub fn toolpath_markers(toolpath: &Toolpath, width: f64, header: &Header) -> Vec
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::node::controller::goal_msg;
     use waam_motion::robot::{Robot, TcpChoice};
     use waam_motion::toolpath::ProcessSettings;
     use waam_part::graph::WeldGraph;

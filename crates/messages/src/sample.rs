@@ -5,14 +5,15 @@
 
 use std::collections::BTreeMap;
 
-use super::heat::{heat_frames, HeatOptions};
-use crate::convert::{block_fragments, diagnostics, WeldPlanOf};
+use crate::convert::{block_fragments, WeldPlanOf, NODE_NAME};
+use crate::heat::{heat_frames, HeatOptions};
+use crate::status::Status;
 use crate::topics;
 use waam_part::graph::WeldGraph;
 use waam_part::Part;
 use waam_rosbag::{BagError, Qos, Recorder};
 use waam_rosmsg::builtin_interfaces::{Duration, Time};
-use waam_rosmsg::diagnostic_msgs::{DiagnosticStatus, KeyValue};
+use waam_rosmsg::diagnostic_msgs::KeyValue;
 use waam_rosmsg::geometry_msgs::{Point, Pose, PoseArray, PoseStamped, Quaternion, Vector3};
 use waam_rosmsg::nav_msgs::Path;
 use waam_rosmsg::rcl_interfaces::Log;
@@ -179,15 +180,14 @@ impl SampleSession {
         // The sample has no toolpath: its points are made up with the poses above.
         plan.points = points;
         self.record(recorder, topics::WELD_PLAN, &latched, &plan)?;
-        let status = diagnostics(
-            header.stamp,
-            DiagnosticStatus::OK,
-            &format!("planned (sample round {round})"),
+        let status = Status::ok(
+            format!("planned (sample round {round})"),
             vec![
                 KeyValue::new("part", &self.part.name),
                 KeyValue::new("fragments", self.fragments.len()),
             ],
-        );
+        )
+        .to_msg(header.stamp, NODE_NAME);
         self.record(recorder, topics::STATUS, &Qos::latched(), &status)?;
         for on in [true, false] {
             self.record(

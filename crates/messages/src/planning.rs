@@ -2,10 +2,11 @@
 //! topics: the part received, the planner's verdict on every candidate, the plan (or an ERROR
 //! status saying why there is none), and the simulated heat of the chosen plan.
 
-use super::heat::{record_heat, HeatOptions};
 use crate::convert::{
-    block_fragments, block_msg, diagnostics, statistics, ConvertError, PlanMessages, WeldPlanOf,
+    block_fragments, block_msg, statistics, ConvertError, PlanMessages, WeldPlanOf, NODE_NAME,
 };
+use crate::heat::{record_heat, HeatOptions};
+use crate::status::Status;
 use crate::topics;
 use waam_part::graph::WeldGraph;
 use waam_part::{Part, Window};
@@ -13,7 +14,7 @@ use waam_pipeline::MeshSettings;
 use waam_planner::{CandidateVerdict, Event, Options, Report};
 use waam_rosbag::{BagError, Qos, Recorder};
 use waam_rosmsg::builtin_interfaces::Time;
-use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
+use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, KeyValue};
 use waam_rosmsg::std_msgs::{Header, String as RosString};
 use waam_rosmsg::waam_interfaces::PlanCandidate;
 use waam_thermal::{ThermalModel, ViolationKind};
@@ -207,9 +208,9 @@ pub fn mesh_settings_from_values(
     )))
 }
 
-/// A status report stamped now (see [`diagnostics`]).
-pub fn status(level: u8, message: &str, values: Vec<KeyValue>) -> DiagnosticArray {
-    diagnostics(Time::now(), level, message, values)
+/// A status as a recording carries it on `~/status`: stamped now, reported by [`NODE_NAME`].
+pub fn recorded(status: Status) -> DiagnosticArray {
+    status.to_msg(Time::now(), NODE_NAME)
 }
 
 /// Records the planner's verdict on every candidate as `PlanCandidate` messages. Feed it
@@ -335,7 +336,7 @@ impl PlanningRecorder {
         recorder.record(
             topics::STATUS,
             &Qos::latched(),
-            &status(DiagnosticStatus::OK, "received", values),
+            &recorded(Status::ok("received", values)),
         )?;
         // The input is on disk before the planner runs: a crash or kill while planning
         // never loses what was to be planned.
@@ -370,7 +371,7 @@ impl PlanningRecorder {
             self.recorder.record(
                 topics::STATUS,
                 &Qos::latched(),
-                &status(DiagnosticStatus::ERROR, &reason, vec![]),
+                &recorded(Status::error(reason, vec![])),
             )?;
             return Ok(());
         };
@@ -409,7 +410,7 @@ impl PlanningRecorder {
             topics::STATUS,
             &Qos::latched(),
             now,
-            &status(DiagnosticStatus::OK, "planned", values),
+            &recorded(Status::ok("planned", values)),
         )?;
         let graph = WeldGraph::new(part);
         let model = ThermalModel::new(part, &graph);

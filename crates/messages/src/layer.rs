@@ -10,7 +10,8 @@ use crate::convert::{
     PlanMessages, WeldPlanOf,
 };
 use crate::heat::point_cloud;
-use crate::planning::{status, PART_FRAME};
+use crate::planning::{recorded, PART_FRAME};
+use crate::status::Status;
 use crate::topics;
 use waam_layer::model::{Model, Trail};
 use waam_layer::search::SearchResult;
@@ -18,7 +19,7 @@ use waam_motion::toolpath::{ProcessSettings, Toolpath};
 use waam_motion::trajectory::JointTrajectory;
 use waam_rosbag::{BagError, Qos, Recorder};
 use waam_rosmsg::builtin_interfaces::Time;
-use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
+use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, KeyValue};
 use waam_rosmsg::sensor_msgs::PointCloud2;
 use waam_rosmsg::std_msgs::{ColorRGBA, Header, String as RosString};
 use waam_rosmsg::visualization_msgs::{Marker, MarkerArray};
@@ -45,16 +46,12 @@ pub fn status_values(model: &Model, r: &SearchResult) -> Vec<KeyValue> {
 /// The "planned" status of a searched layer. It is OK even when the time limit cut the
 /// proof short: the trail is valid, and `proven_optimal` / `gap` say how good it is.
 pub fn planned_status(model: &Model, r: &SearchResult) -> DiagnosticArray {
-    status(DiagnosticStatus::OK, "planned", status_values(model, r))
+    recorded(Status::ok("planned", status_values(model, r)))
 }
 
 /// The ERROR status of a layer whose motion could not be planned.
 pub fn no_motion_status(reason: &str) -> DiagnosticArray {
-    status(
-        DiagnosticStatus::ERROR,
-        &format!("no motion: {reason}"),
-        vec![],
-    )
+    recorded(Status::error(format!("no motion: {reason}"), vec![]))
 }
 
 /// The search's figures in the block planner's statistics message: every complete trail
@@ -202,11 +199,7 @@ impl LayerRecording {
         recorder.record(
             topics::STATUS,
             &Qos::latched(),
-            &status(
-                DiagnosticStatus::OK,
-                "received",
-                vec![KeyValue::new("layer", name)],
-            ),
+            &recorded(Status::ok("received", vec![KeyValue::new("layer", name)])),
         )?;
         // On disk before the layer is planned (see `PlanningRecorder::start`).
         recorder.sync()?;

@@ -7,8 +7,6 @@
 
 use std::fmt;
 
-pub mod publish;
-
 use waam_part::Block;
 use waam_rosbag::{Bag, BagError};
 use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus};

@@ -1,12 +1,63 @@
-//! The statuses the node reports on `~/status`.
+//! `~/status`: the one shape of every status report (the node's, and those recorded by
+//! `waam plan --record` and `waam layer plan --record`), and the one builder of the
+//! `DiagnosticArray` it goes out as (the node's health on `/diagnostics` too).
 
-use crate::convert::diagnostics;
+use crate::convert::NODE_NAME;
 use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
+use waam_rosmsg::std_msgs::Header;
 
-/// The statuses the node reports on `~/status`, one DiagnosticStatus each.
+/// One status report: a level, a one-line message and key-value details.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Status {
+pub struct Status {
+    /// `DiagnosticStatus::OK`, `WARN` or `ERROR`.
+    pub level: u8,
+    pub message: String,
+    pub values: Vec<KeyValue>,
+}
+
+impl Status {
+    pub fn new(level: u8, message: impl Into<String>, values: Vec<KeyValue>) -> Status {
+        Status {
+            level,
+            message: message.into(),
+            values,
+        }
+    }
+
+    pub fn ok(message: impl Into<String>, values: Vec<KeyValue>) -> Status {
+        Status::new(DiagnosticStatus::OK, message, values)
+    }
+
+    pub fn error(message: impl Into<String>, values: Vec<KeyValue>) -> Status {
+        Status::new(DiagnosticStatus::ERROR, message, values)
+    }
+
+    /// As `~/status` carries it: reported by the node's one component ([`NODE_NAME`]) of
+    /// `hardware_id` (recordings: [`NODE_NAME`]; the node: empty).
+    pub fn to_msg(&self, stamp: Time, hardware_id: &str) -> DiagnosticArray {
+        self.reported_by(stamp, NODE_NAME, hardware_id)
+    }
+
+    /// The one builder of a `DiagnosticArray`: this status as component `name` of
+    /// `hardware_id` reports it.
+    pub fn reported_by(&self, stamp: Time, name: &str, hardware_id: &str) -> DiagnosticArray {
+        DiagnosticArray {
+            header: Header::new(stamp, ""),
+            status: vec![DiagnosticStatus {
+                level: self.level,
+                name: name.to_string(),
+                message: self.message.clone(),
+                hardware_id: hardware_id.to_string(),
+                values: self.values.clone(),
+            }],
+        }
+    }
+}
+
+/// What the node reports about its jobs on `~/status`, one [`Status`] each.
+#[derive(Debug, Clone, PartialEq)]
+pub enum JobStatus {
     /// An input arrived; `cancelled` names the job it superseded; `settings` are how it
     /// will be turned into a part (for a mesh: the voxelizing settings), for replays.
     Received {
@@ -37,14 +88,19 @@ pub enum Status {
     },
 }
 
-impl Status {
+impl JobStatus {
     /// The status as a DiagnosticArray (level, one-line message, key-value details).
     pub fn to_msg(&self, stamp: Time, hardware_id: &str) -> DiagnosticArray {
+        self.status().to_msg(stamp, hardware_id)
+    }
+
+    /// Its level, message and details.
+    pub fn status(&self) -> Status {
         fn kv(key: &str, value: impl ToString) -> KeyValue {
             KeyValue::new(key, value)
         }
         let (level, message, values) = match self {
-            Status::Received {
+            JobStatus::Received {
                 job,
                 source,
                 cancelled,
@@ -59,7 +115,7 @@ impl Status {
                 values.extend(settings.iter().cloned());
                 (DiagnosticStatus::OK, message, values)
             }
-            Status::Planning {
+            JobStatus::Planning {
                 job,
                 stage,
                 fraction,
@@ -77,19 +133,19 @@ impl Status {
                 }
                 (DiagnosticStatus::OK, message, values)
             }
-            Status::Planned { job, values } => {
+            JobStatus::Planned { job, values } => {
                 let mut all = vec![kv("state", "planned"), kv("job", job)];
                 all.extend(values.iter().cloned());
                 (DiagnosticStatus::OK, format!("planned part {job}"), all)
             }
-            Status::Error { job, reason } => {
+            JobStatus::Error { job, reason } => {
                 let mut values = vec![kv("state", "error"), kv("reason", reason)];
                 if let Some(job) = job {
                     values.push(kv("job", job));
                 }
                 (DiagnosticStatus::ERROR, reason.clone(), values)
             }
-            Status::Executing {
+            JobStatus::Executing {
                 job,
                 message,
                 level,
@@ -99,9 +155,7 @@ impl Status {
                 vec![kv("state", "executing"), kv("job", job)],
             ),
         };
-        let mut msg = diagnostics(stamp, level, &message, values);
-        msg.status[0].hardware_id = hardware_id.to_string();
-        msg
+        Status::new(level, message, values)
     }
 }
 
@@ -111,7 +165,7 @@ mod tests {
 
     #[test]
     fn statuses_carry_state_level_and_reason() {
-        let s = Status::Received {
+        let s = JobStatus::Received {
             job: 3,
             source: "mesh".into(),
             cancelled: Some(2),
@@ -123,7 +177,7 @@ mod tests {
         assert!(st.message.contains("cancelled planning of part 2"));
         assert!(st.values.contains(&KeyValue::new("cancelled_job", 2)));
         assert!(st.values.contains(&KeyValue::new("mesh.name", "mesh-1")));
-        let e = Status::Error {
+        let e = JobStatus::Error {
             job: Some(4),
             reason: "bad part document: x".into(),
         }
@@ -133,5 +187,39 @@ mod tests {
         assert!(e.status[0]
             .values
             .contains(&KeyValue::new("state", "error")));
+    }
+
+    #[test]
+    fn a_status_is_one_diagnostic_status_of_its_reporter() {
+        let values = vec![KeyValue::new("part", "wall")];
+        let recorded =
+            Status::ok("received", values.clone()).to_msg(Time::from_nanos(7), NODE_NAME);
+        assert_eq!(recorded.header, Header::new(Time::from_nanos(7), ""));
+        assert_eq!(
+            recorded.status,
+            vec![DiagnosticStatus {
+                level: DiagnosticStatus::OK,
+                name: NODE_NAME.into(),
+                message: "received".into(),
+                hardware_id: NODE_NAME.into(),
+                values,
+            }]
+        );
+        let node = JobStatus::Planned {
+            job: 2,
+            values: vec![],
+        }
+        .to_msg(Time::default(), "");
+        assert_eq!(node.status[0].name, NODE_NAME);
+        assert_eq!(node.status[0].hardware_id, "");
+        let health = Status::error("down", vec![]).reported_by(Time::default(), "n: planner", "/n");
+        assert_eq!(health.status[0].level, DiagnosticStatus::ERROR);
+        assert_eq!(
+            (
+                health.status[0].name.as_str(),
+                health.status[0].hardware_id.as_str()
+            ),
+            ("n: planner", "/n")
+        );
     }
 }

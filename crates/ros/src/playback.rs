@@ -170,7 +170,7 @@ impl Player {
         std::thread::sleep(delay);
         let start = Instant::now();
         let mut sent = BTreeMap::new();
-        for (at, i) in super::schedule(bag, rate) {
+        for (at, i) in waam_messages::replay::schedule(bag, rate) {
             let message = &bag.messages[i];
             let Some(send) = &self.publishers[message.topic] else {
                 continue;

@@ -1,6 +1,6 @@
 //! Heat frames of a recorded build; every message a session records decodes and encodes back.
 
-use super::heat::{heat_frames, HeatOptions, POINT_STEP};
+use crate::heat::{heat_frames, HeatOptions, POINT_STEP};
 use waam_part::graph::WeldGraph;
 use waam_part::Part;
 use waam_rosbag::*;
@@ -87,7 +87,7 @@ fn recorded_heat_plays_on_the_build_time_line() {
     let recorder = Recorder::create(&dir).unwrap();
     let start = Time::from_nanos(T0 as i64);
     let order: Vec<usize> = (0..part.len()).collect();
-    let n = super::heat::record_heat(
+    let n = crate::heat::record_heat(
         &recorder,
         &part,
         &model,
