@@ -352,8 +352,8 @@ fn publish(args: &ReplayArgs, bag: &Bag) -> anyhow::Result<ExitCode> {
     }
     let delay = Duration::try_from_secs_f64(args.delay)
         .map_err(|_| anyhow::anyhow!("--delay: expected seconds >= 0, got {}", args.delay))?;
-    let context = replay::publish::context_from_env()?;
-    let player = replay::publish::Player::new(context, "waam_replay", bag)?;
+    let context = waam_ros::playback::context_from_env()?;
+    let player = waam_ros::playback::Player::new(context, "waam_replay", bag)?;
     for topic in &player.skipped {
         eprintln!("warning: not played: {topic}");
     }
