@@ -10,6 +10,7 @@ pub mod action;
 pub mod args;
 pub mod controller;
 pub mod declared;
+mod event_loop;
 pub mod execute;
 pub mod execute_action;
 pub mod fjt;
@@ -28,7 +29,7 @@ pub mod worker;
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{channel, RecvTimeoutError, Sender};
+use std::sync::mpsc::{channel, Sender};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -36,6 +37,7 @@ use futures::StreamExt;
 use ros2_client::NodeOptions;
 
 use controller::{spawn_executor, Controller, ExecCommand, SimController};
+use event_loop::EventLoop;
 use io::{Inputs, Level, Outputs};
 use names::NodeNames;
 use params::NodeParams;
@@ -128,16 +130,9 @@ pub enum NodeError {
 pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<bool, NodeError> {
     let env = RosEnv::from_env()?;
     let names = &options.names;
-    let mut node = start_node(&env, names)?;
-
-    let recorder = match &options.record {
-        Some(dir) => Some(Recorder::create(dir).map_err(|source| NodeError::Record {
-            dir: dir.clone(),
-            source,
-        })?),
-        None => None,
-    };
     let params = &options.params;
+    let mut node = start_node(&env, names)?;
+    let recorder = open_recorder(options.record.as_ref())?;
     let outputs = Arc::new(Outputs::new(
         &mut node,
         names,
@@ -145,28 +140,10 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
         options.dry_run,
         recorder.clone(),
     )?);
-    outputs.log(
-        Level::Info,
-        &format!(
-            "{} up: domain {}, discovery {:?}{}{}",
-            node.fully_qualified_name(),
-            env.domain_id,
-            env.range,
-            if options.dry_run { ", dry run" } else { "" },
-            if params.execution.enabled && !options.dry_run {
-                format!(", executing on {}", params.execution.controller_action)
-            } else {
-                String::new()
-            }
-        ),
-    );
+    outputs.log(Level::Info, &started_line(&node, &env, &options));
     let mut pipeline = PlanningPipeline::from_params(params, Arc::clone(&options.planner))?;
     pipeline.recorder = recorder.clone();
-    // The robot and the part frame for viewers, latched; the part frame moves with the
-    // process settings, so a parameter change publishes them again.
-    let urdf = frames::urdf_text(params)?;
-    let cell_frames = frames::CellFrames::new(&mut node, names)?;
-    cell_frames.publish(&urdf, &pipeline, recorder.as_ref());
+    let cell = Cell::publish(&mut node, names, params, &pipeline, recorder.clone())?;
     let diagnostics = io::Output::<waam_rosmsg::diagnostic_msgs::DiagnosticArray>::new(
         &mut node,
         names,
@@ -174,157 +151,49 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
         io::stream_qos(),
         waam_rosbag::Qos::reliable(10),
     )?;
-    let mut health = health::Health::new(names.fully_qualified());
-    let mut last_health: Option<Instant> = None;
-    let mut mesh_settings = pipeline.mesh.clone();
     // The torch the planner checks, in every "received" status: a replay plans with it.
     let torch_values = waam_messages::planning::torch_values(pipeline.cell.settings.torch_setup());
+    let mesh_settings = pipeline.mesh.clone();
 
     let (events, event_rx) = channel::<Event>();
     let worker_events = events.clone();
-    let mut worker = Worker::new(pipeline, move |e| {
+    let worker = Worker::new(pipeline, move |e| {
         let _ = worker_events.send(Event::Worker(e));
     });
-
     let params_stop = Arc::new(AtomicBool::new(false));
-    let mut params_thread = None;
-    let mut action_thread = None;
-    let mut stop_thread = None;
-    let mut execute_thread = None;
-    let mut action_replies: Option<Sender<plan_action::Reply>> = None;
-    let mut execute_replies: Option<Sender<execute_action::Reply>> = None;
-    let (once, linger) = match mode {
+    let (services, once) = match mode {
         Mode::Serve => {
-            // Parameter changes build the next pipeline here; a bad one is refused.
-            let planner = Arc::clone(&options.planner);
-            let rec = recorder.clone();
-            let to_loop = std::sync::Mutex::new(events.clone());
-            let store = param_server::ParamStore::new(
-                params.clone(),
-                Box::new(move |next: &NodeParams| {
-                    let mut pipeline = PlanningPipeline::from_params(next, Arc::clone(&planner))?;
-                    pipeline.recorder = rec.clone();
-                    let sent = to_loop
-                        .lock()
-                        .unwrap_or_else(|e| e.into_inner())
-                        .send(Event::Pipeline(Box::new(pipeline)));
-                    sent.map_err(|_| param_server::ChangeError::ShuttingDown)
-                }),
-            );
-            params_thread = Some(param_server::serve(
+            let services = Services::serve(
                 &mut node,
-                &names.fully_qualified(),
-                Arc::clone(&store),
-                Arc::clone(&params_stop),
-            )?);
-            let (reply_tx, reply_rx) = channel();
-            action_replies = Some(reply_tx);
-            let to_loop = std::sync::Mutex::new(events.clone());
-            action_thread = Some(plan_action::serve(
-                &mut node,
-                names,
-                store,
-                move |request| {
-                    let to_loop = to_loop.lock().unwrap_or_else(|e| e.into_inner());
-                    to_loop.send(Event::Action(request)).is_ok()
-                },
-                reply_rx,
-                Arc::clone(&params_stop),
-            )?);
-            let (reply_tx, reply_rx) = channel();
-            execute_replies = Some(reply_tx);
-            let to_loop = std::sync::Mutex::new(events.clone());
-            execute_thread = Some(execute_action::serve(
-                &mut node,
-                names,
-                move |request| {
-                    let to_loop = to_loop.lock().unwrap_or_else(|e| e.into_inner());
-                    to_loop.send(Event::Execute(request)).is_ok()
-                },
-                reply_rx,
-                Arc::clone(&params_stop),
-            )?);
-            let to_loop = std::sync::Mutex::new(events.clone());
-            stop_thread = Some(stop_service::serve(
-                &mut node,
-                names,
-                move |answer| {
-                    let to_loop = to_loop.lock().unwrap_or_else(|e| e.into_inner());
-                    to_loop.send(Event::Stop(answer)).is_ok()
-                },
-                Arc::clone(&params_stop),
-            )?);
-            let inputs = Inputs::new(&mut node, names, &params.topics)?;
-            outputs.log(
-                Level::Info,
-                &format!(
-                    "waiting for parts on {} and {}",
-                    inputs.part_topic, inputs.mesh_topic
-                ),
-            );
-            spawn_inputs(inputs, events.clone(), Arc::clone(&outputs));
-            (false, Duration::ZERO)
+                &options,
+                &events,
+                &outputs,
+                &recorder,
+                &params_stop,
+            )?;
+            (services, None)
         }
         Mode::Once {
             input,
             wait_for_subscriber,
             linger,
         } => {
-            let until = Instant::now() + wait_for_subscriber;
-            while outputs.joint_trajectory.subscribers(&node) == 0
-                && Instant::now() < until
-                && !stop.load(Ordering::Relaxed)
-            {
-                std::thread::sleep(Duration::from_millis(20));
-            }
-            // Record the part as if it had arrived on ~/part, so a replay finds it.
-            if let (Some(r), PartInput::Document(text)) = (&recorder, &input) {
-                let topic = names.resolve(&params.topics.part)?;
-                let msg = waam_rosmsg::std_msgs::String { data: text.clone() };
-                if let Err(e) = r.record(&topic.to_string(), &waam_rosbag::Qos::reliable(10), &msg)
-                {
-                    tracing::warn!("recording {topic}: {e}");
-                }
-            }
-            let _ = events.send(Event::Input(input));
-            (true, linger)
+            plan_once(
+                &node,
+                &options,
+                &outputs,
+                &events,
+                input,
+                wait_for_subscriber,
+                &stop,
+            )?;
+            (Services::default(), Some(linger))
         }
     };
     // The node is shared from here on: the FollowJointTrajectory client waits on it.
     let node = Arc::new(std::sync::Mutex::new(node));
-
-    // Execution: the simulated controller on a dry run, FollowJointTrajectory when enabled.
-    let controller: Option<Box<dyn Controller>> = if options.dry_run {
-        Some(Box::new(SimController::new(
-            Arc::clone(&outputs),
-            params.dry_run.time_scale,
-            params.dry_run.rate_hz,
-        )))
-    } else if params.execution.enabled {
-        Some(Box::new(fjt::FjtController::new(
-            Arc::clone(&node),
-            names,
-            &params.execution,
-        )?))
-    } else {
-        None
-    };
-    let (executor, executor_thread) = match controller {
-        Some(c) => {
-            let (tx, rx) = channel();
-            let thread = spawn_executor(
-                c,
-                Arc::clone(&outputs),
-                params.execution.max_points_per_goal as usize,
-                params.execution.lead_in_s,
-                rx,
-            );
-            (Some(tx), Some(thread))
-        }
-        None => (None, None),
-    };
-
-    let mut state = LoopState {
+    let (executor, executor_thread) = start_executor(&options, &outputs, &node)?;
+    let state = LoopState {
         outputs: Arc::clone(&outputs),
         executor,
         auto_execute: params.execution.auto_execute,
@@ -332,320 +201,286 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
         serial: 0,
         plans: std::collections::VecDeque::new(),
         // Serving, an execution's end comes back as an event; once, on a channel.
-        events: (!once).then(|| events.clone()),
-        execute_replies: execute_replies.clone(),
+        events: once.is_none().then(|| events.clone()),
+        execute_replies: services.execute_replies.clone(),
         last_progress: None,
         success: false,
     };
     drop(events);
-    let mut finished_once = false;
-    // `~/plan` goals by job: goal id and when it was accepted.
-    let mut goals: std::collections::HashMap<u64, (ros2_client::action::GoalId, Instant)> =
-        Default::default();
-    let reply = |r: plan_action::Reply| {
-        if let Some(tx) = &action_replies {
-            plan_action::send(tx, r);
-        }
+    let mut event_loop = EventLoop {
+        state,
+        worker,
+        health: health::Health::new(names.fully_qualified()),
+        goals: Default::default(),
+        cell,
+        mesh_settings,
+        torch_values,
+        action_replies: services.action_replies.clone(),
+        once: once.is_some(),
+        stop: Arc::clone(&stop),
     };
-    let superseded = |goals: &mut std::collections::HashMap<_, _>, old: Option<u64>, job: u64| {
-        if let Some((goal, _)) = old.and_then(|old| goals.remove(&old)) {
-            reply(plan_action::Reply::Done(
-                goal,
-                ros2_client::action::GoalStatusEnum::Aborted,
-                plan_action::PlanPartResult::failed(
-                    plan_action::PlanPartResult::CANCELLED,
-                    format!("superseded by part {job}"),
-                ),
-            ));
-        }
-    };
-    while !stop.load(Ordering::Relaxed) && !finished_once {
-        if last_health.is_none_or(|t| t.elapsed() >= health::PERIOD) {
-            last_health = Some(Instant::now());
-            // Not recorded: a recording has the events on ~/status.
-            diagnostics.publish(&health.to_msg(Time::now()), None);
-        }
-        let event = match event_rx.recv_timeout(Duration::from_millis(100)) {
-            Ok(event) => event,
-            Err(RecvTimeoutError::Timeout) => continue,
-            Err(RecvTimeoutError::Disconnected) => break,
-        };
-        match event {
-            Event::Pipeline(pipeline) => {
-                mesh_settings = pipeline.mesh.clone();
-                cell_frames.publish(&urdf, &pipeline, recorder.as_ref());
-                worker.set_pipeline(*pipeline);
-                outputs.log(Level::Info, "parameters changed: the next plan uses them");
-            }
-            Event::Stop(answer) => {
-                let mut stopped = Vec::new();
-                if let Some(job) = worker.current() {
-                    worker.cancel(job);
-                    health.planning = None;
-                    if let Some((goal, _)) = goals.remove(&job) {
-                        reply(plan_action::Reply::Done(
-                            goal,
-                            ros2_client::action::GoalStatusEnum::Canceled,
-                            plan_action::PlanPartResult::failed(
-                                plan_action::PlanPartResult::CANCELLED,
-                                "stopped by ~/stop",
-                            ),
-                        ));
-                    }
-                    state.status(JobStatus::Error {
-                        job: Some(job),
-                        reason: "stopped by ~/stop".into(),
-                    });
-                    stopped.push(format!("planning of part {job}"));
-                }
-                if let Some(execution) = state.execution.take() {
-                    // The executor cancels its goal and switches the arc off; an ~/execute
-                    // goal ends cancelled when it has.
-                    execution.cancel.cancel();
-                    stopped.push(format!(
-                        "the execution of part {} (goal cancelled, arc off)",
-                        execution.job
-                    ));
-                }
-                let message = if stopped.is_empty() {
-                    "nothing to stop".to_string()
-                } else {
-                    format!("stopped {}", stopped.join(" and "))
-                };
-                outputs.log(Level::Warn, &format!("~/stop: {message}"));
-                let _ = answer.send(message);
-            }
-            Event::Execute(execute_action::Request::Goal { goal, job }) => {
-                if let Err(refused) = state.execute_goal(goal, job) {
-                    outputs.log(Level::Warn, &format!("~/execute: {}", refused.message));
-                    if let Some(tx) = &execute_replies {
-                        let _ = tx.send(execute_action::Reply::Done(
-                            goal,
-                            ros2_client::action::GoalStatusEnum::Aborted,
-                            refused,
-                        ));
-                    }
-                }
-            }
-            Event::Execute(execute_action::Request::Cancel(goal)) => {
-                if let Some(execution) = &state.execution {
-                    if execution.goal == Some(goal) {
-                        execution.cancel.cancel();
-                        outputs.log(
-                            Level::Info,
-                            &format!(
-                                "part {}: execution cancelled by its ~/execute goal",
-                                execution.job
-                            ),
-                        );
-                    }
-                }
-            }
-            Event::Executed {
-                serial,
-                job,
-                goal,
-                cancelled,
-                result,
-            } => {
-                if state.execution.as_ref().is_some_and(|e| e.serial == serial) {
-                    state.execution = None;
-                }
-                if let (Some(goal), Some(tx)) = (goal, &execute_replies) {
-                    use execute_action::ExecutePlanResult as R;
-                    use ros2_client::action::GoalStatusEnum as S;
-                    let (status, end) = match result {
-                        Ok(()) => (
-                            S::Succeeded,
-                            R::new(R::EXECUTED, job, format!("part {job}: executed")),
-                        ),
-                        Err(e) if cancelled => (
-                            S::Canceled,
-                            R::new(R::CANCELLED, job, format!("part {job}: {e}")),
-                        ),
-                        Err(e) => (
-                            S::Aborted,
-                            R::new(R::FAILED, job, format!("part {job}: {e}")),
-                        ),
-                    };
-                    let _ = tx.send(execute_action::Reply::Done(goal, status, end));
-                }
-            }
-            Event::Action(plan_action::Request::Cancel(goal)) => {
-                let Some(job) = goals.iter().find(|(_, g)| g.0 == goal).map(|(j, _)| *j) else {
-                    continue;
-                };
-                goals.remove(&job);
-                if worker.cancel(job) {
-                    health.planning = None;
-                    state.status(JobStatus::Error {
-                        job: Some(job),
-                        reason: "cancelled by the ~/plan client".into(),
-                    });
-                    outputs.log(Level::Info, &format!("part {job}: goal cancelled"));
-                }
-                reply(plan_action::Reply::Done(
-                    goal,
-                    ros2_client::action::GoalStatusEnum::Canceled,
-                    plan_action::PlanPartResult::failed(
-                        plan_action::PlanPartResult::CANCELLED,
-                        "cancelled by the client",
-                    ),
-                ));
-            }
-            Event::Input(_) | Event::Action(plan_action::Request::Goal { .. }) => {
-                let (job_input, goal) = match event {
-                    Event::Input(input) => (pipeline::Job::from(input), None),
-                    Event::Action(plan_action::Request::Goal { goal, job }) => (job, Some(goal)),
-                    _ => unreachable!("matched above"),
-                };
-                let input = &job_input.input;
-                let source = input.describe();
-                let mut settings = match input {
-                    PartInput::Mesh { name, .. } => waam_messages::planning::mesh_values(
-                        job_input.mesh.as_ref().unwrap_or(&mesh_settings),
-                        name,
-                    ),
-                    PartInput::Document(_) => Vec::new(),
-                };
-                // The planner's settings too, so that `waam replay` plans the same way (a
-                // recording without them is taken to predate the planner's warm start).
-                settings.extend(waam_messages::planning::settings(&waam_planner::Options {
-                    max_fragments: job_input.max_fragments,
-                    ..waam_planner::Options::default()
-                }));
-                settings.extend(torch_values.iter().cloned());
-                // The input (recorded as it arrived, by the input thread or above) is on disk
-                // before its planning starts: a crash while planning never loses it.
-                if let Some(r) = &outputs.recorder {
-                    if let Err(e) = r.sync() {
-                        tracing::warn!("syncing the recording: {e}");
-                    }
-                }
-                let (job, cancelled) = worker.submit(job_input);
-                superseded(&mut goals, cancelled, job);
-                if let Some(goal) = goal {
-                    goals.insert(job, (goal, Instant::now()));
-                }
-                health.planning = Some(job);
-                state.status(JobStatus::Received {
-                    job,
-                    source: source.clone(),
-                    cancelled,
-                    settings,
-                });
-                let mut line = format!("part {job} received ({source})");
-                if let Some(old) = cancelled {
-                    line.push_str(&format!(
-                        "; it supersedes part {old}, whose planning is cancelled"
-                    ));
-                }
-                outputs.log(Level::Info, &line);
-            }
-            Event::Worker(WorkerEvent::Progress { job, progress }) => {
-                if worker.is_current(job) {
-                    if let Some((goal, since)) = goals.get(&job) {
-                        let counts = progress.counts.unwrap_or_default();
-                        reply(plan_action::Reply::Feedback(
-                            *goal,
-                            plan_action::PlanPartFeedback {
-                                stage: progress.stage.to_string(),
-                                candidates: counts.candidates,
-                                feasible: counts.feasible,
-                                cuts: counts.cuts,
-                                best_margin_s: counts.best_margin_s.unwrap_or(f64::NAN),
-                                elapsed_s: since.elapsed().as_secs_f64(),
-                            },
-                        ));
-                    }
-                    state.progress(job, progress);
-                }
-            }
-            Event::Worker(WorkerEvent::Finished { job, result }) => {
-                if !worker.is_current(job) {
-                    tracing::debug!("part {job}: stale result dropped");
-                    continue;
-                }
-                worker.finish(job);
-                health.planning = None;
-                if let Some((goal, since)) = goals.remove(&job) {
-                    let (status, end) = goal_result(job, &result);
-                    if let Ok(p) = result_ok(&result) {
-                        reply(plan_action::Reply::Feedback(goal, final_feedback(p, since)));
-                    }
-                    reply(plan_action::Reply::Done(goal, status, end));
-                }
-                match &result {
-                    Ok(p) => {
-                        health.planned += 1;
-                        let summary = format!(
-                            "planned {} ({} blocks, {} fragment(s))",
-                            p.part.name,
-                            p.part.len(),
-                            p.found.fragments.len()
-                        );
-                        health.last = Some((job, health::Outcome::Planned(summary)));
-                    }
-                    Err(e) => {
-                        health.failed += 1;
-                        health.last = Some((job, health::Outcome::NoPlan(e.to_string())));
-                    }
-                }
-                let done = state.finished(job, result);
-                if once {
-                    if let Some(done) = done {
-                        // Wait for the execution to end (or the user to stop us).
-                        loop {
-                            match done.recv_timeout(Duration::from_millis(100)) {
-                                Ok(result) => {
-                                    state.success &= result.is_ok();
-                                    break;
-                                }
-                                Err(RecvTimeoutError::Timeout) if !stop.load(Ordering::Relaxed) => {
-                                }
-                                _ => {
-                                    state.success = false;
-                                    break;
-                                }
-                            }
-                        }
-                    }
-                    finished_once = true;
-                }
-            }
-        }
-    }
-    // Stop an execution in progress (the arc goes off) before the recording closes.
-    if let Some(execution) = state.execution.take() {
-        execution.cancel.cancel();
-    }
-    drop(state.executor.take());
-    if let Some(thread) = executor_thread {
-        let _ = thread.join();
-    }
-    worker.shutdown();
+    event_loop.run(&event_rx, &diagnostics);
+    event_loop.shut_down(executor_thread);
     params_stop.store(true, Ordering::Relaxed);
-    for thread in [params_thread, action_thread, stop_thread, execute_thread]
-        .into_iter()
-        .flatten()
-    {
-        let _ = thread.join();
-    }
-    if once && !stop.load(Ordering::Relaxed) {
+    services.join();
+    if let Some(linger) = once.filter(|_| !stop.load(Ordering::Relaxed)) {
         // Let subscribers fetch the latched outputs before the writers go away.
         let until = Instant::now() + linger;
         while Instant::now() < until && !stop.load(Ordering::Relaxed) {
             std::thread::sleep(Duration::from_millis(50));
         }
     }
-    if let Some(r) = &recorder {
+    finish_recording(recorder.as_ref());
+    drop(node); // stops the spinner
+    Ok(event_loop.state.success)
+}
+
+/// The recorder of `--record DIR`, if asked for.
+fn open_recorder(record: Option<&PathBuf>) -> Result<Option<Recorder>, NodeError> {
+    record
+        .map(|dir| {
+            Recorder::create(dir).map_err(|source| NodeError::Record {
+                dir: dir.clone(),
+                source,
+            })
+        })
+        .transpose()
+}
+
+/// Closes the recording, if any, so that it opens without a reindex.
+fn finish_recording(recorder: Option<&Recorder>) {
+    if let Some(r) = recorder {
         match r.finish() {
             Ok(summary) => tracing::info!("recording finished: {summary:?}"),
             Err(e) => tracing::warn!("finishing the recording: {e}"),
         }
     }
-    drop(node); // stops the spinner
-    Ok(state.success)
+}
+
+/// The log line that says the node is up, where, and what it will do with plans.
+fn started_line(node: &ros2_client::Node, env: &RosEnv, options: &RunOptions) -> String {
+    let params = &options.params;
+    format!(
+        "{} up: domain {}, discovery {:?}{}{}",
+        node.fully_qualified_name(),
+        env.domain_id,
+        env.range,
+        if options.dry_run { ", dry run" } else { "" },
+        if params.execution.enabled && !options.dry_run {
+            format!(", executing on {}", params.execution.controller_action)
+        } else {
+            String::new()
+        }
+    )
+}
+
+/// The robot and the part frame for viewers, latched; the part frame moves with the
+/// process settings, so a parameter change publishes them again.
+struct Cell {
+    urdf: String,
+    frames: frames::CellFrames,
+    recorder: Option<Recorder>,
+}
+
+impl Cell {
+    fn publish(
+        node: &mut ros2_client::Node,
+        names: &NodeNames,
+        params: &NodeParams,
+        pipeline: &PlanningPipeline,
+        recorder: Option<Recorder>,
+    ) -> Result<Cell, NodeError> {
+        let cell = Cell {
+            urdf: frames::urdf_text(params)?,
+            frames: frames::CellFrames::new(node, names)?,
+            recorder,
+        };
+        cell.publish_again(pipeline);
+        Ok(cell)
+    }
+
+    fn publish_again(&self, pipeline: &PlanningPipeline) {
+        self.frames
+            .publish(&self.urdf, pipeline, self.recorder.as_ref());
+    }
+}
+
+/// What serving adds to the node: parameter services, `~/plan`, `~/execute`, `~/stop` and
+/// the input topics, each on a thread of its own; none when planning once.
+#[derive(Default)]
+struct Services {
+    threads: Vec<std::thread::JoinHandle<()>>,
+    action_replies: Option<Sender<plan_action::Reply>>,
+    execute_replies: Option<Sender<execute_action::Reply>>,
+}
+
+impl Services {
+    /// Starts them all; requests come to the event loop on `events`; they run until `stop`.
+    fn serve(
+        node: &mut ros2_client::Node,
+        options: &RunOptions,
+        events: &Sender<Event>,
+        outputs: &Arc<Outputs>,
+        recorder: &Option<Recorder>,
+        stop: &Arc<AtomicBool>,
+    ) -> Result<Services, NodeError> {
+        let (names, params) = (&options.names, &options.params);
+        let store = param_server::ParamStore::new(
+            params.clone(),
+            pipeline_on_change(options, recorder.clone(), events.clone()),
+        );
+        let mut threads = vec![param_server::serve(
+            node,
+            &names.fully_qualified(),
+            Arc::clone(&store),
+            Arc::clone(stop),
+        )?];
+        let (action_replies, replies) = channel();
+        threads.push(plan_action::serve(
+            node,
+            names,
+            store,
+            to_loop(events, Event::Action),
+            replies,
+            Arc::clone(stop),
+        )?);
+        let (execute_replies, replies) = channel();
+        threads.push(execute_action::serve(
+            node,
+            names,
+            to_loop(events, Event::Execute),
+            replies,
+            Arc::clone(stop),
+        )?);
+        threads.push(stop_service::serve(
+            node,
+            names,
+            to_loop(events, Event::Stop),
+            Arc::clone(stop),
+        )?);
+        let inputs = Inputs::new(node, names, &params.topics)?;
+        outputs.log(
+            Level::Info,
+            &format!(
+                "waiting for parts on {} and {}",
+                inputs.part_topic, inputs.mesh_topic
+            ),
+        );
+        spawn_inputs(inputs, events.clone(), Arc::clone(outputs));
+        Ok(Services {
+            threads,
+            action_replies: Some(action_replies),
+            execute_replies: Some(execute_replies),
+        })
+    }
+
+    fn join(self) {
+        for thread in self.threads {
+            let _ = thread.join();
+        }
+    }
+}
+
+/// Hands requests to the event loop as `wrap` makes them events; `false`: the loop is gone
+/// (the node is stopping).
+fn to_loop<R>(events: &Sender<Event>, wrap: fn(R) -> Event) -> impl Fn(R) -> bool + Send {
+    let events = std::sync::Mutex::new(events.clone());
+    move |request| {
+        let events = events.lock().unwrap_or_else(|e| e.into_inner());
+        events.send(wrap(request)).is_ok()
+    }
+}
+
+/// Parameter changes build the next pipeline here (a bad one is refused) and hand it to the
+/// event loop.
+fn pipeline_on_change(
+    options: &RunOptions,
+    recorder: Option<Recorder>,
+    events: Sender<Event>,
+) -> Box<param_server::OnChange> {
+    let planner = Arc::clone(&options.planner);
+    let to_loop = std::sync::Mutex::new(events);
+    Box::new(move |next: &NodeParams| {
+        let mut pipeline = PlanningPipeline::from_params(next, Arc::clone(&planner))?;
+        pipeline.recorder = recorder.clone();
+        let sent = to_loop
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .send(Event::Pipeline(Box::new(pipeline)));
+        sent.map_err(|_| param_server::ChangeError::ShuttingDown)
+    })
+}
+
+/// [`Mode::Once`]: waits (up to `wait_for_subscriber`) for a subscriber on the joint
+/// trajectory topic, records the part as if it had come on `~/part`, and hands it to the
+/// event loop.
+fn plan_once(
+    node: &ros2_client::Node,
+    options: &RunOptions,
+    outputs: &Outputs,
+    events: &Sender<Event>,
+    input: PartInput,
+    wait_for_subscriber: Duration,
+    stop: &AtomicBool,
+) -> Result<(), NodeError> {
+    let until = Instant::now() + wait_for_subscriber;
+    while outputs.joint_trajectory.subscribers(node) == 0
+        && Instant::now() < until
+        && !stop.load(Ordering::Relaxed)
+    {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // Record the part as if it had arrived on ~/part, so a replay finds it.
+    if let (Some(r), PartInput::Document(text)) = (&outputs.recorder, &input) {
+        let topic = options.names.resolve(&options.params.topics.part)?;
+        let msg = waam_rosmsg::std_msgs::String { data: text.clone() };
+        if let Err(e) = r.record(&topic.to_string(), &waam_rosbag::Qos::reliable(10), &msg) {
+            tracing::warn!("recording {topic}: {e}");
+        }
+    }
+    let _ = events.send(Event::Input(input));
+    Ok(())
+}
+
+/// Execution: the simulated controller on a dry run, FollowJointTrajectory when enabled, on
+/// a thread of its own; none otherwise.
+#[allow(clippy::type_complexity)]
+fn start_executor(
+    options: &RunOptions,
+    outputs: &Arc<Outputs>,
+    node: &Arc<std::sync::Mutex<ros2_client::Node>>,
+) -> Result<
+    (
+        Option<Sender<ExecCommand>>,
+        Option<std::thread::JoinHandle<()>>,
+    ),
+    NodeError,
+> {
+    let params = &options.params;
+    let controller: Box<dyn Controller> = if options.dry_run {
+        Box::new(SimController::new(
+            Arc::clone(outputs),
+            params.dry_run.time_scale,
+            params.dry_run.rate_hz,
+        ))
+    } else if params.execution.enabled {
+        Box::new(fjt::FjtController::new(
+            Arc::clone(node),
+            &options.names,
+            &params.execution,
+        )?)
+    } else {
+        return Ok((None, None));
+    };
+    let (tx, rx) = channel();
+    let thread = spawn_executor(
+        controller,
+        Arc::clone(outputs),
+        params.execution.max_points_per_goal as usize,
+        params.execution.lead_in_s,
+        rx,
+    );
+    Ok((Some(tx), Some(thread)))
 }
 
 /// The node `names` gives (with `/rosout`) on the environment's domain and discovery range,
