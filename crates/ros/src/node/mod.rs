@@ -144,13 +144,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     let mut pipeline = PlanningPipeline::from_params(params, Arc::clone(&options.planner))?;
     pipeline.recorder = recorder.clone();
     let cell = Cell::publish(&mut node, names, params, &pipeline, recorder.clone())?;
-    let diagnostics = io::Output::<waam_rosmsg::diagnostic_msgs::DiagnosticArray>::new(
-        &mut node,
-        names,
-        health::DIAGNOSTICS,
-        io::stream_qos(),
-        waam_rosbag::Qos::reliable(10),
-    )?;
+    let diagnostics = health_output(&mut node, names)?;
     // The torch the planner checks, in every "received" status: a replay plans with it.
     let torch_values = waam_messages::planning::torch_values(pipeline.cell.settings.torch_setup());
     let mesh_settings = pipeline.mesh.clone();
@@ -161,51 +155,26 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
         let _ = worker_events.send(Event::Worker(e));
     });
     let params_stop = Arc::new(AtomicBool::new(false));
-    let (services, once) = match mode {
-        Mode::Serve => {
-            let services = Services::serve(
-                &mut node,
-                &options,
-                &events,
-                &outputs,
-                &recorder,
-                &params_stop,
-            )?;
-            (services, None)
-        }
-        Mode::Once {
-            input,
-            wait_for_subscriber,
-            linger,
-        } => {
-            plan_once(
-                &node,
-                &options,
-                &outputs,
-                &events,
-                input,
-                wait_for_subscriber,
-                &stop,
-            )?;
-            (Services::default(), Some(linger))
-        }
-    };
+    let (services, once) = start(
+        mode,
+        &mut node,
+        &options,
+        &events,
+        &outputs,
+        &params_stop,
+        &stop,
+    )?;
     // The node is shared from here on: the FollowJointTrajectory client waits on it.
     let node = Arc::new(std::sync::Mutex::new(node));
     let (executor, executor_thread) = start_executor(&options, &outputs, &node)?;
-    let state = LoopState {
-        outputs: Arc::clone(&outputs),
+    let state = LoopState::new(
+        &outputs,
         executor,
-        auto_execute: params.execution.auto_execute,
-        execution: None,
-        serial: 0,
-        plans: std::collections::VecDeque::new(),
+        params.execution.auto_execute,
         // Serving, an execution's end comes back as an event; once, on a channel.
-        events: once.is_none().then(|| events.clone()),
-        execute_replies: services.execute_replies.clone(),
-        last_progress: None,
-        success: false,
-    };
+        once.is_none().then(|| events.clone()),
+        services.execute_replies.clone(),
+    );
     drop(events);
     let mut event_loop = EventLoop {
         state,
@@ -223,16 +192,61 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     event_loop.shut_down(executor_thread);
     params_stop.store(true, Ordering::Relaxed);
     services.join();
-    if let Some(linger) = once.filter(|_| !stop.load(Ordering::Relaxed)) {
-        // Let subscribers fetch the latched outputs before the writers go away.
-        let until = Instant::now() + linger;
-        while Instant::now() < until && !stop.load(Ordering::Relaxed) {
-            std::thread::sleep(Duration::from_millis(50));
-        }
+    if let Some(linger) = once {
+        linger_unless_stopped(linger, &stop);
     }
     finish_recording(recorder.as_ref());
     drop(node); // stops the spinner
     Ok(event_loop.state.success)
+}
+
+/// Serving: starts the [`Services`]. Once: hands the part to the event loop (see
+/// [`plan_once`]) and returns how long to linger after it.
+fn start(
+    mode: Mode,
+    node: &mut ros2_client::Node,
+    options: &RunOptions,
+    events: &Sender<Event>,
+    outputs: &Arc<Outputs>,
+    services_stop: &Arc<AtomicBool>,
+    stop: &AtomicBool,
+) -> Result<(Services, Option<Duration>), NodeError> {
+    match mode {
+        Mode::Serve => {
+            let services = Services::serve(node, options, events, outputs, services_stop)?;
+            Ok((services, None))
+        }
+        Mode::Once {
+            input,
+            wait_for_subscriber,
+            linger,
+        } => {
+            plan_once(
+                node,
+                options,
+                outputs,
+                events,
+                input,
+                wait_for_subscriber,
+                stop,
+            )?;
+            Ok((Services::default(), Some(linger)))
+        }
+    }
+}
+
+/// Where the health goes out (`/diagnostics`).
+fn health_output(
+    node: &mut ros2_client::Node,
+    names: &NodeNames,
+) -> Result<io::Output<waam_rosmsg::diagnostic_msgs::DiagnosticArray>, NodeError> {
+    Ok(io::Output::new(
+        node,
+        names,
+        health::DIAGNOSTICS,
+        io::stream_qos(),
+        waam_rosbag::Qos::reliable(10),
+    )?)
 }
 
 /// The recorder of `--record DIR`, if asked for.
@@ -245,6 +259,14 @@ fn open_recorder(record: Option<&PathBuf>) -> Result<Option<Recorder>, NodeError
             })
         })
         .transpose()
+}
+
+/// Planning once: lets subscribers fetch the latched outputs before the writers go away.
+fn linger_unless_stopped(linger: Duration, stop: &AtomicBool) {
+    let until = Instant::now() + linger;
+    while Instant::now() < until && !stop.load(Ordering::Relaxed) {
+        std::thread::sleep(Duration::from_millis(50));
+    }
 }
 
 /// Closes the recording, if any, so that it opens without a reindex.
@@ -321,13 +343,12 @@ impl Services {
         options: &RunOptions,
         events: &Sender<Event>,
         outputs: &Arc<Outputs>,
-        recorder: &Option<Recorder>,
         stop: &Arc<AtomicBool>,
     ) -> Result<Services, NodeError> {
         let (names, params) = (&options.names, &options.params);
         let store = param_server::ParamStore::new(
             params.clone(),
-            pipeline_on_change(options, recorder.clone(), events.clone()),
+            pipeline_on_change(options, outputs.recorder.clone(), events.clone()),
         );
         let mut threads = vec![param_server::serve(
             node,
@@ -537,6 +558,27 @@ struct LoopState {
 }
 
 impl LoopState {
+    fn new(
+        outputs: &Arc<Outputs>,
+        executor: Option<Sender<ExecCommand>>,
+        auto_execute: bool,
+        events: Option<Sender<Event>>,
+        execute_replies: Option<Sender<execute_action::Reply>>,
+    ) -> LoopState {
+        LoopState {
+            outputs: Arc::clone(outputs),
+            executor,
+            auto_execute,
+            execution: None,
+            serial: 0,
+            plans: std::collections::VecDeque::new(),
+            events,
+            execute_replies,
+            last_progress: None,
+            success: false,
+        }
+    }
+
     fn status(&self, status: JobStatus) {
         self.outputs.status.publish(
             &status.to_msg(Time::now(), ""),
