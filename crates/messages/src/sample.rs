@@ -5,24 +5,27 @@
 
 use std::collections::BTreeMap;
 
-use crate::convert::{block_fragments, WeldPlanOf, NODE_NAME};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+
+use crate::convert::{
+    block_fragments, markers, path, pose_array, trajectory_msg, WeldPlanOf, NODE_NAME,
+};
 use crate::heat::{heat_frames, HeatOptions};
 use crate::status::Status;
 use crate::topics;
+use waam_motion::toolpath::{PoseKind, ToolPose, Toolpath};
+use waam_motion::trajectory::TrajectoryPoint;
 use waam_part::graph::WeldGraph;
 use waam_part::Part;
 use waam_rosbag::{BagError, Qos, Recorder};
-use waam_rosmsg::builtin_interfaces::{Duration, Time};
+use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::diagnostic_msgs::KeyValue;
-use waam_rosmsg::geometry_msgs::{Point, Pose, PoseArray, PoseStamped, Quaternion, Vector3};
-use waam_rosmsg::nav_msgs::Path;
+use waam_rosmsg::geometry_msgs::Point;
 use waam_rosmsg::rcl_interfaces::Log;
 use waam_rosmsg::sensor_msgs::{JointState, PointCloud2};
 use waam_rosmsg::shape_msgs::{Mesh, MeshTriangle};
-use waam_rosmsg::std_msgs::{Bool, ColorRGBA, Header, String as RosString};
-use waam_rosmsg::trajectory_msgs::{JointTrajectory, JointTrajectoryPoint};
-use waam_rosmsg::visualization_msgs::{Marker, MarkerArray};
-use waam_rosmsg::waam_interfaces::{Block, PlanCandidate, PlanStatistics, WeldPoint};
+use waam_rosmsg::std_msgs::{Bool, Header, String as RosString};
+use waam_rosmsg::waam_interfaces::{Block, PlanCandidate, PlanStatistics};
 use waam_rosmsg::RosMessage;
 use waam_thermal::ThermalModel;
 
@@ -109,64 +112,37 @@ impl SampleSession {
         let mesh = self.mesh();
         self.record(recorder, topics::PART_MESH, &Qos::reliable(10), &mesh)?;
 
-        let poses: Vec<Pose> = self.fragments[0]
-            .iter()
-            .map(|&b| self.top_pose(b))
-            .collect();
-        let points: Vec<WeldPoint> = poses
-            .iter()
-            .enumerate()
-            .map(|(i, pose)| WeldPoint {
-                pose: *pose,
-                time_from_start: Duration::from_secs_f64(i as f64),
-                kind: match i {
-                    0 => WeldPoint::ARC_ON,
-                    _ if i + 1 == poses.len() => WeldPoint::ARC_OFF,
-                    _ => WeldPoint::WELD,
-                },
-                arc_on: true,
-                fragment: 0,
-                block: i as i32,
-                speed: 0.006,
-            })
-            .collect();
-        let trajectory = JointTrajectory {
-            header: header.clone(),
-            joint_names: JOINTS.iter().map(|s| s.to_string()).collect(),
-            points: (0..points.len())
-                .map(|i| JointTrajectoryPoint {
-                    positions: (0..6).map(|j| 0.1 * j as f64 + 0.01 * i as f64).collect(),
-                    velocities: vec![0.01; 6],
-                    time_from_start: Duration::from_secs_f64(i as f64),
-                    ..Default::default()
-                })
-                .collect(),
-        };
+        // The made-up motion as domain values, then through the one builder of each message.
+        let toolpath = self.toolpath();
+        let trajectory = self.trajectory(toolpath.poses.len());
         let latched = Qos::latched();
-        self.record(recorder, topics::JOINT_TRAJECTORY, &latched, &trajectory)?;
-        let pose_array = PoseArray {
-            header: header.clone(),
-            poses: poses.clone(),
-        };
-        self.record(recorder, topics::POSES, &latched, &pose_array)?;
-        let path = Path {
-            header: header.clone(),
-            poses: poses
-                .iter()
-                .map(|p| PoseStamped {
-                    header: header.clone(),
-                    pose: *p,
-                })
-                .collect(),
-        };
-        self.record(recorder, topics::PATH, &latched, &path)?;
-        let markers = self.markers(&header, &poses);
+        let joint_trajectory = trajectory_msg(&trajectory, &header);
+        self.record(
+            recorder,
+            topics::JOINT_TRAJECTORY,
+            &latched,
+            &joint_trajectory,
+        )?;
+        self.record(
+            recorder,
+            topics::POSES,
+            &latched,
+            &pose_array(&toolpath, &header),
+        )?;
+        self.record(recorder, topics::PATH, &latched, &path(&toolpath, &header))?;
+        let markers = markers(
+            &self.part,
+            &self.fragments,
+            &toolpath,
+            &Isometry3::identity(),
+            &header,
+        );
         self.record(recorder, topics::MARKERS, &latched, &markers)?;
-        let mut plan = WeldPlanOf {
+        let plan = WeldPlanOf {
             part_name: &self.part.name,
             block_pitch: self.part.block_mm[0] / 1000.0,
             fragments: block_fragments(&self.part, &self.fragments),
-            toolpath: None,
+            toolpath: Some(&toolpath),
             weld_speed: 0.006,
             transit_speed: 0.1,
             worst_margin_s: 0.5,
@@ -177,8 +153,6 @@ impl SampleSession {
             path: "sample".into(),
             reason: e.to_string(),
         })?;
-        // The sample has no toolpath: its points are made up with the poses above.
-        plan.points = points;
         self.record(recorder, topics::WELD_PLAN, &latched, &plan)?;
         let status = Status::ok(
             format!("planned (sample round {round})"),
@@ -199,8 +173,8 @@ impl SampleSession {
         }
         let joints = JointState {
             header: header.clone(),
-            name: trajectory.joint_names.clone(),
-            position: trajectory.points[0].positions.clone(),
+            name: joint_trajectory.joint_names.clone(),
+            position: joint_trajectory.points[0].positions.clone(),
             velocity: vec![0.0; 6],
             effort: Vec::new(),
         };
@@ -243,21 +217,58 @@ impl SampleSession {
         Ok(())
     }
 
-    /// The pose of the torch at the top centre of block `b` (metres), pointing down.
-    fn top_pose(&self, b: usize) -> Pose {
-        let c = self.part.centre_mm(self.part.block(b));
-        Pose {
-            position: Point {
-                x: c[0] / 1000.0,
-                y: c[1] / 1000.0,
-                z: (c[2] + self.part.block_mm[2] / 2.0) / 1000.0,
-            },
-            orientation: Quaternion {
-                x: 1.0,
-                y: 0.0,
-                z: 0.0,
-                w: 0.0,
-            },
+    /// The torch along the serpentine, one pose a second at the top centre of each block
+    /// (metres, pointing down), arc on from the first to the last.
+    fn toolpath(&self) -> Toolpath {
+        let order = &self.fragments[0];
+        let down = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI);
+        let poses = order
+            .iter()
+            .enumerate()
+            .map(|(i, &b)| {
+                let c = self.part.centre_mm(self.part.block(b));
+                let top = Translation3::new(
+                    c[0] / 1000.0,
+                    c[1] / 1000.0,
+                    (c[2] + self.part.block_mm[2] / 2.0) / 1000.0,
+                );
+                ToolPose {
+                    time_s: i as f64,
+                    pose: Isometry3::from_parts(top, down),
+                    arc_on: true,
+                    fragment: 0,
+                    point: i,
+                    kind: match i {
+                        0 => PoseKind::ArcOn,
+                        _ if i + 1 == order.len() => PoseKind::ArcOff,
+                        _ => PoseKind::Weld,
+                    },
+                    at_point: true,
+                }
+            })
+            .collect();
+        Toolpath {
+            frame: FRAME.into(),
+            poses,
+        }
+    }
+
+    /// Made-up joint angles, one point a second.
+    fn trajectory(&self, n: usize) -> waam_motion::trajectory::JointTrajectory {
+        waam_motion::trajectory::JointTrajectory {
+            base_link: FRAME.into(),
+            tip_link: "tool0".into(),
+            tcp_offset: Isometry3::identity(),
+            joint_names: JOINTS.iter().map(|s| s.to_string()).collect(),
+            points: (0..n)
+                .map(|i| TrajectoryPoint {
+                    positions: (0..6).map(|j| 0.1 * j as f64 + 0.01 * i as f64).collect(),
+                    velocities: vec![0.01; 6],
+                    accelerations: Vec::new(),
+                    time_from_start: i as f64,
+                    arc_on: true,
+                })
+                .collect(),
         }
     }
 
@@ -297,85 +308,6 @@ impl SampleSession {
                 .map(|&vertex_indices| MeshTriangle { vertex_indices })
                 .collect(),
             vertices,
-        }
-    }
-
-    fn markers(&self, header: &Header, poses: &[Pose]) -> MarkerArray {
-        let pitch = self.part.block_mm.map(|v| v / 1000.0);
-        let cubes = Marker {
-            header: header.clone(),
-            ns: "blocks".into(),
-            id: 0,
-            type_: Marker::CUBE_LIST,
-            pose: Pose::default(),
-            scale: Vector3 {
-                x: pitch[0],
-                y: pitch[1],
-                z: pitch[2],
-            },
-            color: ColorRGBA {
-                r: 0.2,
-                g: 0.5,
-                b: 0.9,
-                a: 1.0,
-            },
-            points: (0..self.part.len())
-                .map(|b| {
-                    let c = self.part.centre_mm(self.part.block(b));
-                    Point {
-                        x: c[0] / 1000.0,
-                        y: c[1] / 1000.0,
-                        z: c[2] / 1000.0,
-                    }
-                })
-                .collect(),
-            ..Default::default()
-        };
-        let weld = Marker {
-            header: header.clone(),
-            ns: "weld".into(),
-            id: 1,
-            type_: Marker::LINE_STRIP,
-            pose: Pose::default(),
-            scale: Vector3 {
-                x: 0.001,
-                ..Default::default()
-            },
-            color: ColorRGBA {
-                r: 1.0,
-                g: 0.3,
-                b: 0.0,
-                a: 1.0,
-            },
-            points: poses.iter().map(|p| p.position).collect(),
-            ..Default::default()
-        };
-        let label = |id: i32, text: &str, pose: Pose| Marker {
-            header: header.clone(),
-            ns: "arc".into(),
-            id,
-            type_: Marker::TEXT_VIEW_FACING,
-            pose,
-            scale: Vector3 {
-                z: 0.004,
-                ..Default::default()
-            },
-            color: ColorRGBA {
-                r: 1.0,
-                g: 1.0,
-                b: 1.0,
-                a: 1.0,
-            },
-            text: text.into(),
-            ..Default::default()
-        };
-        MarkerArray {
-            markers: vec![
-                cubes,
-                weld,
-                label(2, "arc on", poses[0]),
-                label(3, "arc off", poses[poses.len() - 1]),
-            ],
         }
     }
 }
