@@ -289,6 +289,14 @@ impl Part {
         Ok(part)
     }
 
+    /// How messages name deposit `i`: `node 12` in a graph part, `block [x,y,z]` else.
+    pub fn deposit_name(&self, i: usize) -> String {
+        match self.beads {
+            Some(_) => format!("node {i}"),
+            None => format!("block {}", BlockDisplay(self.block(i))),
+        }
+    }
+
     /// The graph part behind this part, if it is one.
     pub fn bead_part(&self) -> Option<&BeadPart> {
         self.beads.as_deref()
