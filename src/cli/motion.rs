@@ -12,6 +12,7 @@ use waam_motion::trajectory::JointTrajectory;
 use waam_motion::write_outputs;
 use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
+use waam_part::GraphPlan;
 use waam_pipeline::{Cell, CellError, CellSource, PipelineError};
 
 use super::{read_part, EXIT_NO, EXIT_OK};
@@ -235,9 +236,11 @@ pub fn report_motion(
 /// input.
 #[derive(Debug, clap::Args)]
 pub struct MotionArgs {
-    /// The part file (YAML, shared part format).
+    /// The part file (YAML: the shared part format, or a graph part of beads, welded along
+    /// their centre lines).
     pub part: PathBuf,
-    /// The plan file (YAML, or JSON when it ends in .json or starts with `{`).
+    /// The plan file (YAML, or JSON when it ends in .json or starts with `{`): blocks, or
+    /// node ids for a graph part.
     pub plan: PathBuf,
     #[command(flatten)]
     pub robot: RobotArgs,
@@ -265,9 +268,22 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
     let bytes = std::fs::read(&args.plan)
         .with_context(|| format!("cannot read plan {}", args.plan.display()))?;
     let is_json = args.plan.extension().is_some_and(|e| e == "json");
-    let plan = Plan::from_bytes(&bytes, is_json)
-        .with_context(|| format!("in plan {}", args.plan.display()))?;
-    let fragments = match plan.validate(&part, &WeldGraph::new(&part)) {
+    let in_plan = || format!("in plan {}", args.plan.display());
+    // A graph part's plan names node ids, a cube part's blocks.
+    let checked = match part.bead_part() {
+        Some(beads) => {
+            let plan = GraphPlan::from_bytes(&bytes, is_json).with_context(in_plan)?;
+            plan.validate(beads, &beads.moves())
+                .map(|()| plan.fragments)
+                .map_err(|e| e.to_string())
+        }
+        None => {
+            let plan = Plan::from_bytes(&bytes, is_json).with_context(in_plan)?;
+            plan.validate(&part, &WeldGraph::new(&part))
+                .map_err(|e| e.to_string())
+        }
+    };
+    let fragments = match checked {
         Ok(f) => f,
         Err(invalid) => {
             println!("INVALID: {invalid}");
