@@ -58,11 +58,8 @@ pub fn plan_motion_timed(
     // blocks' top centres.
     let mut tp = match part.bead_part() {
         Some(beads) => {
-            let routes = toolpath::beads::routes_of_graph_plan(
-                beads,
-                fragments,
-                settings.weld_speed_mm_s,
-            )?;
+            let routes =
+                toolpath::beads::routes_of_graph_plan(beads, fragments, settings.weld_speed_mm_s)?;
             toolpath::build_routes(
                 &routes,
                 settings,
@@ -76,8 +73,8 @@ pub fn plan_motion_timed(
             toolpath::build(&passes, settings, timing, &robot.base_link)?
         }
     };
-    let traj = trajectory::plan_trajectory(&robot, &mut tp, settings, arc_on_at_s).map_err(
-        |mut t| {
+    let traj =
+        trajectory::plan_trajectory(&robot, &mut tp, settings, arc_on_at_s).map_err(|mut t| {
             if let Some(at) = t.at_mut() {
                 // A pose's point is its deposit's position in the weld path.
                 at.block = fragments
@@ -86,8 +83,7 @@ pub fn plan_motion_timed(
                     .map(|&b| part.deposit_name(b));
             }
             MotionError::Trajectory(t)
-        },
-    )?;
+        })?;
     clearance::check_moves(
         part,
         fragments,

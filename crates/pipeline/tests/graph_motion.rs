@@ -50,7 +50,11 @@ fn rings(layers: u32) -> Part {
                 centre_mm: [c[0], c[1], (layer as f64 + 0.5) * H],
                 volume_mm3: W * H * (to_mm - from_mm),
                 surface_mm2: 2.0 * (to_mm - from_mm) * (W + H),
-                substrate_mm2: if layer == 0 { W * (to_mm - from_mm) } else { 0.0 },
+                substrate_mm2: if layer == 0 {
+                    W * (to_mm - from_mm)
+                } else {
+                    0.0
+                },
             });
         }
         for i in 0..n {
@@ -233,8 +237,8 @@ fn the_torch_check_of_a_given_graph_plan_names_the_node_in_its_way() {
     let part = Part::of_beads(beads).unwrap();
     let tower_first: Vec<usize> = (0..part.len()).filter(|&i| i != n).collect();
     let fragments = vec![tower_first, vec![n]];
-    let err = waam_pipeline::check_torch(&part, &fragments, &ProcessSettings::default())
-        .unwrap_err();
+    let err =
+        waam_pipeline::check_torch(&part, &fragments, &ProcessSettings::default()).unwrap_err();
     assert!(matches!(err, PipelineError::TorchBlocked { .. }), "{err}");
     let text = err.to_string();
     assert!(text.contains(&format!("cannot reach node {n} ")), "{text}");
