@@ -149,6 +149,9 @@ pub(crate) fn routes_of_graph_plan(
             points_mm: points,
             step_s,
             marks,
+            // The torch turns over two bead widths of path: the centre lines' short
+            // segments and corners would turn it faster than the arm's joints can.
+            heading_window_mm: w,
         });
     }
     Ok(routes)
