@@ -262,8 +262,11 @@ fn check_graph(args: &CheckArgs, bytes: &[u8]) -> anyhow::Result<ExitCode> {
     }
     let timeout = super::timeout_arg(args.timeout)?;
     let interrupt = Interrupt::after(timeout);
-    let beads = BeadPart::from_bytes(bytes)
+    let mut beads = BeadPart::from_bytes(bytes)
         .with_context(|| format!("in graph part {}", args.part.display()))?;
+    if let Some(k) = args.mesh.k {
+        beads.max_fragments = k as usize;
+    }
     for warning in &beads.warnings {
         tracing::warn!("{}: {warning}", args.part.display());
     }

@@ -289,6 +289,15 @@ impl Part {
         Ok(part)
     }
 
+    /// Replaces k, the most weld paths a plan may use (a graph part's too, so that it is
+    /// written and checked with the new k).
+    pub fn set_max_fragments(&mut self, k: usize) {
+        self.max_fragments = k;
+        if let Some(beads) = &mut self.beads {
+            std::sync::Arc::make_mut(beads).max_fragments = k;
+        }
+    }
+
     /// How messages name deposit `i`: `node 12` in a graph part, `block [x,y,z]` else.
     pub fn deposit_name(&self, i: usize) -> String {
         match self.beads {
