@@ -10,9 +10,6 @@ use waam_motion::robot::parse_xyz_rpy;
 use waam_motion::toolpath::{PoseKind, Toolpath};
 use waam_motion::trajectory::JointTrajectory;
 use waam_motion::write_outputs;
-use waam_part::graph::WeldGraph;
-use waam_part::plan::Plan;
-use waam_part::GraphPlan;
 use waam_pipeline::{Cell, CellError, CellSource, PipelineError};
 
 use super::{read_part, EXIT_NO, EXIT_OK};
@@ -265,24 +262,7 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
     let path = args.part.clone();
     let what = format!("reading {}", path.display());
     let part = super::within(timeout, &what, move || read_part(&path))?;
-    let bytes = std::fs::read(&args.plan)
-        .with_context(|| format!("cannot read plan {}", args.plan.display()))?;
-    let is_json = args.plan.extension().is_some_and(|e| e == "json");
-    let in_plan = || format!("in plan {}", args.plan.display());
-    // A graph part's plan names node ids, a cube part's blocks.
-    let checked = match part.bead_part() {
-        Some(beads) => {
-            let plan = GraphPlan::from_bytes(&bytes, is_json).with_context(in_plan)?;
-            plan.validate(beads, &beads.moves())
-                .map(|()| plan.fragments)
-                .map_err(|e| e.to_string())
-        }
-        None => {
-            let plan = Plan::from_bytes(&bytes, is_json).with_context(in_plan)?;
-            plan.validate(&part, &WeldGraph::new(&part))
-                .map_err(|e| e.to_string())
-        }
-    };
+    let checked = super::read_plan(&part, &args.plan)?;
     let fragments = match checked {
         Ok(f) => f,
         Err(invalid) => {
