@@ -654,7 +654,7 @@ mod tests {
     /// A graph part: an inner ring of radius 20 mm, `inner` layers tall, and an outer ring
     /// of radius `outer_r` on layer 0 (nodes listed layer by layer), 8 nodes a ring.
     fn rings(inner: u32, outer_r: f64) -> Part {
-        use waam_part::{Bead, Deposit, ThermalParams};
+        use waam_part::{Bead, Deposit};
         let ring = |r: f64, layer: u32| Bead {
             layer,
             closed: true,
