@@ -164,12 +164,19 @@ pub enum ToolpathError {
 /// memory holds). A straight line gets at most length / max_step_mm + 1 poses, plus
 /// its turn / max_step_deg where the torch turns: on the travel lines (6 a pass) and on the
 /// two weld steps around each point where the pass changes direction (the torch heading
-/// changes nowhere else). Travel lines are bounded by the passes' bounding box.
+/// changes nowhere else; a bead route's chord heading may change at any point, so its
+/// every step counts as turning). Travel lines are bounded by the passes' bounding box.
 fn check_pose_budget<P: AsRef<[Point3<f64>]>>(
     passes: &[P],
     s: &ProcessSettings,
+    every_step_turns: bool,
 ) -> Result<(), ToolpathError> {
-    let (poses, longest) = pose_bound(passes, s);
+    let (mut poses, longest) = pose_bound(passes, s);
+    if every_step_turns {
+        let steps: usize = passes.iter().map(|p| p.as_ref().len()).sum();
+        let turn_deg = (2.0 * (s.travel_angle_deg.abs() + s.work_angle_deg.abs())).min(180.0);
+        poses += 2.0 * steps as f64 * turn_deg / s.max_step_deg;
+    }
     if poses.is_nan() || poses > s.max_poses as f64 {
         return Err(ToolpathError::TooManyPoses {
             poses,
@@ -530,7 +537,8 @@ pub(crate) fn build_routes(
             });
         }
     }
-    check_pose_budget(routes, settings)?;
+    let chords = routes.iter().any(|r| r.heading_window_mm > 0.0);
+    check_pose_budget(routes, settings, chords)?;
     let s = settings;
     let mut b = Builder {
         s,
