@@ -432,64 +432,70 @@ impl TorchAccess {
             )
         };
         let boxes: Vec<[f64; 4]> = pieces.iter().map(|p| bbox(p)).collect();
-        // A node's bead can be in the way only within this of its piece, horizontally.
-        let reach = env.reach() + 0.5 * w;
-        // Nodes by grid cell of side `reach`: the candidates of a node lie in the cells
-        // its box, widened by `reach`, touches.
-        let cell = reach.max(w);
+        // Nodes by layer and grid cell: a node's candidates in a layer lie within that
+        // layer's reach (the widest the swept torch is at the layer's heights).
+        let layers = part.layers() as usize;
+        let cell = 4.0 * w;
         let key = |x: f64, y: f64| ((x / cell).floor() as i64, (y / cell).floor() as i64);
-        let mut grid: FxHashMap<(i64, i64), Vec<u32>> = FxHashMap::default();
-        for (j, b) in boxes.iter().enumerate() {
+        let mut grids: Vec<FxHashMap<(i64, i64), Vec<u32>>> = vec![FxHashMap::default(); layers];
+        for (j, (b, d)) in boxes.iter().zip(&part.nodes).enumerate() {
             let (lo, hi) = (key(b[0], b[1]), key(b[2], b[3]));
             for x in lo.0..=hi.0 {
                 for y in lo.1..=hi.1 {
-                    grid.entry((x, y)).or_default().push(j as u32);
+                    grids[d.layer as usize]
+                        .entry((x, y))
+                        .or_default()
+                        .push(j as u32);
                 }
             }
         }
         let lowest = env.lowest();
         let mut offsets = Vec::with_capacity(n + 1);
         offsets.push(0);
-        let mut probes = Vec::new();
+        let mut probes: Vec<u32> = Vec::new();
         let mut plate = Vec::with_capacity(n);
-        let mut near = Vec::new();
+        // seen[j] == i + 1: node j was looked at for node i.
+        let mut seen = vec![0u32; n];
         for (i, d) in part.nodes.iter().enumerate() {
             plate.push((d.layer as f64 + 1.0) * h + lowest < -EPS_MM);
-            let b = boxes[i];
-            let (lo, hi) = (
-                key(b[0] - reach, b[1] - reach),
-                key(b[2] + reach, b[3] + reach),
-            );
-            near.clear();
-            for x in lo.0..=hi.0 {
-                for y in lo.1..=hi.1 {
-                    near.extend(grid.get(&(x, y)).into_iter().flatten().copied());
-                }
-            }
-            near.sort_unstable();
-            near.dedup();
-            for &j in &near {
-                let o = &part.nodes[j as usize];
-                if j as usize == i {
-                    continue;
-                }
-                // The other bead's heights relative to the TCP.
-                let zhi = (o.layer as f64 - d.layer as f64) * h;
+            let start = probes.len();
+            for (layer, grid) in grids.iter().enumerate() {
+                // That layer's heights relative to the TCP, and the torch's widest there.
+                let zhi = (layer as f64 - d.layer as f64) * h;
                 let zlo = zhi - h;
-                let mut rho = None;
-                let hit = env.segments.iter().any(|s| {
-                    if !(zhi > s.lo + EPS_MM && zlo < s.hi - EPS_MM) {
-                        return false;
+                let Some(radius) = env
+                    .segments
+                    .iter()
+                    .filter(|s| zhi > s.lo + EPS_MM && zlo < s.hi - EPS_MM)
+                    .map(|s| env.radius(s, zhi.min(s.hi)))
+                    .reduce(f64::max)
+                else {
+                    continue;
+                };
+                let reach = radius + 0.5 * w;
+                let b = boxes[i];
+                let (lo, hi) = (
+                    key(b[0] - reach, b[1] - reach),
+                    key(b[2] + reach, b[3] + reach),
+                );
+                for x in lo.0..=hi.0 {
+                    for y in lo.1..=hi.1 {
+                        for &j in grid.get(&(x, y)).into_iter().flatten() {
+                            let ju = j as usize;
+                            if ju == i || seen[ju] == i as u32 + 1 {
+                                continue;
+                            }
+                            seen[ju] = i as u32 + 1;
+                            let rho =
+                                (polyline_distance(&pieces[i], &pieces[ju]) - 0.5 * w).max(0.0);
+                            if radius > rho + EPS_MM {
+                                probes.push(j);
+                            }
+                        }
                     }
-                    let r = *rho.get_or_insert_with(|| {
-                        (polyline_distance(&pieces[i], &pieces[j as usize]) - 0.5 * w).max(0.0)
-                    });
-                    env.radius(s, zhi.min(s.hi)) > r + EPS_MM
-                });
-                if hit {
-                    probes.push(j);
                 }
             }
+            probes[start..].sort_unstable();
             offsets.push(probes.len());
         }
         TorchAccess {
