@@ -29,6 +29,10 @@ step "export tests venv (scripts/export-venv.sh: rapidchecker, pygcode)"
 WAAM_EXPORT_PYTHON="$(scripts/export-venv.sh | tail -1)"
 export WAAM_EXPORT_PYTHON
 
+step "bead coverage venv (scripts/coverage-venv.sh: trimesh, shapely)"
+WAAM_COVERAGE_PYTHON="$(scripts/coverage-venv.sh | tail -1)"
+export WAAM_COVERAGE_PYTHON
+
 step "ROS 2 Jazzy venv (scripts/ros-venv.sh: rclpy, message packages, Fast DDS wheels)"
 WAAM_ROS_VENV="$(scripts/ros-venv.sh | tail -1)"
 export WAAM_ROS_VENV

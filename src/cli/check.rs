@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use serde_json::json;
-use waam_access::{Obstacle, TorchAccess};
+use waam_access::{Obstacle, TorchAccess, TorchSetup};
 use waam_motion::toolpath::ProcessSettings;
 use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
@@ -24,7 +24,7 @@ use super::{EXIT_NO, EXIT_OK};
 /// decided within --timeout; 2: bad input.
 ///
 /// A graph part (`kind: beads`, as `waam slice` writes) takes a plan of node ids and is
-/// checked the same way with the graph thermal model (no torch check yet).
+/// checked the same way with the graph thermal model, the torch on its beads.
 #[derive(Debug, clap::Args)]
 pub struct CheckArgs {
     /// The part file (YAML, shared part format, or a graph part), or an STL mesh with --pitch.
@@ -68,17 +68,7 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
     let (mesh, path) = (args.mesh.clone(), args.part.clone());
     let what = format!("reading {}", path.display());
     let part = super::within(timeout, &what, move || mesh.read_part_or_mesh(&path))?;
-    let torch = match &args.process {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read process settings {}", path.display()))?;
-            ProcessSettings::from_yaml(&text)
-                .with_context(|| format!("in process settings {}", path.display()))?
-                .torch_setup()
-        }
-        None if args.torch => ProcessSettings::default().torch_setup(),
-        None => None,
-    };
+    let torch = torch(&args)?;
     let bytes = std::fs::read(&args.plan)
         .with_context(|| format!("cannot read plan {}", args.plan.display()))?;
     let is_json = args.plan.extension().is_some_and(|e| e == "json");
@@ -252,18 +242,34 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
     }))
 }
 
+/// The torch whose access is checked: --process's, with --torch the bundled one, else none.
+fn torch(args: &CheckArgs) -> anyhow::Result<Option<TorchSetup>> {
+    Ok(match &args.process {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read process settings {}", path.display()))?;
+            ProcessSettings::from_yaml(&text)
+                .with_context(|| format!("in process settings {}", path.display()))?
+                .torch_setup()
+        }
+        None if args.torch => ProcessSettings::default().torch_setup(),
+        None => None,
+    })
+}
+
 /// `waam check` of a graph part (`kind: beads`) and a plan of node ids: the validity rules,
 /// then the graph thermal model's t8/5 check (docs/graph-thermal-model.md), reported as for
 /// a cube part with nodes for blocks.
 fn check_graph(args: &CheckArgs, bytes: &[u8]) -> anyhow::Result<ExitCode> {
     use waam_part::{BeadPart, GraphPlan, Part};
-    if args.torch || args.process.is_some() {
-        anyhow::bail!("--torch / --process: torch access is not available for graph parts yet");
-    }
+    let torch = torch(args)?;
     let timeout = super::timeout_arg(args.timeout)?;
     let interrupt = Interrupt::after(timeout);
-    let beads = BeadPart::from_bytes(bytes)
+    let mut beads = BeadPart::from_bytes(bytes)
         .with_context(|| format!("in graph part {}", args.part.display()))?;
+    if let Some(k) = args.mesh.k {
+        beads.max_fragments = k as usize;
+    }
     for warning in &beads.warnings {
         tracing::warn!("{}: {warning}", args.part.display());
     }
@@ -318,6 +324,13 @@ fn check_graph(args: &CheckArgs, bytes: &[u8]) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::from(EXIT_NO));
     };
     let feasible = outcome.violation.is_none();
+    // Torch access on the beads (`TorchAccess::of_beads`).
+    let blocked = torch
+        .map(|t| TorchAccess::new(&part, &t).first_blocked(fragments.iter().flatten().copied()));
+    let obstacle = |o: Obstacle| match o {
+        Obstacle::Plate => "the plate".to_string(),
+        Obstacle::Block(i) => format!("node {i}, deposited before it,"),
+    };
     if args.json {
         let violation = outcome.violation.as_ref().map(|v| {
             json!({
@@ -346,6 +359,17 @@ fn check_graph(args: &CheckArgs, bytes: &[u8]) -> anyhow::Result<ExitCode> {
             "crossings": crossings,
             "steps": outcome.steps,
             "time_s": outcome.time_s,
+            "torch": blocked.map(|b| json!({
+                "reachable": b.is_none(),
+                "blocked": b.map(|x| json!({
+                    "node": x.block,
+                    "deposit": x.position + 1,
+                    "obstacle": match x.obstacle {
+                        Obstacle::Plate => json!("plate"),
+                        Obstacle::Block(i) => json!(i),
+                    },
+                })),
+            })),
         });
         println!("{out}");
     } else {
@@ -391,6 +415,23 @@ fn check_graph(args: &CheckArgs, bytes: &[u8]) -> anyhow::Result<ExitCode> {
             };
             println!("  node {i} [{}, {}]: {values}", w.min_s, w.max_s);
         }
+        match (&blocked, &torch) {
+            (Some(None), Some(t)) => println!("TORCH OK: every node reachable ({})", t.describe()),
+            (Some(Some(x)), Some(t)) => println!(
+                "TORCH BLOCKED: the torch cannot reach node {} (deposit {} of {nodes}): {} stands \
+                 in its way ({})",
+                x.block,
+                x.position + 1,
+                obstacle(x.obstacle),
+                t.describe()
+            ),
+            _ => {}
+        }
     }
-    Ok(ExitCode::from(if feasible { EXIT_OK } else { EXIT_NO }))
+    let reachable = !matches!(blocked, Some(Some(_)));
+    Ok(ExitCode::from(if feasible && reachable {
+        EXIT_OK
+    } else {
+        EXIT_NO
+    }))
 }

@@ -191,6 +191,29 @@ pub fn read_part(path: &Path) -> anyhow::Result<Part> {
     Ok(part)
 }
 
+/// A plan file of `part` (YAML, or JSON by its `.json` extension or a leading `{`):
+/// node ids for a graph part, blocks else. `Ok(Err(rule))`: it reads but breaks a plan
+/// rule (INVALID); `Err`: it cannot be read.
+pub fn read_plan(part: &Part, path: &Path) -> anyhow::Result<Result<Vec<Vec<usize>>, String>> {
+    let bytes =
+        std::fs::read(path).with_context(|| format!("cannot read plan {}", path.display()))?;
+    let is_json = path.extension().is_some_and(|e| e == "json");
+    let in_plan = || format!("in plan {}", path.display());
+    Ok(match part.bead_part() {
+        Some(beads) => {
+            let plan = waam_part::GraphPlan::from_bytes(&bytes, is_json).with_context(in_plan)?;
+            plan.validate(beads, &beads.moves())
+                .map(|()| plan.fragments)
+                .map_err(|e| e.to_string())
+        }
+        None => {
+            let plan = waam_part::plan::Plan::from_bytes(&bytes, is_json).with_context(in_plan)?;
+            plan.validate(part, &waam_part::graph::WeldGraph::new(part))
+                .map_err(|e| e.to_string())
+        }
+    })
+}
+
 /// Logs go to stderr through `tracing`; `RUST_LOG` wins over `-q` / `-v`.
 pub fn init_logging(global: &GlobalArgs) {
     let default = match (global.quiet, global.verbose) {

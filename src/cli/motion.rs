@@ -10,8 +10,6 @@ use waam_motion::robot::parse_xyz_rpy;
 use waam_motion::toolpath::{PoseKind, Toolpath};
 use waam_motion::trajectory::JointTrajectory;
 use waam_motion::write_outputs;
-use waam_part::graph::WeldGraph;
-use waam_part::plan::Plan;
 use waam_pipeline::{Cell, CellError, CellSource, PipelineError};
 
 use super::{read_part, EXIT_NO, EXIT_OK};
@@ -235,9 +233,11 @@ pub fn report_motion(
 /// input.
 #[derive(Debug, clap::Args)]
 pub struct MotionArgs {
-    /// The part file (YAML, shared part format).
+    /// The part file (YAML: the shared part format, or a graph part of beads, welded along
+    /// their centre lines).
     pub part: PathBuf,
-    /// The plan file (YAML, or JSON when it ends in .json or starts with `{`).
+    /// The plan file (YAML, or JSON when it ends in .json or starts with `{`): blocks, or
+    /// node ids for a graph part.
     pub plan: PathBuf,
     #[command(flatten)]
     pub robot: RobotArgs,
@@ -262,12 +262,8 @@ pub fn run(args: MotionArgs) -> anyhow::Result<ExitCode> {
     let path = args.part.clone();
     let what = format!("reading {}", path.display());
     let part = super::within(timeout, &what, move || read_part(&path))?;
-    let bytes = std::fs::read(&args.plan)
-        .with_context(|| format!("cannot read plan {}", args.plan.display()))?;
-    let is_json = args.plan.extension().is_some_and(|e| e == "json");
-    let plan = Plan::from_bytes(&bytes, is_json)
-        .with_context(|| format!("in plan {}", args.plan.display()))?;
-    let fragments = match plan.validate(&part, &WeldGraph::new(&part)) {
+    let checked = super::read_plan(&part, &args.plan)?;
+    let fragments = match checked {
         Ok(f) => f,
         Err(invalid) => {
             println!("INVALID: {invalid}");

@@ -364,7 +364,12 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     if args.json {
         let plan = report.best.as_ref().map(|b| {
             let p = b.plan(&part);
-            json!({"fragments": p.fragments, "margin_s": finite_or_null(b.margin)})
+            // A graph plan names node ids, a cube plan blocks.
+            let fragments = match &p.nodes {
+                Some(nodes) => json!(nodes),
+                None => json!(p.fragments),
+            };
+            json!({"fragments": fragments, "margin_s": finite_or_null(b.margin)})
         });
         println!(
             "{}",

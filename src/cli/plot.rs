@@ -5,8 +5,6 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context};
 use waam_motion::toolpath::ToolpathFile;
-use waam_part::graph::WeldGraph;
-use waam_part::plan::Plan;
 use waam_plot as plot;
 use waam_thermal::Interrupt;
 
@@ -97,12 +95,7 @@ pub fn run(args: PlotArgs) -> anyhow::Result<ExitCode> {
             .plan
             .clone()
             .unwrap_or_else(|| args.dir.join("plan.yaml"));
-        let bytes = std::fs::read(&plan_path)
-            .with_context(|| format!("cannot read plan {}", plan_path.display()))?;
-        let is_json = plan_path.extension().is_some_and(|e| e == "json");
-        let plan = Plan::from_bytes(&bytes, is_json)
-            .with_context(|| format!("in plan {}", plan_path.display()))?;
-        let fragments = match plan.validate(&part, &WeldGraph::new(&part)) {
+        let fragments = match super::read_plan(&part, &plan_path)? {
             Ok(f) => f,
             Err(invalid) => {
                 println!("INVALID: {invalid}");

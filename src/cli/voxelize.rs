@@ -38,9 +38,10 @@ pub struct MeshArgs {
     /// it into blocks. Round parts (tubes, nozzles, flanges) want this.
     #[arg(long, value_parser = super::slice::parse_bead)]
     pub bead: Option<[f64; 2]>,
-    /// k: the most weld paths (arc starts) a plan of the part may use.
-    #[arg(short, long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
-    pub k: u32,
+    /// k: the most weld paths (arc starts) a plan of the part may use [default: 1 for a
+    /// mesh]. With a part file (cube or graph part), replaces the file's max_fragments.
+    #[arg(short, long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub k: Option<u32>,
     /// The part's name [default: the mesh file's name without extension].
     #[arg(long)]
     pub name: Option<String>,
@@ -94,7 +95,7 @@ impl MeshArgs {
         });
         let options = VoxelizeOptions {
             origin_mm: self.grid_origin,
-            max_fragments: self.k as usize,
+            max_fragments: self.k.unwrap_or(1) as usize,
             windows: self.windows.clone(),
             max_cells: self.max_cells,
             ..VoxelizeOptions::new(name, pitch)
@@ -123,7 +124,7 @@ impl MeshArgs {
             self.units,
             self.name.clone(),
             bead,
-            self.k,
+            self.k.unwrap_or(1),
             super::slice::DEFAULT_PERIMETERS,
             super::slice::DEFAULT_JOIN_MM,
         )?
@@ -161,10 +162,13 @@ impl MeshArgs {
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("stl"));
         if is_stl {
-            self.voxelize(path)
-        } else {
-            super::read_part(path)
+            return self.voxelize(path);
         }
+        let mut part = super::read_part(path)?;
+        if let Some(k) = self.k {
+            part.set_max_fragments(k as usize);
+        }
+        Ok(part)
     }
 }
 

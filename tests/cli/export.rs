@@ -920,3 +920,62 @@ fn plan_without_a_robot_is_g_code_in_the_part_frame() {
         assert!(err.contains("trajectory.yaml"), "{err}");
     }
 }
+
+/// A graph part sliced from an STL, planned with the robot: the motion runs along the
+/// beads (toolpath and trajectory in the base link, the graph part beside the plan),
+/// `waam motion` of the written part and plan makes the same trajectory, and a robot
+/// program is exported from it.
+#[test]
+fn a_graph_part_planned_with_the_robot_is_moved_and_exported() {
+    // The project's robot (the one built into the binary).
+    const OUR_ROBOT: &str = "urdf/waam_robot.urdf";
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    let stdout = ok(&run_at_root(&[
+        "plan",
+        "tests/data/ring_binary.stl",
+        "--bead",
+        "6 2.5",
+        "-k",
+        "2",
+        "--robot",
+        OUR_ROBOT,
+        "--out",
+        d,
+    ]));
+    assert!(stdout.contains("MOTION: "), "{stdout}");
+    let tp: ToolpathFile = serde_yaml::from_str(&read(dir.path(), "toolpath.yaml")).unwrap();
+    assert_eq!(tp.frame, "base_link");
+    let traj = read(dir.path(), "trajectory.yaml");
+    // The welded poses lie on the two rings' centre lines (radii about 21 and 27 mm about
+    // the part's axis), not on stand-in blocks in a row.
+    let plate = ProcessSettings::default().plate.isometry().inverse();
+    for p in tp.poses.iter().filter(|p| p.arc_on) {
+        let v = plate * nalgebra::Point3::from(p.position) * 1000.0;
+        let r = v.x.hypot(v.y);
+        assert!(
+            (19.0..29.0).contains(&r),
+            "a weld pose {r} mm from the axis"
+        );
+    }
+    let again = tempfile::tempdir().unwrap();
+    let part = dir.path().join("part.yaml");
+    let plan = dir.path().join("plan.yaml");
+    ok(&run_at_root(&[
+        "motion",
+        part.to_str().unwrap(),
+        plan.to_str().unwrap(),
+        "--robot",
+        OUR_ROBOT,
+        "--out",
+        again.path().to_str().unwrap(),
+    ]));
+    assert_eq!(read(again.path(), "trajectory.yaml"), traj);
+    let stdout = ok(&run_at_root(&[
+        "export", d, "--format", "krl", "--robot", OUR_ROBOT,
+    ]));
+    assert!(stdout.contains("EXPORT: krl"), "{stdout}");
+    let src = read(dir.path(), "WAAM_1.src");
+    let arcs = src.matches("ARCON ").count();
+    assert!(arcs >= 1 && src.matches("ARCOFF ").count() == arcs, "{src}");
+}

@@ -4,7 +4,7 @@
 //! `crates/<crate>/tests/`.
 //!
 //! Some modules drive Python or ROS 2 peers and skip unless their environment is set up
-//! (`WAAM_BAG_PYTHON`, `WAAM_EXPORT_PYTHON`, `WAAM_ROS_VENV`, `WAAM_REFCHECK_PY`, ...:
+//! (`WAAM_BAG_PYTHON`, `WAAM_EXPORT_PYTHON`, `WAAM_COVERAGE_PYTHON`, `WAAM_ROS_VENV`, `WAAM_REFCHECK_PY`, ...:
 //! `scripts/test.sh` sets them).
 
 mod common;
@@ -13,6 +13,7 @@ mod access;
 mod bag;
 mod bag_python;
 mod cli_motion;
+mod coverage;
 mod export;
 mod first_run;
 mod harden;

@@ -213,3 +213,107 @@ fn a_newer_part_cancels_the_running_plan_within_a_second() {
         ended[&second].1.as_ref().err()
     );
 }
+
+/// `-k` replaces a part file's max_fragments, for a cube part and a graph part alike (it
+/// was a mesh's k only): s1-wall needs two weld paths, so `-k 1` leaves it none; a graph
+/// part written with k = 1 is planned, written and checked with the k of `-k`.
+#[test]
+fn k_overrides_the_max_fragments_of_a_part_file() {
+    use common::run::{last_json, run_at_root};
+    let json = |out: std::process::Output| last_json(&String::from_utf8(out.stdout).unwrap());
+    let s1 = json(run_at_root(&[
+        "plan",
+        "config/parts/s1-wall.yaml",
+        "-q",
+        "--json",
+    ]));
+    assert_eq!(s1["found"], true);
+    assert_eq!(s1["plan"]["fragments"].as_array().unwrap().len(), 2);
+    let k1 = json(run_at_root(&[
+        "plan",
+        "config/parts/s1-wall.yaml",
+        "-k",
+        "1",
+        "-q",
+        "--json",
+    ]));
+    assert_eq!(k1["found"], false, "{k1}");
+
+    let dir = tempfile::tempdir().unwrap();
+    let part = dir.path().join("ring.yaml");
+    let out = run_at_root(&[
+        "slice",
+        "tests/data/ring_binary.stl",
+        "--bead",
+        "6 2.5",
+        "-k",
+        "1",
+        "--out",
+        part.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&part).unwrap();
+    assert!(text.contains("max_fragments: 1\n"));
+    let planned = dir.path().join("planned");
+    let out = run_at_root(&[
+        "plan",
+        part.to_str().unwrap(),
+        "-k",
+        "3",
+        "--first",
+        "-q",
+        "--json",
+        "--out",
+        planned.to_str().unwrap(),
+    ]);
+    let plan = json(out);
+    assert_eq!(plan["found"], true, "{plan}");
+    // The plan names node ids (not stand-in blocks), and the part beside it has k = 3.
+    let mut fragments: Vec<Vec<u64>> = plan["plan"]["fragments"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| {
+            f.as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_u64().unwrap())
+                .collect()
+        })
+        .collect();
+    let nodes: usize = fragments.iter().map(Vec::len).sum();
+    assert!(text.matches("{bead:").count() == nodes, "one id per node");
+    let written = std::fs::read_to_string(planned.join("part.yaml")).unwrap();
+    assert!(written.contains("max_fragments: 3\n"), "{written}");
+    // A plan of two weld paths or more (one path split after its first node): invalid
+    // with the file's k = 1, valid with -k as large.
+    if fragments.len() == 1 {
+        let rest = fragments[0].split_off(1);
+        fragments.push(rest);
+    }
+    let k = fragments.len().to_string();
+    let lines: Vec<String> = fragments
+        .iter()
+        .map(|f| {
+            let ids: Vec<String> = f.iter().map(u64::to_string).collect();
+            format!("  - [{}]\n", ids.join(", "))
+        })
+        .collect();
+    let split = dir.path().join("split.yaml");
+    std::fs::write(&split, format!("fragments:\n{}", lines.concat())).unwrap();
+    let check = |extra: &[&str]| {
+        let mut args = vec!["check", part.to_str().unwrap(), split.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        String::from_utf8(run_at_root(&args).stdout).unwrap()
+    };
+    assert!(check(&[]).starts_with("INVALID"), "{}", check(&[]));
+    assert!(
+        check(&["-k", &k]).starts_with("VALID"),
+        "{}",
+        check(&["-k", &k])
+    );
+}

@@ -138,3 +138,42 @@ fn a_recording_marks_torch_blocked_candidates() {
         "{torch:?}"
     );
 }
+
+/// `waam check --torch` of a graph part checks the torch on its beads (it was refused):
+/// the sliced ring planned with the torch is TORCH OK, in text and JSON.
+#[test]
+fn check_torch_of_a_graph_part_is_on_its_beads() {
+    use crate::common::run::{last_json, run_at_root};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    let out = run_at_root(&[
+        "plan",
+        "tests/data/ring-beads.yaml",
+        "--torch",
+        "--first",
+        "-q",
+        "--out",
+        d,
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let plan = dir.path().join("plan.yaml");
+    let args = [
+        "check",
+        "tests/data/ring-beads.yaml",
+        plan.to_str().unwrap(),
+        "--torch",
+    ];
+    let out = run_at_root(&args);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains("TORCH OK: every node reachable"), "{text}");
+    let mut json_args = args.to_vec();
+    json_args.push("--json");
+    let out = run_at_root(&json_args);
+    let v = last_json(&String::from_utf8_lossy(&out.stdout));
+    assert_eq!(v["torch"]["reachable"], true, "{v}");
+}

@@ -4,6 +4,8 @@
 box_ascii.stl / box_binary.stl   36 x 24 x 10 mm box at (10, -5, 3): 6 x 4 x 4 blocks of 6 x 6 x 2.5
 tube_ascii.stl / tube_binary.stl 24 x 24 x 5 mm square tube, 12 x 12 hole: the blocks of s3-ring
 ring_binary.stl                  round ring, radii 30 and 18 mm, 10 mm high, 48 segments
+round_tube.stl                   round tube, radii 20 and 14 mm, 10 mm high, 30 faces around
+                                 (the bead coverage check, tests/cli/coverage.rs)
 open_box.stl                     the box without its top face (ASCII)
 flipped_box.stl                  the box with one triangle turned over (binary)
 """
@@ -106,6 +108,7 @@ tube = prism_ring(square(0, 24, 1), square(6, 18, 1), 0, 5)
 write("tube_ascii.stl", ascii_stl("tube", tube))
 write("tube_binary.stl", binary_stl("tube", tube))
 write("ring_binary.stl", binary_stl("ring", prism_ring(circle(30, 48), circle(18, 48), 0, 10)))
+write("round_tube.stl", binary_stl("round tube", prism_ring(circle(20, 30), circle(14, 30), 0, 10)))
 write("open_box.stl", ascii_stl("open", b[:2] + b[4:]))
 flipped = list(b)
 flipped[5] = (flipped[5][0], flipped[5][2], flipped[5][1])

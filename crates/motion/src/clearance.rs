@@ -80,7 +80,6 @@ pub fn check_moves(
             pose.rotation,
         )
     };
-    let half = part.block_mm.map(|v| 0.5 * v - TOUCH_MM);
     let cylinders = torch.map(Torch::cylinders).unwrap_or_default();
     // The farthest any torch point is from the TCP: how far it swings when the torch turns.
     let lever = cylinders
@@ -90,7 +89,7 @@ pub fn check_moves(
     let offs: Vec<usize> = (0..tp.poses.len())
         .filter(|&k| tp.poses[k].kind == PoseKind::ArcOff)
         .collect();
-    let mut built = Built::default();
+    let mut built = Built::new(part);
     for k in 1..tp.poses.len() {
         let (prev, pose) = (&tp.poses[k - 1], &tp.poses[k]);
         if prev.arc_on {
@@ -116,19 +115,12 @@ pub fn check_moves(
         if ra.coords.dot(&rb.coords) < 0.0 {
             rb = UnitQuaternion::new_unchecked(-rb.into_inner());
         }
-        if a.z.min(b.z) < -TOUCH_MM {
+        if a.z.min(b.z) < built.plate_z - TOUCH_MM {
             return Err(collision("the plate".into()));
         }
-        for &block in fragments[..done.min(fragments.len())].iter().flatten() {
-            let c = part.centre_mm(part.block(block));
-            let lo = [c[0] - half[0], c[1] - half[1], c[2] - half[2]];
-            let hi = [c[0] + half[0], c[1] + half[1], c[2] + half[2]];
-            if segment_enters_box(&a, &b, lo, hi) {
-                return Err(collision(format!(
-                    "block {}",
-                    BlockDisplay(part.block(block))
-                )));
-            }
+        let welded = fragments[..done.min(fragments.len())].iter().flatten();
+        if let Some(hit) = built.tcp_enters(part, welded.copied(), &a, &b) {
+            return Err(collision(hit));
         }
         if cylinders.is_empty() {
             continue;
@@ -151,28 +143,183 @@ pub fn check_moves(
     Ok(())
 }
 
-/// The blocks welded so far, by grid position.
-#[derive(Default)]
+/// What is welded so far: blocks by grid position, or a graph part's beads.
 struct Built {
     fragments: usize,
     blocks: FxHashSet<Block>,
     /// The highest layer built (None: nothing yet).
     top: Option<i64>,
+    /// z of the plate's top in the part frame, mm (a graph part's `base_z_mm`).
+    plate_z: f64,
+    /// A graph part's beads welded so far.
+    beads: Option<Beads>,
 }
 
 impl Built {
-    /// Adds the blocks of the first `done` fragments.
+    fn new(part: &Part) -> Built {
+        Built {
+            fragments: 0,
+            blocks: FxHashSet::default(),
+            top: None,
+            plate_z: part.bead_part().map_or(0.0, |b| b.base_z_mm),
+            beads: part.bead_part().map(|_| Beads::default()),
+        }
+    }
+
+    /// Adds the blocks (nodes) of the first `done` fragments.
     fn up_to(&mut self, part: &Part, fragments: &[Vec<usize>], done: usize) {
         let done = done.min(fragments.len());
         for f in &fragments[self.fragments.min(done)..done] {
             for &b in f {
-                let block = part.block(b);
-                self.top = self.top.max(Some(block[2]));
-                self.blocks.insert(block);
+                match (&mut self.beads, part.bead_part()) {
+                    (Some(beads), Some(graph)) => beads.add(graph, b),
+                    _ => {
+                        let block = part.block(b);
+                        self.top = self.top.max(Some(block[2]));
+                        self.blocks.insert(block);
+                    }
+                }
             }
         }
         self.fragments = self.fragments.max(done);
     }
+
+    /// What the TCP's straight line from `a` to `b` enters ("block [x,y,z]" of the
+    /// `welded` blocks, first in weld order; "node 12").
+    fn tcp_enters(
+        &self,
+        part: &Part,
+        mut welded: impl Iterator<Item = usize>,
+        a: &Point3<f64>,
+        b: &Point3<f64>,
+    ) -> Option<String> {
+        if let Some(beads) = &self.beads {
+            let (lo, hi) = (a.coords.inf(&b.coords), a.coords.sup(&b.coords));
+            return beads
+                .near([lo.x, lo.y, lo.z], [hi.x, hi.y, hi.z])
+                .find(|q| {
+                    let (a, b) = (q.local(a), q.local(b));
+                    let (lo, hi) = q.shrunk(TOUCH_MM);
+                    segment_enters_box(&a, &b, lo, hi)
+                })
+                .map(|q| format!("node {}", q.node));
+        }
+        let half = part.block_mm.map(|v| 0.5 * v - TOUCH_MM);
+        welded.find_map(|i| {
+            let block = part.block(i);
+            let c = part.centre_mm(block);
+            let lo = [c[0] - half[0], c[1] - half[1], c[2] - half[2]];
+            let hi = [c[0] + half[0], c[1] + half[1], c[2] + half[2]];
+            segment_enters_box(a, b, lo, hi).then(|| format!("block {}", BlockDisplay(block)))
+        })
+    }
+}
+
+/// A graph part's beads welded so far, as boxes along their centre lines (one per segment
+/// of a node's piece: the segment widened to W, from the layer's bottom to its top),
+/// looked up by a grid of [`BEAD_CELL_MM`] cells.
+#[derive(Default)]
+struct Beads {
+    boxes: Vec<BeadBox>,
+    grid: rustc_hash::FxHashMap<(i64, i64), Vec<u32>>,
+    /// The highest top of a bead built (−∞: nothing yet).
+    top: Option<f64>,
+}
+
+/// The side of the cells [`Beads`] are looked up by, mm.
+const BEAD_CELL_MM: f64 = 20.0;
+
+/// One segment of a bead as a box in its own frame: x along the segment from `origin`,
+/// y across it, z up (part frame, mm).
+struct BeadBox {
+    node: usize,
+    origin: [f64; 2],
+    dir: [f64; 2],
+    len: f64,
+    half_w: f64,
+    z: [f64; 2],
+}
+
+impl BeadBox {
+    /// A point of the part frame in the box's frame.
+    fn local(&self, p: &Point3<f64>) -> Point3<f64> {
+        let (dx, dy) = (p.x - self.origin[0], p.y - self.origin[1]);
+        let [c, s] = self.dir;
+        Point3::new(dx * c + dy * s, -dx * s + dy * c, p.z)
+    }
+
+    /// A direction of the part frame in the box's frame.
+    fn local_dir(&self, v: &Vector3<f64>) -> Vector3<f64> {
+        let [c, s] = self.dir;
+        Vector3::new(v.x * c + v.y * s, -v.x * s + v.y * c, v.z)
+    }
+
+    /// The box, shrunk by `by` on every side (`by` < 0: grown).
+    fn shrunk(&self, by: f64) -> ([f64; 3], [f64; 3]) {
+        (
+            [by, -self.half_w + by, self.z[0] + by],
+            [self.len - by, self.half_w - by, self.z[1] - by],
+        )
+    }
+}
+
+impl Beads {
+    fn add(&mut self, part: &waam_part::BeadPart, node: usize) {
+        let d = &part.nodes[node];
+        let [w, h] = part.bead_mm;
+        let z0 = part.base_z_mm + d.layer as f64 * h;
+        let piece = part.beads[d.bead].piece_mm(d.from_mm, d.to_mm);
+        self.top = Some(self.top.map_or(z0 + h, |t| t.max(z0 + h)));
+        for seg in piece.windows(2) {
+            let (p, q) = (seg[0], seg[1]);
+            let len = (q[0] - p[0]).hypot(q[1] - p[1]);
+            if len < 1e-9 {
+                continue;
+            }
+            let i = self.boxes.len() as u32;
+            let bb = BeadBox {
+                node,
+                origin: p,
+                dir: [(q[0] - p[0]) / len, (q[1] - p[1]) / len],
+                len,
+                half_w: 0.5 * w,
+                z: [z0, z0 + h],
+            };
+            let r = 0.5 * w;
+            let (x0, x1) = (p[0].min(q[0]) - r, p[0].max(q[0]) + r);
+            let (y0, y1) = (p[1].min(q[1]) - r, p[1].max(q[1]) + r);
+            for cx in cell(x0)..=cell(x1) {
+                for cy in cell(y0)..=cell(y1) {
+                    self.grid.entry((cx, cy)).or_default().push(i);
+                }
+            }
+            self.boxes.push(bb);
+        }
+    }
+
+    /// The boxes whose cells meet the box `lo`–`hi` and that reach up to `lo.z`, each
+    /// once.
+    fn near(&self, lo: [f64; 3], hi: [f64; 3]) -> impl Iterator<Item = &BeadBox> {
+        let mut found: Vec<u32> = Vec::new();
+        if self.top.is_some_and(|t| lo[2] < t) {
+            for cx in cell(lo[0])..=cell(hi[0]) {
+                for cy in cell(lo[1])..=cell(hi[1]) {
+                    found.extend(self.grid.get(&(cx, cy)).into_iter().flatten());
+                }
+            }
+        }
+        found.sort_unstable();
+        found.dedup();
+        found
+            .into_iter()
+            .map(|i| &self.boxes[i as usize])
+            .filter(move |b| b.z[1] > lo[2] && b.z[0] < hi[2])
+    }
+}
+
+/// The grid cell of a coordinate, mm.
+fn cell(v: f64) -> i64 {
+    (v / BEAD_CELL_MM).floor() as i64
 }
 
 /// What the torch (its `cylinders`, each widened by `margin` mm around and at both ends)
@@ -202,8 +349,27 @@ fn torch_hit(
             let w = r * (1.0 - up[d] * up[d]).max(0.0).sqrt();
             (from[d].min(to[d]) - w, from[d].max(to[d]) + w)
         };
-        if bound(2).0 < -TOUCH_MM {
+        if bound(2).0 < built.plate_z - TOUCH_MM {
             return Some(format!("the plate (the torch's {name})"));
+        }
+        if let Some(beads) = &built.beads {
+            let lo: [f64; 3] = std::array::from_fn(|d| bound(d).0);
+            let hi: [f64; 3] = std::array::from_fn(|d| bound(d).1);
+            let hit = beads.near(lo, hi).find(|q| {
+                let (blo, bhi) = q.shrunk(0.0);
+                cylinder_meets_box(
+                    &q.local(&from),
+                    &q.local_dir(&up),
+                    len,
+                    r - TOUCH_MM,
+                    blo,
+                    bhi,
+                )
+            });
+            if let Some(q) = hit {
+                return Some(format!("node {} (the torch's {name})", q.node));
+            }
+            continue;
         }
         let range = |d: usize| {
             let (lo, hi) = bound(d);

@@ -19,7 +19,7 @@ use thiserror::Error;
 use crate::robot::Robot;
 use crate::toolpath::{ProcessSettings, Toolpath, ToolpathError, WeldPass, WeldTiming};
 use crate::trajectory::{JointTrajectory, TrajectoryError};
-use waam_part::{BlockDisplay, Part};
+use waam_part::Part;
 
 /// Why no motion could be planned.
 #[derive(Debug, Error)]
@@ -32,8 +32,8 @@ pub enum MotionError {
     Collision(#[from] clearance::Collision),
 }
 
-/// Toolpath and joint trajectory for a block plan (fragments of block indices). Errors
-/// name the block and the pose.
+/// Toolpath and joint trajectory for a plan (fragments of block indices, or of node ids
+/// of a graph part: welded along its beads). Errors name the block (node) and the pose.
 pub fn plan_motion(
     part: &Part,
     fragments: &[Vec<usize>],
@@ -53,20 +53,36 @@ pub fn plan_motion_timed(
     robot: &Robot,
     arc_on_at_s: Option<&[f64]>,
 ) -> Result<(Toolpath, JointTrajectory), MotionError> {
-    let passes = toolpath::passes_from_plan(part, fragments);
-    let timing = WeldTiming::of_plan(part, settings);
-    let (tp, traj) =
-        plan_passes(&passes, timing, settings, robot, arc_on_at_s).map_err(|mut e| {
-            if let MotionError::Trajectory(t) = &mut e {
-                if let Some(at) = t.at_mut() {
-                    let block = fragments
-                        .get(at.fragment)
-                        .and_then(|f| f.get(at.point))
-                        .map(|&b| format!("block {}", BlockDisplay(part.block(b))));
-                    at.block = block;
-                }
+    let robot = robot.clone().with_solver(settings.ik_solver);
+    // A graph part is welded along its beads' centre lines, a cube part through the
+    // blocks' top centres.
+    let mut tp = match part.bead_part() {
+        Some(beads) => {
+            let routes =
+                toolpath::beads::routes_of_graph_plan(beads, fragments, settings.weld_speed_mm_s)?;
+            toolpath::build_routes(
+                &routes,
+                settings,
+                settings.plate.isometry(),
+                &robot.base_link,
+            )?
+        }
+        None => {
+            let passes = toolpath::passes_from_plan(part, fragments);
+            let timing = WeldTiming::of_plan(part, settings);
+            toolpath::build(&passes, settings, timing, &robot.base_link)?
+        }
+    };
+    let traj =
+        trajectory::plan_trajectory(&robot, &mut tp, settings, arc_on_at_s).map_err(|mut t| {
+            if let Some(at) = t.at_mut() {
+                // A pose's point is its deposit's position in the weld path.
+                at.block = fragments
+                    .get(at.fragment)
+                    .and_then(|f| f.get(at.point))
+                    .map(|&b| part.deposit_name(b));
             }
-            e
+            MotionError::Trajectory(t)
         })?;
     clearance::check_moves(
         part,
@@ -78,8 +94,8 @@ pub fn plan_motion_timed(
     Ok((tp, traj))
 }
 
-/// The torch speed while welding a block plan, m/s: the process settings' weld speed, else
-/// one block length per block time.
+/// The torch speed while welding a plan, m/s: the process settings' weld speed, else one
+/// block length per block time (a graph part: one bead width, as its toolpath welds).
 pub fn weld_speed(part: &Part, settings: &ProcessSettings) -> f64 {
     match settings.weld_speed_mm_s {
         Some(v) => v / 1000.0,

@@ -71,6 +71,50 @@ impl Bead {
             open
         }
     }
+
+    /// The centre line from arc length `from_mm` to `to_mm` (clamped to the line, from
+    /// <= to): the point at each end and the vertices between, in order. A node's piece
+    /// (its footprint's spine, for torch access and clearance).
+    pub fn piece_mm(&self, from_mm: f64, to_mm: f64) -> Vec<[f64; 2]> {
+        let mut line = self.points.clone();
+        if self.closed && !line.is_empty() {
+            line.push(self.points[0]);
+        }
+        let seg = |a: [f64; 2], b: [f64; 2]| (b[0] - a[0]).hypot(b[1] - a[1]);
+        let total = self.length_mm();
+        let (from, to) = (from_mm.clamp(0.0, total), to_mm.clamp(0.0, total));
+        let mut out = Vec::new();
+        let mut s = 0.0;
+        for w in line.windows(2) {
+            let len = seg(w[0], w[1]);
+            let at = |t: f64| {
+                let u = if len > 0.0 {
+                    ((t - s) / len).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                [
+                    w[0][0] + (w[1][0] - w[0][0]) * u,
+                    w[0][1] + (w[1][1] - w[0][1]) * u,
+                ]
+            };
+            if out.is_empty() && from <= s + len {
+                out.push(at(from));
+            }
+            if !out.is_empty() {
+                if to <= s + len {
+                    out.push(at(to));
+                    return out;
+                }
+                out.push(w[1]);
+            }
+            s += len;
+        }
+        if out.is_empty() {
+            out.extend(line.last().copied());
+        }
+        out
+    }
 }
 
 /// One deposit (a node of the graph): a piece of a bead.
@@ -854,6 +898,27 @@ impl GraphPlan {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_piece_follows_the_centre_line_across_vertices_and_the_closing_segment() {
+        let square = Bead {
+            layer: 0,
+            closed: true,
+            points: vec![[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]],
+        };
+        assert_eq!(square.piece_mm(2.0, 5.0), vec![[2.0, 0.0], [5.0, 0.0]]);
+        assert_eq!(
+            square.piece_mm(5.0, 15.0),
+            vec![[5.0, 0.0], [10.0, 0.0], [10.0, 5.0]]
+        );
+        // The closing segment, from (0, 10) back to (0, 0), and clamped at the end.
+        assert_eq!(square.piece_mm(35.0, 99.0), vec![[0.0, 5.0], [0.0, 0.0]]);
+        let open = Bead {
+            closed: false,
+            ..square
+        };
+        assert_eq!(open.piece_mm(25.0, 30.0), vec![[5.0, 10.0], [0.0, 10.0]]);
+    }
 
     /// Two layers of one closed bead of 3 pieces (a triangle of side 6, W 6, H 2.5).
     fn sample() -> String {

@@ -289,6 +289,23 @@ impl Part {
         Ok(part)
     }
 
+    /// Replaces k, the most weld paths a plan may use (a graph part's too, so that it is
+    /// written and checked with the new k).
+    pub fn set_max_fragments(&mut self, k: usize) {
+        self.max_fragments = k;
+        if let Some(beads) = &mut self.beads {
+            std::sync::Arc::make_mut(beads).max_fragments = k;
+        }
+    }
+
+    /// How messages name deposit `i`: `node 12` in a graph part, `block [x,y,z]` else.
+    pub fn deposit_name(&self, i: usize) -> String {
+        match self.beads {
+            Some(_) => format!("node {i}"),
+            None => format!("block {}", BlockDisplay(self.block(i))),
+        }
+    }
+
     /// The graph part behind this part, if it is one.
     pub fn bead_part(&self) -> Option<&BeadPart> {
         self.beads.as_deref()

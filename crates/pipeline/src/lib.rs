@@ -31,7 +31,7 @@ use waam_motion::trajectory::{JointTrajectory, TrajectoryError};
 use waam_motion::{plan_motion_timed, weld_speed, MotionError};
 use waam_part::graph::WeldGraph;
 use waam_part::plan::{Invalid, Plan};
-use waam_part::{BlockDisplay, Part, PartError, Window};
+use waam_part::{Part, PartError, Window};
 use waam_planner::{ExecutedCheck, Rejection, Stats};
 use waam_thermal::{self as thermal, ThermalModel, Timeline};
 
@@ -60,11 +60,12 @@ pub enum PipelineError {
     Invalid(#[from] Invalid),
     #[error("the planner's plan cannot be simulated: {0}")]
     NotCooled(#[from] thermal::NotCooled),
-    #[error("the planner's plan breaks the t8/5 window of block {0}")]
-    Infeasible(BlockDisplay),
-    #[error("the plan breaks the t8/5 window of block {block} on the robot's executed time line ({kind} t8/5 {t85_s:.2} s, window [{min_s}, {max_s}] s, at {time_s:.2} s): the arc-on and arc-off dwells shift the deposits the thermal model assumed")]
+    /// A deposit's window broken: "block [x,y,z]" or "node 12" ([`Part::deposit_name`]).
+    #[error("the planner's plan breaks the t8/5 window of {0}")]
+    Infeasible(String),
+    #[error("the plan breaks the t8/5 window of {block} on the robot's executed time line ({kind} t8/5 {t85_s:.2} s, window [{min_s}, {max_s}] s, at {time_s:.2} s): the arc-on and arc-off dwells shift the deposits the thermal model assumed")]
     InfeasibleExecuted {
-        block: BlockDisplay,
+        block: String,
         kind: &'static str,
         t85_s: f64,
         min_s: f64,
@@ -78,13 +79,13 @@ pub enum PipelineError {
     /// The deadline passed or the job was cancelled (see [`Interrupt`]).
     #[error("stopped by the time limit or a cancel while {0}")]
     Interrupted(&'static str),
-    #[error("the torch cannot weld this plan: it cannot reach block {block} (deposit {deposit} of {total}): {obstacle} stands in its way ({torch}); `--no-torch` or `torch: null` in the process settings turns the torch off")]
+    #[error("the torch cannot weld this plan: it cannot reach {block} (deposit {deposit} of {total}): {obstacle} stands in its way ({torch}); `--no-torch` or `torch: null` in the process settings turns the torch off")]
     TorchBlocked {
-        block: BlockDisplay,
+        block: String,
         /// Its position in the weld order, from 1.
         deposit: usize,
         total: usize,
-        /// "block [x,y,z], deposited before it," or "the plate".
+        /// "block [x,y,z], deposited before it," ("node 12, ...") or "the plate".
         obstacle: String,
         torch: String,
     },
@@ -194,7 +195,7 @@ pub fn check_plan_until(
         "checking the plan's t8/5 windows",
     ))?;
     match outcome.violation {
-        Some(v) => Err(PipelineError::Infeasible(BlockDisplay(part.block(v.block)))),
+        Some(v) => Err(PipelineError::Infeasible(part.deposit_name(v.block))),
         None => Ok(()),
     }
 }
@@ -215,17 +216,12 @@ pub fn check_torch(
     match access.first_blocked(fragments.iter().flatten().copied()) {
         None => Ok(()),
         Some(b) => Err(PipelineError::TorchBlocked {
-            block: BlockDisplay(part.block(b.block)),
+            block: part.deposit_name(b.block),
             deposit: b.position + 1,
             total: part.len(),
             obstacle: match b.obstacle {
                 Obstacle::Plate => "the plate".into(),
-                Obstacle::Block(o) => {
-                    format!(
-                        "block {}, deposited before it,",
-                        BlockDisplay(part.block(o))
-                    )
-                }
+                Obstacle::Block(o) => format!("{}, deposited before it,", part.deposit_name(o)),
             },
             torch: setup.describe(),
         }),
@@ -256,7 +252,7 @@ pub fn check_executed(
     let (timeline, violation) = simulate_executed(part, fragments, toolpath, interrupt)?;
     match violation {
         Some(v) => Err(PipelineError::InfeasibleExecuted {
-            block: BlockDisplay(part.block(v.block)),
+            block: part.deposit_name(v.block),
             kind: match v.kind {
                 thermal::ViolationKind::Min => "below min_s:",
                 thermal::ViolationKind::Max => "over max_s:",
@@ -477,9 +473,9 @@ impl Cell {
             prefix: fragments[..=upto].to_vec(),
             closed: true,
             reason: format!(
-                "the plan breaks the t8/5 window of block {} on the robot's executed time line \
+                "the plan breaks the t8/5 window of {} on the robot's executed time line \
                  (at {:.2} s)",
-                BlockDisplay(part.block(v.block)),
+                part.deposit_name(v.block),
                 v.time_s
             ),
         })

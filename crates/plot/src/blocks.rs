@@ -9,6 +9,11 @@
 //! Why the order is right: the view direction is positive along every grid axis, so a box
 //! can hide only boxes whose grid coordinates are all smaller or equal; drawing in order of
 //! x + y + z therefore never paints a hidden face over a visible one.
+//!
+//! A graph part (beads) is drawn the same way, each node as its piece of bead: one prism
+//! per segment of its centre line, W wide and one layer tall, in order of the prisms'
+//! centres along the view direction (x + y + z in mm; exact for boxes that do not
+//! interpenetrate in depth, close enough for beads).
 
 use std::fs::File;
 use std::io::BufWriter;
@@ -42,9 +47,8 @@ const PATH_COLOURS: [RGBColor; 6] = [
     RGBColor(86, 180, 233),
 ];
 
-/// The isometric projection of a part fitted into a pixel rectangle.
+/// The isometric projection of a part (mm) fitted into a pixel rectangle.
 struct View {
-    mm: [f64; 3],
     scale: f64,
     offset: (f64, f64),
 }
@@ -52,21 +56,18 @@ struct View {
 const COS30: f64 = 0.866_025_403_784_438_6;
 
 impl View {
-    /// Screen position (before fitting) of a point in grid units.
-    fn raw(mm: [f64; 3], p: [f64; 3]) -> (f64, f64) {
-        let (x, y, z) = (p[0] * mm[0], p[1] * mm[1], p[2] * mm[2]);
+    /// Screen position (before fitting) of a point in mm.
+    fn raw(p: [f64; 3]) -> (f64, f64) {
+        let [x, y, z] = p;
         ((x - y) * COS30, 0.5 * (x + y) - z)
     }
 
-    /// Fits every block of `part` (and the plate under it) into `(w, h)` pixels at `(x0, y0)`.
-    fn fit(part: &Part, (x0, y0): (i32, i32), (w, h): (u32, u32)) -> View {
-        let mm = part.block_mm;
+    /// Fits every prism of a part into `(w, h)` pixels at `(x0, y0)`.
+    fn fit(prisms: &[Prism], (x0, y0): (i32, i32), (w, h): (u32, u32)) -> View {
         let (mut u0, mut u1, mut v0, mut v1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-        for b in part.blocks() {
-            for c in corners(b) {
-                let (u, v) = View::raw(mm, c);
-                (u0, u1, v0, v1) = (u0.min(u), u1.max(u), v0.min(v), v1.max(v));
-            }
+        for c in prisms.iter().flat_map(Prism::points) {
+            let (u, v) = View::raw(c);
+            (u0, u1, v0, v1) = (u0.min(u), u1.max(u), v0.min(v), v1.max(v));
         }
         if u0 > u1 {
             (u0, u1, v0, v1) = (0.0, 1.0, 0.0, 1.0);
@@ -77,11 +78,11 @@ impl View {
             x0 as f64 + 0.5 * w as f64 - scale * 0.5 * (u0 + u1),
             y0 as f64 + 0.5 * h as f64 - scale * 0.5 * (v0 + v1),
         );
-        View { mm, scale, offset }
+        View { scale, offset }
     }
 
     fn px(&self, p: [f64; 3]) -> (i32, i32) {
-        let (u, v) = View::raw(self.mm, p);
+        let (u, v) = View::raw(p);
         (
             (self.offset.0 + self.scale * u).round() as i32,
             (self.offset.1 + self.scale * v).round() as i32,
@@ -89,14 +90,111 @@ impl View {
     }
 }
 
-fn corners(b: &[i64; 3]) -> impl Iterator<Item = [f64; 3]> + '_ {
-    (0..8).map(move |k| {
-        [
-            (b[0] + (k & 1)) as f64,
-            (b[1] + ((k >> 1) & 1)) as f64,
-            (b[2] + ((k >> 2) & 1)) as f64,
-        ]
-    })
+/// A solid drawn for a deposit, in mm: a block's box, or a segment of a bead.
+struct Prism {
+    /// The deposit (block or node index) it belongs to.
+    owner: usize,
+    /// The footprint, counter-clockwise.
+    corners: [[f64; 2]; 4],
+    z: [f64; 2],
+    /// Drawn in increasing order of this (back to front).
+    key: [f64; 4],
+}
+
+impl Prism {
+    fn points(&self) -> impl Iterator<Item = [f64; 3]> + '_ {
+        self.z
+            .iter()
+            .flat_map(move |&z| self.corners.iter().map(move |c| [c[0], c[1], z]))
+    }
+}
+
+/// The prisms of every deposit: a cube part's blocks as boxes, a graph part's nodes as
+/// their pieces of bead (one prism per segment of the centre line).
+fn prisms(part: &Part) -> Vec<Prism> {
+    let Some(beads) = part.bead_part() else {
+        let (o, mm) = (part.origin_mm, part.block_mm);
+        return (0..part.len())
+            .map(|i| {
+                let b = part.block(i);
+                let lo: [f64; 3] = std::array::from_fn(|d| o[d] + b[d] as f64 * mm[d]);
+                let hi: [f64; 3] = std::array::from_fn(|d| lo[d] + mm[d]);
+                Prism {
+                    owner: i,
+                    corners: [
+                        [lo[0], lo[1]],
+                        [hi[0], lo[1]],
+                        [hi[0], hi[1]],
+                        [lo[0], hi[1]],
+                    ],
+                    z: [lo[2], hi[2]],
+                    key: [
+                        (b[0] + b[1] + b[2]) as f64,
+                        b[2] as f64,
+                        b[0] as f64,
+                        b[1] as f64,
+                    ],
+                }
+            })
+            .collect();
+    };
+    let [w, h] = beads.bead_mm;
+    let mut out = Vec::new();
+    for (i, d) in beads.nodes.iter().enumerate() {
+        let z0 = beads.base_z_mm + d.layer as f64 * h;
+        let piece = beads.beads[d.bead].piece_mm(d.from_mm, d.to_mm);
+        for seg in piece.windows(2) {
+            let (p, q) = (seg[0], seg[1]);
+            let len = (q[0] - p[0]).hypot(q[1] - p[1]);
+            if len < 1e-9 {
+                continue;
+            }
+            // To the right of the travel direction, half a bead width.
+            let r = [
+                0.5 * w * (q[1] - p[1]) / len,
+                -0.5 * w * (q[0] - p[0]) / len,
+            ];
+            let (cx, cy, cz) = (0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1]), z0 + 0.5 * h);
+            out.push(Prism {
+                owner: i,
+                corners: [
+                    [p[0] + r[0], p[1] + r[1]],
+                    [q[0] + r[0], q[1] + r[1]],
+                    [q[0] - r[0], q[1] - r[1]],
+                    [p[0] - r[0], p[1] - r[1]],
+                ],
+                z: [z0, z0 + h],
+                key: [cx + cy + cz, cz, cx, cy],
+            });
+        }
+    }
+    out
+}
+
+/// The top centre of deposit `i`, mm: where its number goes.
+fn top_mm(part: &Part, i: usize) -> [f64; 3] {
+    let c = part.centre_mm(part.block(i));
+    let half = match part.bead_part() {
+        Some(b) => 0.5 * b.bead_mm[1],
+        None => 0.5 * part.block_mm[2],
+    };
+    [c[0], c[1], c[2] + half]
+}
+
+/// What the pictures call a deposit ("blocks", "nodes").
+fn deposits(part: &Part) -> &'static str {
+    match part.bead_part() {
+        Some(_) => "nodes",
+        None => "blocks",
+    }
+}
+
+/// A deposit in a short label: `[x,y,z]` for a block, `node 12`.
+fn short_name(part: &Part, i: usize) -> String {
+    match part.bead_part() {
+        Some(_) => format!("node {i}"),
+        None => BlockDisplay(part.block(i)).to_string(),
+    }
 }
 
 fn shade(c: RGBColor, f: f64) -> RGBColor {
@@ -118,28 +216,25 @@ impl From<String> for Reason {
     }
 }
 
-/// Draws the blocks with a colour (`None`: not drawn) back to front; returns the pixel
-/// centre of each drawn block's top face.
+/// Draws the deposits with a colour (`None`: not drawn) back to front; returns the pixel
+/// centre of each drawn deposit's top.
 fn draw_blocks<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     part: &Part,
+    prisms: &[Prism],
     view: &View,
     colours: &[Option<RGBColor>],
 ) -> Result<Vec<Option<(i32, i32)>>, Reason> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    // The plate: the part's footprint, one block margin, at z = 0.
-    let (mut x0, mut x1, mut y0, mut y1) = (i64::MAX, i64::MIN, i64::MAX, i64::MIN);
-    let zmin = part.blocks().iter().map(|b| b[2]).min().unwrap_or(0) as f64;
-    for b in part.blocks() {
-        (x0, x1, y0, y1) = (x0.min(b[0]), x1.max(b[0]), y0.min(b[1]), y1.max(b[1]));
+    // The plate: the part's footprint and a block (bead) width around it, under its foot.
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    let zmin = prisms.iter().map(|p| p.z[0]).fold(f64::INFINITY, f64::min);
+    for c in prisms.iter().flat_map(|p| p.corners) {
+        (x0, x1, y0, y1) = (x0.min(c[0]), x1.max(c[0]), y0.min(c[1]), y1.max(c[1]));
     }
     if x0 <= x1 {
-        let (fx0, fx1, fy0, fy1) = (
-            x0 as f64 - 1.0,
-            x1 as f64 + 2.0,
-            y0 as f64 - 1.0,
-            y1 as f64 + 2.0,
-        );
+        let [mx, my, _] = part.block_mm;
+        let (fx0, fx1, fy0, fy1) = (x0 - mx, x1 + mx, y0 - my, y1 + my);
         let plate = vec![
             view.px([fx0, fy0, zmin]),
             view.px([fx1, fy0, zmin]),
@@ -149,32 +244,47 @@ fn draw_blocks<DB: DrawingBackend>(
         area.draw(&Polygon::new(plate, RGBColor(225, 225, 225).filled()))
             .map_err(e)?;
     }
-    let mut order: Vec<usize> = (0..part.len()).filter(|&i| colours[i].is_some()).collect();
-    order.sort_by_key(|&i| {
-        let b = part.block(i);
-        (b[0] + b[1] + b[2], b[2], b[0], b[1])
+    let mut order: Vec<&Prism> = prisms
+        .iter()
+        .filter(|p| colours[p.owner].is_some())
+        .collect();
+    order.sort_by(|a, b| {
+        a.key
+            .iter()
+            .zip(&b.key)
+            .map(|(x, y)| x.total_cmp(y))
+            .find(|o| o.is_ne())
+            .unwrap_or(std::cmp::Ordering::Equal)
     });
     let mut tops = vec![None; part.len()];
     let edge = RGBColor(40, 40, 40).mix(0.55);
-    for i in order {
-        let c = colours[i].expect("filtered");
-        let b = part.block(i).map(|v| v as f64);
-        let p = |dx: f64, dy: f64, dz: f64| view.px([b[0] + dx, b[1] + dy, b[2] + dz]);
-        let faces = [
-            // top, +x, +y
-            (
-                vec![p(0., 0., 1.), p(1., 0., 1.), p(1., 1., 1.), p(0., 1., 1.)],
-                1.0,
-            ),
-            (
-                vec![p(1., 0., 0.), p(1., 1., 0.), p(1., 1., 1.), p(1., 0., 1.)],
-                0.78,
-            ),
-            (
-                vec![p(0., 1., 0.), p(1., 1., 0.), p(1., 1., 1.), p(0., 1., 1.)],
-                0.6,
-            ),
-        ];
+    for prism in order {
+        let c = colours[prism.owner].expect("filtered");
+        let [z0, z1] = prism.z;
+        let k = prism.corners;
+        // The top, then the sides that face the viewer (outward normal towards +x+y),
+        // shaded by their normal: +x 0.78, +y 0.6.
+        let mut faces = vec![(
+            k.iter()
+                .map(|p| view.px([p[0], p[1], z1]))
+                .collect::<Vec<_>>(),
+            1.0,
+        )];
+        for j in 0..4 {
+            let (a, b) = (k[j], k[(j + 1) % 4]);
+            let (nx, ny) = (b[1] - a[1], a[0] - b[0]);
+            let len = nx.hypot(ny);
+            if len < 1e-12 || nx + ny <= 1e-9 * len {
+                continue;
+            }
+            let pts = vec![
+                view.px([a[0], a[1], z0]),
+                view.px([b[0], b[1], z0]),
+                view.px([b[0], b[1], z1]),
+                view.px([a[0], a[1], z1]),
+            ];
+            faces.push((pts, 0.6 + 0.18 * (nx / len).powi(2)));
+        }
         for (pts, f) in faces {
             area.draw(&Polygon::new(pts.clone(), shade(c, f).filled()))
                 .map_err(e)?;
@@ -182,23 +292,46 @@ fn draw_blocks<DB: DrawingBackend>(
             closed.push(closed[0]);
             area.draw(&PathElement::new(closed, edge)).map_err(e)?;
         }
-        tops[i] = Some(p(0.5, 0.5, 1.0));
+        tops[prism.owner] = Some(view.px(top_mm(part, prism.owner)));
     }
     Ok(tops)
+}
+
+/// Whether each deposit is under a drawn one: a block with one on top of it, a node that
+/// a drawn node stands on (its number would be hidden).
+fn covered(part: &Part, colours: &[Option<RGBColor>]) -> Vec<bool> {
+    let mut out = vec![false; part.len()];
+    match part.bead_part() {
+        Some(beads) => {
+            let moves = beads.moves();
+            for j in (0..part.len()).filter(|&j| colours[j].is_some()) {
+                for &u in moves.stands_on(j) {
+                    out[u as usize] = true;
+                }
+            }
+        }
+        None => {
+            for (i, c) in out.iter_mut().enumerate() {
+                let b = part.block(i);
+                *c = part
+                    .index_of([b[0], b[1], b[2] + 1])
+                    .is_some_and(|above| colours[above].is_some());
+            }
+        }
+    }
+    out
 }
 
 /// Small x/y/z arrows in a corner, so the view can be matched with the part file.
 fn draw_axes<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
-    mm: [f64; 3],
     at: (i32, i32),
 ) -> Result<(), Reason> {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    let unit = [1.0 / mm[0], 1.0 / mm[1], 1.0 / mm[2]];
     for (axis, name) in ["x", "y", "z"].iter().enumerate() {
         let mut p = [0.0; 3];
-        p[axis] = unit[axis];
-        let (u, v) = View::raw(mm, p);
+        p[axis] = 1.0;
+        let (u, v) = View::raw(p);
         let end = (
             at.0 + (28.0 * u).round() as i32,
             at.1 + (28.0 * v).round() as i32,
@@ -231,16 +364,18 @@ pub fn plan_png(part: &Part, fragments: &[Vec<usize>], path: &Path) -> Result<()
     crate::png(path, PLAN_SIZE, &err, |root| {
         root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
         let title = format!(
-            "{}: {} blocks in {} weld path(s) — colour = path, light → dark = weld order",
+            "{}: {} {} in {} weld path(s) — colour = path, light → dark = weld order",
             part.name,
             part.len(),
+            deposits(part),
             fragments.len()
         );
         root.draw(&Text::new(title, (20, 12), (FONT, 20)))
             .map_err(|e| err(e.to_string()))?;
         let legend_w = 250;
+        let prisms = prisms(part);
         let view = View::fit(
-            part,
+            &prisms,
             (10, 50),
             (PLAN_SIZE.0 - legend_w - 20, PLAN_SIZE.1 - 60),
         );
@@ -250,7 +385,7 @@ pub fn plan_png(part: &Part, fragments: &[Vec<usize>], path: &Path) -> Result<()
                 colours[b] = Some(path_colour(f, k, fragment.len()));
             }
         }
-        let tops = draw_blocks(root, part, &view, &colours).map_err(|r| err(r.0))?;
+        let tops = draw_blocks(root, part, &prisms, &view, &colours).map_err(|r| err(r.0))?;
         // Arc starts: a numbered disc on the first block of every path.
         for (f, fragment) in fragments.iter().enumerate() {
             let Some(Some(c)) = fragment.first().map(|&b| tops[b]) else {
@@ -271,11 +406,9 @@ pub fn plan_png(part: &Part, fragments: &[Vec<usize>], path: &Path) -> Result<()
         let x = (PLAN_SIZE.0 - legend_w) as i32;
         let mut y = 70;
         for (f, fragment) in fragments.iter().enumerate() {
-            let start = fragment
-                .first()
-                .map(|&b| BlockDisplay(part.block(b)).to_string());
+            let start = fragment.first().map(|&b| short_name(part, b));
             root.draw(&Text::new(
-                format!("path {}: {} blocks", f + 1, fragment.len()),
+                format!("path {}: {} {}", f + 1, fragment.len(), deposits(part)),
                 (x, y),
                 (FONT, 16),
             ))
@@ -296,9 +429,13 @@ pub fn plan_png(part: &Part, fragments: &[Vec<usize>], path: &Path) -> Result<()
             .map_err(|e| err(e.to_string()))?;
             y += 72;
         }
-        root.draw(&Text::new("first → last block", (x, y), (FONT, 13)))
+        let last = format!(
+            "first → last {}",
+            &deposits(part)[..deposits(part).len() - 1]
+        );
+        root.draw(&Text::new(last, (x, y), (FONT, 13)))
             .map_err(|e| err(e.to_string()))?;
-        draw_axes(root, part.block_mm, (x + 40, PLAN_SIZE.1 as i32 - 60)).map_err(|r| err(r.0))?;
+        draw_axes(root, (x + 40, PLAN_SIZE.1 as i32 - 60)).map_err(|r| err(r.0))?;
         Ok(())
     })
 }
@@ -454,29 +591,32 @@ fn draw_frame<DB: DrawingBackend>(
         format!("after the cooldown, t = {:.0} s", frame.time_s)
     } else {
         format!(
-            "{} of {} blocks welded, t = {:.0} s",
+            "{} of {} {} welded, t = {:.0} s",
             frame.welded,
             part.len(),
+            deposits(part),
             frame.time_s
         )
     };
     area.draw(&Text::new(caption, (12, 6), (FONT, title_size)))
         .map_err(e)?;
-    let view = View::fit(part, (0, title_size as i32 + 10), (w, h - title_size - 14));
+    let prisms = prisms(part);
+    let view = View::fit(
+        &prisms,
+        (0, title_size as i32 + 10),
+        (w, h - title_size - 14),
+    );
     let colours: Vec<Option<RGBColor>> = frame
         .temps
         .iter()
         .map(|&t| t.is_finite().then(|| heat_colour(build, t)))
         .collect();
-    let tops = draw_blocks(area, part, &view, &colours)?;
+    let tops = draw_blocks(area, part, &prisms, &view, &colours)?;
+    let covered = covered(part, &colours);
     for (k, wt) in build.windowed.iter().enumerate() {
         let Some(c) = tops[wt.block] else { continue };
-        // A block under a welded one is hidden: its number is in the table only.
-        let b = part.block(wt.block);
-        let covered = part
-            .index_of([b[0], b[1], b[2] + 1])
-            .is_some_and(|above| colours[above].is_some());
-        if covered {
+        // A deposit under a welded one is hidden: its number is in the table only.
+        if covered[wt.block] {
             continue;
         }
         let ok = build
@@ -554,7 +694,7 @@ fn draw_side<DB: DrawingBackend>(
                     format!(
                         "{:>2} {} {v:.1} in [{}, {}]{}",
                         k + 1,
-                        BlockDisplay(part.block(wt.block)),
+                        short_name(part, wt.block),
                         wt.window.min_s,
                         wt.window.max_s,
                         if ok { "" } else { " BROKEN" }
@@ -570,7 +710,7 @@ fn draw_side<DB: DrawingBackend>(
                 format!(
                     "{:>2} {} – [{}, {}]",
                     k + 1,
-                    BlockDisplay(part.block(wt.block)),
+                    short_name(part, wt.block),
                     wt.window.min_s,
                     wt.window.max_s
                 ),

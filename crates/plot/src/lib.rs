@@ -265,7 +265,10 @@ pub fn toolpath_png(tp: &ToolpathFile, path: &Path) -> Result<(), PlotError> {
 /// The temperature of one windowed block over time.
 #[derive(Debug, Clone)]
 pub struct Curve {
+    /// The block (a graph part's: its node's stand-in block).
     pub block: Block,
+    /// Its name in the legend: `[x,y,z]`, or `node 12` of a graph part.
+    pub label: String,
     pub window: Window,
     /// (time s, temperature °C), from its deposit on.
     pub samples: Vec<(f64, f64)>,
@@ -290,6 +293,9 @@ pub fn temperature_curves_until(
     fragments: &[Vec<usize>],
     interrupt: &Interrupt,
 ) -> Option<Vec<Curve>> {
+    if part.bead_part().is_some() {
+        return graph_temperature_curves(part, fragments, interrupt);
+    }
     let params = part.thermal;
     let max_x = part.blocks().iter().map(|b| b[0]).max().unwrap_or(0);
     let probes = ((params.max_cooldown_s / params.block_time_s).ceil() as i64).clamp(1, 20_000);
@@ -317,6 +323,7 @@ pub fn temperature_curves_until(
         .iter()
         .map(|&(b, w)| Curve {
             block: part.block(b),
+            label: BlockDisplay(part.block(b)).to_string(),
             window: w,
             samples: Vec::new(),
         })
@@ -356,6 +363,71 @@ pub fn temperature_curves_until(
             break;
         };
         let _ = sim.deposit(probe, false);
+        if sim.cancelled() {
+            return None;
+        }
+        if !sample(&sim, &mut curves) {
+            break;
+        }
+    }
+    Some(curves)
+}
+
+/// [`temperature_curves_until`] of a graph part: its own model (the stand-in blocks'
+/// neighbours are not its contacts), sampled after every deposit and, through the
+/// cooldown, after every `transit_time_s` of cooling (the model's steps with the arc off)
+/// until all are below 500 °C or `max_cooldown_s` has passed.
+fn graph_temperature_curves(
+    part: &Part,
+    fragments: &[Vec<usize>],
+    interrupt: &Interrupt,
+) -> Option<Vec<Curve>> {
+    let params = part.thermal;
+    let graph = WeldGraph::new(part);
+    let model = ThermalModel::new(part, &graph);
+    let mut sim = Simulation::new(&model).interrupted_by(interrupt);
+    let windowed: Vec<(usize, Window)> = part.windows().to_vec();
+    let mut curves: Vec<Curve> = windowed
+        .iter()
+        .map(|&(b, w)| Curve {
+            block: part.block(b),
+            label: format!("node {b}"),
+            window: w,
+            samples: Vec::new(),
+        })
+        .collect();
+    let mut temps = vec![f64::NAN; part.len()];
+    let mut sample = |sim: &Simulation, curves: &mut Vec<Curve>| {
+        temps.iter_mut().for_each(|t| *t = f64::NAN);
+        for (b, t) in sim.temperatures() {
+            temps[b] = t;
+        }
+        let mut warm = false;
+        for (c, &(b, _)) in curves.iter_mut().zip(&windowed) {
+            if temps[b].is_finite() {
+                c.samples.push((sim.time_s(), temps[b]));
+                warm |= temps[b] >= WARM_C;
+            }
+        }
+        warm
+    };
+    for fragment in fragments {
+        for (p, &b) in fragment.iter().enumerate() {
+            // A broken window does not stop the picture.
+            let _ = sim.deposit(b, p == 0);
+            if sim.cancelled() {
+                return None;
+            }
+            if let Some(k) = windowed.iter().position(|w| w.0 == b) {
+                let placed = sim.time_s() - model.dt * model.deposit_steps(b) as f64;
+                curves[k].samples.push((placed, params.deposit_c));
+            }
+            sample(&sim, &mut curves);
+        }
+    }
+    let pauses = (params.max_cooldown_s / params.transit_time_s.max(1e-9)).ceil() as usize;
+    for _ in 0..pauses.min(100_000) {
+        let _ = sim.transit();
         if sim.cancelled() {
             return None;
         }
@@ -432,9 +504,7 @@ pub fn t85_png(part: &Part, curves: &[Curve], path: &Path) -> Result<(), PlotErr
                 .map_err(|e| err(e.to_string()))?
                 .label(format!(
                     "{} [{}, {}] s",
-                    BlockDisplay(c.block),
-                    c.window.min_s,
-                    c.window.max_s
+                    c.label, c.window.min_s, c.window.max_s
                 ))
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))

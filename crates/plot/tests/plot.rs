@@ -136,3 +136,95 @@ fn plan_picture_shows_every_weld_path() {
         );
     }
 }
+
+/// The distinct colours of a PNG.
+fn colours(path: &std::path::Path) -> std::collections::HashSet<[u8; 3]> {
+    let decoder = png::Decoder::new(std::fs::File::open(path).unwrap());
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    let bpp = info.color_type.samples();
+    buf[..info.buffer_size()]
+        .chunks(bpp)
+        .map(|p| [p[0], p[1], p[2]])
+        .collect()
+}
+
+/// A graph part is drawn as its beads: plan3d.png in the weld paths' colours, heat.png by
+/// the graph model's temperatures, t85.png from that model, toolpath.png along the beads.
+#[test]
+fn a_graph_part_is_drawn_as_its_beads() {
+    let text = std::fs::read_to_string(common::root().join("tests/data/ring-beads.yaml")).unwrap();
+    let part = waam_part::Part::of_beads(waam_part::BeadPart::parse(&text).unwrap()).unwrap();
+    // Two weld paths, layer by layer (pictures do not judge validity).
+    let n = part.len();
+    let fragments = vec![(0..n / 2).collect::<Vec<_>>(), (n / 2..n).collect()];
+    let dir = tempfile::tempdir().unwrap();
+
+    let plan3d = dir.path().join("plan3d.png");
+    waam_plot::blocks::plan_png(&part, &fragments, &plan3d).unwrap();
+    let pixels = colours(&plan3d);
+    for (f, fragment) in fragments.iter().enumerate() {
+        let shown = (0..fragment.len())
+            .filter(|&k| {
+                let c = waam_plot::blocks::path_colour(f, k, fragment.len());
+                pixels.contains(&[c.0, c.1, c.2])
+            })
+            .count();
+        // The top layer's beads show in full, the lower ones along their outer sides.
+        assert!(
+            shown >= 10,
+            "path {f}: {shown} of {} colours",
+            fragment.len()
+        );
+    }
+
+    // The curves are the graph model's temperatures (not the stand-in blocks' model).
+    let curves = waam_plot::temperature_curves(&part, &fragments);
+    assert_eq!(curves.len(), part.windows().len());
+    assert!(curves.iter().all(|c| c.label.starts_with("node ")));
+    let graph = WeldGraph::new(&part);
+    let model = ThermalModel::new(&part, &graph);
+    let mut sim = Simulation::new(&model);
+    let mut checked = 0;
+    for fragment in &fragments {
+        for (p, &b) in fragment.iter().enumerate() {
+            let _ = sim.deposit(b, p == 0);
+            for (c, &(w, _)) in curves.iter().zip(part.windows()) {
+                let t = sim.temperatures().find(|&(i, _)| i == w).map(|(_, t)| t);
+                let s = c.samples.iter().find(|s| s.0 == sim.time_s());
+                if let (Some(t), Some(s)) = (t, s) {
+                    assert_eq!(s.1, t);
+                    checked += 1;
+                }
+            }
+        }
+    }
+    assert!(checked > 100, "{checked} samples compared");
+    assert!(curves.iter().all(|c| c.samples.last().unwrap().1 < 500.0));
+    let t85 = dir.path().join("t85.png");
+    waam_plot::t85_png(&part, &curves, &t85).unwrap();
+
+    let build = waam_plot::blocks::heat_build(&part, &fragments, 8);
+    let heat = dir.path().join("heat.png");
+    waam_plot::blocks::heat_png(&part, &build, &heat).unwrap();
+    // Beads at many temperatures: many shades of the colour map.
+    assert!(
+        colours(&heat).len() > 200,
+        "{} colours",
+        colours(&heat).len()
+    );
+
+    let tp = waam_motion::toolpath::toolpath_of_plan(
+        &part,
+        &fragments,
+        &waam_motion::toolpath::ProcessSettings::default(),
+        waam_motion::toolpath::ToolpathFrame::Part,
+    )
+    .unwrap();
+    let toolpath = dir.path().join("toolpath.png");
+    waam_plot::toolpath_png(&tp.to_file(), &toolpath).unwrap();
+    for png in [&plan3d, &t85, &heat, &toolpath] {
+        assert!(std::fs::metadata(png).unwrap().len() > 10_000, "{png:?}");
+    }
+}

@@ -35,6 +35,11 @@ pub struct ScaleArgs {
     /// The pitch of one mesh: "NAME.stl=X Y Z" (repeatable); others take --pitch.
     #[arg(long = "mesh-pitch", value_name = "NAME=X Y Z", value_parser = parse_mesh_pitch)]
     pub mesh_pitch: Vec<(String, [f64; 3])>,
+    /// Slice one mesh into beads (a graph part): "NAME.stl=W H" (bead width and layer
+    /// height, mm) or "NAME.stl=W H K" with its k (repeatable); others take --pitch or
+    /// --bead and -k.
+    #[arg(long = "mesh-bead", value_name = "NAME=W H [K]", value_parser = parse_mesh_bead)]
+    pub mesh_bead: Vec<(String, [f64; 2], Option<u32>)>,
     /// Only the parts whose file name contains this.
     #[arg(long)]
     pub only: Option<String>,
@@ -56,6 +61,27 @@ fn parse_mesh_pitch(s: &str) -> Result<(String, [f64; 3]), String> {
         .split_once('=')
         .ok_or_else(|| format!("expected NAME.stl=\"X Y Z\", got {s:?}"))?;
     Ok((name.trim().to_string(), parse_pitch(pitch)?))
+}
+
+fn parse_mesh_bead(s: &str) -> Result<(String, [f64; 2], Option<u32>), String> {
+    let (name, rest) = s
+        .split_once('=')
+        .ok_or_else(|| format!("expected NAME.stl=\"W H [K]\", got {s:?}"))?;
+    let words: Vec<&str> = rest.split_whitespace().collect();
+    let (bead, k) = match words.as_slice() {
+        [w, h] => (format!("{w} {h}"), None),
+        [w, h, k] => {
+            let k = k
+                .parse::<u32>()
+                .ok()
+                .filter(|&k| k >= 1)
+                .ok_or_else(|| format!("{name}: K must be an integer >= 1, got {k:?}"))?;
+            (format!("{w} {h}"), Some(k))
+        }
+        _ => return Err(format!("expected NAME.stl=\"W H [K]\", got {s:?}")),
+    };
+    let bead = crate::cli::slice::parse_bead(&bead).map_err(|e| format!("{name}: {e}"))?;
+    Ok((name.trim().to_string(), bead, k))
 }
 
 /// One part's row.
@@ -182,12 +208,24 @@ fn file_name(path: &Path) -> String {
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
 }
 
-/// A part file, or a mesh voxelized at its own pitch (or --pitch).
+/// A part file as it is, or a mesh voxelized at its own pitch or sliced into its own
+/// beads (else by --pitch or --bead).
 fn read(path: &Path, args: &ScaleArgs) -> anyhow::Result<Part> {
     let name = file_name(path);
     let mut mesh = args.mesh.clone();
+    let is_stl = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("stl"));
+    if !is_stl {
+        // -k is the meshes' k here: a part file keeps its own.
+        mesh.k = None;
+    }
     if let Some((_, pitch)) = args.mesh_pitch.iter().find(|(n, _)| *n == name) {
-        mesh.pitch = Some(*pitch);
+        (mesh.pitch, mesh.bead) = (Some(*pitch), None);
+    }
+    if let Some((_, bead, k)) = args.mesh_bead.iter().find(|(n, _, _)| *n == name) {
+        (mesh.pitch, mesh.bead) = (None, Some(*bead));
+        mesh.k = k.or(mesh.k);
     }
     mesh.read_part_or_mesh(path)
 }

@@ -149,13 +149,18 @@ pub(crate) fn routes_of_graph_plan(
             points_mm: points,
             step_s,
             marks,
+            // The torch turns over two bead widths of path: the centre lines' short
+            // segments and corners would turn it faster than the arm's joints can.
+            heading_window_mm: w,
         });
     }
     Ok(routes)
 }
 
-/// Two pieces closer than this (mm) join without a connection.
-const JOIN_MM: f64 = 1e-6;
+/// Two pieces closer than this (mm) join without a connection; a vertex this close to a
+/// piece's end is left out of the piece (the slicer's centre lines are rounded to 0.1 µm,
+/// so pieces cut from them end a few nanometres off their vertices).
+const JOIN_MM: f64 = 1e-3;
 
 /// Whether node `k` of a fragment is walked from `from_mm` to `to_mm`: so that it starts
 /// where the previous piece of its bead ended; else so that it ends where the next piece
@@ -263,9 +268,11 @@ impl Line {
         [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t]
     }
 
-    /// The centre line from `from` to `to` (from < to): its ends and the vertices between.
+    /// The centre line from `from` to `to` (from < to): its ends and the vertices between,
+    /// but none within [`JOIN_MM`] of an end: the torch would turn on the spot there (the
+    /// heading of a step of nanometres), which no robot joint follows.
     fn piece(&self, from: f64, to: f64) -> Vec<[f64; 2]> {
-        let eps = 1e-9 * self.length().max(1.0);
+        let eps = JOIN_MM;
         let mut out = vec![self.at(from)];
         for (p, &s) in self.points.iter().zip(&self.at_mm) {
             if s > from + eps && s < to - eps {
@@ -416,6 +423,31 @@ mod tests {
         }
         // That is W per block time.
         assert!((node_s - (TAU * R / n as f64) / W * block).abs() < 0.05);
+    }
+
+    #[test]
+    fn pieces_cut_a_hair_off_the_vertices_do_not_turn_the_torch_on_the_spot() {
+        // Cut at every other vertex, 10 nm off (as rounded slicer output is): no weld step
+        // of nanometres (where the torch's heading would turn at once) is left.
+        let mut part = rings(1);
+        let line = Line::new(&part.beads[0]);
+        let cuts: Vec<f64> = (0..=64).map(|i| line.at_mm[2 * i] + 1e-5).collect();
+        let template = part.nodes[0].clone();
+        part.nodes = cuts
+            .windows(2)
+            .map(|c| Deposit {
+                from_mm: c[0],
+                to_mm: c[1].min(line.length()),
+                ..template.clone()
+            })
+            .collect();
+        let frag: Vec<usize> = (0..part.nodes.len()).collect();
+        let tp = part_frame(&part, &[frag]);
+        let on = welded(&tp);
+        for w in on.windows(2) {
+            let d = (w[1] - w[0]).norm();
+            assert!(d == 0.0 || d >= JOIN_MM, "a weld step of {d} mm");
+        }
     }
 
     #[test]

@@ -164,12 +164,19 @@ pub enum ToolpathError {
 /// memory holds). A straight line gets at most length / max_step_mm + 1 poses, plus
 /// its turn / max_step_deg where the torch turns: on the travel lines (6 a pass) and on the
 /// two weld steps around each point where the pass changes direction (the torch heading
-/// changes nowhere else). Travel lines are bounded by the passes' bounding box.
+/// changes nowhere else; a bead route's chord heading may change at any point, so its
+/// every step counts as turning). Travel lines are bounded by the passes' bounding box.
 fn check_pose_budget<P: AsRef<[Point3<f64>]>>(
     passes: &[P],
     s: &ProcessSettings,
+    every_step_turns: bool,
 ) -> Result<(), ToolpathError> {
-    let (poses, longest) = pose_bound(passes, s);
+    let (mut poses, longest) = pose_bound(passes, s);
+    if every_step_turns {
+        let steps: usize = passes.iter().map(|p| p.as_ref().len()).sum();
+        let turn_deg = (2.0 * (s.travel_angle_deg.abs() + s.work_angle_deg.abs())).min(180.0);
+        poses += 2.0 * steps as f64 * turn_deg / s.max_step_deg;
+    }
     if poses.is_nan() || poses > s.max_poses as f64 {
         return Err(ToolpathError::TooManyPoses {
             poses,
@@ -369,6 +376,63 @@ fn headings(points: &[Point3<f64>], mut carry: Vector3<f64>) -> Vec<Vector3<f64>
     out
 }
 
+/// The torch's travel heading at each point of a pass: the horizontal chord from the point
+/// `window` mm of path behind it to the point `window` mm ahead (less near the pass's
+/// ends, so that the chord stays centred on the point). On a circle that is the tangent; a corner or a U-turn is turned over 2·`window`
+/// of path, however short the segments around it. Without a horizontal chord (a climb),
+/// the previous heading.
+fn chord_headings(
+    points: &[Point3<f64>],
+    window: f64,
+    mut carry: Vector3<f64>,
+) -> Vec<Vector3<f64>> {
+    let mut at = Vec::with_capacity(points.len());
+    let mut s = 0.0;
+    for (i, p) in points.iter().enumerate() {
+        if i > 0 {
+            s += (p - points[i - 1]).norm();
+        }
+        at.push(s);
+    }
+    // The point `t` mm along the pass.
+    let point = |t: f64| -> Point3<f64> {
+        let t = t.clamp(0.0, s);
+        let i = at
+            .partition_point(|&a| a <= t)
+            .clamp(1, points.len().max(2) - 1);
+        if points.len() < 2 {
+            return points[0];
+        }
+        let len = at[i] - at[i - 1];
+        let u = if len > 0.0 {
+            (t - at[i - 1]) / len
+        } else {
+            0.0
+        };
+        points[i - 1] + (points[i] - points[i - 1]) * u
+    };
+    let n = points.len();
+    at.iter()
+        .enumerate()
+        .map(|(i, &t)| {
+            // Symmetric about the point (a circle's tangent), so narrower near the ends;
+            // at an end, its segment.
+            let w = window.min(t).min(s - t);
+            let d = match i {
+                _ if w > 1e-6 => point(t + w) - point(t - w),
+                0 if n > 1 => points[1] - points[0],
+                _ if n > 1 => points[i] - points[i - 1],
+                _ => Vector3::zeros(),
+            };
+            let h = Vector3::new(d.x, d.y, 0.0);
+            if h.norm() > 1e-9 {
+                carry = h.normalize();
+            }
+            carry
+        })
+        .collect()
+}
+
 /// The torch orientation for a heading: z (the wire) points down, tilted forward by the
 /// travel angle and sideways by the work angle. The torch does not spin about its own
 /// axis: its frame is the vertical torch (x along the part's +x, z down) tilted the
@@ -409,6 +473,11 @@ pub(crate) struct Route {
     pub step_s: Vec<f64>,
     /// (pass point, at the point itself) of every station.
     pub marks: Vec<(usize, bool)>,
+    /// 0: the torch heads along the bisector at each station ([`headings`]); else along
+    /// the chord from this far (mm of path) behind the station to this far ahead
+    /// ([`chord_headings`]): a bead's centre line, whose short segments and corners
+    /// would turn the torch faster than the arm's joints can.
+    pub heading_window_mm: f64,
 }
 
 impl Route {
@@ -425,6 +494,7 @@ impl Route {
             points_mm: pts.clone(),
             step_s,
             marks: (0..pts.len()).map(|i| (i, true)).collect(),
+            heading_window_mm: 0.0,
         }
     }
 }
@@ -467,7 +537,8 @@ pub(crate) fn build_routes(
             });
         }
     }
-    check_pose_budget(routes, settings)?;
+    let chords = routes.iter().any(|r| r.heading_window_mm > 0.0);
+    check_pose_budget(routes, settings, chords)?;
     let s = settings;
     let mut b = Builder {
         s,
@@ -485,7 +556,10 @@ pub(crate) fn build_routes(
     let mut heading = Vector3::x();
     for (f, route) in routes.iter().enumerate() {
         let pts = &route.points_mm;
-        let hs = headings(pts, heading);
+        let hs = match route.heading_window_mm {
+            w if w > 0.0 => chord_headings(pts, w, heading),
+            _ => headings(pts, heading),
+        };
         heading = *hs.last().expect("a pass has points");
         let ways: Vec<Way> = pts
             .iter()
