@@ -8,7 +8,16 @@ fn generated_parts_pass_waam_check_with_their_witness() {
     let dir = tempfile::tempdir().unwrap();
     let json = dir.path().join("bench.json");
     let out = waam()
-        .args(["bench", "scale", "--generate", "1", "--seed", "11", "--blocks", "400"])
+        .args([
+            "bench",
+            "scale",
+            "--generate",
+            "1",
+            "--seed",
+            "11",
+            "--blocks",
+            "400",
+        ])
         .args(["--timeout", "30", "--threads", "2", "--out"])
         .arg(dir.path())
         .arg("--json")
@@ -16,7 +25,11 @@ fn generated_parts_pass_waam_check_with_their_witness() {
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let families = ["tube", "box", "double-tube", "l-wall", "t-wall", "cup"];
     for family in families {
         let name = format!("{family}-400-s11");
@@ -29,7 +42,10 @@ fn generated_parts_pass_waam_check_with_their_witness() {
     }
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     let summary = v["summary"].as_array().unwrap();
-    let named: Vec<&str> = summary.iter().map(|s| s["family"].as_str().unwrap()).collect();
+    let named: Vec<&str> = summary
+        .iter()
+        .map(|s| s["family"].as_str().unwrap())
+        .collect();
     assert_eq!(named, families);
     assert_eq!(v["runs"].as_array().unwrap().len(), 6);
     for s in summary {

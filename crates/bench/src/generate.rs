@@ -157,7 +157,11 @@ pub fn generate(spec: &Spec, interrupt: &Interrupt) -> Result<Generated, Generat
     let graph = WeldGraph::new(&plain);
     let fragments: Vec<Vec<usize>> = witness
         .iter()
-        .map(|f| f.iter().map(|&b| plain.index_of(b).expect("a block of the part")).collect())
+        .map(|f| {
+            f.iter()
+                .map(|&b| plain.index_of(b).expect("a block of the part"))
+                .collect()
+        })
         .collect();
     Plan::from_indices(&plain, &fragments)
         .validate(&plain, &graph)
@@ -176,13 +180,23 @@ pub fn generate(spec: &Spec, interrupt: &Interrupt) -> Result<Generated, Generat
     // The witness's t8/5 at the chosen blocks, their windows opened wide.
     let mut open = plain.clone();
     for &b in &chosen {
-        open.set_window(b, Window { min_s: 0.0, max_s: 1e9 });
+        open.set_window(
+            b,
+            Window {
+                min_s: 0.0,
+                max_s: 1e9,
+            },
+        );
     }
     let outcome = simulate(&open, &graph, &fragments, interrupt)?;
     let mut windows: Vec<(usize, Window)> = chosen
         .iter()
         .filter_map(|&b| {
-            let t85 = outcome.crossings.iter().filter(|c| c.block == b).map(|c| c.t85_s);
+            let t85 = outcome
+                .crossings
+                .iter()
+                .filter(|c| c.block == b)
+                .map(|c| c.t85_s);
             let lo = t85.clone().fold(f64::INFINITY, f64::min);
             let hi = t85.fold(0.0, f64::max);
             lo.is_finite().then(|| {
@@ -201,10 +215,18 @@ pub fn generate(spec: &Spec, interrupt: &Interrupt) -> Result<Generated, Generat
             part.set_window(b, w);
         }
         if windows.is_empty() {
-            return Ok(Generated { part, witness: fragments });
+            return Ok(Generated {
+                part,
+                witness: fragments,
+            });
         }
         match simulate(&part, &graph, &fragments, interrupt)?.violation {
-            None => return Ok(Generated { part, witness: fragments }),
+            None => {
+                return Ok(Generated {
+                    part,
+                    witness: fragments,
+                })
+            }
             Some(v) => windows.retain(|&(b, _)| b != v.block),
         }
     }
@@ -217,8 +239,13 @@ fn simulate(
     interrupt: &Interrupt,
 ) -> Result<thermal::Outcome, GenerateError> {
     let model = ThermalModel::new(part, graph);
-    thermal::simulate_until(&model, fragments, interrupt.deadline, interrupt.cancel.clone())?
-        .ok_or(GenerateError::Stopped)
+    thermal::simulate_until(
+        &model,
+        fragments,
+        interrupt.deadline,
+        interrupt.cancel.clone(),
+    )?
+    .ok_or(GenerateError::Stopped)
 }
 
 /// The family's sizes from the seed, and its random witness plan as fragments of blocks.
@@ -260,7 +287,10 @@ fn shape(spec: &Spec, rng: &mut Rng) -> Vec<Vec<Block>> {
             climbing_rings(&ring, floors, h, split, rng, floor)
         }
         Family::DoubleTube => {
-            let (w, d) = (rng.range(lo.max(7), hi.max(7)), rng.range(lo.max(7), hi.max(7)));
+            let (w, d) = (
+                rng.range(lo.max(7), hi.max(7)),
+                rng.range(lo.max(7), hi.max(7)),
+            );
             let outer = ring(0, 0, w, d);
             let inner = ring(2, 2, w - 4, d - 4);
             let h = layers((outer.len() + inner.len()) as i64, b);
@@ -328,7 +358,11 @@ fn serpentine(
     along_x: bool,
 ) -> (Vec<Block>, (bool, bool)) {
     let (rows, len) = if along_x { (d, w) } else { (w, d) };
-    let (row_end, mut col_end) = if along_x { (corner.1, corner.0) } else { (corner.0, corner.1) };
+    let (row_end, mut col_end) = if along_x {
+        (corner.1, corner.0)
+    } else {
+        (corner.0, corner.1)
+    };
     let mut out = Vec::new();
     for r in 0..rows {
         let row = if row_end { rows - 1 - r } else { r };

@@ -37,7 +37,12 @@ fn every_family_has_a_feasible_witness_that_survives_the_file() {
             assert!(fragments.len() <= part.max_fragments);
             let model = ThermalModel::new(&part, &graph);
             let outcome = waam_thermal::simulate(&model, &fragments).expect("cools");
-            assert!(outcome.violation.is_none(), "{}: {:?}", part.name, outcome.violation);
+            assert!(
+                outcome.violation.is_none(),
+                "{}: {:?}",
+                part.name,
+                outcome.violation
+            );
         }
     }
 }
@@ -83,7 +88,10 @@ fn bad_specs_are_refused_by_name() {
         ..spec(Family::DoubleTube, 500, 1)
     })
     .contains("double-tube: needs k >= 2"));
-    assert!(Family::parse("pipe").unwrap_err().to_string().contains("\"pipe\""));
+    assert!(Family::parse("pipe")
+        .unwrap_err()
+        .to_string()
+        .contains("\"pipe\""));
 }
 
 #[test]

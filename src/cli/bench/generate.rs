@@ -87,7 +87,9 @@ pub fn run(args: &ScaleArgs, n: u64) -> anyhow::Result<ExitCode> {
                 let generated = match generate(&spec, &interrupt) {
                     Ok(generated) => generated,
                     Err(_) if stop.load(Ordering::Relaxed) => break 'all,
-                    Err(e) => return Err(e).context(format!("generating {} seed {seed}", family.name())),
+                    Err(e) => {
+                        return Err(e).context(format!("generating {} seed {seed}", family.name()))
+                    }
                 };
                 let part = &generated.part;
                 if let Some(dir) = &g.out {

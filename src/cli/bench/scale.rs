@@ -198,7 +198,12 @@ fn read(path: &Path, args: &ScaleArgs) -> anyhow::Result<Part> {
 }
 
 /// One planner run (first plan, or best with `optimize`), its plan checked independently.
-pub(super) fn timed(part: &Part, opts: &Options, optimize: bool, stop: &AtomicBool) -> anyhow::Result<Run> {
+pub(super) fn timed(
+    part: &Part,
+    opts: &Options,
+    optimize: bool,
+    stop: &AtomicBool,
+) -> anyhow::Result<Run> {
     let mut bar = LazyBar::new(false);
     let mut warm_start_s = 0.0;
     let started = Instant::now();
