@@ -326,7 +326,7 @@ fn shape(spec: &Spec, rng: &mut Rng) -> Vec<Vec<Block>> {
                 (through, (0..j).map(|x| (x, 0)).collect())
             };
             through.extend((1..=stem).map(|y| (j, y)));
-            let h = layers((a + stem) as i64, b);
+            let h = layers(a + stem, b);
             let mut pieces = [through, rest];
             if rng.coin() {
                 pieces.swap(0, 1);

@@ -103,7 +103,7 @@ enum Message {
     },
     Done {
         racer: Racer,
-        result: Result<Report, PlanError>,
+        result: Box<Result<Report, PlanError>>,
         /// When the racer started, after the race did.
         offset: Duration,
     },
@@ -175,7 +175,7 @@ pub(crate) fn race(
                 let result = run(racer, part, &o, &mut forward, sharing);
                 let _ = tx.send(Message::Done {
                     racer,
-                    result,
+                    result: Box::new(result),
                     offset,
                 });
             }
@@ -202,7 +202,7 @@ pub(crate) fn race(
                 result,
                 offset,
             }) => {
-                let result = result.map(|mut r| {
+                let result = (*result).map(|mut r| {
                     let shift = offset.as_secs_f64();
                     r.stats.first_feasible_s = r.stats.first_feasible_s.map(|t| t + shift);
                     r
