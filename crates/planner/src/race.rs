@@ -293,6 +293,13 @@ fn varied_starts(part: &Part, opts: &Options, progress: Progress) -> Result<Repo
         return Ok(stopped_early(started));
     };
     let model = ThermalModel::new(part, &graph);
+    // Only when the simulator says the plain warm start breaks a window: a feasible one is
+    // the default racer's first candidate already.
+    let plain =
+        waam_thermal::simulate_until(&model, &base, limits.deadline, limits.cancel.clone())?;
+    if plain.is_none_or(|o| o.violation.is_none()) {
+        return Ok(stopped_early(started));
+    }
     let portfolio = Portfolio {
         part,
         graph: &graph,
