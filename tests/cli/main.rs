@@ -12,6 +12,7 @@ mod common;
 mod access;
 mod bag;
 mod bag_python;
+mod bench_generate;
 mod cli_motion;
 mod coverage;
 mod export;

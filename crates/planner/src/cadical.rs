@@ -199,6 +199,13 @@ impl SatSolver for Cadical {
         self.inner.phase(to_pk(lit));
     }
 
+    fn set_seed(&mut self, seed: u32) {
+        // CaDiCaL's "seed" drives its random choices (walks, shuffles); "phase" the value
+        // it tries first where no phase was set: varied together, the racers differ.
+        self.inner.set_option("seed", (seed & 0x7fff_ffff) as i32);
+        self.inner.set_option("phase", (seed & 1) as i32);
+    }
+
     fn set_interrupt(&mut self, deadline: Option<Instant>, cancel: Option<Arc<AtomicBool>>) {
         self.deadline = deadline;
         self.cancel = cancel.clone();
@@ -313,8 +320,10 @@ impl Propagator for Inside {
         if let Some(lit) = self.cycles.as_mut().and_then(NoCycles::propagate) {
             return Some(lit);
         }
-        // A broken window queues its clause, which the solver asks for next.
+        // A broken window queues its clause, which the solver asks for next; so do the
+        // clauses the other racers learned.
         if let Some(p) = self.prefix.as_mut() {
+            p.import_shared();
             p.check();
         }
         None

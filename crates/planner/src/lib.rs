@@ -15,8 +15,10 @@ pub mod cubes;
 pub mod encoding;
 mod portfolio;
 mod prefix_cache;
+mod race;
 pub mod sat;
 mod search;
+mod sharing;
 mod shortening;
 pub mod thermal_prefix;
 
@@ -187,6 +189,8 @@ pub struct Stats {
     pub inside_clauses: u64,
     pub inside_deposits: u64,
     pub inside_reused: u64,
+    /// Clauses other racers learned, handed to this search's solver ([`race`]).
+    pub clauses_imported: u64,
     pub clause_len_min: Option<usize>,
     pub clause_len_max: Option<usize>,
     pub clause_len_mean: Option<f64>,
@@ -273,6 +277,7 @@ impl Stats {
             inside_clauses,
             inside_deposits,
             inside_reused,
+            clauses_imported,
             clause_len_min,
             clause_len_max,
             clause_len_mean: _,
@@ -312,6 +317,7 @@ impl Stats {
         self.inside_clauses += inside_clauses;
         self.inside_deposits += inside_deposits;
         self.inside_reused += inside_reused;
+        self.clauses_imported += clauses_imported;
         self.clause_len_min = clause_len_min.map_or(self.clause_len_min, |m| {
             Some(self.clause_len_min.map_or(m, |s| s.min(m)))
         });
@@ -607,12 +613,17 @@ fn stopped_early(started: Instant) -> Report {
 
 /// The best feasible plan: fewest fragments, then the largest worst-case t8/5 margin.
 pub fn plan(part: &Part, opts: &Options, progress: Progress) -> Result<Report, PlanError> {
-    search_plans(part, opts, progress, true)
+    search_plans(part, opts, progress, true, &race::Tuning::alone())
 }
 
-/// The first feasible plan found, without optimizing.
+/// The first feasible plan found, without optimizing: with the default configuration on
+/// `opts.threads` threads (0: all cores), a race of configurations ([`race`]); "no plan"
+/// is the default configuration's answer either way.
 pub fn first(part: &Part, opts: &Options, progress: Progress) -> Result<Report, PlanError> {
-    search_plans(part, opts, progress, false)
+    match race::threads(opts) {
+        1 => search_plans(part, opts, progress, false, &race::Tuning::alone()),
+        threads => race::race(part, opts, progress, threads),
+    }
 }
 
 fn search_plans(
@@ -620,6 +631,7 @@ fn search_plans(
     opts: &Options,
     progress: Progress,
     optimize: bool,
+    tuning: &race::Tuning,
 ) -> Result<Report, PlanError> {
     let started = Instant::now();
     check_size(part, opts)?;
@@ -656,6 +668,12 @@ fn search_plans(
     let Some(mut search) = new_search(part, &graph, k, opts, opts.lookahead_budget, started) else {
         return Ok(stopped_early(started));
     };
+    if let Some(sharing) = &tuning.sharing {
+        search.share(sharing.clone());
+    }
+    if let Some(seed) = tuning.seed {
+        search.set_seed(seed);
+    }
     search.judge_inside();
     let base = ThermalModel::new(part, &graph);
     let mut best: Option<Found> = None;
@@ -680,14 +698,15 @@ fn search_plans(
             any_valid = true;
             // Stopped before a verdict: the loop below sees the timeout.
             let mut verdict = search.judge(&warm)?;
-            // The portfolio varies the cube construction's starts.
+            // The simulator says the warm start breaks a window: the portfolio varies the
+            // cube construction's starts (in a race, a racer of its own does).
             if let Some(CandidateVerdict::Violated {
                 block,
                 kind,
                 prefix_len,
                 ..
             }) = verdict
-                .filter(portfolio::worth_trying)
+                .filter(|_| tuning.varied_starts)
                 .filter(|_| !graph_part)
             {
                 tracing::debug!(
@@ -708,9 +727,10 @@ fn search_plans(
                     backend: opts.solver,
                     limits: &half_left,
                     model: &base,
+                    workers: portfolio::cores(),
                 };
                 let varied = portfolio.varied_start(&warm);
-                if let Some(varied) = varied {
+                if let Some((varied, _)) = varied {
                     // The simulator is the authority: judged like any candidate.
                     verdict = search.judge(&varied)?;
                     warm = varied;

@@ -21,18 +21,6 @@ use waam_thermal::{self as thermal, ThermalModel};
 
 use crate::constructive::{self, FirstMove, Limits};
 use crate::sat::Backend;
-use crate::CandidateVerdict;
-
-/// The shortest violating prefix worth a portfolio. Below it the search's learned clause
-/// (the prefix, shortened) rules out many plans at once and the search finds a feasible
-/// plan in milliseconds, sooner than the variants are built; above it (a tall part broken
-/// high up: thousands of literals) a clause rules out next to nothing.
-const WORTH_FROM_PREFIX: usize = 500;
-
-/// Whether the base plan's verdict calls for other starts: a window broken late in it.
-pub fn worth_trying(verdict: &CandidateVerdict) -> bool {
-    matches!(verdict, CandidateVerdict::Violated { prefix_len, .. } if *prefix_len >= WORTH_FROM_PREFIX)
-}
 
 /// Variants judged together; fixed, so the choice is the same on any machine.
 const ROUND: usize = 8;
@@ -49,6 +37,8 @@ pub struct Portfolio<'a> {
     pub backend: Backend,
     pub limits: &'a Limits,
     pub model: &'a ThermalModel,
+    /// Threads judging a round's variants (1 in a race: the other racers have the rest).
+    pub workers: usize,
 }
 
 /// A variant built and simulated: `(plan, margin)` with the margin `None` when it breaks a
@@ -59,13 +49,13 @@ impl Portfolio<'_> {
     /// A feasible variant of `base` (a layer-by-layer plan that breaks a window), the best
     /// of the first round that has one; `None` when no variant keeps every window (or the
     /// run stopped first).
-    pub fn varied_start(&self, base: &[Vec<usize>]) -> Option<Vec<Vec<usize>>> {
+    pub fn varied_start(&self, base: &[Vec<usize>]) -> Option<(Vec<Vec<usize>>, f64)> {
         let moves = first_moves(self.part, self.graph, base);
         for (r, round) in moves.chunks(ROUND).enumerate() {
             if self.limits.stopped() {
                 return None;
             }
-            let judged = self.judge_round(round, cores());
+            let judged = self.judge_round(round, self.workers);
             let tried = judged.iter().filter(|j| j.is_some()).count();
             let best = judged
                 .into_iter()
@@ -82,8 +72,8 @@ impl Portfolio<'_> {
                         format!("variant {} feasible, margin {m:.2} s", r * ROUND + i)
                     })
             );
-            if let Some((_, plan, _)) = best {
-                return Some(plan);
+            if let Some((_, plan, margin)) = best {
+                return Some((plan, margin));
             }
         }
         None
@@ -116,6 +106,7 @@ impl Portfolio<'_> {
             backend,
             limits,
             model,
+            workers: _,
         } = *self;
         let (from, to) = (part.block(first.0), part.block(first.1));
         let Some(plan) =
@@ -153,7 +144,8 @@ impl Portfolio<'_> {
     }
 }
 
-fn cores() -> usize {
+/// The available cores (a run on its own judges a round on all of them).
+pub fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
@@ -250,6 +242,7 @@ mod tests {
             backend: Backend::Cadical,
             limits,
             model,
+            workers: 2,
         }
     }
 

@@ -124,6 +124,11 @@ pub trait SatSolver {
     fn set_phase(&mut self, lit: Lit) {
         let _ = lit;
     }
+    /// Varies the solver's own random choices (a racer of [`crate::race`]); backends
+    /// without a seed ignore it.
+    fn set_seed(&mut self, seed: u32) {
+        let _ = seed;
+    }
     /// Makes solves stop at `deadline`, or soon after `cancel` is set: `solve` then returns
     /// `None`. Backends that cannot stop inside a solve (varisat) ignore it; the caller
     /// still stops between solves.

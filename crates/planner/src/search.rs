@@ -24,6 +24,7 @@ use waam_thermal::{self as thermal, Phase, Simulation, ThermalModel, Violation};
 use super::encoding::{Acyclicity, Decoded, Encoding};
 use super::prefix_cache::{prefix_keys, resume, snapshot_spacing, Key, PrefixCache, SharedCache};
 use super::sat::{Backend, Lit, SatSolver};
+use super::sharing::Sharing;
 use super::shortening::shorten;
 use super::thermal_prefix::{PrefixLiterals, ThermalPrefix};
 use super::{CandidateVerdict, ExecutedCheck, Stats};
@@ -65,6 +66,8 @@ pub struct Search<'p> {
     /// When simulations stop too (a stopped simulation gives no verdict).
     deadline: Option<Instant>,
     cancel: Option<Arc<AtomicBool>>,
+    /// The race's clause pool (None: not racing).
+    sharing: Option<Sharing>,
 }
 
 impl<'p> Search<'p> {
@@ -118,9 +121,21 @@ impl<'p> Search<'p> {
             learned: Vec::new(),
             deadline: None,
             cancel: None,
+            sharing: None,
         };
         search.set_interrupt(interrupt.deadline, interrupt.cancel);
         Some(search)
+    }
+
+    /// Publishes the violations this search learns to a race's pool and, inside the
+    /// search (CaDiCaL), takes the other racers'. Call before [`Search::judge_inside`].
+    pub fn share(&mut self, sharing: Sharing) {
+        self.sharing = Some(sharing);
+    }
+
+    /// Varies the solver's random choices (a racer's seed).
+    pub fn set_seed(&mut self, seed: u32) {
+        self.solver.set_seed(seed);
     }
 
     /// Checks torch access at every deposit of later candidates (None: no torch).
@@ -201,6 +216,9 @@ impl<'p> Search<'p> {
         if keep {
             prefix.keep_clauses();
         }
+        if let Some(sharing) = &self.sharing {
+            prefix.share(sharing.clone());
+        }
         self.solver.judge_prefixes(prefix);
     }
 
@@ -218,6 +236,7 @@ impl<'p> Search<'p> {
         self.stats.inside_clauses += report.clause_lens.len() as u64;
         self.stats.inside_deposits += report.deposits;
         self.stats.inside_reused += report.reused + report.resumed;
+        self.stats.clauses_imported += report.imported;
         self.stats.shortened += report.shortened;
         self.stats.lookahead_block_steps += report.lookahead_block_steps;
     }
@@ -464,7 +483,14 @@ impl<'p> Search<'p> {
         );
         self.stats.lookahead_block_steps += r.cost;
         self.stats.shortened += r.dropped;
-        self.learn_clause(&fragments_of(&seq[..r.len]), r.closed)
+        let prefix = fragments_of(&seq[..r.len]);
+        if let Some(sharing) = &self.sharing {
+            let clause: Vec<Lit> = (self.enc.prefix_literals(&prefix, r.closed).into_iter())
+                .map(|l| !l)
+                .collect();
+            sharing.publish(&clause);
+        }
+        self.learn_clause(&prefix, r.closed)
     }
 
     /// Learns what rules out the plans in which the torch meets `obstacle` at the last

@@ -24,6 +24,7 @@ use waam_thermal::{Phase, Simulation, Snapshot, ThermalModel};
 
 use super::prefix_cache::{extend_key, snapshot_spacing, Key, SharedCache, EMPTY_KEY};
 use super::sat::Lit;
+use super::sharing::Sharing;
 use super::shortening::shorten;
 use waam_part::graph::WeldGraph;
 
@@ -93,6 +94,8 @@ pub struct PrefixReport {
     /// The cache key of the last complete prefix whose cooldown kept every window: the
     /// thermal loop need not cool a candidate with it again.
     pub cooled: Option<Key>,
+    /// Clauses the other racers learned, handed to the solver ([`crate::sharing`]).
+    pub imported: u64,
 }
 
 /// A simulation together with the model it borrows.
@@ -166,6 +169,9 @@ pub struct ThermalPrefix {
     report: PrefixReport,
     /// Copy the clauses into the report (for a search that hands them on).
     keep_clauses: bool,
+    /// The race's clause pool: violations learned here are published, the other racers'
+    /// are handed to the solver too (see [`crate::sharing`]).
+    sharing: Option<Sharing>,
 }
 
 impl ThermalPrefix {
@@ -230,6 +236,7 @@ impl ThermalPrefix {
             clauses: Vec::new(),
             report: PrefixReport::default(),
             keep_clauses: false,
+            sharing: None,
         };
         prefix.reset_simulation();
         prefix
@@ -272,6 +279,19 @@ impl ThermalPrefix {
     /// Copies every clause handed to the solver into the report too.
     pub fn keep_clauses(&mut self) {
         self.keep_clauses = true;
+    }
+
+    /// Publishes the clauses learned here to the race's pool, and takes the others'.
+    pub fn share(&mut self, sharing: Sharing) {
+        self.sharing = Some(sharing);
+    }
+
+    /// Queues the clauses the other racers learned since the last call (called while the
+    /// solver propagates; a clause the assignment falsifies makes the solver backtrack).
+    pub fn import_shared(&mut self) {
+        if let Some(sharing) = self.sharing.as_mut() {
+            self.report.imported += sharing.take_new(&mut self.clauses) as u64;
+        }
     }
 
     pub fn take_report(&mut self) -> PrefixReport {
@@ -593,6 +613,9 @@ impl ThermalPrefix {
         self.report.violated.push(window);
         if self.keep_clauses {
             self.report.clauses.push(clause.clone());
+        }
+        if let Some(sharing) = &self.sharing {
+            sharing.publish(&clause);
         }
         self.clauses.push(clause);
     }

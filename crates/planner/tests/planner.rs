@@ -520,7 +520,12 @@ fn a_warm_start_that_breaks_windows_is_set_off_elsewhere() {
         "the plain warm start breaks a window"
     );
 
-    let run = || planner::first(&part, &Options::default(), &mut |_| {}).unwrap();
+    // One configuration (no race): the portfolio's choice, deterministically.
+    let alone = Options {
+        threads: 1,
+        ..Options::default()
+    };
+    let run = || planner::first(&part, &alone, &mut |_| {}).unwrap();
     let report = run();
     let best = report.best.expect("another start keeps the windows");
     assert_eq!(
@@ -534,4 +539,82 @@ fn a_warm_start_that_breaks_windows_is_set_off_elsewhere() {
         best.fragments,
         "the same choice"
     );
+}
+
+#[test]
+fn a_race_finds_a_checked_plan_and_proofs_are_the_defaults() {
+    // Any number of racers: the plan is valid and keeps its windows in a fresh simulation.
+    let part = read_part("ex2-bracket");
+    let graph = waam_part::graph::WeldGraph::new(&part);
+    for threads in [2, 3, 6] {
+        let opts = Options {
+            threads,
+            ..Options::default()
+        };
+        let report = planner::first(&part, &opts, &mut |_| {}).unwrap();
+        let best = report.best.expect("ex2 has feasible plans");
+        best.plan(&part).validate(&part, &graph).unwrap();
+        let model = waam_thermal::ThermalModel::new(&part, &graph);
+        let outcome = waam_thermal::simulate(&model, &best.fragments).unwrap();
+        assert!(outcome.violation.is_none(), "{threads} threads");
+        assert!(report.stats.first_feasible_s.is_some());
+    }
+    // No plan: the race answers what the default configuration alone answers.
+    let part = read_part("s6-channel");
+    let alone = planner::first(
+        &part,
+        &Options {
+            threads: 1,
+            ..Options::default()
+        },
+        &mut |_| {},
+    )
+    .unwrap();
+    for threads in [2, 4] {
+        let opts = Options {
+            threads,
+            ..Options::default()
+        };
+        let raced = planner::first(&part, &opts, &mut |_| {}).unwrap();
+        assert!(raced.best.is_none() && raced.proven, "{threads} threads");
+        assert_eq!(raced.no_plan, alone.no_plan, "{threads} threads");
+    }
+}
+
+#[test]
+fn a_race_stops_within_a_second_of_a_cancel_or_timeout() {
+    let part = Part::parse(&std::fs::read_to_string(hard_part()).unwrap()).unwrap();
+    let cancel = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&cancel);
+    let setter = std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_millis(500));
+        flag.store(true, Ordering::Relaxed);
+    });
+    let opts = Options {
+        threads: 3,
+        cancel: Some(cancel),
+        ..Options::default()
+    };
+    let t = Instant::now();
+    let report = planner::first(&part, &opts, &mut |_| {}).unwrap();
+    setter.join().unwrap();
+    assert!(
+        t.elapsed() < Duration::from_millis(1500),
+        "{:?}",
+        t.elapsed()
+    );
+    assert!(report.best.is_none() && !report.proven);
+    let opts = Options {
+        threads: 3,
+        timeout: Some(Duration::from_millis(700)),
+        ..Options::default()
+    };
+    let t = Instant::now();
+    let report = planner::first(&part, &opts, &mut |_| {}).unwrap();
+    assert!(
+        t.elapsed() < Duration::from_millis(1700),
+        "{:?}",
+        t.elapsed()
+    );
+    assert!(!report.proven);
 }

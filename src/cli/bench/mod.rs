@@ -14,6 +14,7 @@ use waam_thermal::{Simulation, ThermalModel};
 
 use super::{read_part, EXIT_OK};
 
+mod generate;
 mod scale;
 
 /// Measure the simulator (block-steps per second on a ~10,000-block part) and the planner

@@ -24,7 +24,8 @@ use crate::cli::EXIT_OK;
 #[derive(Debug, clap::Args)]
 pub struct ScaleArgs {
     /// A folder of part files (.yaml) and STL meshes (.stl), e.g. ../shared/parts/scale.
-    pub dir: PathBuf,
+    #[arg(required_unless_present = "generate")]
+    pub dir: Option<PathBuf>,
     /// Stop each run (first plan, then best plan) after this many seconds.
     #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
     pub timeout: f64,
@@ -54,6 +55,8 @@ pub struct ScaleArgs {
     pub json: Option<PathBuf>,
     #[command(flatten, next_help_heading = "Meshes (every .stl in DIR)")]
     pub mesh: MeshArgs,
+    #[command(flatten, next_help_heading = "Generated parts (--generate)")]
+    pub generated: super::generate::GenerateArgs,
 }
 
 fn parse_mesh_pitch(s: &str) -> Result<(String, [f64; 3]), String> {
@@ -99,17 +102,17 @@ struct Row {
 
 /// One planner run on a part.
 #[derive(Debug, Serialize)]
-struct Run {
+pub(super) struct Run {
     /// Seconds to the first feasible plan (None: none found).
-    first_feasible_s: Option<f64>,
-    total_s: f64,
+    pub(super) first_feasible_s: Option<f64>,
+    pub(super) total_s: f64,
     found: bool,
     proven: bool,
     fragments: Option<usize>,
     /// Worst-case t8/5 margin of the plan (None: no windows, or no plan).
     margin_s: Option<f64>,
     /// The plan passed the independent check (valid, and feasible in a fresh simulation).
-    checked: Option<bool>,
+    pub(super) checked: Option<bool>,
     candidates: u64,
     learned_clauses: u64,
     clause_len_mean: Option<f64>,
@@ -120,8 +123,13 @@ struct Run {
 }
 
 pub fn run(args: ScaleArgs) -> anyhow::Result<ExitCode> {
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(&args.dir)
-        .with_context(|| format!("cannot read folder {}", args.dir.display()))?
+    let dir = match (&args.dir, args.generated.generate) {
+        (_, Some(n)) => return super::generate::run(&args, n),
+        (Some(dir), None) => dir,
+        (None, None) => bail!("expected a folder DIR or --generate N"),
+    };
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("cannot read folder {}", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| {
             p.extension()
@@ -136,10 +144,7 @@ pub fn run(args: ScaleArgs) -> anyhow::Result<ExitCode> {
         .collect();
     paths.sort();
     if paths.is_empty() {
-        bail!(
-            "{}: no part files (.yaml) or meshes (.stl)",
-            args.dir.display()
-        );
+        bail!("{}: no part files (.yaml) or meshes (.stl)", dir.display());
     }
     let timeout =
         Duration::try_from_secs_f64(args.timeout).context("--timeout: expected seconds >= 0")?;
@@ -231,7 +236,12 @@ fn read(path: &Path, args: &ScaleArgs) -> anyhow::Result<Part> {
 }
 
 /// One planner run (first plan, or best with `optimize`), its plan checked independently.
-fn timed(part: &Part, opts: &Options, optimize: bool, stop: &AtomicBool) -> anyhow::Result<Run> {
+pub(super) fn timed(
+    part: &Part,
+    opts: &Options,
+    optimize: bool,
+    stop: &AtomicBool,
+) -> anyhow::Result<Run> {
     let mut bar = LazyBar::new(false);
     let mut warm_start_s = 0.0;
     let started = Instant::now();
