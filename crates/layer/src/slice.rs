@@ -1,9 +1,10 @@
 //! Slicing a part (a triangle mesh) into thick-wall layers: horizontal sections, and each
 //! section's walls as a layer graph (`docs/layer-format.md`, "Slicing a mesh").
 //!
-//! A section is the mesh cut by the plane z = const: closed outline loops, chained through
-//! the mesh's edges (so a vertex on the plane or f32 noise cannot break a loop), oriented
-//! with the material on the left. Its walls are found as pairs of antiparallel outline
+//! A section is the mesh cut by the plane z = const: closed outline loops, oriented with the
+//! material on the left, from the contour slicer's section (`waam_slice::section`: one
+//! symbolic rule for planes through vertices, edges and faces, so a voxel-faceted mesh cut
+//! through its vertices gives the same outline as cut between them). Its walls are found as pairs of antiparallel outline
 //! edges that face each other across material no wider than 1.5 wall widths: the wall's
 //! centre line is the middle line of the pair over the stretch where both sides overlap,
 //! its width their distance. Pieces on one centre line are joined where the material
@@ -156,97 +157,29 @@ pub fn slice_mesh(
     Ok(out)
 }
 
-/// The closed outline loops of the section at height z, material on the left.
+/// The closed outline loops of the section at height z, material on the left: the contour
+/// slicer's section ([`waam_slice::section::section_loops`], one for both slicers), its
+/// collinear points dropped. Open outlines are not joined: the mesh has a hole there.
 pub fn section(mesh: &TriangleMesh, z: f64) -> Result<Vec<Vec<[f64; 2]>>, SliceError> {
-    // A vertex exactly on the plane counts as above it (symbolic perturbation), so every
-    // triangle crosses the plane in zero or two edges.
-    let above = |v: u32| mesh.vertices[v as usize][2] >= z;
-    let cut = |a: u32, b: u32| {
-        let (p, q) = (mesh.vertices[a as usize], mesh.vertices[b as usize]);
-        let t = (z - p[2]) / (q[2] - p[2]);
-        [p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])]
-    };
-    let key = |a: u32, b: u32| (a.min(b), a.max(b));
-    // next[edge] = the edge where the outline leaves the triangle it enters by `edge`.
-    let mut next: HashMap<(u32, u32), (u32, u32)> = HashMap::new();
-    let mut point: HashMap<(u32, u32), [f64; 2]> = HashMap::new();
-    for tri in &mesh.triangles {
-        let crossing: Vec<(u32, u32)> = (0..3)
-            .map(|i| (tri[i], tri[(i + 1) % 3]))
-            .filter(|&(a, b)| above(a) != above(b))
-            .collect();
-        if crossing.len() != 2 {
-            continue;
-        }
-        let c = mesh.corners_of(tri);
-        let n = cross3(sub3(c[1], c[0]), sub3(c[2], c[0]));
-        // Outline direction with the material on the left: z × n (outward normal n).
-        let dir = [-n[1], n[0]];
-        let (p0, p1) = (
-            cut(crossing[0].0, crossing[0].1),
-            cut(crossing[1].0, crossing[1].1),
-        );
-        let forward = (p1[0] - p0[0]) * dir[0] + (p1[1] - p0[1]) * dir[1] >= 0.0;
-        let (e0, e1) = if forward {
-            (crossing[0], crossing[1])
-        } else {
-            (crossing[1], crossing[0])
-        };
-        let (k0, k1) = (key(e0.0, e0.1), key(e1.0, e1.1));
-        point.insert(k0, cut(e0.0, e0.1));
-        point.insert(k1, cut(e1.0, e1.1));
-        if next.insert(k0, k1).is_some() {
-            let p = point[&k0];
-            return Err(SliceError::Section {
-                z,
-                x: p[0],
-                y: p[1],
-                message: "the outline branches (a non-manifold or inconsistently oriented mesh)"
-                    .into(),
-            });
-        }
-    }
-    let mut loops = Vec::new();
-    let mut done: HashMap<(u32, u32), bool> = HashMap::new();
-    let mut starts: Vec<(u32, u32)> = next.keys().copied().collect();
-    starts.sort_unstable();
-    for start in starts {
-        if done.contains_key(&start) {
-            continue;
-        }
-        let mut ring = Vec::new();
-        let mut e = start;
-        loop {
-            done.insert(e, true);
-            ring.push(point[&e]);
-            match next.get(&e) {
-                Some(&n) if n == start => break,
-                Some(&n) if done.contains_key(&n) => {
-                    let p = point[&n];
-                    return Err(SliceError::Section {
-                        z,
-                        x: p[0],
-                        y: p[1],
-                        message: "the outline branches (a non-manifold mesh)".into(),
-                    });
-                }
-                Some(&n) => e = n,
-                None => {
-                    let p = point[&e];
-                    return Err(SliceError::Section {
-                        z,
-                        x: p[0],
-                        y: p[1],
-                        message: "open contour: the mesh has a hole there".into(),
-                    });
-                }
-            }
-        }
-        let ring = simplify(&ring);
-        if ring.len() >= 3 {
-            loops.push(ring);
-        }
-    }
+    let loops = waam_slice::section::section_loops(mesh, z, 0.0).map_err(|e| match e {
+        waam_slice::SliceError::Open { at, gap_mm, .. } => SliceError::Section {
+            z,
+            x: at[0],
+            y: at[1],
+            message: format!(
+                "open contour: the mesh has a hole there (the nearest loose end is {gap_mm:.3} mm away)"
+            ),
+        },
+        other => SliceError::Layer {
+            z,
+            message: other.to_string(),
+        },
+    })?;
+    let loops: Vec<Vec<[f64; 2]>> = loops
+        .iter()
+        .map(|ring| simplify(ring))
+        .filter(|ring| ring.len() >= 3)
+        .collect();
     if loops.is_empty() {
         return Err(SliceError::Layer {
             z,
@@ -256,9 +189,19 @@ pub fn section(mesh: &TriangleMesh, z: f64) -> Result<Vec<Vec<[f64; 2]>>, SliceE
     Ok(loops)
 }
 
-/// Drops outline points that lie on the line of their neighbours (within 1 µm).
+/// Drops repeated outline points (within 1 µm), then those that lie on the line of their
+/// neighbours (within 1 µm).
 fn simplify(ring: &[[f64; 2]]) -> Vec<[f64; 2]> {
-    let mut pts: Vec<[f64; 2]> = ring.to_vec();
+    // A plane through a mesh vertex crosses all its edges there: the point repeats.
+    let mut pts: Vec<[f64; 2]> = Vec::with_capacity(ring.len());
+    for &p in ring {
+        if pts.last().is_none_or(|&q| dist(p, q) >= 1e-6) {
+            pts.push(p);
+        }
+    }
+    while pts.len() > 1 && dist(pts[0], pts[pts.len() - 1]) < 1e-6 {
+        pts.pop();
+    }
     let mut changed = true;
     while changed && pts.len() > 3 {
         changed = false;

@@ -212,3 +212,68 @@ fn walls_of_different_widths_and_bad_heights_are_refused() {
         Err(SliceError::TooThin { .. })
     ));
 }
+
+/// Unit voxels: a hollow square tube (12 x 12 mm, 2 mm walls) and an L of 2 mm walls, 6 mm
+/// tall.
+fn voxel_parts() -> [(&'static str, Vec<[i64; 3]>); 2] {
+    let cells = |keep: fn(i64, i64) -> bool| -> Vec<[i64; 3]> {
+        let mut v = Vec::new();
+        for x in 0..12 {
+            for y in 0..12 {
+                for z in 0..6 {
+                    if keep(x, y) {
+                        v.push([x, y, z]);
+                    }
+                }
+            }
+        }
+        v
+    };
+    [
+        (
+            "tube",
+            cells(|x, y| !(2..10).contains(&x) || !(2..10).contains(&y)),
+        ),
+        ("L", cells(|x, y| x < 2 || y < 2)),
+    ]
+}
+
+/// A voxel-faceted mesh (every face split into unit squares: vertices every millimetre),
+/// cut at 2 mm layers through its vertices (z = 1, 3, 5), slices into the same layer graphs
+/// as cut between them (2.2 mm layers: z = 1.1, 3.3).
+#[test]
+fn a_voxel_mesh_cut_through_its_vertices_slices_as_between_them() {
+    for (name, cells) in voxel_parts() {
+        let mesh = waam_slice::shapes::voxels(&cells);
+        mesh.check().expect("a closed, oriented voxel mesh");
+        let through = slice_mesh(&mesh, &options(2.0, None))
+            .unwrap_or_else(|e| panic!("{name} at 2 mm layers: {e}"));
+        let between = slice_mesh(&mesh, &options(2.2, None))
+            .unwrap_or_else(|e| panic!("{name} at 2.2 mm layers: {e}"));
+        assert_eq!((through.len(), between.len()), (3, 2), "{name}");
+        for (k, l) in through.iter().enumerate() {
+            assert_eq!(
+                l.z_mm,
+                1.0 + 2.0 * k as f64,
+                "{name}: a plane through vertices"
+            );
+            assert_same_graph(&l.layer, &between[0].layer, 1e-9);
+        }
+        let l = &between[1].layer;
+        assert_eq!(l.wall_width_mm, 2.0, "{name}");
+        let mut points: Vec<[f64; 2]> = (0..l.nodes.len()).map(|v| l.point(v)).collect();
+        points.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        match name {
+            // Four walls crossing at the corners.
+            "tube" => {
+                assert_eq!(points, [[1.0, 1.0], [1.0, 11.0], [11.0, 1.0], [11.0, 11.0]]);
+                assert_eq!(l.segments.len(), 4);
+            }
+            // Two walls crossing at the corner, each with a dead end a half width in.
+            _ => {
+                assert_eq!(points, [[1.0, 1.0], [1.0, 11.0], [11.0, 1.0]]);
+                assert_eq!(l.segments.len(), 2);
+            }
+        }
+    }
+}

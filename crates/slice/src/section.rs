@@ -74,6 +74,25 @@ pub(crate) fn section_paths(
     z: f64,
     join_mm: f64,
 ) -> Result<Paths64, SliceError> {
+    let paths: Paths64 = section_loops(mesh, z, join_mm)?
+        .iter()
+        .map(|l| to64(l))
+        .filter(|p| p.len() >= 3)
+        .collect();
+    Ok(poly::union(&paths))
+}
+
+/// The section of `mesh` at height `z` as the closed loops the mesh cuts, before any union:
+/// the solid on the left of each loop (outer boundaries counter-clockwise, holes
+/// clockwise), the crossing points exact in `f64` (not on clipper's 0.1 µm grid), collinear
+/// and repeated points kept. Open chains are joined within `join_mm`, else an error names
+/// the place. [`section`] is these loops resolved into polygons; the thick-wall slicer
+/// (`waam-layer`) measures its walls on them.
+pub fn section_loops(
+    mesh: &TriangleMesh,
+    z: f64,
+    join_mm: f64,
+) -> Result<Vec<Vec<[f64; 2]>>, SliceError> {
     let v = &mesh.vertices;
     let above = |i: u32| v[i as usize][2] >= z;
     // The crossing of the edge between a vertex below and one above, in that order.
@@ -107,13 +126,7 @@ pub(crate) fn section_paths(
             b: pb,
         });
     }
-    let loops = chain(&segments, z, join_mm)?;
-    let paths: Paths64 = loops
-        .iter()
-        .map(|l| to64(l))
-        .filter(|p| p.len() >= 3)
-        .collect();
-    Ok(poly::union(&paths))
+    chain(&segments, z, join_mm)
 }
 
 /// Segments chained into closed loops of points.
