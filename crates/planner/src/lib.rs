@@ -15,6 +15,7 @@ pub mod cubes;
 pub mod encoding;
 mod portfolio;
 mod prefix_cache;
+pub mod rest;
 pub mod sat;
 mod search;
 mod shortening;
@@ -37,6 +38,7 @@ use waam_part::{Block, Part};
 use waam_thermal::{self as thermal, ThermalModel};
 
 pub use encoding::Acyclicity;
+pub use rest::{first_rest, plan_rest, Built, RestError};
 pub use sat::Backend;
 use search::Search;
 
