@@ -16,6 +16,7 @@ pub mod encoding;
 mod portfolio;
 mod prefix_cache;
 mod race;
+pub mod rest;
 pub mod sat;
 mod search;
 mod sharing;
@@ -39,6 +40,7 @@ use waam_part::{Block, Part};
 use waam_thermal::{self as thermal, ThermalModel};
 
 pub use encoding::Acyclicity;
+pub use rest::{first_rest, plan_rest, Built, RestError};
 pub use sat::Backend;
 use search::Search;
 

@@ -41,7 +41,8 @@ pub use interrupt::Interrupt;
 pub use kernel::Simd;
 pub use model::{ThermalModel, HOT_C, TOLERANCE_S, WARM_C};
 pub use simulation::{
-    default_threads, set_default_threads, Simulation, Snapshot, PARALLEL_MIN_SLOTS,
+    default_threads, set_default_threads, BuildState, Simulation, Snapshot, StateError,
+    PARALLEL_MIN_SLOTS,
 };
 pub use timeline::{
     simulate, simulate_in, simulate_on, simulate_on_until, simulate_until, Outcome, SimulateError,

@@ -42,6 +42,27 @@ impl Snapshot {
     }
 }
 
+/// The thermal state of a partly built part, as an estimator knows it: what is welded, in
+/// which order, how hot each block is, and how long each windowed block has been cooling.
+/// [`Simulation::from_state`] resumes from it; [`Simulation::state`] reads it.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct BuildState {
+    /// Welded blocks in weld order, each with whether it began a weld path (arc start).
+    pub order: Vec<(usize, bool)>,
+    /// Temperatures of the welded blocks, °C, in weld order.
+    pub temperatures: Vec<f64>,
+    /// Of the welded blocks with a t8/5 window, in weld order: Euler steps spent between
+    /// 500 and 800 °C since the block was last above 800 °C (the spec's counter n).
+    pub t85_steps: Vec<u64>,
+    /// Euler steps since the first deposit (the time is `steps · dt`).
+    pub steps: u64,
+}
+
+/// A [`BuildState`] that does not fit its model.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("bad build state: {0}")]
+pub struct StateError(pub String);
+
 /// Temperature buffers keep one padding slot at each end, so that the contiguous -x / +x
 /// reads of the first and last slot stay in bounds: slot `s` lives at `temp[s + PAD]`.
 const PAD: usize = 1;
@@ -101,8 +122,9 @@ pub struct Simulation<'m> {
     /// A graph part's step tables (its model's neighbour columns, s_i and ρ_i), stepped over
     /// `temp` / `next` instead of the block faces above, which are then empty.
     graph: Option<GraphTable>,
-    /// Welded slots in weld order.
+    /// Welded slots in weld order, and whether each began a weld path.
     order: Vec<u32>,
+    starts: Vec<bool>,
     /// The stepped slot range `lo..hi` after each deposit (`ranges[k]`: after k + 1).
     ranges: Vec<(u32, u32)>,
     // Windowed blocks in deposit order: slot, bounds, block, t8/5 counter (whole steps).
@@ -148,6 +170,7 @@ impl<'m> Simulation<'m> {
             graph,
             is_welded: vec![false; n],
             order: Vec::new(),
+            starts: Vec::new(),
             ranges: Vec::new(),
             w_slot: Vec::new(),
             w_lo: Vec::new(),
@@ -161,6 +184,93 @@ impl<'m> Simulation<'m> {
             cancel: None,
             deadline: None,
             cancelled: false,
+        }
+    }
+
+    /// A simulation that resumes from `state` (the estimator's temperatures at its time):
+    /// its deposits are placed without stepping, then its temperatures, t8/5 counters and
+    /// time are set. From the [`Simulation::state`] of a simulation it continues that
+    /// simulation bit for bit.
+    pub fn from_state(
+        model: &'m ThermalModel,
+        state: &BuildState,
+    ) -> Result<Simulation<'m>, StateError> {
+        let bad = |m: String| Err(StateError(m));
+        let n = model.len();
+        let mut seen = vec![false; n];
+        for (p, &(b, new)) in state.order.iter().enumerate() {
+            if b >= n {
+                return bad(format!(
+                    "deposit {}: block index {b} is not in the part ({n} blocks)",
+                    p + 1
+                ));
+            }
+            if std::mem::replace(&mut seen[b], true) {
+                return bad(format!(
+                    "deposit {}: block index {b} is welded twice",
+                    p + 1
+                ));
+            }
+            if p == 0 && !new {
+                return bad("the first deposit must begin a weld path".into());
+            }
+        }
+        if state.temperatures.len() != state.order.len() {
+            return bad(format!(
+                "{} temperatures for {} welded blocks",
+                state.temperatures.len(),
+                state.order.len()
+            ));
+        }
+        if let Some(p) = state
+            .temperatures
+            .iter()
+            .position(|t| !t.is_finite() || *t < -273.15)
+        {
+            return bad(format!(
+                "deposit {}: temperature {} °C is not a temperature",
+                p + 1,
+                state.temperatures[p]
+            ));
+        }
+        let windowed = state
+            .order
+            .iter()
+            .filter(|&&(b, _)| model.windows[b].is_some())
+            .count();
+        if state.t85_steps.len() != windowed {
+            return bad(format!(
+                "{} t8/5 counters for {windowed} welded blocks with a window",
+                state.t85_steps.len()
+            ));
+        }
+        if state.steps > crate::MAX_STEPS {
+            return bad(format!(
+                "time of {} steps is beyond the model's limit",
+                state.steps
+            ));
+        }
+        let mut sim = Simulation::new(model);
+        for &(b, new) in &state.order {
+            sim.place(b, new);
+        }
+        for (&s, &t) in sim.order.iter().zip(&state.temperatures) {
+            sim.temp[s as usize + PAD] = t;
+        }
+        sim.w_count.copy_from_slice(&state.t85_steps);
+        sim.steps = state.steps;
+        Ok(sim)
+    }
+
+    /// The state to resume from with [`Simulation::from_state`].
+    pub fn state(&self) -> BuildState {
+        BuildState {
+            order: (self.order.iter().zip(&self.starts))
+                .map(|(&s, &new)| (s as usize, new))
+                .collect(),
+            temperatures: self.temperatures().map(|(_, t)| t).collect(),
+            t85_steps: self.w_count.clone(),
+            steps: self.steps,
         }
     }
 
@@ -375,6 +485,7 @@ impl<'m> Simulation<'m> {
         while self.welded > welded {
             self.welded -= 1;
             let s = self.order.pop().expect("a welded slot") as usize;
+            self.starts.pop();
             self.is_welded[s] = false;
             if let (Some(g), Some(gm)) = (&mut self.graph, &model.graph) {
                 g.undeposit(gm, s);
@@ -410,6 +521,7 @@ impl<'m> Simulation<'m> {
         self.fragments += new_fragment as usize;
         self.is_welded[s] = true;
         self.order.push(s as u32);
+        self.starts.push(new_fragment);
         self.temp[s + PAD] = model.params.deposit_c;
         if let (Some(g), Some(gm)) = (&mut self.graph, &model.graph) {
             g.deposit(gm, block);
@@ -682,6 +794,83 @@ mod tests {
             !colder.is_empty(),
             "the deposit beside the tower never left its top colder"
         );
+    }
+
+    #[test]
+    fn resuming_from_a_state_continues_the_simulation_bit_for_bit() {
+        let (part, m) = model(&format!(
+            "{WALL}t85: [{{box: {{min: [0,0,0], max: [3,0,1]}}, min_s: 0, max_s: 1000}}]\n"
+        ));
+        let order: Vec<(usize, bool)> = (0..part.len()).map(|b| (b, b == 0 || b == 5)).collect();
+        for cut in [1, 3, 5, 7] {
+            let mut whole = Simulation::new(&m).recording();
+            for &(b, new) in &order[..cut] {
+                whole.deposit(b, new).unwrap();
+            }
+            let state = whole.state();
+            assert_eq!(state.order, order[..cut]);
+            let mut resumed = Simulation::from_state(&m, &state).unwrap().recording();
+            for &(b, new) in &order[cut..] {
+                whole.deposit(b, new).unwrap();
+                resumed.deposit(b, new).unwrap();
+            }
+            whole.finish().unwrap().unwrap();
+            resumed.finish().unwrap().unwrap();
+            let bits = |s: &Simulation| -> Vec<(usize, u64)> {
+                s.temperatures().map(|(b, t)| (b, t.to_bits())).collect()
+            };
+            assert_eq!(bits(&resumed), bits(&whole), "cut after {cut}");
+            assert_eq!(resumed.steps(), whole.steps());
+            assert_eq!(resumed.fragments(), whole.fragments());
+            // The crossings after the cut are the same ones, at the same steps.
+            let after: Vec<_> = whole
+                .crossings()
+                .iter()
+                .filter(|c| c.time_s > state.steps as f64 * m.dt)
+                .cloned()
+                .collect();
+            assert_eq!(resumed.crossings(), &after[..]);
+        }
+    }
+
+    #[test]
+    fn a_state_that_does_not_fit_is_refused_with_a_reason() {
+        let (_, m) = model(&format!(
+            "{WALL}t85: [{{box: {{min: [0,0,0], max: [0,0,0]}}, min_s: 0, max_s: 1000}}]\n"
+        ));
+        let ok = BuildState {
+            order: vec![(0, true), (1, false)],
+            temperatures: vec![900.0, 1500.0],
+            t85_steps: vec![0],
+            steps: 40,
+        };
+        assert!(Simulation::from_state(&m, &ok).is_ok());
+        let err = |s: BuildState| Simulation::from_state(&m, &s).unwrap_err().to_string();
+        let e = err(BuildState {
+            order: vec![(0, true), (0, false)],
+            ..ok.clone()
+        });
+        assert!(e.contains("welded twice"), "{e}");
+        let e = err(BuildState {
+            order: vec![(0, true), (99, false)],
+            ..ok.clone()
+        });
+        assert!(e.contains("99 is not in the part"), "{e}");
+        let e = err(BuildState {
+            temperatures: vec![1.0],
+            ..ok.clone()
+        });
+        assert!(e.contains("1 temperatures for 2"), "{e}");
+        let e = err(BuildState {
+            temperatures: vec![1.0, f64::NAN],
+            ..ok.clone()
+        });
+        assert!(e.contains("deposit 2"), "{e}");
+        let e = err(BuildState {
+            t85_steps: vec![],
+            ..ok.clone()
+        });
+        assert!(e.contains("0 t8/5 counters for 1"), "{e}");
     }
 
     #[test]
