@@ -39,7 +39,14 @@ fn cascade(levels: i32, clash: bool) -> Cadical {
     // chronological backtracking, no inprocessing, which would resolve the b_i away), and
     // no lucky phases, which would find the all-false model before any search.
     s.set_option("chrono", 0);
-    for option in ["reduce", "arena", "inprocessing", "walk", "compact", "lucky"] {
+    for option in [
+        "reduce",
+        "arena",
+        "inprocessing",
+        "walk",
+        "compact",
+        "lucky",
+    ] {
         s.set_option(option, 0);
     }
     let _ = s.new_var_range(2 * l as usize + 1);
