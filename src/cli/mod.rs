@@ -21,6 +21,7 @@ pub mod plot;
 pub mod publish;
 pub mod record;
 pub mod replay;
+pub mod sim_cell;
 pub mod slice;
 pub mod voxelize;
 
@@ -79,6 +80,7 @@ pub enum Command {
     Plot(plot::PlotArgs),
     Node(node::NodeArgs),
     Publish(publish::PublishArgs),
+    SimCell(sim_cell::SimCellArgs),
 }
 
 /// Runs the chosen subcommand; its `ExitCode` carries the answer.
@@ -99,6 +101,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Plot(args) => plot::run(args),
         Command::Node(args) => node::run(args),
         Command::Publish(args) => publish::run(args),
+        Command::SimCell(args) => sim_cell::run(args, &cli.global),
     }
 }
 
