@@ -733,6 +733,15 @@ fn search_plans(
                 };
                 let varied = portfolio.varied_start(&warm);
                 if let Some((varied, _)) = varied {
+                    // Every judged candidate is reported (recordings count them), the
+                    // warm start's broken one too.
+                    if let Some(judged) = verdict {
+                        progress(Event::Candidate {
+                            fragments: &warm,
+                            verdict: judged,
+                            stats: &search.stats,
+                        });
+                    }
                     // The simulator is the authority: judged like any candidate.
                     verdict = search.judge(&varied)?;
                     warm = varied;
