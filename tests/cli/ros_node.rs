@@ -12,7 +12,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::atomic::{AtomicU16, Ordering};
-use std::sync::OnceLock;
+use std::sync::{Mutex, OnceLock};
 
 use crate::common;
 
@@ -96,13 +96,42 @@ fn run_script(script: &str, args: &[&str]) -> Option<Output> {
 }
 
 /// [`run_script`] with the interpreter `python` (a program and its first arguments).
+///
+/// The scripts run one at a time: each starts DDS participants whose discovery bursts, on a
+/// loaded 2-core CI machine, otherwise compete with the other scripts' for the CPU. A run
+/// that failed only because a peer was never discovered (the script says `FAIL (discovery)`)
+/// is run once more in a fresh domain, with the first run's output printed; a second such
+/// failure, or any failure of the node's behaviour, fails the test.
 fn run_script_with(python: Vec<PathBuf>, script: &str, args: &[&str]) -> Option<Output> {
+    static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+    let _turn = ONE_AT_A_TIME
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    let (output, text) = run_once(&python, script, args);
+    if output.status.success() {
+        eprintln!("{text}");
+        return Some(output);
+    }
+    let discovery_only = |o: &Output| {
+        String::from_utf8_lossy(&o.stdout).contains("FAIL (discovery)")
+            || String::from_utf8_lossy(&o.stderr).contains("FAIL (discovery)")
+    };
+    assert!(discovery_only(&output), "{text}");
+    eprintln!("note: a DDS peer was not discovered; running {script} once more\n{text}");
+    let (output, text) = run_once(&python, script, args);
+    assert!(output.status.success(), "{text}");
+    eprintln!("{text}");
+    Some(output)
+}
+
+/// One run of `tests/ros/SCRIPT` in a fresh domain: its output and a report of it.
+fn run_once(python: &[PathBuf], script: &str, args: &[&str]) -> (Output, String) {
     let script_path = repo().join("tests/ros").join(script);
     let mut command = if have_netns() {
         let mut c = Command::new("unshare");
         c.arg("-n")
             .arg(repo().join("tests/ros/netns.sh"))
-            .args(&python);
+            .args(python);
         c
     } else {
         eprintln!("note: no network namespace (not root?): using loopback-only discovery");
@@ -129,9 +158,7 @@ fn run_script_with(python: Vec<PathBuf>, script: &str, args: &[&str]) -> Option<
         String::from_utf8_lossy(&output.stdout),
         String::from_utf8_lossy(&output.stderr)
     );
-    assert!(output.status.success(), "{text}");
-    eprintln!("{text}");
-    Some(output)
+    (output, text)
 }
 
 #[test]

@@ -37,7 +37,7 @@ CELL2_STATUS = "/cell2/state"
 
 def call(peer, srv_type, name, request, timeout=30):
     client = peer.node.create_client(srv_type, name)
-    peer.spin_until(f"service {name}", client.service_is_ready, timeout)
+    peer.spin_until(f"service {name}", client.service_is_ready, timeout, discovery=True)
     future = client.call_async(request)
     peer.spin_until(f"the answer of {name}", future.done, timeout)
     return future.result()

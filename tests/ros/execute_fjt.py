@@ -160,8 +160,9 @@ def test(waam):
     spinner = threading.Thread(target=executor.spin, daemon=True)
     spinner.start()
     try:
-        check(plan.wait_for_server(timeout_sec=60), "no ~/plan action server")
-        check(execute.wait_for_server(timeout_sec=30), "no ~/execute action server")
+        for client, name, timeout in ((plan, "~/plan", 60), (execute, "~/execute", 30)):
+            if not client.wait_for_server(timeout_sec=timeout):
+                raise waamtest.DiscoveryTimeout(f"no {name} action server after {timeout} s")
 
         # An unknown plan is refused with the reason.
         _, status, r = result_of(execute, ExecutePlan.Goal(job=4242), 30)
@@ -302,7 +303,7 @@ def main():
     try:
         test(waam)
     except waamtest.Failure as e:
-        print(f"FAIL: {e}")
+        print(f"FAIL{' ' if isinstance(e, waamtest.DiscoveryTimeout) else ': '}{e}")
         print(f"--- log of {' '.join(waam.args)} ---\n{waam.output()}")
         raise SystemExit(1)
     finally:

@@ -63,6 +63,14 @@ class Failure(Exception):
     pass
 
 
+class DiscoveryTimeout(Failure):
+    """A peer that never showed up: DDS discovery, not the node's behaviour. Printed as
+    `FAIL (discovery): ...`, which tests/cli/ros_node.rs retries once in a fresh domain."""
+
+    def __str__(self):
+        return f"(discovery) {super().__str__()}"
+
+
 def check(condition, message):
     if not condition:
         raise Failure(message)
@@ -117,15 +125,17 @@ class Peer:
     def publisher(self, topic, msg_type, qos=INPUT_QOS):
         return self.node.create_publisher(msg_type, topic, qos)
 
-    def spin_until(self, what, condition, timeout):
-        """Spins until condition() is true; fails naming `what` after `timeout` seconds."""
+    def spin_until(self, what, condition, timeout, discovery=False):
+        """Spins until condition() is true; fails naming `what` after `timeout` seconds
+        (with DiscoveryTimeout when what is awaited is a peer's endpoint)."""
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             if condition():
                 return
             rclpy.spin_once(self.node, timeout_sec=0.1)
         if not condition():
-            raise Failure(f"timed out after {timeout} s waiting for {what}")
+            failure = DiscoveryTimeout if discovery else Failure
+            raise failure(f"timed out after {timeout} s waiting for {what}")
 
     def spin_for(self, seconds):
         deadline = time.monotonic() + seconds
@@ -137,6 +147,7 @@ class Peer:
             f"a subscriber on {publisher.topic_name}",
             lambda: publisher.get_subscription_count() > 0,
             timeout,
+            discovery=True,
         )
 
     def close(self):
@@ -152,7 +163,7 @@ def run(test, *waam_args):
     try:
         test(peer, waam)
     except Failure as e:
-        print(f"FAIL: {e}", file=sys.stderr)
+        print(f"FAIL{' ' if isinstance(e, DiscoveryTimeout) else ': '}{e}", file=sys.stderr)
         print(f"--- log of {' '.join(waam.args)} ---\n{waam.output()}", file=sys.stderr)
         sys.exit(1)
     finally:
