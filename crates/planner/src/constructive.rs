@@ -179,6 +179,12 @@ pub fn layered_plan_from(
     } else {
         part
     };
+    // A weld path that climbed on may stand on a piece another path began later, lower
+    // down: weld the paths in an order where each stands only on paths welded before it.
+    let Some(plan) = in_support_order(graph, plan) else {
+        tracing::debug!("warm start: its weld paths stand on each other in a cycle; not used");
+        return None;
+    };
     match Plan::from_indices(part, &plan).validate(rules, graph) {
         Ok(_) => Some(plan),
         Err(e) => {
@@ -186,6 +192,46 @@ pub fn layered_plan_from(
             None
         }
     }
+}
+
+/// The fragments reordered so that each stands only on fragments welded before it (the
+/// earliest such fragment first, so an order that already allows this is kept); `None` when
+/// two fragments stand on each other.
+fn in_support_order(graph: &WeldGraph, plan: Vec<Vec<usize>>) -> Option<Vec<Vec<usize>>> {
+    let mut fragment_of = vec![usize::MAX; graph.len()];
+    for (f, blocks) in plan.iter().enumerate() {
+        for &b in blocks {
+            fragment_of[b] = f;
+        }
+    }
+    // stands_on[f]: the other fragments some block of f stands on.
+    let stands_on: Vec<std::collections::BTreeSet<usize>> = plan
+        .iter()
+        .enumerate()
+        .map(|(f, blocks)| {
+            blocks
+                .iter()
+                .flat_map(|&b| graph.supports(b))
+                .map(|&s| fragment_of[s as usize])
+                .filter(|&g| g != f)
+                .collect()
+        })
+        .collect();
+    let mut placed = vec![false; plan.len()];
+    let mut order = Vec::with_capacity(plan.len());
+    while order.len() < plan.len() {
+        let next =
+            (0..plan.len()).find(|&f| !placed[f] && stands_on[f].iter().all(|&g| placed[g]))?;
+        placed[next] = true;
+        order.push(next);
+    }
+    let mut plan: Vec<Option<Vec<usize>>> = plan.into_iter().map(Some).collect();
+    Some(
+        order
+            .into_iter()
+            .map(|f| plan[f].take().expect("each once"))
+            .collect(),
+    )
 }
 
 /// The index ranges of the part's layers (blocks are sorted by z, y, x).
@@ -431,6 +477,54 @@ mod tests {
                 assert_eq!(f.len(), 9, "each weld path climbs its own column");
             }
         }
+    }
+
+    /// A bracket whose upper layers need a second weld path beside the first: the path that
+    /// climbs on stands on the piece the later path began lower down, so the construction
+    /// welds that one first (before, it built a plan breaking rule 4 and dropped it).
+    #[test]
+    fn weld_paths_are_ordered_so_that_each_stands_on_paths_welded_before_it() {
+        let part = Part::parse(include_str!("../../../config/parts/ex2-bracket.yaml"))
+            .expect("the bundled bracket");
+        let graph = WeldGraph::new(&part);
+        let first_layer = 0..part.blocks().iter().take_while(|b| b[2] == 0).count();
+        let moves: Vec<FirstMove> = first_layer
+            .clone()
+            .flat_map(|a| graph.successors(a).iter().map(move |&b| (a, b as usize)))
+            .filter(|(_, b)| first_layer.contains(b))
+            .collect();
+        let k = part.max_fragments;
+        let limits = unlimited();
+        let built: Vec<_> = moves
+            .iter()
+            .map(|&m| layered_plan_from(&part, &graph, k, Backend::Cadical, &limits, Some(m)))
+            .collect();
+        assert!(
+            built.iter().all(Option::is_some),
+            "a plan from every first move: {} of {}",
+            built.iter().flatten().count(),
+            moves.len()
+        );
+    }
+
+    #[test]
+    fn two_fragments_standing_on_each_other_have_no_order() {
+        // Two columns side by side, each fragment taking the bottom of one and the top of
+        // the other.
+        let part = plate_tower(2, 1, 2, 2);
+        let graph = WeldGraph::new(&part);
+        let at = |p: [i64; 3]| part.blocks().iter().position(|b| *b == p).unwrap();
+        let crossed = vec![
+            vec![at([0, 0, 0]), at([1, 0, 1])],
+            vec![at([1, 0, 0]), at([0, 0, 1])],
+        ];
+        assert!(in_support_order(&graph, crossed).is_none());
+        let reversed = vec![
+            vec![at([1, 0, 1])],
+            vec![at([0, 0, 0]), at([1, 0, 0]), at([0, 0, 1])],
+        ];
+        let ordered = in_support_order(&graph, reversed).expect("an order exists");
+        assert_eq!(ordered[0].len(), 3, "the fragment below first");
     }
 
     #[test]
