@@ -6,44 +6,48 @@
 //! astray for 40 s where the search without them took 10 s; on a tall tube the warm start
 //! breaks a window early and only another start keeps it. Every configuration is sound
 //! (each plan is judged by the simulator, each learned clause is a fact about the part), so
-//! racing them costs only cores, and the answer is as good as the fastest configuration's
-//! (on a shared machine, up to the factor of the racers sharing the cores).
+//! racing them costs only cores.
 //!
-//! The configurations, in the order threads take them ([`racers`]): the default (CaDiCaL
-//! with the layer-by-layer warm start), the varied starts (the warm start set off from
-//! other places, [`crate::portfolio`], a finite job: its thread then takes the next
-//! configuration), CaDiCaL without the warm start, varisat, and CaDiCaL with other seeds.
+//! The racers ([`racers`]): every configuration a user can choose on its own — the default
+//! (CaDiCaL with the layer-by-layer warm start and, when that breaks a window, the varied
+//! starts of [`crate::portfolio`]: exactly the run of `--threads 1`), CaDiCaL without the
+//! warm start, varisat — then CaDiCaL with other seeds for the threads left. They all run
+//! at once, one thread each, even when they outnumber the threads asked for: the cores are
+//! then shared, so each racer runs at least threads / racers as fast as alone, and the
+//! race is at most racers / threads (1.5 on 2 threads) slower than the fastest single
+//! configuration on any part. Racing fewer than all of them (the varied starts as a racer
+//! of their own, the others queued behind it) had let the default wait for a queued
+//! configuration or share its core with one that was no help: a generated t-wall took 40 s
+//! where the default alone took 16.6 s. Racers that would not fit `max_memory_mb` together
+//! are left out (the default always runs).
+//!
 //! The racers publish their learned thermal clauses ([`crate::sharing`]); the CaDiCaL
 //! racers other than the default take them in, inside their solves.
 //!
 //! Proofs stay deterministic: "no plan" is answered only by the default configuration,
-//! which takes no clauses in (so its reasons are those of a run without a race), and the optimizing, counting and enumerating
-//! searches do not race.
+//! which takes no clauses in (so its reasons are those of a run without a race), and the
+//! optimizing, counting and enumerating searches do not race.
 
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use waam_part::graph::WeldGraph;
 use waam_part::Part;
-use waam_thermal::ThermalModel;
 
-use crate::portfolio::Portfolio;
 use crate::sat::Backend;
 use crate::sharing::{ClausePool, Sharing};
 use crate::{
-    constructive, margin_under, max_fragments, search_plans, stopped_early, CandidateVerdict,
-    Event, Found, Options, PlanError, Progress, Report, Stats,
+    estimated_memory_mb, max_fragments, search_plans, stopped_early, CandidateVerdict, Event,
+    Options, PlanError, Progress, Report, Stats,
 };
 
 /// One configuration of the planner.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) enum Racer {
-    /// CaDiCaL with the warm start: what `--threads 1` runs.
+    /// CaDiCaL with the warm start (and the varied starts when it breaks a window): what
+    /// `--threads 1` runs.
     Default,
-    /// The warm start set off from other places, each variant simulated.
-    VariedStarts,
     NoWarmStart,
     Varisat,
     /// CaDiCaL with the warm start and its own seed.
@@ -52,8 +56,8 @@ pub(crate) enum Racer {
 
 /// What a search run inside the race does differently.
 pub(crate) struct Tuning {
-    /// Try the varied starts inline when the warm start breaks a window (off in the race:
-    /// they are a racer of their own there).
+    /// Try the varied starts when the warm start breaks a window (only the default racer
+    /// does in a race: the others would repeat its work).
     pub varied_starts: bool,
     pub sharing: Option<Sharing>,
     pub seed: Option<u32>,
@@ -70,7 +74,7 @@ impl Tuning {
     }
 }
 
-/// The threads a race of `opts` runs on: 1 (no race) unless the run is the default
+/// The threads a race of `opts` is for: 1 (no race) unless the run is the default
 /// configuration (a chosen solver or `--no-warm-start` is run as asked).
 pub(crate) fn threads(opts: &Options) -> usize {
     let default = opts.warm_start && opts.solver == Backend::Cadical;
@@ -81,17 +85,19 @@ pub(crate) fn threads(opts: &Options) -> usize {
     }
 }
 
-/// The configurations in the order threads take them: enough searches that every thread
-/// has one after the varied starts are done.
+/// The configurations raced on `threads` threads, each on a thread of its own: the three a
+/// user can choose alone, then seeded CaDiCaL runs until every thread has a racer.
 pub(crate) fn racers(threads: usize) -> Vec<Racer> {
-    let mut racers = vec![
-        Racer::Default,
-        Racer::VariedStarts,
-        Racer::NoWarmStart,
-        Racer::Varisat,
-    ];
-    racers.extend((1..threads.saturating_sub(2)).map(|s| Racer::Seeded(s as u32)));
+    let mut racers = vec![Racer::Default, Racer::NoWarmStart, Racer::Varisat];
+    racers.extend((1..=threads.saturating_sub(racers.len())).map(|s| Racer::Seeded(s as u32)));
     racers
+}
+
+/// How many racers fit `opts.max_memory_mb` side by side (each encodes the part), at
+/// least one: the default's own size is checked by its search, as on its own.
+fn fitting(part: &Part, opts: &Options) -> usize {
+    let each = estimated_memory_mb(part.len(), max_fragments(part, opts)).max(1);
+    (opts.max_memory_mb / each).max(1) as usize
 }
 
 /// A candidate judged by a racer, sent to the calling thread.
@@ -121,64 +127,51 @@ pub(crate) fn race(
     threads: usize,
 ) -> Result<Report, PlanError> {
     let started = Instant::now();
-    let racers = Arc::new(racers(threads));
+    let mut racers = racers(threads);
+    racers.truncate(fitting(part, opts));
     let stop = Arc::new(AtomicBool::new(false));
-    let next = Arc::new(AtomicUsize::new(0));
     let pool = Arc::new(ClausePool::default());
     let shared = Arc::new((part.clone(), opts.clone()));
     let (tx, rx) = mpsc::channel::<Message>();
     // Detached, not scoped: the answer does not wait for a loser that stops only between
     // its solves (varisat); it ends on its own soon after the race's cancel.
-    for _ in 0..threads.min(racers.len()) {
+    for (i, racer) in racers.into_iter().enumerate() {
         let tx = tx.clone();
-        let (racers, next, stop, pool, shared) = (
-            Arc::clone(&racers),
-            Arc::clone(&next),
-            Arc::clone(&stop),
-            Arc::clone(&pool),
-            Arc::clone(&shared),
-        );
+        let (stop, pool, shared) = (Arc::clone(&stop), Arc::clone(&pool), Arc::clone(&shared));
         std::thread::spawn(move || {
             let (part, opts) = &*shared;
-            loop {
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                let Some(&racer) = racers.get(i) else { break };
-                if stop.load(Ordering::Relaxed) {
-                    break;
-                }
-                let offset = started.elapsed();
-                let o = Options {
-                    timeout: opts.timeout.map(|t| t.saturating_sub(offset)),
-                    cancel: Some(Arc::clone(&stop)),
-                    ..opts.clone()
-                };
-                let sharing = Sharing::new(Arc::clone(&pool), i);
-                // The default takes no clauses in: its proofs stay those of a run alone.
-                let sharing = match racer {
-                    Racer::Default => sharing.publish_only(),
-                    _ => sharing,
-                };
-                let mut forward = |event: Event<'_>| {
-                    if let Event::Candidate {
-                        fragments,
+            let offset = started.elapsed();
+            let o = Options {
+                timeout: opts.timeout.map(|t| t.saturating_sub(offset)),
+                cancel: Some(Arc::clone(&stop)),
+                ..opts.clone()
+            };
+            let sharing = Sharing::new(pool, i);
+            // The default takes no clauses in: its proofs stay those of a run alone.
+            let sharing = match racer {
+                Racer::Default => sharing.publish_only(),
+                _ => sharing,
+            };
+            let mut forward = |event: Event<'_>| {
+                if let Event::Candidate {
+                    fragments,
+                    verdict,
+                    stats,
+                } = event
+                {
+                    let _ = tx.send(Message::Candidate {
+                        fragments: fragments.to_vec(),
                         verdict,
-                        stats,
-                    } = event
-                    {
-                        let _ = tx.send(Message::Candidate {
-                            fragments: fragments.to_vec(),
-                            verdict,
-                            stats: Box::new(stats.clone()),
-                        });
-                    }
-                };
-                let result = run(racer, part, &o, &mut forward, sharing);
-                let _ = tx.send(Message::Done {
-                    racer,
-                    result: Box::new(result),
-                    offset,
-                });
-            }
+                        stats: Box::new(stats.clone()),
+                    });
+                }
+            };
+            let result = run(racer, part, &o, &mut forward, sharing);
+            let _ = tx.send(Message::Done {
+                racer,
+                result: Box::new(result),
+                offset,
+            });
         });
     }
     drop(tx);
@@ -249,89 +242,26 @@ fn run(
     progress: Progress,
     sharing: Sharing,
 ) -> Result<Report, PlanError> {
-    let tuning = |seed| Tuning {
-        varied_starts: false,
-        sharing: Some(sharing.clone()),
-        seed,
+    let tuning = Tuning {
+        varied_starts: racer == Racer::Default,
+        sharing: Some(sharing),
+        seed: match racer {
+            Racer::Seeded(s) => Some(s),
+            _ => None,
+        },
     };
-    match racer {
-        Racer::Default => search_plans(part, opts, progress, false, &tuning(None)),
-        Racer::Seeded(s) => search_plans(part, opts, progress, false, &tuning(Some(s))),
-        Racer::NoWarmStart => {
-            let o = Options {
-                warm_start: false,
-                ..opts.clone()
-            };
-            search_plans(part, &o, progress, false, &tuning(None))
-        }
-        Racer::Varisat => {
-            let o = Options {
-                solver: Backend::Varisat,
-                ..opts.clone()
-            };
-            search_plans(part, &o, progress, false, &tuning(None))
-        }
-        Racer::VariedStarts => varied_starts(part, opts, progress),
-    }
-}
-
-/// The varied starts alone: a feasible variant of the layer-by-layer plan, or nothing
-/// (not proven). Parts with a torch or a robot check are left to the searches, which judge
-/// those too; graph parts have no variants.
-fn varied_starts(part: &Part, opts: &Options, progress: Progress) -> Result<Report, PlanError> {
-    let started = Instant::now();
-    if part.bead_part().is_some() || opts.torch.is_some() || opts.executed.is_some() {
-        return Ok(stopped_early(started));
-    }
-    let graph = WeldGraph::new(part);
-    let k = max_fragments(part, opts);
-    let limits = constructive::Limits {
-        deadline: opts.timeout.and_then(|t| started.checked_add(t)),
-        cancel: opts.cancel.clone(),
+    let o = match racer {
+        Racer::Default | Racer::Seeded(_) => opts.clone(),
+        Racer::NoWarmStart => Options {
+            warm_start: false,
+            ..opts.clone()
+        },
+        Racer::Varisat => Options {
+            solver: Backend::Varisat,
+            ..opts.clone()
+        },
     };
-    let Some(base) = constructive::layered_plan(part, &graph, k, opts.solver, &limits) else {
-        return Ok(stopped_early(started));
-    };
-    let model = ThermalModel::new(part, &graph);
-    // Only when the simulator says the plain warm start breaks a window: a feasible one is
-    // the default racer's first candidate already.
-    let plain =
-        waam_thermal::simulate_until(&model, &base, limits.deadline, limits.cancel.clone())?;
-    if plain.is_none_or(|o| o.violation.is_none()) {
-        return Ok(stopped_early(started));
-    }
-    let portfolio = Portfolio {
-        part,
-        graph: &graph,
-        k,
-        backend: opts.solver,
-        limits: &limits,
-        model: &model,
-        workers: 1,
-    };
-    let Some((fragments, _)) = portfolio.varied_start(&base) else {
-        return Ok(stopped_early(started));
-    };
-    let mut stats = Stats {
-        candidates: 1,
-        feasible: 1,
-        first_feasible_s: Some(started.elapsed().as_secs_f64()),
-        ..Stats::default()
-    };
-    let margin = margin_under(&model, &fragments, opts, started)?;
-    stats.best_margin_s = Some(margin).filter(|m| m.is_finite());
-    stats.total_s = started.elapsed().as_secs_f64();
-    progress(Event::Candidate {
-        fragments: &fragments,
-        verdict: CandidateVerdict::Feasible,
-        stats: &stats,
-    });
-    Ok(Report {
-        best: Some(Found { fragments, margin }),
-        proven: true,
-        no_plan: None,
-        stats,
-    })
+    search_plans(part, &o, progress, false, &tuning)
 }
 
 #[cfg(test)]
@@ -339,13 +269,38 @@ mod tests {
     use super::*;
 
     #[test]
-    fn every_thread_gets_a_search_after_the_varied_starts() {
+    fn every_single_configuration_races_and_every_thread_has_a_racer() {
         for threads in 1..=16 {
             let r = racers(threads);
-            assert_eq!(r[0], Racer::Default);
-            let searches = r.iter().filter(|&&x| x != Racer::VariedStarts).count();
-            assert!(searches >= threads, "{threads} threads: {r:?}");
+            assert_eq!(
+                r[..3],
+                [Racer::Default, Racer::NoWarmStart, Racer::Varisat],
+                "{threads} threads"
+            );
+            assert_eq!(r.len(), threads.max(3), "{threads} threads: {r:?}");
         }
+    }
+
+    #[test]
+    fn racers_that_do_not_fit_the_memory_limit_together_are_left_out() {
+        let part = Part::from_blocks(
+            "plate".into(),
+            [6.0, 6.0, 2.5],
+            [0.0; 3],
+            2,
+            (0..100)
+                .flat_map(|x| (0..100).map(move |y| [x, y, 0]))
+                .collect(),
+        )
+        .unwrap();
+        let each = estimated_memory_mb(part.len(), 2);
+        let o = |max_memory_mb| Options {
+            max_memory_mb,
+            ..Options::default()
+        };
+        assert_eq!(fitting(&part, &o(3 * each)), 3);
+        assert_eq!(fitting(&part, &o(3 * each - 1)), 2);
+        assert_eq!(fitting(&part, &o(each / 2)), 1, "the default always runs");
     }
 
     #[test]
