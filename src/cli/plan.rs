@@ -66,8 +66,9 @@ pub struct PlanArgs {
     pub max_memory_mb: u64,
     /// Worker threads of --all and --count, each searching its own share of the plans
     /// (default: the available cores). Counts and the order of the plans are the same on
-    /// any number. With --first, the configurations raced for the first plan (1: the
-    /// default configuration alone; "no plan" is always the default's answer).
+    /// any number. With --first, the configurations raced for the first plan, one thread each
+    /// (1: the default configuration alone, its varied starts on one thread too; "no plan"
+    /// is always the default's answer).
     #[arg(long, value_name = "N", value_parser = super::at_least_one)]
     pub threads: Option<usize>,
     /// How cycles are excluded: lazily by cuts between solves, or eagerly by a rank order.

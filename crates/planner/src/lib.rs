@@ -84,7 +84,8 @@ pub struct Options {
     /// of [`estimated_memory_mb`] (checked before anything is built).
     pub max_memory_mb: u64,
     /// Worker threads of [`count`] and [`enumerate`], each searching its own cubes of the
-    /// plans ([`cubes`]; 0: the thermal model's default, the available cores unless set).
+    /// plans ([`cubes`]; 0: the thermal model's default, the available cores unless set),
+    /// of [`first`]'s race (one racer each) and of the varied starts (0: all cores).
     /// Counts and the order of the plans are the same on any number.
     pub threads: usize,
 }
@@ -729,7 +730,11 @@ fn search_plans(
                     backend: opts.solver,
                     limits: &half_left,
                     model: &base,
-                    workers: portfolio::cores(),
+                    // The run's threads: a racer's one, or all cores.
+                    workers: match opts.threads {
+                        0 => portfolio::cores(),
+                        n => n,
+                    },
                 };
                 let varied = portfolio.varied_start(&warm);
                 if let Some((varied, _)) = varied {

@@ -144,7 +144,7 @@ impl Portfolio<'_> {
     }
 }
 
-/// The available cores (a run on its own judges a round on all of them).
+/// The available cores (a run on all cores judges a round on all of them).
 pub fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }

@@ -8,18 +8,18 @@
 //! (each plan is judged by the simulator, each learned clause is a fact about the part), so
 //! racing them costs only cores.
 //!
-//! The racers ([`racers`]): every configuration a user can choose on its own — the default
-//! (CaDiCaL with the layer-by-layer warm start and, when that breaks a window, the varied
-//! starts of [`crate::portfolio`]: exactly the run of `--threads 1`), CaDiCaL without the
-//! warm start, varisat — then CaDiCaL with other seeds for the threads left. They all run
-//! at once, one thread each, even when they outnumber the threads asked for: the cores are
-//! then shared, so each racer runs at least threads / racers as fast as alone, and the
-//! race is at most racers / threads (1.5 on 2 threads) slower than the fastest single
-//! configuration on any part. Racing fewer than all of them (the varied starts as a racer
-//! of their own, the others queued behind it) had let the default wait for a queued
-//! configuration or share its core with one that was no help: a generated t-wall took 40 s
-//! where the default alone took 16.6 s. Racers that would not fit `max_memory_mb` together
-//! are left out (the default always runs).
+//! The racers ([`racers`]), one per thread, all started at once: the default (CaDiCaL with
+//! the layer-by-layer warm start and, when that breaks a window, the varied starts of
+//! [`crate::portfolio`]: exactly the run of `--threads 1`), CaDiCaL without the warm start,
+//! varisat, then CaDiCaL with other seeds. Each racer is one thread (its varied starts
+//! too), so none waits for another and none shares its core: the race is as fast as the
+//! fastest of the configurations it runs, up to what the racers cost each other in memory
+//! bandwidth. An earlier race ran the varied starts as a racer of their own and queued the
+//! other configurations behind them: on 2 threads a generated box waited 5.7 s for a plan
+//! that `--no-warm-start` finds in 0.5 s. Three racers on two cores were tried too: each
+//! CaDiCaL racer then ran about half as fast (cache and time slicing), more than the
+//! 1.5 the shares suggest. Racers that would not fit `max_memory_mb` together (each
+//! encodes the part) are left out; the default always runs.
 //!
 //! The racers publish their learned thermal clauses ([`crate::sharing`]); the CaDiCaL
 //! racers other than the default take them in, inside their solves.
@@ -85,12 +85,14 @@ pub(crate) fn threads(opts: &Options) -> usize {
     }
 }
 
-/// The configurations raced on `threads` threads, each on a thread of its own: the three a
-/// user can choose alone, then seeded CaDiCaL runs until every thread has a racer.
+/// The configurations raced on `threads` threads, one each, in this order: the default,
+/// the other two a user can choose alone, then seeded CaDiCaL runs.
 pub(crate) fn racers(threads: usize) -> Vec<Racer> {
-    let mut racers = vec![Racer::Default, Racer::NoWarmStart, Racer::Varisat];
-    racers.extend((1..=threads.saturating_sub(racers.len())).map(|s| Racer::Seeded(s as u32)));
-    racers
+    [Racer::Default, Racer::NoWarmStart, Racer::Varisat]
+        .into_iter()
+        .chain((1..).map(Racer::Seeded))
+        .take(threads.max(1))
+        .collect()
 }
 
 /// How many racers fit `opts.max_memory_mb` side by side (each encodes the part), at
@@ -141,9 +143,11 @@ pub(crate) fn race(
         std::thread::spawn(move || {
             let (part, opts) = &*shared;
             let offset = started.elapsed();
+            // One thread per racer: its varied starts and simulations take no other core.
             let o = Options {
                 timeout: opts.timeout.map(|t| t.saturating_sub(offset)),
                 cancel: Some(Arc::clone(&stop)),
+                threads: 1,
                 ..opts.clone()
             };
             let sharing = Sharing::new(pool, i);
@@ -269,15 +273,20 @@ mod tests {
     use super::*;
 
     #[test]
-    fn every_single_configuration_races_and_every_thread_has_a_racer() {
+    fn one_racer_per_thread_the_default_first() {
+        assert_eq!(racers(2), [Racer::Default, Racer::NoWarmStart]);
+        assert_eq!(
+            racers(5),
+            [
+                Racer::Default,
+                Racer::NoWarmStart,
+                Racer::Varisat,
+                Racer::Seeded(1),
+                Racer::Seeded(2)
+            ]
+        );
         for threads in 1..=16 {
-            let r = racers(threads);
-            assert_eq!(
-                r[..3],
-                [Racer::Default, Racer::NoWarmStart, Racer::Varisat],
-                "{threads} threads"
-            );
-            assert_eq!(r.len(), threads.max(3), "{threads} threads: {r:?}");
+            assert_eq!(racers(threads).len(), threads);
         }
     }
 
