@@ -167,6 +167,7 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     // One run, then the process ends: a solver stopped by --timeout is not freed first.
     planner::cadical::leave_stopped_solvers_to_exit();
     let mut opts = options(&args)?;
+    let deadline = opts.timeout.and_then(|t| started.checked_add(t));
     // Ctrl-C (or SIGTERM) stops the search as the timeout does: the best plan found so far
     // is still reported, written and recorded, and the exit code says it was interrupted.
     let stop = super::node::stop_on_signal()?;
@@ -296,7 +297,11 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
         } else {
             Objective::Best
         },
-        motion: Interrupt::default(),
+        // The motion counts against --timeout and stops on Ctrl-C like the search.
+        motion: Interrupt {
+            deadline,
+            cancel: Some(Arc::clone(&stop)),
+        },
     };
     let outcome = waam_pipeline::plan(&part, robot.as_ref(), &pipeline, &mut |p| {
         if let Progress::Planner(event) = p {
