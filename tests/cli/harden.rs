@@ -980,6 +980,45 @@ fn the_motion_stage_honours_its_interrupt_and_not_the_planners_stop() {
     );
 }
 
+/// Issue #30: `plan --robot --timeout 5` on a generated 10,034-block cup answered after
+/// 9.5 s: the motion stage (toolpath, inverse kinematics, clearance) never looked at the
+/// deadline. On a 20,000-block plate whose check is quick (one Euler step per block, no
+/// window) and whose motion takes seconds, the interrupt now stops the motion itself.
+#[test]
+fn the_motion_stage_stops_inside_the_inverse_kinematics_at_its_interrupt() {
+    use waam_pipeline::{Interrupt, PipelineError};
+    let (text, plan) = stacked_plate(20, 25, 40);
+    let text = text.split("t85:").next().unwrap().to_string()
+        + "thermal: {substeps: 1, max_cooldown_s: 0}\n";
+    let part = Part::parse(&text).unwrap();
+    let order: Vec<usize> = plan
+        .split('[')
+        .filter_map(|s| s.split(']').next())
+        .filter(|s| s.split(',').count() == 3)
+        .map(|s| {
+            let c: Vec<_> = s.split(',').map(|v| v.trim().parse().unwrap()).collect();
+            part.index_of([c[0], c[1], c[2]]).unwrap()
+        })
+        .collect();
+    assert_eq!(order.len(), 20_000);
+    let cell = waam_ros::node::frames::bundled_cell();
+    let found = waam_pipeline::ChosenPlan {
+        fragments: vec![order],
+        stats: Default::default(),
+        proven: false,
+        worst_margin_s: 0.0,
+    };
+    let t = Instant::now();
+    let interrupt = Interrupt::after(Some(Duration::from_millis(1500)));
+    let err = cell.motion_until(part, found, &interrupt).unwrap_err();
+    assert!(matches!(err, PipelineError::Interrupted(_)), "{err}");
+    assert!(
+        t.elapsed() < Duration::from_millis(2500),
+        "{:?}: {err}",
+        t.elapsed()
+    );
+}
+
 /// Issue #18 / #12: `plan --timeout 5` on a 90,000-block plate returned after 5.35 s: the
 /// encoding (seconds on such a part, twice with the warm start's layer) did not look at
 /// the deadline, and freeing the stopped solver delayed the answer. On a generated
