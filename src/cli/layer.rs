@@ -8,11 +8,10 @@ use anyhow::Context;
 use clap::{Args, Subcommand};
 use serde_json::json;
 use waam_layer::output::TrailFile;
-use waam_layer::part::{ManifestLayer, PartManifest, PartOptions};
-use waam_layer::slice::{slice_mesh, stl_text, LayerDoc, LayerParams, SliceOptions, SlicedLayer};
-use waam_layer::{plan_layer_motion, plan_layer_motion_at};
+use waam_layer::part::{PartManifest, PartOptions};
+use waam_layer::plan_layer_motion;
+use waam_layer::slice::{stl_text, LayerParams};
 use waam_layer::{search, Layer, Model, SearchOptions, SearchResult};
-use waam_mesh::{read_stl, TriangleMesh, Units};
 use waam_messages::layer::{
     no_motion_status, plan_messages, planned_status, LayerRecording, MotionOutcome,
 };
@@ -21,6 +20,7 @@ use waam_ros::node::once::publish_once;
 use waam_ros::node::params::TopicParams;
 use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::std_msgs::Header;
+use waam_wall::{plan_part_to_dir, slice_to_dir, write_trail, LayerDone, PartRun};
 
 use super::motion::{report_motion, write_motion, MotionSummary};
 use super::{EXIT_NO, EXIT_OK};
@@ -358,16 +358,7 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
     }
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        let file = TrailFile::new(
-            &model,
-            &r.trail,
-            r.objective,
-            r.lower_bound,
-            r.proven_optimal,
-        );
-        let yaml = serde_yaml::to_string(&file)?;
-        std::fs::write(dir.join("trail.yaml"), yaml)
-            .with_context(|| format!("cannot write {}", dir.join("trail.yaml").display()))?;
+        write_trail(dir, &model, &r)?;
         std::fs::copy(&args.layer, dir.join("layer.yaml"))
             .with_context(|| format!("cannot write {}", dir.join("layer.yaml").display()))?;
     }
@@ -572,52 +563,6 @@ fn bench(args: BenchArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::from(EXIT_OK))
 }
 
-fn read_mesh(path: &Path) -> anyhow::Result<TriangleMesh> {
-    let bytes =
-        std::fs::read(path).with_context(|| format!("cannot read mesh {}", path.display()))?;
-    read_stl(&bytes, Units::Mm).with_context(|| format!("in mesh {}", path.display()))
-}
-
-fn slice_to_dir(
-    mesh_path: &Path,
-    layer_height: f64,
-    wall_width: Option<f64>,
-    params: LayerParams,
-    out: &Path,
-) -> anyhow::Result<(PartManifest, Vec<SlicedLayer>)> {
-    let mesh = read_mesh(mesh_path)?;
-    let name = mesh_path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "part".into());
-    let options = SliceOptions {
-        name: name.clone(),
-        layer_height_mm: layer_height,
-        wall_width_mm: wall_width,
-        params,
-    };
-    let layers =
-        slice_mesh(&mesh, &options).with_context(|| format!("in mesh {}", mesh_path.display()))?;
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    let mut manifest = PartManifest {
-        name,
-        source: mesh_path.display().to_string(),
-        layer_height_mm: layer_height,
-        layers: Vec::new(),
-    };
-    for (k, l) in layers.iter().enumerate() {
-        let file = format!("layer-{k:03}.yaml");
-        let path = out.join(&file);
-        std::fs::write(&path, LayerDoc::of(&l.layer).to_yaml())
-            .with_context(|| format!("cannot write {}", path.display()))?;
-        manifest.layers.push(ManifestLayer { file, z_mm: l.z_mm });
-    }
-    let path = out.join("part.yaml");
-    std::fs::write(&path, serde_yaml::to_string(&manifest)?)
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    Ok((manifest, layers))
-}
-
 fn slice(args: SliceArgs) -> anyhow::Result<ExitCode> {
     let params = match &args.params {
         Some(p) => LayerParams::of(&read_layer(p)?),
@@ -665,29 +610,6 @@ fn extrude(args: ExtrudeArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::from(EXIT_OK))
 }
 
-/// One layer's line in OUT/part-plan.yaml.
-#[derive(Debug, serde::Serialize)]
-struct PartPlanLayer {
-    layer: String,
-    dir: String,
-    z_mm: f64,
-    objective: f64,
-    lower_bound: f64,
-    proven_optimal: bool,
-    relative_gap: f64,
-    start: String,
-    end: String,
-    deadheading: Vec<[String; 2]>,
-    forbidden_starts: Vec<String>,
-    forbidden_deadheads: Vec<[String; 2]>,
-    varied: bool,
-    initial_max_c: f64,
-    initial_mean_c: f64,
-    end_max_c: f64,
-    seconds: f64,
-    motion: Option<serde_json::Value>,
-}
-
 fn plan_part(args: PlanPartArgs) -> anyhow::Result<ExitCode> {
     let limit = time_limit(Some(args.time_limit))?;
     anyhow::ensure!(
@@ -724,6 +646,7 @@ fn plan_part(args: PlanPartArgs) -> anyhow::Result<ExitCode> {
         sliced.into_iter().map(|l| (l.z_mm, l.layer)).collect()
     };
     let robot = args.robot.robot_args().map(|a| a.load()).transpose()?;
+    // Before the recorder: its bag may go inside OUT.
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let recorder = super::record::layer_recorder(
@@ -740,134 +663,13 @@ fn plan_part(args: PlanPartArgs) -> anyhow::Result<ExitCode> {
         },
         vary: !args.no_vary,
     };
-    let total = layers.len();
-    let ambient = |l: &Layer| l.temperatures.ambient_c;
-    let mut summary: Vec<PartPlanLayer> = Vec::new();
-    let mut failed = false;
-    let mut error: Option<anyhow::Error> = None;
-    let planned = waam_layer::part::plan_part(&layers, &options, |k, p| {
-        if error.is_some() {
-            return;
-        }
-        let mut step = || -> anyhow::Result<()> {
-            let layer = &p.model.layer;
-            let r = &p.result;
-            let id = |v: usize| layer.nodes[v].id.clone();
-            let dir = args.out.join(format!("layer-{k:03}"));
-            std::fs::create_dir_all(&dir)
-                .with_context(|| format!("cannot create {}", dir.display()))?;
-            let file = TrailFile::new(
-                &p.model,
-                &r.trail,
-                r.objective,
-                r.lower_bound,
-                r.proven_optimal,
-            );
-            std::fs::write(dir.join("trail.yaml"), serde_yaml::to_string(&file)?)
-                .with_context(|| format!("cannot write {}", dir.join("trail.yaml").display()))?;
-            std::fs::write(dir.join("layer.yaml"), LayerDoc::of(layer).to_yaml())
-                .with_context(|| format!("cannot write {}", dir.join("layer.yaml").display()))?;
-            let motion = robot.as_ref().map(|cell| {
-                plan_layer_motion_at(&p.model, &r.trail, p.z_mm, &cell.settings, &cell.robot)
-                    .map_err(|e| e.to_string())
-            });
-            let motion_json = match &motion {
-                None => None,
-                Some(Ok((tp, traj))) => {
-                    write_motion(tp, traj, &dir)?;
-                    Some(json!(MotionSummary::of(tp)))
-                }
-                Some(Err(e)) => {
-                    failed = true;
-                    Some(json!({ "error": e }))
-                }
-            };
-            if let Some(recorder) = &recorder {
-                let text = LayerDoc::of(layer).to_yaml();
-                let recording = LayerRecording::start(recorder, &text, &layer.name)?;
-                let messages = match (&motion, &robot) {
-                    (Some(Ok((tp, traj))), Some(cell)) => {
-                        let header = Header::new(Time::now(), tp.frame.clone());
-                        Some(plan_messages(
-                            &p.model,
-                            r,
-                            tp,
-                            traj,
-                            &cell.settings,
-                            &header,
-                        )?)
-                    }
-                    _ => None,
-                };
-                let outcome = match (&motion, &messages) {
-                    (Some(Err(e)), _) => MotionOutcome::Failed(e),
-                    (_, Some(m)) => MotionOutcome::Planned(m),
-                    _ => MotionOutcome::NotPlanned,
-                };
-                recording.finish(&p.model, r, outcome)?;
-            }
-            let amb = ambient(layer);
-            let max = |u: &[f64]| u.iter().copied().fold(f64::NEG_INFINITY, f64::max) + amb;
-            let mean = p.model.initial_field.iter().sum::<f64>()
-                / p.model.initial_field.len().max(1) as f64
-                + amb;
-            let line = PartPlanLayer {
-                layer: layer.name.clone(),
-                dir: format!("layer-{k:03}"),
-                z_mm: p.z_mm,
-                objective: r.objective,
-                lower_bound: r.lower_bound,
-                proven_optimal: r.proven_optimal,
-                relative_gap: r.relative_gap,
-                start: p.start_node().map(id).unwrap_or_default(),
-                end: p.end_node().map(id).unwrap_or_default(),
-                deadheading: p.deadheads().iter().map(|&[a, b]| [id(a), id(b)]).collect(),
-                forbidden_starts: p.forbidden_starts.iter().map(|&v| id(v)).collect(),
-                forbidden_deadheads: p
-                    .forbidden_deadheads
-                    .iter()
-                    .map(|&[a, b]| [id(a), id(b)])
-                    .collect(),
-                varied: p.varied,
-                initial_max_c: max(&p.model.initial_field),
-                initial_mean_c: mean,
-                end_max_c: max(&p.end_field),
-                seconds: r.seconds,
-                motion: motion_json,
-            };
-            println!(
-                "layer {:>3}/{total}  z {:>7.3} mm  objective {:.6e}  {}  start {}  {} deadheads  initial max {:.0} °C mean {:.0} °C{}",
-                k + 1,
-                p.z_mm,
-                r.objective,
-                if r.proven_optimal {
-                    "proven optimal".to_string()
-                } else {
-                    format!("gap {:.2}%", 100.0 * r.relative_gap)
-                },
-                line.start,
-                line.deadheading.len(),
-                line.initial_max_c,
-                line.initial_mean_c,
-                match &motion {
-                    None => String::new(),
-                    Some(Ok((tp, _))) => format!("  motion {:.1} s", MotionSummary::of(tp).duration_s),
-                    Some(Err(e)) => format!("  NO MOTION: {e}"),
-                }
-            );
-            summary.push(line);
-            Ok(())
-        };
-        if let Err(e) = step() {
-            error = Some(e);
-        }
-    })?;
-    if let Some(e) = error {
-        return Err(e);
-    }
-    let path = args.out.join("part-plan.yaml");
-    std::fs::write(&path, serde_yaml::to_string(&summary)?)
-        .with_context(|| format!("cannot write {}", path.display()))?;
+    let run = PartRun {
+        out: &args.out,
+        options: &options,
+        cell: robot.as_ref().map(|cell| (&cell.settings, &cell.robot)),
+        recorder: recorder.as_ref(),
+    };
+    let plan = plan_part_to_dir(&layers, &run, print_layer_done)?;
     if let Some(recorder) = recorder {
         let s = recorder.finish()?;
         tracing::info!(
@@ -877,11 +679,45 @@ fn plan_part(args: PlanPartArgs) -> anyhow::Result<ExitCode> {
             s.dir.display()
         );
     }
-    let proven = planned.iter().filter(|p| p.result.proven_optimal).count();
+    let proven = plan
+        .layers
+        .iter()
+        .filter(|p| p.result.proven_optimal)
+        .count();
     println!(
         "planned {} layers ({proven} proven optimal), wrote {}",
-        planned.len(),
-        path.display()
+        plan.layers.len(),
+        plan.path.display()
     );
-    Ok(ExitCode::from(if failed { EXIT_NO } else { EXIT_OK }))
+    Ok(ExitCode::from(if plan.motion_failed {
+        EXIT_NO
+    } else {
+        EXIT_OK
+    }))
+}
+
+/// One line per planned layer of `waam layer plan-part`.
+fn print_layer_done(d: &LayerDone) {
+    let (r, line) = (&d.planned.result, d.line);
+    println!(
+        "layer {:>3}/{}  z {:>7.3} mm  objective {:.6e}  {}  start {}  {} deadheads  initial max {:.0} °C mean {:.0} °C{}",
+        d.index + 1,
+        d.total,
+        line.z_mm,
+        r.objective,
+        if r.proven_optimal {
+            "proven optimal".to_string()
+        } else {
+            format!("gap {:.2}%", 100.0 * r.relative_gap)
+        },
+        line.start,
+        line.deadheading.len(),
+        line.initial_max_c,
+        line.initial_mean_c,
+        match d.motion {
+            None => String::new(),
+            Some(Ok((tp, _))) => format!("  motion {:.1} s", MotionSummary::of(tp).duration_s),
+            Some(Err(e)) => format!("  NO MOTION: {e}"),
+        }
+    );
 }

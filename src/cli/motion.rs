@@ -7,7 +7,8 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use waam_motion::robot::parse_xyz_rpy;
-use waam_motion::toolpath::{PoseKind, Toolpath};
+pub use waam_motion::toolpath::MotionSummary;
+use waam_motion::toolpath::Toolpath;
 use waam_motion::trajectory::JointTrajectory;
 use waam_motion::write_outputs;
 use waam_pipeline::{Cell, CellError, CellSource, PipelineError};
@@ -150,43 +151,6 @@ pub fn cell_error(e: CellError) -> anyhow::Error {
         }
         CellError::Limits { path, source } => {
             anyhow::Error::new(source).context(file("in joint limits", &path))
-        }
-    }
-}
-
-/// The figures `report_motion` prints (and `waam layer plan --json` reports).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct MotionSummary {
-    pub poses: usize,
-    /// Weld poses at pass points (blocks, layer steps).
-    pub weld_points: usize,
-    /// Arc-on markers: one per weld pass.
-    pub passes: usize,
-    pub duration_s: f64,
-    pub arc_on_s: f64,
-}
-
-impl MotionSummary {
-    pub fn of(tp: &Toolpath) -> MotionSummary {
-        MotionSummary {
-            poses: tp.poses.len(),
-            weld_points: tp
-                .poses
-                .iter()
-                .filter(|p| p.kind == PoseKind::Weld && p.at_point)
-                .count(),
-            passes: tp
-                .poses
-                .iter()
-                .filter(|p| p.kind == PoseKind::ArcOn)
-                .count(),
-            duration_s: tp.poses.last().map_or(0.0, |p| p.time_s),
-            arc_on_s: tp
-                .poses
-                .windows(2)
-                .filter(|w| w[0].arc_on)
-                .map(|w| w[1].time_s - w[0].time_s)
-                .sum(),
         }
     }
 }

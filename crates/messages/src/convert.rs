@@ -385,8 +385,9 @@ pub fn delete_all(header: &Header) -> Marker {
     }
 }
 
-/// A marker to ADD, in `header`'s frame, of `type_`.
-fn new_marker(header: &Header, ns: &str, id: i32, type_: i32) -> Marker {
+/// A marker to ADD, in `header`'s frame, of `type_`: the one builder every plan marker starts
+/// from.
+pub(crate) fn new_marker(header: &Header, ns: &str, id: i32, type_: i32) -> Marker {
     Marker {
         header: header.clone(),
         ns: ns.to_string(),

@@ -6,8 +6,8 @@
 use nalgebra::{Isometry3, Point3};
 
 use crate::convert::{
-    delete_all, ns, path, point_msg, pose_array, toolpath_markers, trajectory_msg, ConvertError,
-    PlanMessages, WeldPlanOf,
+    delete_all, new_marker, ns, path, point_msg, pose_array, toolpath_markers, trajectory_msg,
+    ConvertError, PlanMessages, WeldPlanOf,
 };
 use crate::heat::point_cloud;
 use crate::planning::{recorded, PART_FRAME};
@@ -112,23 +112,17 @@ fn walls_marker(model: &Model, plate: &Isometry3<f64>, header: &Header) -> Marke
         let [x, y] = layer.point(v);
         point_msg(&(plate * Point3::new(x / 1000.0, y / 1000.0, 0.0)))
     };
-    let mut marker = Marker {
-        header: header.clone(),
-        ns: ns::WALLS.to_string(),
-        type_: Marker::LINE_LIST,
-        action: Marker::ADD,
-        points: layer
-            .segments
-            .iter()
-            .flat_map(|&[a, b]| [point(a), point(b)])
-            .collect(),
-        color: ColorRGBA {
-            r: 1.0,
-            g: 1.0,
-            b: 1.0,
-            a: 0.5,
-        },
-        ..Marker::default()
+    let mut marker = new_marker(header, ns::WALLS, 0, Marker::LINE_LIST);
+    marker.points = layer
+        .segments
+        .iter()
+        .flat_map(|&[a, b]| [point(a), point(b)])
+        .collect();
+    marker.color = ColorRGBA {
+        r: 1.0,
+        g: 1.0,
+        b: 1.0,
+        a: 0.5,
     };
     marker.scale.x = layer.wall_width_mm / 1000.0;
     marker

@@ -129,6 +129,44 @@ pub struct Toolpath {
     pub poses: Vec<ToolPose>,
 }
 
+/// A toolpath's figures: what `waam plan --robot` prints and `--json` and `part-plan.yaml`
+/// report.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct MotionSummary {
+    pub poses: usize,
+    /// Weld poses at pass points (blocks, layer steps).
+    pub weld_points: usize,
+    /// Arc-on markers: one per weld pass.
+    pub passes: usize,
+    pub duration_s: f64,
+    pub arc_on_s: f64,
+}
+
+impl MotionSummary {
+    pub fn of(tp: &Toolpath) -> MotionSummary {
+        MotionSummary {
+            poses: tp.poses.len(),
+            weld_points: tp
+                .poses
+                .iter()
+                .filter(|p| p.kind == PoseKind::Weld && p.at_point)
+                .count(),
+            passes: tp
+                .poses
+                .iter()
+                .filter(|p| p.kind == PoseKind::ArcOn)
+                .count(),
+            duration_s: tp.poses.last().map_or(0.0, |p| p.time_s),
+            arc_on_s: tp
+                .poses
+                .windows(2)
+                .filter(|w| w[0].arc_on)
+                .map(|w| w[1].time_s - w[0].time_s)
+                .sum(),
+        }
+    }
+}
+
 /// A toolpath that cannot be built.
 #[derive(Debug, Error, PartialEq)]
 pub enum ToolpathError {
