@@ -18,7 +18,8 @@ fn root() -> PathBuf {
 
 #[test]
 fn three_layers_are_planned_moved_recorded_and_summarised() {
-    let (_, mut layers) = PartManifest::read_dir(&root().join("config/layers/rib-web-3x3")).unwrap();
+    let (_, mut layers) =
+        PartManifest::read_dir(&root().join("config/layers/rib-web-3x3")).unwrap();
     layers.truncate(3);
     let cell = CellSource::default().load().unwrap();
     let dir = tempfile::tempdir().unwrap();
@@ -64,7 +65,12 @@ fn three_layers_are_planned_moved_recorded_and_summarised() {
             assert_ne!(l["start"], lines[k - 1]["start"], "layer {k}");
             assert!(l["initial_max_c"].as_f64().unwrap() > 100.0, "layer {k}");
         }
-        for f in ["layer.yaml", "trail.yaml", "toolpath.yaml", "trajectory.yaml"] {
+        for f in [
+            "layer.yaml",
+            "trail.yaml",
+            "toolpath.yaml",
+            "trajectory.yaml",
+        ] {
             let p = out.join(format!("layer-{k:03}")).join(f);
             assert!(p.is_file(), "{}", p.display());
         }
@@ -77,7 +83,8 @@ fn three_layers_are_planned_moved_recorded_and_summarised() {
 
 #[test]
 fn without_a_cell_there_is_no_motion_and_no_motion_file() {
-    let (_, mut layers) = PartManifest::read_dir(&root().join("config/layers/rib-web-3x3")).unwrap();
+    let (_, mut layers) =
+        PartManifest::read_dir(&root().join("config/layers/rib-web-3x3")).unwrap();
     layers.truncate(1);
     let dir = tempfile::tempdir().unwrap();
     let options = PartOptions::default();
