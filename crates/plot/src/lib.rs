@@ -329,20 +329,6 @@ pub fn temperature_curves_until(
         })
         .collect();
     let mut temps = vec![f64::NAN; sim_part.len()];
-    let mut sample = |sim: &Simulation, curves: &mut Vec<Curve>| {
-        temps.iter_mut().for_each(|t| *t = f64::NAN);
-        for (b, t) in sim.temperatures() {
-            temps[b] = t;
-        }
-        let mut warm = false;
-        for (c, &(b, _)) in curves.iter_mut().zip(&windowed) {
-            if temps[b].is_finite() {
-                c.samples.push((sim.time_s(), temps[b]));
-                warm |= temps[b] >= WARM_C;
-            }
-        }
-        warm
-    };
     for fragment in fragments {
         for (p, &b) in fragment.iter().enumerate() {
             // No windows: a deposit cannot fail.
@@ -355,7 +341,7 @@ pub fn temperature_curves_until(
                 let placed = sim.time_s() - params.dt() * params.substeps as f64;
                 curves[k].samples.push((placed, params.deposit_c));
             }
-            sample(&sim, &mut curves);
+            sample(&sim, &mut temps, &windowed, &mut curves);
         }
     }
     for i in 0..probes {
@@ -366,11 +352,33 @@ pub fn temperature_curves_until(
         if sim.cancelled() {
             return None;
         }
-        if !sample(&sim, &mut curves) {
+        if !sample(&sim, &mut temps, &windowed, &mut curves) {
             break;
         }
     }
     Some(curves)
+}
+
+/// Adds the simulation's temperature of every windowed block (`windowed`: sim index, window)
+/// to its curve; `temps` is scratch, one per sim block. True while any is still warm.
+fn sample(
+    sim: &Simulation,
+    temps: &mut [f64],
+    windowed: &[(usize, Window)],
+    curves: &mut [Curve],
+) -> bool {
+    temps.iter_mut().for_each(|t| *t = f64::NAN);
+    for (b, t) in sim.temperatures() {
+        temps[b] = t;
+    }
+    let mut warm = false;
+    for (c, &(b, _)) in curves.iter_mut().zip(windowed) {
+        if temps[b].is_finite() {
+            c.samples.push((sim.time_s(), temps[b]));
+            warm |= temps[b] >= WARM_C;
+        }
+    }
+    warm
 }
 
 /// [`temperature_curves_until`] of a graph part: its own model (the stand-in blocks'
@@ -397,20 +405,6 @@ fn graph_temperature_curves(
         })
         .collect();
     let mut temps = vec![f64::NAN; part.len()];
-    let mut sample = |sim: &Simulation, curves: &mut Vec<Curve>| {
-        temps.iter_mut().for_each(|t| *t = f64::NAN);
-        for (b, t) in sim.temperatures() {
-            temps[b] = t;
-        }
-        let mut warm = false;
-        for (c, &(b, _)) in curves.iter_mut().zip(&windowed) {
-            if temps[b].is_finite() {
-                c.samples.push((sim.time_s(), temps[b]));
-                warm |= temps[b] >= WARM_C;
-            }
-        }
-        warm
-    };
     for fragment in fragments {
         for (p, &b) in fragment.iter().enumerate() {
             // A broken window does not stop the picture.
@@ -422,7 +416,7 @@ fn graph_temperature_curves(
                 let placed = sim.time_s() - model.dt * model.deposit_steps(b) as f64;
                 curves[k].samples.push((placed, params.deposit_c));
             }
-            sample(&sim, &mut curves);
+            sample(&sim, &mut temps, &windowed, &mut curves);
         }
     }
     let pauses = (params.max_cooldown_s / params.transit_time_s.max(1e-9)).ceil() as usize;
@@ -431,7 +425,7 @@ fn graph_temperature_curves(
         if sim.cancelled() {
             return None;
         }
-        if !sample(&sim, &mut curves) {
+        if !sample(&sim, &mut temps, &windowed, &mut curves) {
             break;
         }
     }
