@@ -398,13 +398,13 @@ fn long_rapid_programs_split_between_passes() {
     }
     assert_eq!(total, e.n());
 
-    // A pass longer than the limit is refused, naming the key.
-    std::fs::write(cell.path(), "max_targets: {rapid: 5}\n").unwrap();
+    // A pass longer than the limit is refused by KRL, naming the key.
+    std::fs::write(cell.path(), "max_targets: {krl: 5}\n").unwrap();
     let out = run_at_root(&[
         "export",
         motion_dir().to_str().unwrap(),
         "--format",
-        "rapid",
+        "krl",
         "--robot",
         URDF,
         "--tcp",
@@ -416,7 +416,74 @@ fn long_rapid_programs_split_between_passes() {
     ]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");
-    assert!(err.contains("max_targets.rapid"), "{err}");
+    assert!(err.contains("max_targets.krl"), "{err}");
+}
+
+#[test]
+fn rapid_splits_a_pass_longer_than_the_limit_between_procedures() {
+    let e = Expect::load();
+    let cell = tempfile::NamedTempFile::new().unwrap();
+    std::fs::write(cell.path(), "max_targets: {rapid: 5}\n").unwrap();
+    let (dir, _) = export("rapid", &["--cell", cell.path().to_str().unwrap()]);
+    let main = read(dir.path(), "WAAM.mod");
+    let calls: Vec<String> = main
+        .lines()
+        .map(str::trim)
+        .filter(|l| l.starts_with("WAAM_"))
+        .map(|l| l.trim_end_matches(';').to_string())
+        .collect();
+    assert!(calls.len() >= e.n().div_ceil(5), "{calls:?}");
+    // The moves of the modules, in the order main calls them, are the whole motion: one
+    // weld opened by ArcLStart, continued by ArcL (also across a call), closed by ArcLEnd.
+    let (mut moves, mut welding, mut split_inside_weld) = (0, false, false);
+    let (mut starts, mut ends) = (Vec::new(), Vec::new());
+    for name in &calls {
+        let m = read(dir.path(), &format!("{name}.mod"));
+        let n = m.matches("CONST robtarget").count();
+        assert!((1..=5).contains(&n), "{name}: {n} targets");
+        split_inside_weld |= welding;
+        for l in m.lines().map(str::trim) {
+            match l.split_whitespace().next().unwrap_or("") {
+                "ArcLStart" => {
+                    assert!(!welding, "{name}: {l}");
+                    welding = true;
+                    starts.push(moves);
+                }
+                "ArcL" => assert!(welding, "{name}: ArcL with no weld open: {l}"),
+                "ArcLEnd" => {
+                    assert!(welding, "{name}: {l}");
+                    welding = false;
+                    ends.push(moves);
+                }
+                "MoveL" | "MoveJ" => assert!(!welding, "{name}: a move with the arc on: {l}"),
+                _ => continue,
+            }
+            // Move k goes to target pW(k+1): the targets stay in the motion's order.
+            assert!(l.contains(&format!(" pW{},", moves + 1)), "{name}: {l}");
+            moves += 1;
+        }
+    }
+    assert!(!welding);
+    assert_eq!(moves, e.n());
+    assert!(split_inside_weld, "no module boundary falls inside a weld");
+    // The arc switches on and off exactly where the motion switches it.
+    assert_eq!((starts, ends), e.switches());
+
+    let Some(python) = python() else { return };
+    for name in std::iter::once("WAAM".to_string()).chain(calls) {
+        let out = Command::new(&python)
+            .args(["-m", "rapidchecker"])
+            .arg(dir.path().join(format!("{name}.mod")))
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success() && text.contains("No RAPID format errors"),
+            "{name}: {text}{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
 }
 
 #[test]

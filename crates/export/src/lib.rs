@@ -124,6 +124,14 @@ impl Format {
             .expect("every format is listed")
     }
 
+    /// Whether a weld may go on across a call of the next part program. RAPID: a
+    /// procedure call is no stop point, so `ArcL` in one procedure continues the seam that
+    /// `ArcLStart` opened in the one before (the arc stays on until `ArcLEnd`). The other
+    /// controllers' program calls are not documented to keep the arc and path running.
+    pub fn weld_spans_calls(self) -> bool {
+        self == Format::Rapid
+    }
+
     /// Whether the format needs the robot's arm configuration.
     pub fn is_robot(self) -> bool {
         self != Format::Gcode
@@ -607,8 +615,10 @@ impl Program {
             .map_or(0, |v| self.weld_speed_index(speeds, v))
     }
 
-    /// Splits the targets into programs of at most `max` targets, only where the arc is
-    /// off (between weld passes).
+    /// Splits the targets into programs of at most `max` targets, where the arc is off
+    /// (between weld passes) whenever one lies within the limit. A pass longer than `max`
+    /// is split inside the weld only for a format whose weld continues across a program
+    /// call ([`Format::weld_spans_calls`]); the others refuse it.
     pub fn chunks(&self, format: Format, max: usize) -> Result<Vec<Range<usize>>, ExportError> {
         let n = self.targets.len();
         let mut out = Vec::new();
@@ -619,12 +629,9 @@ impl Program {
                 cut = Some(i);
             }
             if i + 1 - start > max {
-                match cut {
-                    Some(c) if c > start => {
-                        out.push(start..c);
-                        start = c;
-                        cut = None;
-                    }
+                let at = match cut {
+                    Some(c) if c > start => c,
+                    _ if format.weld_spans_calls() => i,
                     _ => {
                         let pass = self.targets[i].pass;
                         let targets = self.targets.iter().filter(|t| t.pass == pass).count();
@@ -635,7 +642,10 @@ impl Program {
                             limit: max,
                         });
                     }
-                }
+                };
+                out.push(start..at);
+                start = at;
+                cut = (at + 1..=i).rev().find(|&j| !self.targets[j].arc_during);
             }
         }
         out.push(start..n);
@@ -833,6 +843,47 @@ mod tests {
             p.chunks(Format::Krl, 3),
             Err(ExportError::PassTooLong { limit: 3, .. })
         ));
+    }
+
+    #[test]
+    fn rapid_splits_a_pass_longer_than_the_limit_inside_the_weld() {
+        // One transit target, then a pass of 9 weld targets, then one more of 4 (the arc
+        // comes on at targets 1 and 11: the moves into them are the programs' cut points).
+        let mut poses = vec![(0.0, 0.0, false)];
+        let mut t = 1.0;
+        for x in 1..=9 {
+            poses.push((x as f64 * 5.0, t, true));
+            t += 1.0;
+        }
+        for x in [60.0, 65.0, 70.0, 75.0] {
+            poses.push((x, t, x > 60.0));
+            t += 1.0;
+        }
+        let p = program(&poses);
+        assert!(matches!(
+            p.chunks(Format::Krl, 4),
+            Err(ExportError::PassTooLong { limit: 4, .. })
+        ));
+        for max in 1..14 {
+            let chunks = p.chunks(Format::Rapid, max).unwrap();
+            // Contiguous, in order, every target once, none longer than the limit.
+            assert_eq!(chunks[0].start, 0);
+            assert_eq!(chunks.last().unwrap().end, p.targets.len());
+            for w in chunks.windows(2) {
+                assert_eq!(w[0].end, w[1].start, "{max}: {chunks:?}");
+            }
+            assert!(chunks.iter().all(|r| !r.is_empty() && r.len() <= max));
+            // A program ends inside a weld only when it is full.
+            for w in chunks.windows(2) {
+                if p.targets[w[1].start].arc_during {
+                    assert_eq!(w[0].len(), max, "{max}: {chunks:?}");
+                }
+            }
+        }
+        assert_eq!(
+            p.chunks(Format::Rapid, 4).unwrap(),
+            [0..1, 1..5, 5..9, 9..11, 11..14]
+        );
     }
 
     #[test]

@@ -5,7 +5,8 @@
 //! `welddata` per weld speed (schedule, voltage, wire feed, current from the cell
 //! settings), one `speeddata` per travel speed — and `PROC main()`, which calls the part
 //! modules `<NAME>_1.mod`, `<NAME>_2.mod`, … in order. Each part module holds at most
-//! `max_targets.rapid` `robtarget`s (in the work object; `confdata` from the joint
+//! `max_targets.rapid` `robtarget`s, cut between passes where possible and else inside a
+//! weld, which the next module's `ArcL`s continue (in the work object; `confdata` from the joint
 //! solution, see [`crate::ArmConfig::abb_confdata`]) and one procedure: `MoveJ` to the
 //! first target, `MoveL` transits, `ArcLStart` to each arc-on pose (fine), `ArcL` along
 //! the weld, `ArcLEnd` at each arc-off pose (fine), `WaitTime \InPos` where the timeline
