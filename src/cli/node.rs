@@ -16,9 +16,11 @@ use waam_ros::node::{Mode, RunOptions};
 
 /// Run the ROS 2 node `waam_planner` beside a welding cell.
 ///
-/// Takes parts on `~/part` (std_msgs/String, a part document) and `~/part_mesh`
-/// (shape_msgs/Mesh in metres), plans each off the executor (a newer part cancels the one in
-/// progress) and publishes the joint trajectory, poses, path, markers and weld plan on
+/// Takes parts on `~/part` (std_msgs/String, a part document: blocks, or a graph part of
+/// beads) and `~/part_mesh` (shape_msgs/Mesh in metres: voxelized at `mesh.block_mm`, or,
+/// with the parameter `mesh.bead_mm: [W, H]` (mm), sliced into beads along its contours as
+/// `waam slice --bead "W H"` does, the torch then following each bead's centre line),
+/// plans each off the executor (a newer part cancels the one in progress) and publishes the joint trajectory, poses, path, markers and weld plan on
 /// `~/plan/*` (Reliable, TransientLocal) and its state on `~/status`. Every setting of the
 /// parameters file is a ROS parameter (`ros2 param list/get/set/describe/dump`); a change
 /// applies from the next plan. Honours ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE (or

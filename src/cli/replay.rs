@@ -156,9 +156,10 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
             },
             Err(e) => return Replanned::Unsupported(e.to_string()),
         };
-        // A mesh is voxelized with the settings the node recorded when it received it.
+        // A mesh is voxelized (or sliced into beads) with the settings the node recorded
+        // when it received it.
         let (part, text) = match &case.input {
-            CaseInput::PartText(text) => match Part::parse(text) {
+            CaseInput::PartText(text) => match read_document(text) {
                 Ok(part) => (part, text.clone()),
                 Err(e) => return Replanned::NoPlan(format!("bad part: {e}")),
             },
@@ -175,9 +176,12 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
                     Err(e) => return Replanned::Unsupported(e.to_string()),
                 };
                 let (vertices, triangles) = mesh_arrays(mesh);
-                match settings.voxelize(name, &vertices, &triangles) {
+                match settings.part_of_mesh(name, &vertices, &triangles) {
                     Ok(part) => {
-                        let text = writer::to_yaml(&part);
+                        let text = match part.bead_part() {
+                            Some(beads) => beads.to_yaml(),
+                            None => writer::to_yaml(&part),
+                        };
                         (part, text)
                     }
                     Err(e) => return Replanned::NoPlan(e.to_string()),
@@ -373,10 +377,22 @@ fn publish(args: &ReplayArgs, bag: &Bag) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::from(EXIT_OK))
 }
 
+/// A recorded part document: a block part or a graph part of beads.
+fn read_document(text: &str) -> Result<Part, waam_pipeline::PipelineError> {
+    // Mesh settings do not matter for a document.
+    let unused = waam_pipeline::MeshSettings {
+        block_mm: [1.0; 3],
+        bead_mm: None,
+        window: None,
+        max_fragments: 1,
+    };
+    waam_pipeline::read_input(waam_pipeline::PartInput::Document(text.into()), &unused)
+}
+
 /// The part's name from its document (for messages), or what it is.
 fn part_name(input: &CaseInput) -> String {
     match input {
-        CaseInput::PartText(text) => Part::parse(text)
+        CaseInput::PartText(text) => read_document(text)
             .map(|p| p.name)
             .unwrap_or_else(|_| "unreadable part".into()),
         CaseInput::Mesh(m) => format!("mesh of {} triangles", m.triangles.len()),

@@ -171,6 +171,86 @@ fn rclpy_mesh_box_is_planned_and_the_latest_part_wins() {
     run_script("mesh_and_latest.py", &[]);
 }
 
+/// A ring mesh with `mesh.bead_mm` set is sliced into beads and planned as a graph part: the
+/// weld plan's weld points and the markers' deposits lie on the ring's centre line
+/// (mesh_beads.py). The node's recording of it lists the graph part's topics in `waam bag
+/// info`, and `waam replay` slices the mesh again with the recorded bead size and finds the
+/// same plan.
+#[test]
+fn rclpy_ring_mesh_as_beads_is_welded_on_its_centre_line_and_its_recording_replays() {
+    let Some(python) = interfaces_python() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join("ring");
+    run_script_with(python, "mesh_beads.py", &[bag.to_str().unwrap()]);
+
+    let out = crate::common::run::waam()
+        .args(["bag", "info"])
+        .arg(&bag)
+        .output()
+        .unwrap();
+    let info = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{info}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for topic in [
+        "/waam_planner/part_mesh",
+        "/waam_planner/plan/weld_plan",
+        "/waam_planner/plan/joint_trajectory",
+        "/waam_planner/plan/markers",
+    ] {
+        assert!(
+            info.contains(topic),
+            "bag info does not list {topic}:\n{info}"
+        );
+    }
+
+    // The recorded markers: one cube per bead node, at the node's centre on the ring's
+    // centre line (radius 20 mm about the nodes' mean, which for a whole ring of equally
+    // spaced nodes is its centre; 0.1 mm as in mesh_beads.py).
+    let recording = waam_rosbag::Bag::open(&bag).unwrap();
+    let markers: Vec<waam_rosmsg::visualization_msgs::MarkerArray> = recording.decode().unwrap();
+    let cubes: Vec<[f64; 3]> = markers
+        .last()
+        .expect("no markers recorded")
+        .markers
+        .iter()
+        .filter(|m| m.ns == "blocks")
+        .flat_map(|m| m.points.iter().map(|p| [p.x * 1e3, p.y * 1e3, p.z * 1e3]))
+        .collect();
+    assert_eq!(cubes.len(), 42, "a cube per node: 2 layers of 21");
+    let (z_lo, z_hi) = cubes.iter().fold((f64::MAX, f64::MIN), |(lo, hi), c| {
+        (lo.min(c[2]), hi.max(c[2]))
+    });
+    assert!((z_hi - z_lo - 2.5).abs() < 1e-6, "layers {z_lo}..{z_hi} mm");
+    for layer in [z_lo, z_hi] {
+        let ring: Vec<&[f64; 3]> = cubes.iter().filter(|c| c[2] == layer).collect();
+        let n = ring.len() as f64;
+        let centre = [0, 1].map(|d| ring.iter().map(|c| c[d]).sum::<f64>() / n);
+        for c in ring {
+            let r = (c[0] - centre[0]).hypot(c[1] - centre[1]);
+            assert!(
+                (r - 20.0).abs() < 0.1,
+                "a node's marker at {c:?}, {r} mm from the ring's centre"
+            );
+        }
+    }
+
+    let out = crate::common::run::waam()
+        .args(["replay", "--json"])
+        .arg(&bag)
+        .output()
+        .unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|_| panic!("no JSON: {}", String::from_utf8_lossy(&out.stderr)));
+    assert_eq!(out.status.code(), Some(0), "{json}");
+    assert_eq!(json["identical"], 1, "{json}");
+    assert_eq!(json["skipped"], 0, "{json}");
+}
+
 /// Two nodes side by side (`--ros-args -r __ns:=/cell1`, `-r __ns:=/cell2 -r __node:=...`),
 /// parameters listed, read, described, refused and set through the standard services.
 #[test]

@@ -59,6 +59,57 @@ def box_mesh(sx, sy, sz):
     )
 
 
+def ring_mesh(r_in, r_out, height, n=128):
+    """A closed tube around the origin (metres), n segments, outward-facing triangles."""
+    import math
+
+    from geometry_msgs.msg import Point
+    from shape_msgs.msg import Mesh, MeshTriangle
+
+    # Vertex index = i + n * (wall + 2 * level): wall 0 inner, 1 outer; level 0 bottom, 1 top.
+    v = [
+        (r * math.cos(2 * math.pi * i / n), r * math.sin(2 * math.pi * i / n), z)
+        for z in (0.0, height)
+        for r in (r_in, r_out)
+        for i in range(n)
+    ]
+
+    def at(level, wall, i):
+        return (i % n) + n * (wall + 2 * level)
+
+    tris = []
+    for i in range(n):
+        j = i + 1
+        tris += [
+            (at(0, 1, i), at(0, 1, j), at(1, 1, j)), (at(0, 1, i), at(1, 1, j), at(1, 1, i)),  # outer
+            (at(0, 0, i), at(1, 0, j), at(0, 0, j)), (at(0, 0, i), at(1, 0, i), at(1, 0, j)),  # inner
+            (at(1, 0, i), at(1, 1, i), at(1, 1, j)), (at(1, 0, i), at(1, 1, j), at(1, 0, j)),  # top
+            (at(0, 0, i), at(0, 1, j), at(0, 1, i)), (at(0, 0, i), at(0, 0, j), at(0, 1, j)),  # bottom
+        ]
+    return Mesh(
+        vertices=[Point(x=x, y=y, z=z) for x, y, z in v],
+        triangles=[MeshTriangle(vertex_indices=list(t)) for t in tris],
+    )
+
+
+def fit_circle(points):
+    """Least-squares circle through (x, y) points (Kasa's fit): (cx, cy, r)."""
+    # x^2 + y^2 = 2 cx x + 2 cy y + c: a 3x3 normal-equation solve by Cramer's rule.
+    rows = [(2 * x, 2 * y, 1.0, x * x + y * y) for x, y in points]
+    a = [[sum(r[i] * r[j] for r in rows) for j in range(3)] for i in range(3)]
+    b = [sum(r[i] * r[3] for r in rows) for i in range(3)]
+
+    def det(m):
+        return (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+
+    d = det(a)
+    cx, cy, c = (det([[b[i] if k == col else a[i][k] for k in range(3)] for i in range(3)]) / d
+                 for col in range(3))
+    return cx, cy, (c + cx * cx + cy * cy) ** 0.5
+
+
 class Failure(Exception):
     pass
 

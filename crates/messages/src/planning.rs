@@ -119,10 +119,12 @@ pub fn options_from(
 }
 
 /// Status keys of the mesh settings ([`MeshSettings`]) and of the mesh part's name: recorded
-/// with every mesh received, so that a replay voxelizes it the same way.
+/// with every mesh received, so that a replay voxelizes (or slices) it the same way.
 pub mod mesh_keys {
     pub const NAME: &str = "mesh.name";
     pub const BLOCK_MM: &str = "mesh.block_mm";
+    /// Present when the mesh was sliced into beads.
+    pub const BEAD_MM: &str = "mesh.bead_mm";
     pub const T85_WINDOW_S: &str = "mesh.t85_window_s";
     pub const MAX_FRAGMENTS: &str = "mesh.max_fragments";
 }
@@ -144,6 +146,9 @@ pub fn mesh_values(settings: &MeshSettings, name: &str) -> Vec<KeyValue> {
         KeyValue::new(mesh_keys::BLOCK_MM, format!("{a} {b} {c}")),
         KeyValue::new(mesh_keys::MAX_FRAGMENTS, settings.max_fragments),
     ];
+    if let Some([w, h]) = settings.bead_mm {
+        values.push(KeyValue::new(mesh_keys::BEAD_MM, format!("{w} {h}")));
+    }
     if let Some(w) = settings.window {
         values.push(KeyValue::new(
             mesh_keys::T85_WINDOW_S,
@@ -179,6 +184,7 @@ pub fn mesh_settings_from_values(
     let Some(block) = numbers(mesh_keys::BLOCK_MM, 3)? else {
         return Ok(None);
     };
+    let bead = numbers(mesh_keys::BEAD_MM, 2)?;
     let window = numbers(mesh_keys::T85_WINDOW_S, 2)?.map(|w| Window {
         min_s: w[0],
         max_s: w[1],
@@ -201,6 +207,7 @@ pub fn mesh_settings_from_values(
     Ok(Some((
         MeshSettings {
             block_mm: [block[0], block[1], block[2]],
+            bead_mm: bead.map(|b| [b[0], b[1]]),
             window,
             max_fragments,
         },
@@ -488,20 +495,29 @@ mod tests {
 
     #[test]
     fn mesh_settings_round_trip_through_status_values_and_bad_ones_are_named() {
-        let settings = MeshSettings {
+        let mut settings = MeshSettings {
             block_mm: [6.0, 5.5, 2.5],
+            bead_mm: None,
             window: Some(Window {
                 min_s: 3.0,
                 max_s: 9.5,
             }),
             max_fragments: 3,
         };
-        let values: Vec<(String, String)> = mesh_values(&settings, "mesh-2")
-            .into_iter()
-            .map(|kv| (kv.key, kv.value))
-            .collect();
+        let values = |settings: &MeshSettings| -> Vec<(String, String)> {
+            mesh_values(settings, "mesh-2")
+                .into_iter()
+                .map(|kv| (kv.key, kv.value))
+                .collect()
+        };
         assert_eq!(
-            mesh_settings_from_values(&values).unwrap(),
+            mesh_settings_from_values(&values(&settings)).unwrap(),
+            Some((settings.clone(), "mesh-2".to_string()))
+        );
+        // Sliced into beads: the bead size is recorded too, so a replay slices it again.
+        settings.bead_mm = Some([6.0, 2.5]);
+        assert_eq!(
+            mesh_settings_from_values(&values(&settings)).unwrap(),
             Some((settings, "mesh-2".to_string()))
         );
         assert_eq!(mesh_settings_from_values(&[]).unwrap(), None);
@@ -514,5 +530,12 @@ mod tests {
         );
         let short = [(mesh_keys::BLOCK_MM.to_string(), "6 6".to_string())];
         assert!(mesh_settings_from_values(&short).is_err());
+        let bead = [
+            (mesh_keys::BLOCK_MM.to_string(), "6 6 2".to_string()),
+            (mesh_keys::MAX_FRAGMENTS.to_string(), "2".to_string()),
+            (mesh_keys::BEAD_MM.to_string(), "6".to_string()),
+        ];
+        let err = mesh_settings_from_values(&bead).unwrap_err().to_string();
+        assert!(err.contains("mesh.bead_mm"), "{err}");
     }
 }

@@ -51,8 +51,12 @@ pub const BUNDLED_URDF: &str = include_str!("../../../urdf/waam_robot.urdf");
 pub enum PipelineError {
     #[error("bad part document: {0}")]
     Document(#[from] PartError),
+    #[error("bad graph part document: {0}")]
+    BeadDocument(#[from] waam_part::BeadPartError),
     #[error("bad part mesh: {0}")]
     Mesh(#[from] waam_mesh::MeshError),
+    #[error("cannot slice the part mesh into beads: {0}")]
+    Slice(#[from] waam_slice::SliceError),
     /// The planner could not run (the part too large for its memory limit, ...).
     #[error(transparent)]
     Planner(#[from] waam_planner::PlanError),
@@ -120,18 +124,49 @@ impl PartInput {
     }
 }
 
-/// How a mesh becomes a part: the block pitch, the t8/5 window every block gets, and the
-/// part's max_fragments.
+/// How a mesh becomes a part: voxelized at the block pitch, or, with `bead_mm`, sliced
+/// into beads along its contours (a graph part); the t8/5 window every deposit gets, and
+/// the part's max_fragments.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeshSettings {
     pub block_mm: [f64; 3],
+    /// Bead width W and layer height H, mm: slice instead of voxelizing.
+    pub bead_mm: Option<[f64; 2]>,
     pub window: Option<Window>,
     pub max_fragments: usize,
 }
 
 impl MeshSettings {
+    /// The part `name` of a mesh in metres: sliced into beads with `bead_mm`, else
+    /// voxelized.
+    pub fn part_of_mesh(
+        &self,
+        name: String,
+        vertices: &[[f64; 3]],
+        triangles: &[[u32; 3]],
+    ) -> Result<Part, PipelineError> {
+        let Some(bead) = self.bead_mm else {
+            return self.voxelize(name, vertices, triangles);
+        };
+        let mesh = waam_mesh::TriangleMesh::from_indexed(vertices, triangles, Units::M)?;
+        let options = waam_slice::SliceOptions {
+            max_fragments: self.max_fragments,
+            ..waam_slice::SliceOptions::new(name, bead)
+        };
+        let mut beads = waam_slice::slice(&mesh, &options)?.part;
+        if let Some(window) = self.window {
+            for i in 0..beads.nodes.len() {
+                beads.set_window(i, window);
+            }
+        }
+        for w in &beads.warnings {
+            tracing::warn!("part mesh: {w}");
+        }
+        Ok(Part::of_beads(beads)?)
+    }
+
     /// Voxelizes a mesh in metres into the part `name`.
-    pub fn voxelize(
+    fn voxelize(
         &self,
         name: String,
         vertices: &[[f64; 3]],
@@ -152,9 +187,17 @@ impl MeshSettings {
     }
 }
 
-/// The part an input describes (reading the document or voxelizing the mesh).
+/// The part an input describes: reading the document (a block part, or a graph part of
+/// beads), or voxelizing or slicing the mesh ([`MeshSettings::part_of_mesh`]).
 pub fn read_input(input: PartInput, mesh: &MeshSettings) -> Result<Part, PipelineError> {
     match input {
+        PartInput::Document(text) if waam_part::is_bead_part(&text) => {
+            let beads = waam_part::BeadPart::parse(&text)?;
+            for w in &beads.warnings {
+                tracing::warn!("part {}: {w}", beads.name);
+            }
+            Ok(Part::of_beads(beads)?)
+        }
         PartInput::Document(text) => {
             let part = Part::parse(&text)?;
             for w in &part.warnings {
@@ -166,7 +209,7 @@ pub fn read_input(input: PartInput, mesh: &MeshSettings) -> Result<Part, Pipelin
             name,
             vertices,
             triangles,
-        } => mesh.voxelize(name, &vertices, &triangles),
+        } => mesh.part_of_mesh(name, &vertices, &triangles),
     }
 }
 

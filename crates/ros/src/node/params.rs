@@ -71,6 +71,9 @@ pub struct PlannerParams {
 pub struct MeshParams {
     /// Block pitch [x, y, z] in millimetres for voxelizing `~/part_mesh`.
     pub block_mm: Vec<f64>,
+    /// Bead width and layer height [W, H] in millimetres: `~/part_mesh` is sliced into
+    /// beads along its contours (a graph part); [] = voxelized with `block_mm`.
+    pub bead_mm: Vec<f64>,
     /// A t8/5 window [min_s, max_s] given to every voxelized block; [] = no windows.
     pub t85_window_s: Vec<f64>,
 }
@@ -143,6 +146,7 @@ impl Default for MeshParams {
     fn default() -> Self {
         MeshParams {
             block_mm: vec![6.0, 6.0, 2.5],
+            bead_mm: Vec::new(),
             t85_window_s: Vec::new(),
         }
     }
@@ -339,6 +343,16 @@ impl NodeParams {
                 "mesh.block_mm: expected three lengths > 0 (mm), got {:?}",
                 self.mesh.block_mm
             )));
+        }
+        match self.mesh.bead_mm[..] {
+            [] => {}
+            [w, h] if finite_pos(w) && finite_pos(h) => {}
+            _ => {
+                return Err(ParamRule(format!(
+                    "mesh.bead_mm: expected [] or [width, layer height] > 0 (mm), got {:?}",
+                    self.mesh.bead_mm
+                )))
+            }
         }
         match self.mesh.t85_window_s[..] {
             [] => {}

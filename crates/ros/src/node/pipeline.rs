@@ -66,6 +66,8 @@ pub enum SetupError {
     Limits { path: String, source: LimitsError },
     #[error("mesh.block_mm: expected three lengths")]
     MeshBlock,
+    #[error("mesh.bead_mm: expected [] or two lengths")]
+    MeshBead,
 }
 
 impl From<CellError> for SetupError {
@@ -123,6 +125,11 @@ pub fn mesh_settings(params: &NodeParams) -> Result<MeshSettings, SetupError> {
     };
     Ok(MeshSettings {
         block_mm: [a, b, c],
+        bead_mm: match params.mesh.bead_mm[..] {
+            [] => None,
+            [w, h] => Some([w, h]),
+            _ => return Err(SetupError::MeshBead),
+        },
         window: match params.mesh.t85_window_s[..] {
             [min_s, max_s] => Some(Window { min_s, max_s }),
             _ => None,
@@ -257,7 +264,7 @@ impl PlanningPipeline {
         })
     }
 
-    /// Turns the input into a part (reading the document or voxelizing the mesh).
+    /// Turns the input into a part (reading the document, or voxelizing or slicing the mesh).
     pub fn part_of(&self, input: PartInput) -> Result<Part, PipelineError> {
         read_input(input, &self.mesh)
     }
@@ -282,9 +289,14 @@ impl Pipeline for PlanningPipeline {
             "planning",
             Some(0.0),
             format!(
-                "{}: {} blocks, k = {}",
+                "{}: {} {}, k = {}",
                 part.name,
                 part.len(),
+                if part.bead_part().is_some() {
+                    "bead nodes"
+                } else {
+                    "blocks"
+                },
                 part.max_fragments
             ),
         );
@@ -453,6 +465,31 @@ mod tests {
             })
             .unwrap_err();
         assert!(err.to_string().starts_with("bad part mesh"), "{err}");
+    }
+
+    #[test]
+    fn the_bead_parameter_slices_meshes_into_beads() {
+        let planner: Arc<PlanFn> =
+            Arc::new(|_: &PlanRequest| Err(JobError::Other("no planner in this test".into())));
+        let mut params = NodeParams::default();
+        params.mesh.bead_mm = vec![6.0, 2.5];
+        let p = PlanningPipeline::from_params(&params, planner).unwrap();
+        // A 24 x 12 mm box, 5 mm tall: two layers of 2.5 mm, each a ring of beads inside
+        // its 24 x 12 mm section, not the 16 voxels of 6 x 6 x 2.5 mm.
+        let part = p.part_of(box_mesh([0.024, 0.012, 0.005])).unwrap();
+        let beads = part.bead_part().expect("a graph part");
+        assert_eq!(beads.layers(), 2);
+        assert_eq!(beads.bead_mm, [6.0, 2.5]);
+        for node in &beads.nodes {
+            let [x, y, _] = node.centre_mm;
+            assert!(
+                (0.0..=24.0).contains(&x) && (0.0..=12.0).contains(&y),
+                "{x}, {y}"
+            );
+        }
+        params.mesh.bead_mm = vec![6.0, 0.0];
+        let err = params.check().unwrap_err().to_string();
+        assert!(err.contains("mesh.bead_mm"), "{err}");
     }
 
     #[test]

@@ -166,7 +166,8 @@ fn job_of(goal: PlanPartGoal, store: &ParamStore) -> Result<Job, GoalError> {
     match goal.block_mm[..] {
         [] => {}
         [a, b, c] if [a, b, c].iter().all(|v| v.is_finite() && *v > 0.0) => {
-            mesh.block_mm = [a, b, c]
+            // A goal's pitch asks for blocks, over the node's beads.
+            (mesh.block_mm, mesh.bead_mm) = ([a, b, c], None)
         }
         _ => return Err(GoalError::BlockMm(goal.block_mm)),
     }
