@@ -1,5 +1,6 @@
 //! `waam plan` without a part: the whole chain on the bundled sample part and robot, every
-//! output in one new folder, and a short summary of what was made and how to look at it.
+//! output in one new folder, and a short summary of what was made and how to look at it;
+//! then the same for a round part, a ring mesh sliced into beads (in `ring/`).
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -223,6 +224,112 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     say(format!(
         "redraw the pictures: waam plot {d}    print the block lists: waam plan --print-plan"
     ));
-    let ok = motion.is_some();
+    let ring_ok = ring_run(&cell, &dir.join("ring"), &say)?;
+    let ok = motion.is_some() && ring_ok;
     Ok(ExitCode::from(if ok { EXIT_OK } else { EXIT_NO }))
+}
+
+/// The sample ring: a tube 40 mm across its wall's centre line, 6 mm thick, 5 mm tall.
+const RING_MM: (f64, f64, f64) = (17.0, 23.0, 5.0);
+/// Its bead: width and layer height, mm (one bead on the wall's centre line, 2 layers).
+const RING_BEAD_MM: [f64; 2] = [6.0, 2.5];
+
+/// A closed tube about the z axis (metres, outward-facing triangles, `n` segments), as a
+/// mesh arrives on `~/part_mesh`.
+fn tube_mesh(r_in: f64, r_out: f64, height: f64, n: u32) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let mut vertices = Vec::new();
+    for z in [0.0, height] {
+        for r in [r_in, r_out] {
+            vertices.extend((0..n).map(|i| {
+                let a = std::f64::consts::TAU * f64::from(i) / f64::from(n);
+                [r * a.cos(), r * a.sin(), z]
+            }));
+        }
+    }
+    // Vertex (level, wall, i): level 0 bottom, 1 top; wall 0 inner, 1 outer.
+    let at = |level: u32, wall: u32, i: u32| i % n + n * (wall + 2 * level);
+    let mut triangles = Vec::new();
+    for i in 0..n {
+        let j = i + 1;
+        triangles.extend([
+            [at(0, 1, i), at(0, 1, j), at(1, 1, j)],
+            [at(0, 1, i), at(1, 1, j), at(1, 1, i)],
+            [at(0, 0, i), at(1, 0, j), at(0, 0, j)],
+            [at(0, 0, i), at(1, 0, i), at(1, 0, j)],
+            [at(1, 0, i), at(1, 1, i), at(1, 1, j)],
+            [at(1, 0, i), at(1, 1, j), at(1, 0, j)],
+            [at(0, 0, i), at(0, 1, j), at(0, 1, i)],
+            [at(0, 0, i), at(0, 0, j), at(0, 1, j)],
+        ]);
+    }
+    (vertices, triangles)
+}
+
+/// The first run's round part: a ring mesh sliced into beads (a graph part), planned and
+/// welded along its bead by the same cell, exported as G-code and drawn, in `dir`.
+/// `Ok(false)`: no plan or no motion (said why).
+fn ring_run(cell: &waam_pipeline::Cell, dir: &Path, say: &dyn Fn(String)) -> anyhow::Result<bool> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let (r_in, r_out, height) = RING_MM;
+    let (vertices, triangles) = tube_mesh(r_in / 1e3, r_out / 1e3, height / 1e3, 128);
+    let settings = waam_pipeline::MeshSettings {
+        block_mm: [RING_BEAD_MM[0], RING_BEAD_MM[0], RING_BEAD_MM[1]],
+        bead_mm: Some(RING_BEAD_MM),
+        window: None,
+        max_fragments: 2,
+    };
+    let part = settings
+        .part_of_mesh("ring".into(), &vertices, &triangles)
+        .context("the bundled ring mesh")?;
+    let beads = part.bead_part().context("the ring is not a graph part")?;
+    let write = |name: &str, text: &str| -> anyhow::Result<()> {
+        let path = dir.join(name);
+        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))
+    };
+    write("part.yaml", &beads.to_yaml())?;
+    // The cell's torch (none with --no-torch) and robot check the planner's candidates.
+    let options = waam_pipeline::Options {
+        planner: waam_pipeline::planner_options(&part, Some(cell), &Default::default()),
+        objective: Objective::First,
+        motion: Interrupt::default(),
+    };
+    let outcome = waam_pipeline::plan(&part, Some(cell), &options, &mut |_| {})?;
+    let d = dir.display();
+    say(format!(
+        "planned a ring mesh sliced into beads of {} x {} mm: {} nodes in {} layers (a graph part, as waam slice MESH --bead \"W H\")",
+        RING_BEAD_MM[0],
+        RING_BEAD_MM[1],
+        part.len(),
+        beads.layers()
+    ));
+    let Some(best) = &outcome.report.best else {
+        say("  ring:  NO PLAN".into());
+        return Ok(false);
+    };
+    write("plan.yaml", &best.plan(&part).to_yaml())?;
+    let planned = match outcome.motion {
+        Some(Ok(planned)) => planned,
+        Some(Err(e)) => {
+            say(format!("  ring:  NO MOTION: {e}"));
+            return Ok(false);
+        }
+        None => return Ok(false),
+    };
+    super::motion::write_motion(&planned.toolpath, &planned.trajectory, dir)?;
+    super::export::export_default(dir, waam_export::Format::Gcode, cell)?;
+    plot::blocks::plan_png(&part, &best.fragments, &dir.join("plan3d.png"))?;
+    let text = std::fs::read_to_string(dir.join("toolpath.yaml"))?;
+    let tp: ToolpathFile = serde_yaml::from_str(&text).context("ring/toolpath.yaml")?;
+    plot::toolpath_png(&tp, &dir.join("toolpath.png"))?;
+    let s = MotionSummary::of(&planned.toolpath);
+    say(format!(
+        "  ring:  {} weld path(s), the torch along the bead's centre line: {} poses, {:.0} s of motion, joint trajectory validated",
+        best.fragments.len(),
+        s.poses,
+        s.duration_s
+    ));
+    say(format!(
+        "  {d}/  part.yaml plan.yaml toolpath.yaml trajectory.yaml, G-code, plan3d.png toolpath.png    waam check {d}/part.yaml {d}/plan.yaml"
+    ));
+    Ok(true)
 }

@@ -100,6 +100,56 @@ fn first_run_writes_the_whole_chain_into_a_new_folder() {
         "{}",
         String::from_utf8_lossy(&check.stdout)
     );
+    // The round part: a ring mesh sliced into beads, welded along its centre line, with
+    // its plan valid and feasible on the graph part written beside it, G-code and pictures.
+    assert!(stdout.contains("42 nodes in 2 layers"), "{stdout}");
+    let ring = out.join("ring");
+    for file in [
+        "part.yaml",
+        "plan.yaml",
+        "toolpath.yaml",
+        "trajectory.yaml",
+        "WAAM.gcode",
+        "plan3d.png",
+        "toolpath.png",
+    ] {
+        assert!(ring.join(file).is_file(), "ring/{file} missing");
+    }
+    let part = std::fs::read_to_string(ring.join("part.yaml")).unwrap();
+    assert!(
+        waam_part::is_bead_part(&part),
+        "ring/part.yaml is no graph part"
+    );
+    let check = waam_in(&ring, &["check", "part.yaml", "plan.yaml"]);
+    let said = String::from_utf8_lossy(&check.stdout);
+    assert_eq!(check.status.code(), Some(0), "{said}");
+    assert!(
+        said.contains("42 nodes") && said.contains("FEASIBLE"),
+        "{said}"
+    );
+    // Every arc-on move of the G-code (part frame, mm) lies on the ring's centre line, r = 20
+    // mm: within 0.03 mm on a layer (tests/ros/mesh_beads.py); the climb to the next layer
+    // follows a chord of one 6 mm node, 6^2 / (8 * 20) = 0.225 mm inside the circle.
+    let gcode = std::fs::read_to_string(ring.join("WAAM.gcode")).unwrap();
+    let (mut arc, mut welded) = (false, 0);
+    for line in gcode.lines() {
+        arc = match line.split_whitespace().next() {
+            Some("M3") => true,
+            Some("M5") => false,
+            _ => arc,
+        };
+        let word = |c: char| {
+            line.split_whitespace()
+                .find_map(|w| w.strip_prefix(c)?.parse::<f64>().ok())
+        };
+        if let (true, true, Some(x), Some(y)) = (arc, line.starts_with("G1"), word('X'), word('Y'))
+        {
+            welded += 1;
+            let r = x.hypot(y);
+            assert!((r - 20.0).abs() < 0.25, "a weld move at r = {r} mm: {line}");
+        }
+    }
+    assert!(welded >= 42, "{welded} weld moves");
     // The recording is readable by our own reader and holds the plan and the motion.
     let bag = Bag::open(&out.join("recording")).unwrap();
     assert!(bag.truncated.is_none());

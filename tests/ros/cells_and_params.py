@@ -113,7 +113,7 @@ def run(peer, waam, cell2):
         "process_file", "robot.urdf", "robot.tip_link", "robot.tcp", "robot.joint_limits",
         "planner.timeout_s",
         "planner.default_max_fragments", "planner.max_memory_mb",
-        "mesh.block_mm", "mesh.t85_window_s", "topics.part",
+        "mesh.block_mm", "mesh.bead_mm", "mesh.t85_window_s", "topics.part",
         "topics.part_mesh", "topics.joint_trajectory", "topics.poses", "topics.path",
         "topics.markers", "topics.weld_plan", "topics.status", "topics.arc_on",
         "topics.joint_states", "execution.enabled", "execution.auto_execute",
