@@ -105,7 +105,7 @@ pub fn run(args: ExportArgs) -> anyhow::Result<ExitCode> {
         }
     };
     let out = args.out.as_deref().unwrap_or(&args.dir);
-    export_dir(
+    let exported = export_dir(
         &args.dir,
         args.format,
         robot.as_ref(),
@@ -114,6 +114,7 @@ pub fn run(args: ExportArgs) -> anyhow::Result<ExitCode> {
         &args.name,
         out,
     )?;
+    println!("{exported}");
     Ok(ExitCode::from(EXIT_OK))
 }
 
@@ -141,8 +142,30 @@ pub fn read_cell(path: Option<&Path>) -> anyhow::Result<CellSettings> {
     }
 }
 
-/// Reads the motion in `dir` and writes its program in `format` into `out`; prints what
-/// was written.
+/// What [`export_dir`] wrote; displayed as the `EXPORT:` line.
+pub struct Exported {
+    format: Format,
+    targets: usize,
+    passes: usize,
+    files: Vec<PathBuf>,
+}
+
+impl std::fmt::Display for Exported {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let files: Vec<_> = self.files.iter().map(|p| p.display().to_string()).collect();
+        write!(
+            f,
+            "EXPORT: {}, {} targets, {} weld pass(es), {} file(s): {}",
+            self.format,
+            self.targets,
+            self.passes,
+            files.len(),
+            files.join(", ")
+        )
+    }
+}
+
+/// Reads the motion in `dir` and writes its program in `format` into `out`.
 pub fn export_dir(
     dir: &Path,
     format: Format,
@@ -151,7 +174,7 @@ pub fn export_dir(
     cell: &CellSettings,
     name: &str,
     out: &Path,
-) -> anyhow::Result<Vec<PathBuf>> {
+) -> anyhow::Result<Exported> {
     let (tp, traj) = read_toolpath_dir(dir)?;
     let program = match traj {
         Some(traj) => {
@@ -191,23 +214,17 @@ pub fn export_dir(
             .with_context(|| format!("cannot write {}", path.display()))?;
         written.push(path);
     }
-    println!(
-        "EXPORT: {format}, {} targets, {} weld pass(es), {} file(s): {}",
-        program.targets.len(),
-        program.passes(),
-        written.len(),
-        written
-            .iter()
-            .map(|p| p.display().to_string())
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
-    Ok(written)
+    Ok(Exported {
+        format,
+        targets: program.targets.len(),
+        passes: program.passes(),
+        files: written,
+    })
 }
 
 /// `--export FORMAT` of `waam plan` / `waam layer plan`: the motion just written to `dir`
 /// as a program named WAAM in `dir`, with the default cell settings.
-pub fn export_default(dir: &Path, format: Format, cell: &Cell) -> anyhow::Result<()> {
+pub fn export_default(dir: &Path, format: Format, cell: &Cell) -> anyhow::Result<Exported> {
     export_dir(
         dir,
         format,
@@ -216,6 +233,5 @@ pub fn export_default(dir: &Path, format: Format, cell: &Cell) -> anyhow::Result
         &CellSettings::default(),
         "WAAM",
         dir,
-    )?;
-    Ok(())
+    )
 }

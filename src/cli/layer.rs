@@ -401,7 +401,7 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
             Some(Ok((tp, traj))) => {
                 report_motion(tp, traj, args.out.as_deref())?;
                 if let (Some(format), Some(dir), Some(robot)) = (args.export, &args.out, &robot) {
-                    super::export::export_default(dir, format, robot)?;
+                    println!("{}", super::export::export_default(dir, format, robot)?);
                 }
             }
             Some(Err(e)) => println!("NO MOTION: {e}"),

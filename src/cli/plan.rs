@@ -337,7 +337,7 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
             Ok(p) => {
                 super::motion::report_motion(&p.toolpath, &p.trajectory, args.out.as_deref())?;
                 if let (Some(format), Some(dir)) = (args.export, &args.out) {
-                    super::export::export_default(dir, format, cell)?;
+                    println!("{}", super::export::export_default(dir, format, cell)?);
                 }
                 planned = Some(p);
             }
