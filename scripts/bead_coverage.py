@@ -4,7 +4,7 @@
 
 It slices the STL itself (trimesh) at every layer's mid-height, z = zmin + (i + 0.5)·H,
 takes every G1 move made with the arc on as a bead W wide (shapely: the move's line
-buffered by W/2, flat ends), and reports per layer the fraction of the section the beads
+buffered by W/2, flat ends, round corners where moves follow on), and reports per layer the fraction of the section the beads
 cover and the fraction of the beads outside the section. Nothing of waam-planner is used:
 only the mesh, the program and the bead size.
 
@@ -130,12 +130,20 @@ def main():
     report = []
     for i, level in enumerate(zs):
         section = polygons(mesh, zmin + (i + 0.5) * h)
-        lines = [
-            LineString([a[:2], b[:2]])
-            for a, b in moves
-            if flat((a, b), h) and abs(a[2] - level) <= h / 4
-        ]
-        beads = unary_union([l.buffer(w / 2, cap_style="flat") for l in lines])
+        # Consecutive moves form one bead: buffered as one line, its corners round as the
+        # melt pool is (segment by segment, flat ends leave a wedge outside every corner
+        # that a continuous bead does not have: 14 % of a 16 mm boss).
+        chains = []
+        for a, b in moves:
+            if not (flat((a, b), h) and abs(a[2] - level) <= h / 4):
+                continue
+            if chains and np.allclose(chains[-1][-1], a[:2], atol=1e-6):
+                chains[-1].append(b[:2])
+            else:
+                chains.append([a[:2], b[:2]])
+        beads = unary_union(
+            [LineString(c).buffer(w / 2, cap_style="flat", join_style="round") for c in chains]
+        )
         area = section.area
         covered = beads.intersection(section).area / area if area > 0 else 0.0
         outside = beads.difference(section).area / beads.area if beads.area > 0 else 0.0
