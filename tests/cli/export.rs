@@ -345,29 +345,35 @@ fn rapid_modules_pass_rapidchecker() {
     let Some(python) = python() else { return };
     let (dir, _) = export("rapid", &[]);
     for name in ["WAAM.mod", "WAAM_1.mod"] {
-        let out = Command::new(&python)
-            .args(["-m", "rapidchecker"])
-            .arg(dir.path().join(name))
-            .current_dir(dir.path())
-            .output()
-            .unwrap();
-        let text = String::from_utf8_lossy(&out.stdout);
-        assert!(
-            out.status.success() && text.contains("No RAPID format errors"),
-            "{name}: {text}{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        assert_rapid_ok(&python, dir.path(), name);
     }
     // And it does find errors: a module with a broken instruction fails.
     let bad = read(dir.path(), "WAAM_1.mod").replacen("MoveJ pW1,", "MoveJ pW1", 1);
     std::fs::write(dir.path().join("bad.mod"), bad).unwrap();
-    let out = Command::new(&python)
+    assert!(!rapidchecker(&python, dir.path(), "bad.mod")
+        .status
+        .success());
+}
+
+/// `rapidchecker` run on the module `name` in `dir`.
+fn rapidchecker(python: &Path, dir: &Path, name: &str) -> Output {
+    Command::new(python)
         .args(["-m", "rapidchecker"])
-        .arg(dir.path().join("bad.mod"))
-        .current_dir(dir.path())
+        .arg(dir.join(name))
+        .current_dir(dir)
         .output()
-        .unwrap();
-    assert!(!out.status.success());
+        .unwrap()
+}
+
+/// Asserts that `rapidchecker` finds no error in the module `name` in `dir`.
+fn assert_rapid_ok(python: &Path, dir: &Path, name: &str) {
+    let out = rapidchecker(python, dir, name);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && text.contains("No RAPID format errors"),
+        "{name}: {text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 #[test]
@@ -471,18 +477,7 @@ fn rapid_splits_a_pass_longer_than_the_limit_between_procedures() {
 
     let Some(python) = python() else { return };
     for name in std::iter::once("WAAM".to_string()).chain(calls) {
-        let out = Command::new(&python)
-            .args(["-m", "rapidchecker"])
-            .arg(dir.path().join(format!("{name}.mod")))
-            .current_dir(dir.path())
-            .output()
-            .unwrap();
-        let text = String::from_utf8_lossy(&out.stdout);
-        assert!(
-            out.status.success() && text.contains("No RAPID format errors"),
-            "{name}: {text}{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        assert_rapid_ok(&python, dir.path(), &format!("{name}.mod"));
     }
 }
 
