@@ -6,10 +6,12 @@
 //! height returns to nominal. Everything that happened is an [`Executed`] record.
 //!
 //! Modules: `truth.rs` (TRUTH.yaml, sensor noise), `estimate.rs` (the model fit),
-//! `executed.rs` (executed.yaml and its re-simulation); the loop and the height rule here.
+//! `executed.rs` (executed.yaml and its re-simulation), `measured.rs` (sensor readings as
+//! the node passes them on); the loop and the height rule here.
 
 pub mod estimate;
 pub mod executed;
+pub mod measured;
 pub mod truth;
 
 use std::sync::atomic::Ordering;
@@ -24,6 +26,7 @@ use waam_thermal::{Simulation, ThermalModel};
 
 pub use estimate::{Estimate, Measurement};
 pub use executed::{CheckError, Deposit, EstimateRecord, Executed, LayerRecord, PlanUsed};
+pub use measured::Measured;
 pub use truth::{CutShort, Noise, Truth, TruthError};
 
 /// How the cell runs.
