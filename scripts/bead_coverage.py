@@ -78,22 +78,34 @@ def levels(moves, tolerance, h):
     return [sum(g) / len(g) for g in out]
 
 
-def polygons(mesh, z):
-    """The mesh's section at height z as a shapely (Multi)Polygon (empty if none)."""
-    section = mesh.section(plane_origin=[0.0, 0.0, z], plane_normal=[0.0, 0.0, 1.0])
+def body_section(body, z):
+    """One connected body's section at height z: its closed contours taken even-odd (a
+    contour inside another is a hole, inside that an island, at any depth)."""
+    section = body.section(plane_origin=[0.0, 0.0, z], plane_normal=[0.0, 0.0, 1.0])
     if section is None:
         return Polygon()
     planar, to_3d = section.to_2D()
-    polys = []
-    for p in planar.polygons_full:
-        # Back into the mesh's x, y (to_2D may rotate and shift the plane's frame).
-        ext = np.asarray(p.exterior.coords)
-        holes = [np.asarray(h.coords) for h in p.interiors]
-        back = lambda pts: trimesh.transform_points(
-            np.column_stack([pts, np.zeros(len(pts))]), to_3d
-        )[:, :2]
-        polys.append(Polygon(back(ext), [back(h) for h in holes]))
-    return unary_union(polys) if polys else Polygon()
+    # Back into the mesh's x, y (to_2D may rotate and shift the plane's frame).
+    back = lambda pts: trimesh.transform_points(
+        np.column_stack([pts, np.zeros(len(pts))]), to_3d
+    )[:, :2]
+    region = Polygon()
+    for p in planar.polygons_closed:
+        if p is None:
+            continue
+        contour = shapely.make_valid(Polygon(back(np.asarray(p.exterior.coords))))
+        region = region.symmetric_difference(contour)
+    return region
+
+
+def polygons(mesh, z):
+    """The mesh's section at height z as a shapely (Multi)Polygon (empty if none): the union
+    of its bodies' sections. An STL may be several closed bodies that overlap (a rib
+    standing in a tube); trimesh's `polygons_full` nests all contours of a section into one
+    tree and lost the rib, whose corners touch the tube's inner wall (its whole area then
+    counted as welded outside the section)."""
+    bodies = mesh.split(only_watertight=False) if mesh.body_count > 1 else [mesh]
+    return unary_union([body_section(b, z) for b in bodies])
 
 
 def main():
