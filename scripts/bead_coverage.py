@@ -2,7 +2,8 @@
 """How well a G-code program's welded moves cover a mesh's layers: an independent check of
 `waam slice` / `waam plan --bead` / `waam export --format gcode` (issue #29).
 
-It slices the STL itself (trimesh) at every layer's mid-height, z = zmin + (i + 0.5)·H,
+It slices the STL itself (trimesh) at every layer's mid-height, z = zmin + (i + 0.5)·H
+(an STL of several closed bodies, which may overlap, is the union of their sections),
 takes every G1 move made with the arc on as a bead W wide (shapely: the move's line
 buffered by W/2, flat ends, round corners where moves follow on), and reports per layer the fraction of the section the beads
 cover and the fraction of the beads outside the section. Nothing of waam-planner is used:
