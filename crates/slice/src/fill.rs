@@ -30,13 +30,20 @@ use crate::poly::{self, from64, SCALE};
 pub struct RawBead {
     pub closed: bool,
     pub points: Vec<[f64; 2]>,
+    /// The connected region of the section it fills (numbered within the layer): beads
+    /// of different regions have no material between them.
+    pub region: usize,
 }
 
 /// The beads of one layer whose section is `section`.
 pub fn fill(section: &Paths64, w: f64, perimeters: usize, layer: u32) -> Vec<RawBead> {
     let mut out = Vec::new();
-    for region in poly::regions(section) {
+    for (r, region) in poly::regions(section).into_iter().enumerate() {
+        let first = out.len();
         fill_region(&region, w, perimeters.max(1), 1, layer, &mut out);
+        for bead in &mut out[first..] {
+            bead.region = r;
+        }
     }
     out
 }
@@ -75,6 +82,7 @@ fn push_closed(path: &Path64, w: f64, out: &mut Vec<RawBead>) {
         out.push(RawBead {
             closed: true,
             points: from64(&p),
+            region: 0,
         });
     }
 }
@@ -91,6 +99,7 @@ fn push_open(path: &Path64, w: f64, out: &mut Vec<RawBead>) {
         out.push(RawBead {
             closed: false,
             points: pts,
+            region: 0,
         });
     }
 }

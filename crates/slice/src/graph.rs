@@ -1,7 +1,9 @@
 //! Beads cut into deposits about W long, and the contacts between deposits.
 //!
 //! Contacts: Along (consecutive pieces of a bead; area W·H), Beside (same layer, other
-//! bead, centre lines within 1.25·W over a shared length s; area H·s), Stacked (layers z and
+//! bead of the same connected region of the section, centre lines within 1.25·W over a
+//! shared length s; area H·s: beads of two regions have no material between them, so no
+//! heat passes and no weld move may cross the gap, however narrow), Stacked (layers z and
 //! z + 1 whose footprints — the pieces' centre lines widened to W with flat ends, so the
 //! pieces of one bead tile its band — overlap by more than 5 % of W²; area = the overlap).
 //! Candidates come from a uniform grid of 2·W cells per layer, so the work grows with the
@@ -15,6 +17,8 @@ use waam_part::{Bead, Contact, ContactKind, Deposit};
 /// A deposit's piece of centre line.
 struct Piece {
     bead: usize,
+    /// The bead's connected region of its layer's section.
+    region: usize,
     layer: u32,
     pts: Vec<[f64; 2]>,
     len: f64,
@@ -160,8 +164,15 @@ fn grow(b: [f64; 4], r: f64) -> [f64; 4] {
     [b[0] - r, b[1] - r, b[2] + r, b[3] + r]
 }
 
-/// The deposits and contacts of beads of width `w` and layer height `h`.
-pub fn build(beads: &[Bead], w: f64, h: f64, base_z: f64) -> (Vec<Deposit>, Vec<Contact>) {
+/// The deposits and contacts of beads of width `w` and layer height `h`; `regions[i]` is
+/// the connected region of its layer's section that bead i fills.
+pub fn build(
+    beads: &[Bead],
+    regions: &[usize],
+    w: f64,
+    h: f64,
+    base_z: f64,
+) -> (Vec<Deposit>, Vec<Contact>) {
     let mut nodes = Vec::new();
     let mut pieces = Vec::new();
     let mut contacts = Vec::new();
@@ -208,6 +219,7 @@ pub fn build(beads: &[Bead], w: f64, h: f64, base_z: f64) -> (Vec<Deposit>, Vec<
             }
             pieces.push(Piece {
                 bead: bi,
+                region: regions[bi],
                 layer: bead.layer,
                 pts: piece,
                 len: plen,
@@ -252,7 +264,7 @@ pub fn build(beads: &[Bead], w: f64, h: f64, base_z: f64) -> (Vec<Deposit>, Vec<
             nearest.clear();
             for &v in &cand {
                 let pv = &pieces[v as usize];
-                if pv.bead == pu.bead {
+                if pv.bead == pu.bead || pv.region != pu.region {
                     continue;
                 }
                 let d = to_line(p, &pv.pts);

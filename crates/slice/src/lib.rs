@@ -223,6 +223,8 @@ pub fn slice(mesh: &TriangleMesh, opts: &SliceOptions) -> Result<Sliced, SliceEr
     }
     let layers = layers as usize;
     let mut beads: Vec<Bead> = Vec::new();
+    // Per bead: the connected region of its layer's section it fills.
+    let mut regions: Vec<usize> = Vec::new();
     let mut reports = Vec::with_capacity(layers);
     let mut approx_nodes = 0usize;
     for i in 0..layers {
@@ -261,6 +263,7 @@ pub fn slice(mesh: &TriangleMesh, opts: &SliceOptions) -> Result<Sliced, SliceEr
             }
             nodes += ((len / w).round() as usize).max(if bead.closed { 3 } else { 1 });
             beads.push(bead);
+            regions.push(b.region);
         }
         approx_nodes += nodes;
         if approx_nodes > MAX_NODES {
@@ -280,7 +283,7 @@ pub fn slice(mesh: &TriangleMesh, opts: &SliceOptions) -> Result<Sliced, SliceEr
     if beads.is_empty() {
         return Err(SliceError::NoBeads { layers, h_mm: h });
     }
-    let (nodes, contacts) = graph::build(&beads, w, h, zmin);
+    let (nodes, contacts) = graph::build(&beads, &regions, w, h, zmin);
     let part = BeadPart {
         name: opts.name.clone(),
         max_fragments: opts.max_fragments,

@@ -79,7 +79,17 @@ pub(crate) fn section_paths(
         .map(|l| to64(l))
         .filter(|p| p.len() >= 3)
         .collect();
-    Ok(poly::union(&paths))
+    let union = poly::union(&paths);
+    if join_mm <= 0.0 {
+        return Ok(union);
+    }
+    // Bodies that share a face (a tube against a tube, an assembly in one STL) cut it into
+    // two loops that agree only to the 0.1 µm grid: their union keeps slivers between
+    // them, holes far thinner than a micrometre that the fill would ring with beads (two
+    // tubes side by side: 19 beads, 89 % covered). Closing by join_mm / 2 removes gaps up
+    // to join_mm, as open contours that close are joined.
+    let closed = poly::offset(&poly::offset(&union, 0.5 * join_mm), -0.5 * join_mm);
+    Ok(closed)
 }
 
 /// The section of `mesh` at height `z` as the closed loops the mesh cuts, before any union:

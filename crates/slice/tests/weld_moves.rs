@@ -146,3 +146,29 @@ fn weld_moves_of_a_ribbed_tube_stay_on_its_section() {
     // Each layer: both ends of the rib beside the ring.
     assert!(rib_to_ring >= 4, "{rib_to_ring} moves between rib and ring");
 }
+
+/// Two tubes, r 30 / 24 and r 37 / 31, stand 1 mm apart: their centre lines are 7 mm
+/// (1.17·W) apart, near enough for a beside contact, but no material joins them, so no heat
+/// passes and no weld path may cross the gap (it would weld them together). Closed up
+/// (r 35 / 30), they are one 11 mm wall of two rings side by side.
+#[test]
+fn tubes_apart_do_not_touch_and_tubes_together_do() {
+    let (w, h) = (6.0, 2.5);
+    let beside = |outer: [f64; 2]| {
+        let mesh = together(&[
+            shapes::ring(24.0, 30.0, 2.0 * h, 128),
+            shapes::ring(outer[0], outer[1], 2.0 * h, 128),
+        ]);
+        let s = slice(&mesh, &SliceOptions::new("tubes", [w, h])).unwrap();
+        // Closed up, the tubes share a face: no slivers between them get beads.
+        assert_eq!(s.layers[0].beads, 2, "{:?}", s.layers[0]);
+        assert!(s.layers[0].covered > 0.95, "{:?}", s.layers[0]);
+        let p = s.part;
+        p.contacts
+            .iter()
+            .filter(|c| c.kind == ContactKind::Beside)
+            .count()
+    };
+    assert_eq!(beside([31.0, 37.0]), 0, "1 mm apart");
+    assert!(beside([30.0, 35.0]) > 0, "together");
+}
