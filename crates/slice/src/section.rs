@@ -87,9 +87,15 @@ pub(crate) fn section_paths(
     // two loops that agree only to the 0.1 µm grid: their union keeps slivers between
     // them, holes far thinner than a micrometre that the fill would ring with beads (two
     // tubes side by side: 19 beads, 89 % covered). Closing by join_mm / 2 removes gaps up
-    // to join_mm, as open contours that close are joined.
+    // to join_mm, as open contours that close are joined. A section it leaves with as
+    // many loops is kept as it was (the closing would move where its loops start, and so
+    // where every bead is cut into nodes).
     let closed = poly::offset(&poly::offset(&union, 0.5 * join_mm), -0.5 * join_mm);
-    Ok(closed)
+    Ok(if closed.len() == union.len() {
+        union
+    } else {
+        closed
+    })
 }
 
 /// The section of `mesh` at height `z` as the closed loops the mesh cuts, before any union:
