@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Round and curved test parts beyond the samples (issue #29): an elliptical cup, a tube with
-a rib across it, a cone wall leaning in, a plate with three round bosses. Closed STL meshes
+a rib across it, two tubes 1 mm apart, a cone wall leaning in, a plate with three round
+bosses. Closed STL meshes
 built from prisms and frusta (no boolean engine needed), written to DIR (default: .).
 
     PY=$(scripts/coverage-venv.sh | tail -1)
@@ -60,6 +61,9 @@ save([solid(ellipse(40, 25), ellipse(40, 25), 0, 5),
 ribx = np.sqrt(24**2 - 3**2)
 save([ring(ellipse(30, 30), ellipse(30, 30), ellipse(24, 24), ellipse(24, 24), 0, 40),
       solid(rect(0, 0, 2*ribx, 6), rect(0, 0, 2*ribx, 6), 0, 40)], "ribbed_tube")
+# two tubes 1 mm apart (r 30 / 24 and 37 / 31, 10 high): no weld may cross the gap
+save([ring(ellipse(30, 30), ellipse(30, 30), ellipse(24, 24), ellipse(24, 24), 0, 10),
+      ring(ellipse(37, 37), ellipse(37, 37), ellipse(31, 31), ellipse(31, 31), 0, 10)], "double_tube")
 # a cone wall leaning in: r 40 -> 25 outside over 45 mm, 6 mm wall
 save([ring(ellipse(40, 40), ellipse(25, 25), ellipse(34, 34), ellipse(19, 19), 0, 45)], "leaning_cone")
 # a 100 x 60 x 6 plate with three round bosses r 8, 20 high
