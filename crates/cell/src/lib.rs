@@ -5,10 +5,12 @@
 //! re-plans the rest ([`waam_planner::plan_rest`]) and sets each layer's wire feed so the
 //! height returns to nominal. Everything that happened is an [`Executed`] record.
 //!
-//! Modules: `truth.rs` (TRUTH.yaml, sensor noise), `estimate.rs` (the model fit),
+//! Modules: `closed_loop.rs` (the loop's decisions, step by step: what this cell and the
+//! ROS node drive), `truth.rs` (TRUTH.yaml, sensor noise), `estimate.rs` (the model fit),
 //! `executed.rs` (executed.yaml and its re-simulation), `measured.rs` (sensor readings as
-//! the node passes them on); the loop and the height rule here.
+//! the node passes them on); the simulated cell's driver and the height rule here.
 
+pub mod closed_loop;
 pub mod estimate;
 pub mod executed;
 pub mod measured;
@@ -20,10 +22,11 @@ use std::time::Instant;
 use thiserror::Error;
 
 use waam_part::graph::WeldGraph;
-use waam_part::{Block, Part};
-use waam_planner::{self as planner, Built, Options, PlanError, RestError};
+use waam_part::Part;
+use waam_planner::{self as planner, Options, PlanError, RestError};
 use waam_thermal::{Simulation, ThermalModel};
 
+pub use closed_loop::{ClosedLoop, Decision, LoopOptions, MeasureError};
 pub use estimate::{Estimate, Measurement};
 pub use executed::{CheckError, Deposit, EstimateRecord, Executed, LayerRecord, PlanUsed};
 pub use measured::Measured;
@@ -63,29 +66,12 @@ pub enum CellError {
     Rest(#[from] RestError),
     #[error("no plan to execute: {0}")]
     NoPlan(String),
+    #[error("the execution left the plan: {0}")]
+    OffPlan(String),
 }
 
 /// What the cell tells its caller as it runs (one line each).
 pub type Progress<'a> = &'a mut dyn FnMut(&str);
-
-/// The deposit sequence of a plan, as (block, begins a weld path).
-fn sequence(plan: &[Vec<usize>]) -> Vec<(usize, bool)> {
-    plan.iter()
-        .flat_map(|f| f.iter().enumerate().map(|(p, &b)| (b, p == 0)))
-        .collect()
-}
-
-/// Fragments of a deposit sequence (the first one may continue a weld path in progress).
-fn split(seq: &[(usize, bool)]) -> Vec<Vec<usize>> {
-    let mut out: Vec<Vec<usize>> = Vec::new();
-    for &(b, new) in seq {
-        match out.last_mut() {
-            Some(f) if !new => f.push(b),
-            _ => out.push(vec![b]),
-        }
-    }
-    out
-}
 
 /// The height rule: deposit height is proportional to wire feed at a fixed travel speed
 /// (the bead's cross-section is the wire volume fed per length of path). After each layer
@@ -100,7 +86,9 @@ pub fn next_wire_feed(nominal_mm: f64, missing_mm: f64, gain: f64, limits: (f64,
     ((nominal_mm + missing_mm) / (nominal_mm * gain)).clamp(limits.0, limits.1)
 }
 
-/// Executes `part` on the true cell `truth`.
+/// Executes `part` on the true cell `truth`: a driver of [`ClosedLoop`] that deposits on
+/// the true model, reads its sensors and, in closed loop, asks for a decision after every
+/// weld path and layer.
 pub fn run(
     part: &Part,
     truth: &Truth,
@@ -126,48 +114,49 @@ pub fn run(
         found.margin_text(),
         started.elapsed().as_secs_f64()
     ));
-    let graph = WeldGraph::new(part);
+    let loop_opts = LoopOptions {
+        planner: opts.planner.clone(),
+        // Open loop keeps the nominal feed.
+        wire_feed: if opts.closed_loop {
+            opts.wire_feed
+        } else {
+            (1.0, 1.0)
+        },
+    };
+    let mut cl = ClosedLoop::new(
+        part,
+        &found.fragments,
+        loop_opts,
+        started.elapsed().as_secs_f64(),
+    )?;
     let nominal_h = part.block_mm[2];
-    let blocks = |b: &[usize]| -> Vec<Block> { b.iter().map(|&i| part.block(i)).collect() };
-    let mut out = Executed {
+    let mut deposits = Vec::new();
+    let record = |cl: &ClosedLoop, deposits: Vec<Deposit>, complete: bool| Executed {
         part: part.name.clone(),
         loop_mode: if opts.closed_loop { "closed" } else { "open" }.into(),
-        deposits: Vec::new(),
-        plans: vec![PlanUsed {
-            at_deposit: 0,
-            at_s: 0.0,
-            reason: "initial".into(),
-            latency_s: started.elapsed().as_secs_f64(),
-            continues: false,
-            remainder: found.fragments.iter().map(|f| blocks(f)).collect(),
-        }],
-        estimates: Vec::new(),
-        layers: Vec::new(),
-        top_mm: 0.0,
+        deposits,
+        plans: cl.plans().to_vec(),
+        estimates: cl.estimates().to_vec(),
+        layers: cl.layers().to_vec(),
+        top_mm: if complete {
+            cl.layers().iter().map(|l| l.height_mm).sum()
+        } else {
+            0.0
+        },
         nominal_top_mm: part.layers() as f64 * nominal_h,
-        complete: false,
+        complete,
     };
     // The true cell's heat, run through every window (its verdicts come from
     // `Executed::check` on the executed time line).
     let truth_part = estimate::counting_part(part, truth.thermal);
+    let graph = WeldGraph::new(part);
     let truth_model = ThermalModel::new(&truth_part, &graph);
     let mut sim = Simulation::new(&truth_model).with_threads(1);
     let mut noise = Noise::new(truth.seed, truth.noise_c);
-    let mut seq = sequence(&found.fragments);
-    let mut executed: Vec<(usize, bool)> = Vec::new();
-    let mut measurements: Vec<Measurement> = Vec::new();
-    let layers = part.layers().max(0) as usize;
-    let mut left_in_layer = vec![0usize; layers];
-    for i in 0..part.len() {
-        left_in_layer[part.block(i)[2] as usize] += 1;
-    }
-    // Per layer: heights deposited so far and the wire feed it was given.
-    let mut layer_heights: Vec<Vec<f64>> = vec![Vec::new(); layers];
-    let mut layer_feed: Vec<Option<f64>> = vec![None; layers];
-    let (mut missing_mm, mut gain) = (0.0f64, 1.0f64);
-    let (mut path, mut in_path, mut faults) = (0usize, 0usize, 0usize);
-    let mut i = 0;
-    while i < seq.len() {
+    // Per layer: the true heights deposited so far (the scan reads their mean).
+    let mut layer_heights: Vec<Vec<f64>> = vec![Vec::new(); part.layers().max(0) as usize];
+    let (mut path, mut in_path) = (0usize, 0usize);
+    while let Some((b, new)) = cl.next() {
         if opts
             .planner
             .cancel
@@ -175,21 +164,14 @@ pub fn run(
             .is_some_and(|c| c.load(Ordering::Relaxed))
         {
             progress("stopped");
-            return Ok(out);
+            return Ok(record(&cl, deposits, false));
         }
-        let (b, new) = seq[i];
         if new {
             path += 1;
             in_path = 0;
         }
         let z = part.block(b)[2] as usize;
-        let feed = *layer_feed[z].get_or_insert_with(|| {
-            if opts.closed_loop {
-                next_wire_feed(nominal_h, missing_mm, gain, opts.wire_feed)
-            } else {
-                1.0
-            }
-        });
+        let feed = cl.wire_feed(z);
         if new {
             sim.transit().expect("windows widened: no violation");
         }
@@ -201,117 +183,56 @@ pub fn run(
         }
         .expect("windows widened: no violation");
         let height_mm = nominal_h * truth.height_factor * feed;
-        out.deposits.push(Deposit {
+        let duration_s = sim.time_s() - start_s;
+        deposits.push(Deposit {
             block: part.block(b),
             start_s,
-            duration_s: sim.time_s() - start_s,
+            duration_s,
             height_mm,
             arc_start: new,
             wire_feed: feed,
         });
-        executed.push((b, new));
+        let layer_done = cl.deposited(b, new, start_s, duration_s)?;
         layer_heights[z].push(height_mm);
-        left_in_layer[z] -= 1;
         in_path += 1;
-        i += 1;
-        let layer_done = left_in_layer[z] == 0;
         if layer_done {
             // The scan: the layer's mean height.
             let h = layer_heights[z].iter().sum::<f64>() / layer_heights[z].len() as f64;
-            missing_mm += nominal_h - h;
-            gain = h / (nominal_h * feed);
-            out.layers.push(LayerRecord {
-                z: z as i64,
-                nominal_mm: nominal_h,
-                height_mm: h,
-                wire_feed: feed,
-            });
+            cl.layer_height(z, h);
         }
-        if i == seq.len() {
+        let Some((_, next_new)) = cl.next() else {
             break;
-        }
+        };
         // A wire fault ends the path here: it goes on (if at all) with a new arc start.
-        let fault = truth.cut_after(path) == Some(in_path) && !seq[i].1;
-        if fault {
-            faults += 1;
-            seq[i].1 = true;
+        if truth.cut_after(path) == Some(in_path) && !next_new {
+            cl.path_ended();
             progress(&format!(
                 "weld path {path} cut short after {in_path} deposits (t = {:.1} s)",
                 sim.time_s()
             ));
         }
-        let path_end = seq[i].1;
+        let path_end = cl.next().is_some_and(|(_, new)| new);
         if !(opts.closed_loop && (path_end || layer_done)) {
             continue;
         }
         // Measure the true temperatures of the welded blocks, then estimate and re-plan.
-        measurements.push(Measurement {
-            deposits: executed.len(),
-            temperatures: sim
-                .temperatures()
-                .map(|(b, t)| (b, t + noise.sample()))
-                .collect(),
-        });
-        let t = Instant::now();
-        let est = estimate::fit(part, part.thermal, &executed, &measurements);
-        out.estimates.push(EstimateRecord {
-            at_deposit: executed.len(),
-            at_s: sim.time_s(),
-            loss_factor: est.loss,
-            conduction_factor: est.conduction,
-            rmse_before_c: est.rmse_before_c,
-            rmse_after_c: est.rmse_after_c,
-            latency_s: t.elapsed().as_secs_f64(),
-        });
-        let built = Built {
-            state: estimate::state(part, est.params, &executed),
-            open: !path_end,
-        };
-        let mut model_part = part.clone();
-        model_part.thermal = est.params;
-        let rest_opts = Options {
-            max_fragments: Some(opts.planner.max_fragments.unwrap_or(part.max_fragments) + faults),
-            ..opts.planner.clone()
-        };
-        let t = Instant::now();
-        let report = planner::plan_rest(&model_part, &built, &rest_opts, &mut |_| {})?;
-        let latency_s = t.elapsed().as_secs_f64();
-        let (reason, whole) = match report.best {
-            Some(f) => (
-                if fault { "fault" } else { "replan" },
-                sequence(&f.fragments),
-            ),
-            None => ("kept", seq.clone()),
-        };
-        debug_assert_eq!(whole[..executed.len()], executed[..]);
-        let changed = whole[executed.len()..] != seq[executed.len()..];
-        // The new remainder takes over here, at a weld-path or layer boundary.
-        seq = whole;
-        let remainder: Vec<Vec<Block>> = split(&seq[executed.len()..])
-            .iter()
-            .map(|f| blocks(f))
-            .collect();
-        if reason != "replan" || changed {
+        cl.temperatures(sim.temperatures().map(|(b, t)| (b, t + noise.sample())));
+        let decision = cl.at_boundary(path_end, sim.time_s())?;
+        if decision.reason != "replan" || decision.changed {
+            let est = &decision.estimate;
             progress(&format!(
-                "{reason} after {} deposits: loss x{:.3}, conduction x{:.3} (rms {:.1} -> {:.1} °C), plan {:.3} s",
-                executed.len(),
+                "{} after {} deposits: loss x{:.3}, conduction x{:.3} (rms {:.1} -> {:.1} °C), plan {:.3} s",
+                decision.reason,
+                cl.deposits(),
                 est.loss,
                 est.conduction,
                 est.rmse_before_c,
                 est.rmse_after_c,
-                latency_s
+                decision.latency_s
             ));
         }
-        out.plans.push(PlanUsed {
-            at_deposit: executed.len(),
-            at_s: sim.time_s(),
-            reason: reason.into(),
-            latency_s,
-            continues: !seq[executed.len()].1,
-            remainder,
-        });
+        // The new remainder takes over here, at a weld-path or layer boundary.
+        cl.adopt(&decision, sim.time_s());
     }
-    out.top_mm = out.layers.iter().map(|l| l.height_mm).sum();
-    out.complete = true;
-    Ok(out)
+    Ok(record(&cl, deposits, true))
 }

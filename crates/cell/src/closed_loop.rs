@@ -1,0 +1,454 @@
+//! The closed loop's decisions, step by step and without DDS: what the simulated cell
+//! ([`crate::run`]) and the ROS node both drive.
+//!
+//! The caller tells the loop what was deposited and when ([`ClosedLoop::deposited`]), when
+//! the arc went out ([`ClosedLoop::path_ended`]) and what the sensors read
+//! ([`ClosedLoop::measured`], [`ClosedLoop::temperatures`], [`ClosedLoop::layer_height`]);
+//! it asks for each layer's wire feed ([`ClosedLoop::wire_feed`]) and, at a weld-path or
+//! layer boundary, for a [`Decision`] ([`ClosedLoop::at_boundary`]): the model fitted to the
+//! measurements so far and the rest re-planned from the estimated state. The caller adopts
+//! the decision ([`ClosedLoop::adopt`]) or, when its own checks refuse the new remainder (the
+//! node's robot motion), keeps the current plan ([`ClosedLoop::reject`]).
+
+use std::time::Instant;
+
+use thiserror::Error;
+
+use waam_part::{Block, Part};
+use waam_planner::{self as planner, Built, Options};
+
+use crate::estimate::{self, Estimate, Measurement};
+use crate::executed::{EstimateRecord, LayerRecord, PlanUsed};
+use crate::measured::Measured;
+use crate::{next_wire_feed, CellError};
+
+/// How the loop decides.
+#[derive(Debug, Clone)]
+pub struct LoopOptions {
+    /// The planner's options for every re-plan (its timeout applies to each).
+    pub planner: Options,
+    /// The wire feed the height rule may set, relative to nominal (process limits; (1, 1)
+    /// keeps the nominal feed).
+    pub wire_feed: (f64, f64),
+}
+
+/// A sensor reading the loop cannot place.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum MeasureError {
+    #[error("temperature at {stamp_s:.3} s: no deposit was under the torch then")]
+    NoDeposit { stamp_s: f64 },
+    #[error("temperature at {stamp_s:.3} s: {celsius} °C is not a temperature")]
+    BadTemperature { stamp_s: f64, celsius: f64 },
+    #[error("scan at {stamp_s:.3} s: no finished layer is waiting for its scan")]
+    NoLayer { stamp_s: f64 },
+    #[error("scan at {stamp_s:.3} s: none of its {points} points lies over layer {z}")]
+    NoPoints { stamp_s: f64, points: usize, z: i64 },
+}
+
+/// What the loop decided at a boundary.
+#[derive(Debug, Clone)]
+pub struct Decision {
+    /// "replan" (a new completion found), "fault" (the same, after a path was cut short)
+    /// or "kept" (no feasible completion found: the current plan goes on).
+    pub reason: &'static str,
+    /// Wall-clock time the re-plan took, s.
+    pub latency_s: f64,
+    /// The model fitted to every measurement so far.
+    pub estimate: Estimate,
+    /// The whole plan from the first deposit, as (block, begins a weld path).
+    pub whole: Vec<(usize, bool)>,
+    /// Deposits done when the decision was made.
+    pub at_deposit: usize,
+    /// The remainder differs from the current one.
+    pub changed: bool,
+}
+
+impl Decision {
+    /// The whole plan as fragments of block indices (the executed prefix first).
+    pub fn fragments(&self) -> Vec<Vec<usize>> {
+        split(&self.whole)
+    }
+
+    /// The fragments still to come (the first may continue the path in progress).
+    pub fn remainder(&self) -> Vec<Vec<usize>> {
+        split(&self.whole[self.at_deposit..])
+    }
+}
+
+/// The deposit sequence of a plan, as (block, begins a weld path).
+pub fn sequence(plan: &[Vec<usize>]) -> Vec<(usize, bool)> {
+    plan.iter()
+        .flat_map(|f| f.iter().enumerate().map(|(p, &b)| (b, p == 0)))
+        .collect()
+}
+
+/// Fragments of a deposit sequence (the first one may continue a weld path in progress).
+pub fn split(seq: &[(usize, bool)]) -> Vec<Vec<usize>> {
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    for &(b, new) in seq {
+        match out.last_mut() {
+            Some(f) if !new => f.push(b),
+            _ => out.push(vec![b]),
+        }
+    }
+    out
+}
+
+/// The loop's state: the plan, what was executed and measured, and its records.
+#[derive(Debug, Clone)]
+pub struct ClosedLoop {
+    part: Part,
+    opts: LoopOptions,
+    /// The current whole plan, (block, begins a weld path).
+    plan: Vec<(usize, bool)>,
+    executed: Vec<(usize, bool)>,
+    /// (start_s, duration_s) of each executed deposit, on the caller's clock.
+    times: Vec<(f64, f64)>,
+    /// Sorted by `deposits`, one per deposit count.
+    measurements: Vec<Measurement>,
+    left_in_layer: Vec<usize>,
+    layer_feed: Vec<Option<f64>>,
+    scanned: Vec<bool>,
+    /// Nominal top so far minus measured top, mm; the last layer's gain.
+    missing_mm: f64,
+    gain: f64,
+    faults: usize,
+    fault_pending: bool,
+    plans: Vec<PlanUsed>,
+    estimates: Vec<EstimateRecord>,
+    layers: Vec<LayerRecord>,
+}
+
+impl ClosedLoop {
+    /// The loop of `part` starting with `plan` (fragments of block indices), found in
+    /// `latency_s`.
+    pub fn new(
+        part: &Part,
+        plan: &[Vec<usize>],
+        opts: LoopOptions,
+        latency_s: f64,
+    ) -> Result<ClosedLoop, CellError> {
+        if part.bead_part().is_some() {
+            return Err(CellError::GraphPart);
+        }
+        let layers = part.layers().max(0) as usize;
+        let mut left_in_layer = vec![0usize; layers];
+        for i in 0..part.len() {
+            left_in_layer[part.block(i)[2] as usize] += 1;
+        }
+        let mut this = ClosedLoop {
+            part: part.clone(),
+            opts,
+            plan: sequence(plan),
+            executed: Vec::new(),
+            times: Vec::new(),
+            measurements: Vec::new(),
+            left_in_layer,
+            layer_feed: vec![None; layers],
+            scanned: vec![false; layers],
+            missing_mm: 0.0,
+            gain: 1.0,
+            faults: 0,
+            fault_pending: false,
+            plans: Vec::new(),
+            estimates: Vec::new(),
+            layers: Vec::new(),
+        };
+        this.plans.push(PlanUsed {
+            at_deposit: 0,
+            at_s: 0.0,
+            reason: "initial".into(),
+            latency_s,
+            continues: false,
+            remainder: this.blocks(plan),
+        });
+        Ok(this)
+    }
+
+    fn blocks(&self, fragments: &[Vec<usize>]) -> Vec<Vec<Block>> {
+        fragments
+            .iter()
+            .map(|f| f.iter().map(|&i| self.part.block(i)).collect())
+            .collect()
+    }
+
+    /// The next deposit of the current plan: (block index, begins a weld path).
+    pub fn next(&self) -> Option<(usize, bool)> {
+        self.plan.get(self.executed.len()).copied()
+    }
+
+    /// The current whole plan as fragments (the executed prefix first).
+    pub fn fragments(&self) -> Vec<Vec<usize>> {
+        split(&self.plan)
+    }
+
+    /// Deposits done so far.
+    pub fn deposits(&self) -> usize {
+        self.executed.len()
+    }
+
+    /// The wire feed of layer `z`, relative to nominal: set by the height rule when the
+    /// layer's first deposit asks, then fixed for the layer.
+    pub fn wire_feed(&mut self, z: usize) -> f64 {
+        let (nominal, missing, gain, limits) = (
+            self.part.block_mm[2],
+            self.missing_mm,
+            self.gain,
+            self.opts.wire_feed,
+        );
+        *self.layer_feed[z].get_or_insert_with(|| next_wire_feed(nominal, missing, gain, limits))
+    }
+
+    /// Block `block` was deposited from `start_s` for `duration_s` (the caller's clock);
+    /// it must be the plan's next. Returns whether it finished its layer.
+    pub fn deposited(
+        &mut self,
+        block: usize,
+        arc_start: bool,
+        start_s: f64,
+        duration_s: f64,
+    ) -> Result<bool, CellError> {
+        match self.next() {
+            Some((b, _)) if b == block => {}
+            next => {
+                return Err(CellError::OffPlan(format!(
+                    "deposit {}: block {:?} welded, the plan has {}",
+                    self.executed.len() + 1,
+                    self.part
+                        .block(block.min(self.part.len().saturating_sub(1))),
+                    next.map_or("nothing left".into(), |(b, _)| format!(
+                        "{:?}",
+                        self.part.block(b)
+                    ))
+                )))
+            }
+        }
+        self.executed.push((block, arc_start));
+        self.times.push((start_s, duration_s));
+        let z = self.part.block(block)[2] as usize;
+        self.left_in_layer[z] -= 1;
+        Ok(self.left_in_layer[z] == 0)
+    }
+
+    /// The arc went out after the last deposit. When the plan meant the weld path to go
+    /// on, the path was cut short (a fault): what follows begins a new weld path, and the
+    /// re-plan may use one more. Returns whether it was a fault.
+    pub fn path_ended(&mut self) -> bool {
+        let i = self.executed.len();
+        match self.plan.get_mut(i) {
+            Some((_, new)) if !*new => {
+                *new = true;
+                self.faults += 1;
+                self.fault_pending = true;
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// A field of temperatures (block index, °C) read now, after the deposits so far.
+    pub fn temperatures(&mut self, temperatures: impl IntoIterator<Item = (usize, f64)>) {
+        let deposits = self.executed.len();
+        self.add(deposits, temperatures.into_iter().collect());
+    }
+
+    fn add(&mut self, deposits: usize, mut temperatures: Vec<(usize, f64)>) {
+        match self
+            .measurements
+            .binary_search_by_key(&deposits, |m| m.deposits)
+        {
+            Ok(k) => self.measurements[k].temperatures.append(&mut temperatures),
+            Err(k) => self.measurements.insert(
+                k,
+                Measurement {
+                    deposits,
+                    temperatures,
+                },
+            ),
+        }
+    }
+
+    /// Layer `z` came out `height_mm` high (a scan): the height rule's input.
+    pub fn layer_height(&mut self, z: usize, height_mm: f64) {
+        let nominal = self.part.block_mm[2];
+        let feed = self.layer_feed[z].unwrap_or(1.0);
+        self.missing_mm += nominal - height_mm;
+        self.gain = height_mm / (nominal * feed);
+        self.scanned[z] = true;
+        self.layers.push(LayerRecord {
+            z: z as i64,
+            nominal_mm: nominal,
+            height_mm,
+            wire_feed: feed,
+        });
+    }
+
+    /// A sensor reading: a temperature is the deposit's under the torch at its stamp
+    /// (taken as its temperature at the end of that deposit); a scan measures the lowest
+    /// finished layer not scanned yet — its top is the median z of the points over that
+    /// layer's blocks.
+    pub fn measured(&mut self, reading: &Measured) -> Result<(), MeasureError> {
+        match reading {
+            &Measured::Temperature { stamp_s, celsius } => {
+                if !celsius.is_finite() {
+                    return Err(MeasureError::BadTemperature { stamp_s, celsius });
+                }
+                // The last deposit begun by then, if the torch was still on it.
+                let k = self.times.partition_point(|&(start, _)| start <= stamp_s);
+                let k = k
+                    .checked_sub(1)
+                    .filter(|&k| stamp_s <= self.times[k].0 + self.times[k].1 + 1e-9)
+                    .ok_or(MeasureError::NoDeposit { stamp_s })?;
+                self.add(k + 1, vec![(self.executed[k].0, celsius)]);
+                Ok(())
+            }
+            Measured::Scan { stamp_s, points } => {
+                let stamp_s = *stamp_s;
+                let z = (0..self.scanned.len())
+                    .find(|&z| self.left_in_layer[z] == 0 && !self.scanned[z])
+                    .ok_or(MeasureError::NoLayer { stamp_s })?;
+                let top = self.median_top(z, points).ok_or(MeasureError::NoPoints {
+                    stamp_s,
+                    points: points.len(),
+                    z: z as i64,
+                })?;
+                // The layer stands on the measured top of the layers below (nominal where
+                // a layer was not scanned).
+                let [_, _, bz] = self.part.block_mm;
+                let below: f64 = (0..z)
+                    .map(|l| {
+                        self.layers
+                            .iter()
+                            .find(|r| r.z == l as i64)
+                            .map_or(bz, |r| r.height_mm)
+                    })
+                    .sum();
+                self.layer_height(z, top - (self.part.origin_mm[2] + below));
+                Ok(())
+            }
+        }
+    }
+
+    /// The median z of the points that lie over a block of layer `z`.
+    fn median_top(&self, z: usize, points: &[[f64; 3]]) -> Option<f64> {
+        let [bx, by, _] = self.part.block_mm;
+        let [ox, oy, _] = self.part.origin_mm;
+        let over = |p: &[f64; 3]| {
+            let (x, y) = (((p[0] - ox) / bx).floor(), ((p[1] - oy) / by).floor());
+            x.is_finite()
+                && y.is_finite()
+                && self.part.index_of([x as i64, y as i64, z as i64]).is_some()
+        };
+        let mut zs: Vec<f64> = points
+            .iter()
+            .filter(|p| p[2].is_finite() && over(p))
+            .map(|p| p[2])
+            .collect();
+        if zs.is_empty() {
+            return None;
+        }
+        zs.sort_by(f64::total_cmp);
+        let n = zs.len();
+        Some(if n % 2 == 1 {
+            zs[n / 2]
+        } else {
+            (zs[n / 2 - 1] + zs[n / 2]) / 2.0
+        })
+    }
+
+    /// At a boundary (`path_ended`: the arc is out; else a layer ended with the arc on),
+    /// at `now_s` on the caller's clock: the model fitted to every measurement so far and
+    /// the rest re-planned from the estimated state. Nothing changes until the caller
+    /// adopts or rejects the decision.
+    pub fn at_boundary(&mut self, path_ended: bool, now_s: f64) -> Result<Decision, CellError> {
+        let t = Instant::now();
+        let est = estimate::fit(
+            &self.part,
+            self.part.thermal,
+            &self.executed,
+            &self.measurements,
+        );
+        self.estimates.push(EstimateRecord {
+            at_deposit: self.executed.len(),
+            at_s: now_s,
+            loss_factor: est.loss,
+            conduction_factor: est.conduction,
+            rmse_before_c: est.rmse_before_c,
+            rmse_after_c: est.rmse_after_c,
+            latency_s: t.elapsed().as_secs_f64(),
+        });
+        let built = Built {
+            state: estimate::state(&self.part, est.params, &self.executed),
+            open: !path_ended,
+        };
+        let mut model_part = self.part.clone();
+        model_part.thermal = est.params;
+        let rest_opts = Options {
+            max_fragments: Some(
+                self.opts
+                    .planner
+                    .max_fragments
+                    .unwrap_or(self.part.max_fragments)
+                    + self.faults,
+            ),
+            ..self.opts.planner.clone()
+        };
+        let t = Instant::now();
+        let report = planner::plan_rest(&model_part, &built, &rest_opts, &mut |_| {})?;
+        let latency_s = t.elapsed().as_secs_f64();
+        let fault = std::mem::take(&mut self.fault_pending);
+        let (reason, whole) = match report.best {
+            Some(f) => (
+                if fault { "fault" } else { "replan" },
+                sequence(&f.fragments),
+            ),
+            None => ("kept", self.plan.clone()),
+        };
+        let done = self.executed.len();
+        debug_assert_eq!(whole[..done], self.executed[..]);
+        Ok(Decision {
+            reason,
+            latency_s,
+            estimate: est,
+            changed: whole[done..] != self.plan[done..],
+            whole,
+            at_deposit: done,
+        })
+    }
+
+    /// The decision's plan takes over now, at `now_s`.
+    pub fn adopt(&mut self, decision: &Decision, now_s: f64) {
+        self.plan = decision.whole.clone();
+        self.record(decision.reason, decision.latency_s, now_s);
+    }
+
+    /// The decision's plan was refused by the caller's own checks: the current one goes on
+    /// (recorded as kept).
+    pub fn reject(&mut self, decision: &Decision, now_s: f64) {
+        self.record("kept", decision.latency_s, now_s);
+    }
+
+    fn record(&mut self, reason: &str, latency_s: f64, now_s: f64) {
+        let done = self.executed.len();
+        let remainder = self.blocks(&split(&self.plan[done..]));
+        self.plans.push(PlanUsed {
+            at_deposit: done,
+            at_s: now_s,
+            reason: reason.into(),
+            latency_s,
+            continues: self.plan.get(done).is_some_and(|&(_, new)| !new),
+            remainder,
+        });
+    }
+
+    /// Every plan used (the initial one first), every estimate, every scanned layer.
+    pub fn plans(&self) -> &[PlanUsed] {
+        &self.plans
+    }
+    pub fn estimates(&self) -> &[EstimateRecord] {
+        &self.estimates
+    }
+    pub fn layers(&self) -> &[LayerRecord] {
+        &self.layers
+    }
+}

@@ -1,0 +1,224 @@
+//! The closed loop's stepwise API ([`ClosedLoop`]) as a node drives it: deposits stamped on
+//! its own clock, a pyrometer's readings of the deposit under the torch, layer scans as
+//! point clouds, a decision at each boundary.
+
+use waam_cell::estimate::{counting_part, scaled};
+use waam_cell::{CellError, ClosedLoop, LoopOptions, MeasureError, Measured};
+use waam_part::graph::WeldGraph;
+use waam_part::plan::Plan;
+use waam_part::Part;
+use waam_planner::Options;
+use waam_thermal::{simulate, Simulation, ThermalModel};
+
+/// The wall of `tests/closed_loop.rs`: 6 x 1 x 4 blocks, k = 2, t8/5 at most 9 s on top.
+fn wall() -> Part {
+    Part::parse(
+        "name: wall\nblock_mm: [6, 6, 2.5]\nmax_fragments: 2\norigin_mm: [10, -3, 0]\n\
+         layers: ['######', '######', '######', '######']\n\
+         t85: [{box: {min: [0,0,2], max: [5,0,3]}, min_s: 0, max_s: 9}]\n",
+    )
+    .unwrap()
+}
+
+fn options() -> LoopOptions {
+    LoopOptions {
+        planner: Options::default(),
+        wire_feed: (0.7, 1.3),
+    }
+}
+
+fn first_plan(part: &Part) -> Vec<Vec<usize>> {
+    let report = waam_planner::plan(part, &Options::default(), &mut |_| {}).unwrap();
+    report.best.unwrap().fragments
+}
+
+#[test]
+fn a_pyrometer_reading_is_the_deposit_under_the_torch_and_a_scan_the_layers_height() {
+    let part = wall();
+    let plan = first_plan(&part);
+    let mut cl = ClosedLoop::new(&part, &plan, options(), 0.0).unwrap();
+    // Nothing deposited yet: no deposit under the torch, no layer to scan.
+    assert_eq!(
+        cl.measured(&Measured::Temperature {
+            stamp_s: 100.0,
+            celsius: 900.0
+        }),
+        Err(MeasureError::NoDeposit { stamp_s: 100.0 })
+    );
+    let scan = |z: f64| Measured::Scan {
+        stamp_s: 0.0,
+        // Over the wall's footprint (x 10..46, y -3..3), and one point beside it.
+        points: (0..12)
+            .map(|i| [10.5 + 3.0 * i as f64, 0.0, z])
+            .chain([[0.0, 0.0, 99.0]])
+            .collect(),
+    };
+    assert!(matches!(
+        cl.measured(&scan(2.0)),
+        Err(MeasureError::NoLayer { .. })
+    ));
+    // Deposit the first layer, one block a second from t = 100 s.
+    let mut t = 100.0;
+    let mut layer_done = false;
+    while !layer_done {
+        let (b, new) = cl.next().unwrap();
+        let feed = cl.wire_feed(part.block(b)[2] as usize);
+        assert_eq!(feed, 1.0, "the first layer gets the nominal feed");
+        layer_done = cl.deposited(b, new, t, 1.0).unwrap();
+        t += 1.0;
+    }
+    assert_eq!(cl.deposits(), 6);
+    // Between deposits the torch is on the last one; after its end on none.
+    for stamp_s in [100.5, 105.99] {
+        cl.measured(&Measured::Temperature {
+            stamp_s,
+            celsius: 1500.0,
+        })
+        .unwrap();
+    }
+    assert!(cl
+        .measured(&Measured::Temperature {
+            stamp_s: 107.5,
+            celsius: 1500.0
+        })
+        .is_err());
+    assert!(cl
+        .measured(&Measured::Temperature {
+            stamp_s: 103.0,
+            celsius: f64::NAN
+        })
+        .is_err());
+    // A scan beside the part says so.
+    assert_eq!(
+        cl.measured(&Measured::Scan {
+            stamp_s: 1.0,
+            points: vec![[0.0, 0.0, 2.0]]
+        }),
+        Err(MeasureError::NoPoints {
+            stamp_s: 1.0,
+            points: 1,
+            z: 0
+        })
+    );
+    // The layer came out 10 % low: 2.25 mm (the point beside the wall is not counted).
+    cl.measured(&scan(2.25)).unwrap();
+    let layer = cl.layers()[0].clone();
+    assert_eq!(layer.z, 0);
+    assert!((layer.height_mm - 2.25).abs() < 1e-12, "{layer:?}");
+    // The next layer gets the feed that makes it 2.5 + 0.25 mm high at a gain of 0.9.
+    let z1 = part.block(cl.next().unwrap().0)[2] as usize;
+    assert_eq!(z1, 1);
+    let feed = cl.wire_feed(1);
+    assert!((feed - 2.75 / 2.25).abs() < 1e-12, "{feed}");
+    // The layer was scanned once: a second scan has no layer.
+    assert!(matches!(
+        cl.measured(&scan(2.25)),
+        Err(MeasureError::NoLayer { .. })
+    ));
+}
+
+#[test]
+fn a_deposit_off_the_plan_is_refused() {
+    let part = wall();
+    let plan = first_plan(&part);
+    let mut cl = ClosedLoop::new(&part, &plan, options(), 0.0).unwrap();
+    let (b, _) = cl.next().unwrap();
+    let other = (0..part.len()).find(|&o| o != b).unwrap();
+    assert!(matches!(
+        cl.deposited(other, true, 0.0, 1.0),
+        Err(CellError::OffPlan(_))
+    ));
+    assert_eq!(cl.deposits(), 0);
+}
+
+/// The wall welded on a cell with 25 % lower losses, the pyrometer reading the true
+/// temperature of each deposit at its end: at the first weld-path boundary whose
+/// completion the model would judge wrongly, the loop re-plans, and the executed prefix
+/// with the new remainder keeps every window on the true model.
+#[test]
+fn hotter_readings_than_the_model_re_plan_the_rest_at_a_boundary() {
+    let part = wall();
+    let plan = first_plan(&part);
+    let truth = scaled(part.thermal, 0.75, 1.0);
+    let truth_part = counting_part(&part, truth);
+    let graph = WeldGraph::new(&part);
+    let truth_model = ThermalModel::new(&truth_part, &graph);
+    let mut sim = Simulation::new(&truth_model).with_threads(1);
+    let mut cl = ClosedLoop::new(&part, &plan, options(), 0.0).unwrap();
+    let mut decisions = Vec::new();
+    while let Some((b, new)) = cl.next() {
+        if new {
+            sim.transit().unwrap();
+        }
+        let start = sim.time_s();
+        if new {
+            sim.deposit_after_transit(b).unwrap();
+        } else {
+            sim.deposit(b, false).unwrap();
+        }
+        let end = sim.time_s();
+        let layer_done = cl.deposited(b, new, start, end - start).unwrap();
+        let own = sim.temperatures().find(|&(s, _)| s == b).unwrap().1;
+        cl.measured(&Measured::Temperature {
+            stamp_s: end,
+            celsius: own,
+        })
+        .unwrap();
+        let Some((_, next_new)) = cl.next() else {
+            break;
+        };
+        if layer_done || next_new {
+            let d = cl.at_boundary(next_new, end).unwrap();
+            // The remainder begins where the executed prefix ends.
+            let whole = d.fragments();
+            assert_eq!(
+                whole.iter().flatten().take(cl.deposits()).count(),
+                cl.deposits()
+            );
+            decisions.push((d.reason, d.changed, d.estimate.loss));
+            cl.adopt(&d, end);
+        }
+    }
+    assert!(
+        decisions
+            .iter()
+            .any(|&(r, changed, _)| r == "replan" && changed),
+        "{decisions:?}"
+    );
+    // The pyrometer alone finds the lower losses.
+    let loss = decisions.last().unwrap().2;
+    assert!((loss - 0.75).abs() < 0.02, "{decisions:?}");
+    let executed = cl.fragments();
+    assert_ne!(executed, plan);
+    Plan::from_indices(&part, &executed)
+        .validate(&part, &graph)
+        .expect("a valid plan");
+    let mut true_part = part.clone();
+    true_part.thermal = truth;
+    let true_model = ThermalModel::new(&true_part, &WeldGraph::new(&true_part));
+    assert!(simulate(&true_model, &executed)
+        .unwrap()
+        .violation
+        .is_none());
+    // The first plan breaks a window on the true model.
+    assert!(simulate(&true_model, &plan).unwrap().violation.is_some());
+    assert_eq!(cl.plans()[0].reason, "initial");
+}
+
+#[test]
+fn a_rejected_decision_keeps_the_current_plan_and_says_so() {
+    let part = wall();
+    let plan = first_plan(&part);
+    let mut cl = ClosedLoop::new(&part, &plan, options(), 0.0).unwrap();
+    for t in 0..6 {
+        let (b, new) = cl.next().unwrap();
+        cl.deposited(b, new, t as f64, 1.0).unwrap();
+    }
+    // The temperatures of a much hotter cell.
+    cl.temperatures([(plan[0][5], 2400.0), (plan[0][4], 2000.0)]);
+    let d = cl.at_boundary(false, 6.0).unwrap();
+    cl.reject(&d, 6.0);
+    assert_eq!(cl.fragments(), plan);
+    let last = cl.plans().last().unwrap();
+    assert_eq!((last.reason.as_str(), last.at_deposit), ("kept", 6));
+}
