@@ -15,7 +15,7 @@ use std::time::Instant;
 use thiserror::Error;
 
 use waam_part::{Block, Part};
-use waam_planner::{self as planner, Built, Options};
+use waam_planner::{self as planner, Built, Options, Stats};
 
 use crate::estimate::{self, Estimate, Measurement};
 use crate::executed::{EstimateRecord, LayerRecord, PlanUsed};
@@ -61,6 +61,11 @@ pub struct Decision {
     pub at_deposit: usize,
     /// The remainder differs from the current one.
     pub changed: bool,
+    /// What the re-plan's search did, whether its completion is proven best, and its worst
+    /// t8/5 margin from the estimated state, s (NaN when kept).
+    pub stats: Stats,
+    pub proven: bool,
+    pub margin_s: f64,
 }
 
 impl Decision {
@@ -397,12 +402,13 @@ impl ClosedLoop {
         let report = planner::plan_rest(&model_part, &built, &rest_opts, &mut |_| {})?;
         let latency_s = t.elapsed().as_secs_f64();
         let fault = std::mem::take(&mut self.fault_pending);
-        let (reason, whole) = match report.best {
+        let (reason, whole, margin_s) = match &report.best {
             Some(f) => (
                 if fault { "fault" } else { "replan" },
                 sequence(&f.fragments),
+                f.margin,
             ),
-            None => ("kept", self.plan.clone()),
+            None => ("kept", self.plan.clone(), f64::NAN),
         };
         let done = self.executed.len();
         debug_assert_eq!(whole[..done], self.executed[..]);
@@ -413,6 +419,9 @@ impl ClosedLoop {
             changed: whole[done..] != self.plan[done..],
             whole,
             at_deposit: done,
+            stats: report.stats,
+            proven: report.proven,
+            margin_s,
         })
     }
 

@@ -86,6 +86,16 @@ pub enum JobStatus {
         message: String,
         level: u8,
     },
+    /// The closed loop decided at a weld-path boundary of an execution (#31): `reason`
+    /// (replan, fault, unchanged, kept), the boundary's wall-clock `latency_s` and what it
+    /// found and estimated (`values`).
+    Replanned {
+        job: u64,
+        reason: String,
+        latency_s: f64,
+        message: String,
+        values: Vec<KeyValue>,
+    },
 }
 
 impl JobStatus {
@@ -154,6 +164,22 @@ impl JobStatus {
                 message.clone(),
                 vec![kv("state", "executing"), kv("job", job)],
             ),
+            JobStatus::Replanned {
+                job,
+                reason,
+                latency_s,
+                message,
+                values,
+            } => {
+                let mut all = vec![
+                    kv("state", "replanned"),
+                    kv("job", job),
+                    kv("reason", reason),
+                    kv("latency_s", format!("{latency_s:.3}")),
+                ];
+                all.extend(values.iter().cloned());
+                (DiagnosticStatus::OK, message.clone(), all)
+            }
         };
         Status::new(level, message, values)
     }

@@ -5,11 +5,13 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use super::closed_loop::{Outcome, ReplanSetup, Replanner};
 use super::execute::{oversized_welds, plan_steps, Step};
 use super::execute_action::ExecutePlanFeedback;
 use super::io::{Level, Outputs};
 use super::pipeline::Planned;
 use super::worker::Cancel;
+use waam_cell::Measured;
 use waam_messages::convert::goal_msg;
 use waam_messages::status::JobStatus;
 use waam_rosmsg::builtin_interfaces::Time;
@@ -48,32 +50,82 @@ pub trait Controller: Send {
     fn idle_period(&self) -> Duration {
         Duration::from_millis(200)
     }
+    /// The clock the robot moves on, s: what sensor stamps are matched against (the ROS
+    /// clock; a simulated cell may keep its own).
+    fn now_s(&self) -> f64 {
+        Time::now().to_nanos() as f64 * 1e-9
+    }
+    /// How many times as fast as the trajectory's time the robot moves (a dry run's
+    /// `dry_run.time_scale`).
+    fn time_scale(&self) -> f64 {
+        1.0
+    }
 }
 
 /// Called as each goal chunk starts (the `~/execute` feedback).
 pub type OnChunk = Box<dyn Fn(ExecutePlanFeedback) + Send>;
 
+/// Where an execution's news goes: the node's outputs (a test's record).
+pub trait ExecOutputs {
+    /// `~/arc_on`.
+    fn arc(&self, on: bool);
+    /// `~/status`.
+    fn status(&self, status: JobStatus);
+    fn log(&self, level: Level, message: &str);
+    /// A re-plan's plan on the plan topics.
+    fn plan(&self, planned: &Planned);
+}
+
+impl ExecOutputs for Outputs {
+    fn arc(&self, on: bool) {
+        self.arc_on
+            .publish(&Bool { data: on }, self.recorder.as_ref());
+    }
+    fn status(&self, status: JobStatus) {
+        self.status
+            .publish(&status.to_msg(Time::now(), ""), self.recorder.as_ref());
+    }
+    fn log(&self, level: Level, message: &str) {
+        Outputs::log(self, level, message);
+    }
+    fn plan(&self, planned: &Planned) {
+        super::publish_plan(self, planned);
+    }
+}
+
+/// The closed loop of one execution: how it re-plans and where the sensors' readings come
+/// from (drained at each weld-path boundary).
+pub struct ClosedLoopRun<'a> {
+    pub setup: ReplanSetup,
+    pub readings: &'a Receiver<Measured>,
+}
+
 /// Runs a planned trajectory on `controller`: goals with the arc switched on `~/arc_on`
 /// between them, cut only where the arc is off ([`plan_steps`]). Stops at the first failed
-/// goal or when cancelled, always leaving the arc off.
+/// goal or when cancelled, always leaving the arc off. With a closed loop, each weld-path
+/// boundary may hand over to a re-planned remainder ([`closed_loop`](super::closed_loop)).
 #[allow(clippy::too_many_arguments)] // one execution's whole setting, passed once
 pub fn run_plan(
     job: u64,
     planned: &Planned,
     controller: &mut dyn Controller,
-    outputs: &Outputs,
+    outputs: &dyn ExecOutputs,
     max_points: usize,
     lead_in_s: f64,
     cancel: &Cancel,
     on_chunk: Option<&OnChunk>,
+    closed_loop: Option<ClosedLoopRun>,
 ) -> Result<(), ExecError> {
-    let points = &planned.trajectory.points;
-    let arc: Vec<bool> = points.iter().map(|p| p.arc_on).collect();
-    let steps = plan_steps(&arc, max_points);
-    let goals = steps
-        .iter()
-        .filter(|s| matches!(s, Step::Goal { .. }))
-        .count();
+    let mut current = std::borrow::Cow::Borrowed(planned);
+    let arc: Vec<bool> = planned.trajectory.points.iter().map(|p| p.arc_on).collect();
+    let mut steps = plan_steps(&arc, max_points);
+    let count_goals = |steps: &[Step]| {
+        steps
+            .iter()
+            .filter(|s| matches!(s, Step::Goal { .. }))
+            .count()
+    };
+    let mut goals = count_goals(&steps);
     for (fragment, n) in oversized_welds(&steps, max_points) {
         outputs.log(
             Level::Warn,
@@ -85,25 +137,12 @@ pub fn run_plan(
             ),
         );
     }
-    let (t0, duration) = match (points.first(), points.last()) {
-        (Some(a), Some(b)) => (a.time_from_start, b.time_from_start - a.time_from_start),
-        _ => (0.0, 0.0),
-    };
     let report = |message: String, level: u8| {
-        outputs.status.publish(
-            &JobStatus::Executing {
-                job,
-                message,
-                level,
-            }
-            .to_msg(Time::now(), ""),
-            outputs.recorder.as_ref(),
-        );
-    };
-    let set_arc = |on: bool| {
-        outputs
-            .arc_on
-            .publish(&Bool { data: on }, outputs.recorder.as_ref());
+        outputs.status(JobStatus::Executing {
+            job,
+            message,
+            level,
+        });
     };
     outputs.log(
         Level::Info,
@@ -112,24 +151,91 @@ pub fn run_plan(
             planned.found.fragments.len()
         ),
     );
+    // Drain what came before this execution: readings of another part.
+    if let Some(run) = &closed_loop {
+        run.readings.try_iter().for_each(drop);
+    }
+    let mut replanner = closed_loop.as_ref().and_then(|run| {
+        let mut setup = run.setup.clone();
+        // ~/stop and a cancelled goal stop a re-plan too.
+        setup.planner.cancel = Some(cancel.cancelled_flag());
+        Replanner::new(planned, setup)
+            .map_err(|e| {
+                outputs.log(
+                    Level::Warn,
+                    &format!("part {job}: closed loop off for this execution: {e}"),
+                )
+            })
+            .ok()
+    });
     let mut arc_is_on = false;
     let mut sent = 0;
+    // The last weld goal: its fragment, last point and start on the controller's clock.
+    let mut last_weld: Option<(usize, usize, f64)> = None;
     let result = (|| {
         controller
             .prepare(cancel)
             .map_err(|e| format!("before the first goal: {e}"))?;
-        for step in &steps {
+        let mut i = 0;
+        while i < steps.len() {
             if cancel.is_cancelled() {
                 return Err(ExecError("cancelled".to_string()));
             }
+            let step = steps[i].clone();
+            i += 1;
             match step {
                 Step::Arc(on) => {
-                    set_arc(*on);
-                    arc_is_on = *on;
+                    outputs.arc(on);
+                    arc_is_on = on;
+                    let (Some(cl), Some(run), false, Some((f, standing, started))) =
+                        (replanner.as_mut(), &closed_loop, on, last_weld)
+                    else {
+                        continue;
+                    };
+                    // A weld-path boundary: the arc is out, the robot at rest.
+                    let replan = cl
+                        .welded(&current, f, started, controller.time_scale())
+                        .and_then(|()| {
+                            cl.at_boundary(
+                                &current,
+                                run.readings.try_iter(),
+                                standing,
+                                max_points,
+                                controller.now_s(),
+                            )
+                        });
+                    let replan = match replan {
+                        Ok(Some(replan)) => replan,
+                        Ok(None) => continue,
+                        Err(e) => {
+                            // The execution goes on with its plan.
+                            outputs.log(
+                                Level::Warn,
+                                &format!("part {job}: closed loop off from here: {e}"),
+                            );
+                            replanner = None;
+                            continue;
+                        }
+                    };
+                    outputs.status(replan.status(job));
+                    if let Outcome::New(new, rest) = replan.outcome {
+                        outputs.plan(&new);
+                        current = std::borrow::Cow::Owned(*new);
+                        goals = sent + count_goals(&rest);
+                        steps = rest;
+                        i = 0;
+                    }
                 }
                 Step::Goal { span, welding } => {
                     sent += 1;
+                    let points = &current.trajectory.points;
                     if let Some(on_chunk) = on_chunk {
+                        let (t0, duration) = match (points.first(), points.last()) {
+                            (Some(a), Some(b)) => {
+                                (a.time_from_start, b.time_from_start - a.time_from_start)
+                            }
+                            _ => (0.0, 0.0),
+                        };
                         let start = span.start().saturating_sub(1);
                         on_chunk(ExecutePlanFeedback {
                             job,
@@ -146,7 +252,7 @@ pub fn run_plan(
                             },
                         });
                     }
-                    let goal = goal_msg(&planned.trajectory, span.clone(), lead_in_s);
+                    let goal = goal_msg(&current.trajectory, span.clone(), lead_in_s);
                     let what = match welding {
                         Some(f) => format!("welding fragment {}", f + 1),
                         None => "moving (arc off)".to_string(),
@@ -158,16 +264,20 @@ pub fn run_plan(
                         ),
                         DiagnosticStatus::OK,
                     );
+                    let started = controller.now_s();
                     controller
                         .execute(goal, cancel)
                         .map_err(|e| format!("goal {sent}/{goals} ({what}) failed: {e}"))?;
+                    if let Some(f) = welding {
+                        last_weld = Some((f, *span.end(), started));
+                    }
                 }
             }
         }
         Ok(())
     })();
     if arc_is_on {
-        set_arc(false);
+        outputs.arc(false);
     }
     match &result {
         Ok(()) => {
@@ -195,6 +305,8 @@ pub enum ExecCommand {
         on_chunk: Option<OnChunk>,
         /// Told when the run ends (`waam publish`, `~/execute`).
         done: Box<dyn FnOnce(Result<(), ExecError>) + Send>,
+        /// Closed loop (`closed_loop.enabled`): how to re-plan at weld-path boundaries.
+        closed_loop: Option<ReplanSetup>,
     },
 }
 
@@ -205,6 +317,7 @@ pub fn spawn_executor(
     max_points: usize,
     lead_in_s: f64,
     commands: Receiver<ExecCommand>,
+    readings: Receiver<Measured>,
 ) -> std::thread::JoinHandle<()> {
     std::thread::Builder::new()
         .name("execute".into())
@@ -216,20 +329,30 @@ pub fn spawn_executor(
                     cancel,
                     on_chunk,
                     done,
+                    closed_loop,
                 }) => {
+                    let closed_loop = closed_loop.map(|setup| ClosedLoopRun {
+                        setup,
+                        readings: &readings,
+                    });
                     let result = run_plan(
                         job,
                         &planned,
                         controller.as_mut(),
-                        &outputs,
+                        outputs.as_ref(),
                         max_points,
                         lead_in_s,
                         &cancel,
                         on_chunk.as_ref(),
+                        closed_loop,
                     );
                     done(result);
                 }
-                Err(RecvTimeoutError::Timeout) => controller.idle(),
+                Err(RecvTimeoutError::Timeout) => {
+                    // Readings between executions belong to none.
+                    readings.try_iter().for_each(drop);
+                    controller.idle()
+                }
                 Err(RecvTimeoutError::Disconnected) => return,
             }
         })
@@ -332,5 +455,9 @@ impl Controller for SimController {
 
     fn idle_period(&self) -> Duration {
         self.period
+    }
+
+    fn time_scale(&self) -> f64 {
+        self.time_scale
     }
 }

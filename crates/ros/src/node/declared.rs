@@ -260,6 +260,8 @@ pub static DECLARED: &[Declared] = &[
         "Simulated time runs this many times faster than real time", "> 0"),
     declare!("dry_run.rate_hz", dry_run.rate_hz: f64, AT_START, Range::Float(0.0, 1000.0),
         "/joint_states messages per second of wall-clock time", "> 0"),
+    declare!("closed_loop.enabled", closed_loop.enabled: bool, AT_START, Range::None,
+        "Closed loop: at each weld-path boundary of an execution, fit the model to the sensors and re-plan the rest", ""),
 ];
 
 /// The declared parameter `name`.

@@ -110,6 +110,7 @@ impl EventLoop {
     fn on_parameters(&mut self, pipeline: PlanningPipeline) {
         self.mesh_settings = pipeline.mesh.clone();
         self.cell.publish_again(&pipeline);
+        self.state.replan_in(&pipeline);
         self.worker.set_pipeline(pipeline);
         self.state
             .outputs

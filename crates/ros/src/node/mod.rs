@@ -8,6 +8,7 @@
 
 pub mod action;
 pub mod args;
+pub mod closed_loop;
 pub mod controller;
 pub mod declared;
 mod event_loop;
@@ -148,6 +149,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     // The torch the planner checks, in every "received" status: a replay plans with it.
     let torch_values = waam_messages::planning::torch_values(pipeline.cell.settings.torch_setup());
     let mesh_settings = pipeline.mesh.clone();
+    let (pipeline_cell, pipeline_timeout_s) = (pipeline.cell.clone(), pipeline.timeout_s);
 
     let (events, event_rx) = channel::<Event>();
     let worker_events = events.clone();
@@ -166,8 +168,8 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     )?;
     // The node is shared from here on: the FollowJointTrajectory client waits on it.
     let node = Arc::new(std::sync::Mutex::new(node));
-    let (executor, executor_thread) = start_executor(&options, &outputs, &node)?;
-    let state = LoopState::new(
+    let (executor, executor_thread, readings) = start_executor(&options, &outputs, &node)?;
+    let mut state = LoopState::new(
         &outputs,
         executor,
         params.execution.auto_execute,
@@ -175,6 +177,8 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
         once.is_none().then(|| events.clone()),
         services.execute_replies.clone(),
     );
+    state.readings = readings;
+    state.closed_loop = replan_setup(params, &pipeline_cell, pipeline_timeout_s);
     drop(events);
     let mut event_loop = EventLoop {
         state,
@@ -463,8 +467,31 @@ fn plan_once(
     Ok(())
 }
 
+/// How the closed loop re-plans (`closed_loop.enabled`; none when off): in the pipeline's
+/// cell, within the planner's time limit.
+fn replan_setup(
+    params: &NodeParams,
+    cell: &waam_pipeline::Cell,
+    timeout_s: f64,
+) -> Option<closed_loop::ReplanSetup> {
+    params
+        .closed_loop
+        .enabled
+        .then(|| closed_loop::ReplanSetup {
+            cell: cell.clone(),
+            planner: waam_planner::Options {
+                timeout: Duration::try_from_secs_f64(timeout_s)
+                    .ok()
+                    .filter(|t| !t.is_zero()),
+                max_memory_mb: params.planner.max_memory_mb.max(1) as u64,
+                ..waam_planner::Options::default()
+            },
+        })
+}
+
 /// Execution: the simulated controller on a dry run, FollowJointTrajectory when enabled, on
-/// a thread of its own; none otherwise.
+/// a thread of its own; none otherwise. With it, where the sensors' readings go to the
+/// execution's closed loop.
 #[allow(clippy::type_complexity)]
 fn start_executor(
     options: &RunOptions,
@@ -474,6 +501,7 @@ fn start_executor(
     (
         Option<Sender<ExecCommand>>,
         Option<std::thread::JoinHandle<()>>,
+        Option<Sender<waam_cell::Measured>>,
     ),
     NodeError,
 > {
@@ -491,17 +519,19 @@ fn start_executor(
             &params.execution,
         )?)
     } else {
-        return Ok((None, None));
+        return Ok((None, None, None));
     };
     let (tx, rx) = channel();
+    let (readings_tx, readings) = channel();
     let thread = spawn_executor(
         controller,
         Arc::clone(outputs),
         params.execution.max_points_per_goal as usize,
         params.execution.lead_in_s,
         rx,
+        readings,
     );
-    Ok((Some(tx), Some(thread)))
+    Ok((Some(tx), Some(thread), Some(readings_tx)))
 }
 
 /// The node `names` gives (with `/rosout`) on the environment's domain and discovery range,
@@ -555,6 +585,10 @@ struct LoopState {
     /// When and which stage the last progress status was published.
     last_progress: Option<(Instant, &'static str)>,
     success: bool,
+    /// Closed loop: how executions re-plan (none: off), and where sensor readings go to the
+    /// execution in progress.
+    closed_loop: Option<closed_loop::ReplanSetup>,
+    readings: Option<Sender<waam_cell::Measured>>,
 }
 
 impl LoopState {
@@ -576,6 +610,26 @@ impl LoopState {
             execute_replies,
             last_progress: None,
             success: false,
+            closed_loop: None,
+            readings: None,
+        }
+    }
+
+    /// A sensor's good reading, for the closed loop of the execution in progress.
+    #[allow(dead_code)] // the sensor subscriptions (#31, part 1) call it
+    fn measured(&self, reading: waam_cell::Measured) {
+        if let (Some(_), Some(tx)) = (&self.closed_loop, &self.readings) {
+            let _ = tx.send(reading);
+        }
+    }
+
+    /// Parameters changed: re-plans use the new cell and time limit.
+    fn replan_in(&mut self, pipeline: &PlanningPipeline) {
+        if let Some(setup) = &mut self.closed_loop {
+            setup.cell = pipeline.cell.clone();
+            setup.planner.timeout = Duration::try_from_secs_f64(pipeline.timeout_s)
+                .ok()
+                .filter(|t| !t.is_zero());
         }
     }
 
@@ -767,6 +821,7 @@ impl LoopState {
             cancel,
             on_chunk,
             done,
+            closed_loop: self.closed_loop.clone(),
         });
         self.events.is_none().then_some(done_rx)
     }

@@ -38,6 +38,7 @@ pub struct NodeParams {
     pub topics: TopicParams,
     pub execution: ExecutionParams,
     pub dry_run: DryRunParams,
+    pub closed_loop: ClosedLoopParams,
 }
 
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
@@ -130,6 +131,15 @@ pub struct DryRunParams {
     pub time_scale: f64,
     /// `/joint_states` messages per second of wall-clock time.
     pub rate_hz: f64,
+}
+
+/// The closed loop (#31): re-plan the rest at each weld-path boundary of an execution.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ClosedLoopParams {
+    /// Estimate the model from the sensors and re-plan while `~/execute` runs. Off by
+    /// default.
+    pub enabled: bool,
 }
 
 impl Default for PlannerParams {

@@ -1,0 +1,277 @@
+//! Closed loop in the node (issue #31, parameter `closed_loop.enabled`): while `~/execute`
+//! runs a plan, at each weld-path boundary (after `~/arc_on` false) the sensors' readings
+//! so far go to a [`ClosedLoop`]; it fits the model and re-plans the rest from the
+//! estimated state. A new remainder is never assembled here: the whole plan (the weld paths
+//! welded, then the new ones) goes through the pipeline's stages in the plan's cell
+//! ([`Cell::motion_until`]: plan rules, t8/5 windows under the estimated model, torch,
+//! motion, and the windows again on the robot's executed time line, the time already spent
+//! included). The execution goes on with its steps from where the robot stands. A re-plan
+//! that finds nothing, fails there, or would not start where the robot stands keeps the
+//! current plan.
+
+use waam_cell::{CellError, ClosedLoop, Decision, LoopOptions, MeasureError, Measured};
+use waam_messages::status::JobStatus;
+use waam_pipeline::{Cell, ChosenPlan, Interrupt, Planned};
+use waam_rosmsg::diagnostic_msgs::KeyValue;
+
+use super::execute::{plan_steps, Step};
+
+/// What the closed loop re-plans with: the cell the plans are made in and the planner's
+/// options (its time limit bounds each re-plan; its cancel flag is the execution's).
+#[derive(Clone)]
+pub struct ReplanSetup {
+    pub cell: Cell,
+    pub planner: waam_planner::Options,
+}
+
+/// How a boundary ended.
+#[derive(Debug)]
+pub enum Outcome {
+    /// The current remainder is still the plan's best.
+    Unchanged,
+    /// The current plan goes on; why the new one was not taken.
+    Kept(String),
+    /// The new plan (whole, checked, with its motion) and the steps that follow from where
+    /// the robot stands.
+    New(Box<Planned>, Vec<Step>),
+}
+
+/// One boundary: the decision, what came of it, and the readings that could not be placed.
+#[derive(Debug)]
+pub struct Replan {
+    pub decision: Decision,
+    pub outcome: Outcome,
+    pub ignored: Vec<MeasureError>,
+    /// Weld paths welded when it was made.
+    pub welded: usize,
+    /// Wall-clock time of the whole boundary (estimate, re-plan, check and motion), s.
+    pub latency_s: f64,
+}
+
+impl Replan {
+    /// The status entry of this boundary (reason, latency, estimate, remainder).
+    pub fn status(&self, job: u64) -> JobStatus {
+        let d = &self.decision;
+        let e = &d.estimate;
+        let reason = match &self.outcome {
+            Outcome::New(..) => d.reason,
+            Outcome::Unchanged => "unchanged",
+            Outcome::Kept(_) => "kept",
+        };
+        let left = match &self.outcome {
+            Outcome::New(p, _) => p.found.fragments.len() - self.welded,
+            _ => d.remainder().len(),
+        };
+        let mut message = format!(
+            "part {job}: {reason} after {} weld path(s) ({} deposits): {left} weld path(s) \
+             left; model loss x{:.3}, conduction x{:.3} (rms {:.1} -> {:.1} °C); {:.3} s",
+            self.welded,
+            d.at_deposit,
+            e.loss,
+            e.conduction,
+            e.rmse_before_c,
+            e.rmse_after_c,
+            self.latency_s
+        );
+        if let Outcome::Kept(why) = &self.outcome {
+            message.push_str(&format!("; {why}"));
+        }
+        JobStatus::Replanned {
+            job,
+            reason: reason.into(),
+            latency_s: self.latency_s,
+            message,
+            values: vec![
+                KeyValue::new("weld_paths_welded", self.welded),
+                KeyValue::new("deposits", d.at_deposit),
+                KeyValue::new("weld_paths_left", left),
+                KeyValue::new("loss_factor", format!("{:.4}", e.loss)),
+                KeyValue::new("conduction_factor", format!("{:.4}", e.conduction)),
+                KeyValue::new("rmse_before_c", format!("{:.2}", e.rmse_before_c)),
+                KeyValue::new("rmse_after_c", format!("{:.2}", e.rmse_after_c)),
+                KeyValue::new("planner_s", format!("{:.3}", d.latency_s)),
+                KeyValue::new("readings_ignored", self.ignored.len()),
+            ],
+        }
+    }
+}
+
+/// One execution's closed loop.
+pub struct Replanner {
+    setup: ReplanSetup,
+    closed: ClosedLoop,
+    welded: usize,
+}
+
+impl Replanner {
+    /// The loop of an execution of `planned` (block parts only: a graph part has no block
+    /// layers to scan).
+    pub fn new(planned: &Planned, setup: ReplanSetup) -> Result<Replanner, CellError> {
+        let opts = LoopOptions {
+            planner: setup.planner.clone(),
+            // The node sets no wire feed (yet): the height rule's output is not used.
+            wire_feed: (1.0, 1.0),
+        };
+        let closed = ClosedLoop::new(&planned.part, &planned.found.fragments, opts, 0.0)?;
+        Ok(Replanner {
+            setup,
+            closed,
+            welded: 0,
+        })
+    }
+
+    /// Weld path `fragment` of `planned` was welded by a goal that began at `goal_start_s`
+    /// on the controller's clock, moving `time_scale` times as fast as the trajectory.
+    pub fn welded(
+        &mut self,
+        planned: &Planned,
+        fragment: usize,
+        goal_start_s: f64,
+        time_scale: f64,
+    ) -> Result<(), CellError> {
+        let times = planned.toolpath.executed_times();
+        let (Some(blocks), Some(starts), Some(&off)) = (
+            planned.found.fragments.get(fragment),
+            times.deposits_s.get(fragment),
+            times.arc_off_s.get(fragment),
+        ) else {
+            return Err(CellError::OffPlan(format!(
+                "weld path {} is not in the plan",
+                fragment + 1
+            )));
+        };
+        let on = starts.first().copied().unwrap_or(off);
+        let clock = |t: f64| goal_start_s + (t - on) / time_scale;
+        for (j, (&b, &t)) in blocks.iter().zip(starts).enumerate() {
+            let end = starts.get(j + 1).copied().unwrap_or(off);
+            self.closed
+                .deposited(b, j == 0, clock(t), (end - t) / time_scale)?;
+        }
+        self.welded = fragment + 1;
+        Ok(())
+    }
+
+    /// At the boundary after the last weld path welded, with the robot standing on point
+    /// `standing` of `planned`'s trajectory at `now_s`: the readings fed, the decision
+    /// made, and a new remainder checked and moved from where the robot stands. `None`
+    /// after the last weld path: nothing is left to re-plan.
+    pub fn at_boundary(
+        &mut self,
+        planned: &Planned,
+        readings: impl IntoIterator<Item = Measured>,
+        standing: usize,
+        max_points: usize,
+        now_s: f64,
+    ) -> Result<Option<Replan>, CellError> {
+        let started = std::time::Instant::now();
+        let ignored: Vec<MeasureError> = readings
+            .into_iter()
+            .filter_map(|m| self.closed.measured(&m).err())
+            .collect();
+        if self.closed.next().is_none() {
+            return Ok(None);
+        }
+        let decision = self.closed.at_boundary(true, now_s)?;
+        let outcome = if decision.reason == "kept" {
+            Outcome::Kept("no feasible completion from the estimated state".into())
+        } else if !decision.changed {
+            Outcome::Unchanged
+        } else {
+            match self.motion(planned, &decision, standing, max_points) {
+                Ok((new, steps)) => Outcome::New(Box::new(new), steps),
+                Err(why) => Outcome::Kept(why),
+            }
+        };
+        match &outcome {
+            Outcome::Kept(_) => self.closed.reject(&decision, now_s),
+            _ => self.closed.adopt(&decision, now_s),
+        }
+        Ok(Some(Replan {
+            decision,
+            outcome,
+            ignored,
+            welded: self.welded,
+            latency_s: started.elapsed().as_secs_f64(),
+        }))
+    }
+
+    /// The decision's whole plan through the pipeline's stages, under the estimated model,
+    /// and its steps after the weld paths welded.
+    fn motion(
+        &self,
+        planned: &Planned,
+        decision: &Decision,
+        standing: usize,
+        max_points: usize,
+    ) -> Result<(Planned, Vec<Step>), String> {
+        let mut part = planned.part.clone();
+        part.thermal = decision.estimate.params;
+        let chosen = ChosenPlan {
+            fragments: decision.fragments(),
+            stats: decision.stats.clone(),
+            proven: decision.proven,
+            worst_margin_s: decision.margin_s,
+        };
+        let opts = &self.setup.planner;
+        let interrupt = Interrupt::after(opts.timeout).with_cancel(opts.cancel.clone());
+        let new = self
+            .setup
+            .cell
+            .motion_until(part, chosen, &interrupt)
+            .map_err(|e| format!("the new plan fails its check: {e}"))?;
+        let steps = steps_after(planned, &new, self.welded, standing, max_points)?;
+        Ok((new, steps))
+    }
+}
+
+/// The steps of `new` after its weld path `welded` (1-based count) went out, when the robot
+/// stands there as it does on point `standing` of `old`: same joints, same time on the
+/// executed time line (the weld paths welded are the same in both plans).
+pub fn steps_after(
+    old: &Planned,
+    new: &Planned,
+    welded: usize,
+    standing: usize,
+    max_points: usize,
+) -> Result<Vec<Step>, String> {
+    let arc: Vec<bool> = new.trajectory.points.iter().map(|p| p.arc_on).collect();
+    let steps = plan_steps(&arc, max_points);
+    let weld = welded
+        .checked_sub(1)
+        .and_then(|f| {
+            steps
+                .iter()
+                .position(|s| matches!(s, Step::Goal { welding: Some(w), .. } if *w == f))
+        })
+        .ok_or_else(|| format!("the new plan has no weld path {welded}"))?;
+    let (Step::Goal { span, .. }, Some(Step::Arc(false))) = (&steps[weld], steps.get(weld + 1))
+    else {
+        return Err(format!(
+            "weld path {welded} of the new plan does not end its arc"
+        ));
+    };
+    let (a, b) = (
+        &old.trajectory.points[standing],
+        &new.trajectory.points[*span.end()],
+    );
+    let joints = a
+        .positions
+        .iter()
+        .zip(&b.positions)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max);
+    if a.positions.len() != b.positions.len() || joints > 1e-6 {
+        return Err(format!(
+            "the new motion does not start where the robot stands (joints differ by up to \
+             {joints:.2e} rad)"
+        ));
+    }
+    let dt = (a.time_from_start - b.time_from_start).abs();
+    if dt > 1e-6 {
+        return Err(format!(
+            "the new plan's time line differs from the executed one by {dt:.3} s at the \
+             boundary"
+        ));
+    }
+    Ok(steps[weld + 2..].to_vec())
+}
