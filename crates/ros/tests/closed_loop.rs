@@ -1,0 +1,273 @@
+//! The node's closed loop without DDS (issue #31): `run_plan`, the execution `~/execute`
+//! runs, drives a simulated controller on a clock of its own while a simulated pyrometer
+//! reads each deposit of a cell whose heat losses are 25 % lower than the model's. At the
+//! first weld-path boundary the loop re-plans the rest; the execution goes on with the new
+//! plan from where the robot stands.
+//!
+//! The part: two walls in rows y = 0 and y = 2 (not touching, so neither heats the other),
+//! 6 x 1 blocks; the first 2 layers high, the second 4, with t8/5 windows of at most 9 s on
+//! the second wall's upper two layers (as in `crates/cell/tests/closed_loop.rs`: one
+//! serpentine keeps them on the model with a margin of about 1 s and breaks them on the
+//! true cell). k = 3.
+
+use std::cell::RefCell;
+use std::sync::mpsc::{channel, Sender};
+use std::sync::{Arc, Mutex};
+
+use waam_cell::estimate::{counting_part, scaled};
+use waam_cell::Measured;
+use waam_messages::status::JobStatus;
+use waam_part::graph::WeldGraph;
+use waam_part::plan::Plan;
+use waam_part::{Part, ThermalParams};
+use waam_pipeline::{check_executed, Cell, ChosenPlan, Interrupt, Planned};
+use waam_ros::node::closed_loop::ReplanSetup;
+use waam_ros::node::controller::{run_plan, ClosedLoopRun, Controller, ExecError, ExecOutputs};
+use waam_ros::node::io::Level;
+use waam_ros::node::worker::Cancel;
+use waam_rosmsg::trajectory_msgs::JointTrajectory as TrajectoryMsg;
+use waam_thermal::{simulate, Simulation, ThermalModel};
+
+const TWO_WALLS: &str = "name: two-walls
+block_mm: [6, 6, 2.5]
+max_fragments: 3
+layers:
+- |
+  ######
+  ......
+  ######
+- |
+  ######
+  ......
+  ######
+- |
+  ......
+  ......
+  ######
+- |
+  ......
+  ......
+  ######
+t85: [{box: {min: [0,2,2], max: [5,2,3]}, min_s: 0, max_s: 9}]
+";
+
+/// Follows each goal at once, its clock advancing by the goal's duration.
+struct InstantController {
+    clock: Arc<Mutex<f64>>,
+    goals: Arc<Mutex<Vec<TrajectoryMsg>>>,
+}
+
+impl Controller for InstantController {
+    fn execute(&mut self, goal: TrajectoryMsg, _cancel: &Cancel) -> Result<(), ExecError> {
+        let duration = goal
+            .points
+            .last()
+            .map_or(0.0, |p| p.time_from_start.as_secs_f64());
+        *self.clock.lock().unwrap() += duration;
+        self.goals.lock().unwrap().push(goal);
+        Ok(())
+    }
+
+    fn now_s(&self) -> f64 {
+        *self.clock.lock().unwrap()
+    }
+}
+
+/// The node's outputs as a record, and the true cell's pyrometer: when the arc goes out it
+/// reads each deposit of the weld path just welded (the true model's temperature at the
+/// end of the deposit), stamped in the middle of the deposit on the controller's clock.
+struct Cell1 {
+    clock: Arc<Mutex<f64>>,
+    readings: Sender<Measured>,
+    state: RefCell<Seen>,
+}
+
+struct Seen {
+    plan: Planned,
+    truth: Simulation<'static>,
+    welds: usize,
+    weld_started: f64,
+    arcs: Vec<bool>,
+    statuses: Vec<JobStatus>,
+    plans: Vec<Planned>,
+}
+
+impl ExecOutputs for Cell1 {
+    fn arc(&self, on: bool) {
+        let now = *self.clock.lock().unwrap();
+        let mut s = self.state.borrow_mut();
+        s.arcs.push(on);
+        if on {
+            s.weld_started = now;
+            return;
+        }
+        let f = s.welds;
+        s.welds += 1;
+        let times = s.plan.toolpath.executed_times();
+        let (starts, off) = (&times.deposits_s[f], times.arc_off_s[f]);
+        let blocks = s.plan.found.fragments[f].clone();
+        for (j, &b) in blocks.iter().enumerate() {
+            if j == 0 {
+                // As the simulated cell does (`waam_cell::run`).
+                s.truth.transit().unwrap();
+                s.truth.deposit_after_transit(b).unwrap();
+            } else {
+                s.truth.deposit(b, false).unwrap();
+            }
+            let celsius = s.truth.temperatures().find(|&(o, _)| o == b).unwrap().1;
+            let end = starts.get(j + 1).copied().unwrap_or(off);
+            let mid = (starts[j] + end) / 2.0 - starts[0];
+            let _ = self.readings.send(Measured::Temperature {
+                stamp_s: s.weld_started + mid,
+                celsius,
+            });
+        }
+    }
+    fn status(&self, status: JobStatus) {
+        self.state.borrow_mut().statuses.push(status);
+    }
+    fn log(&self, _level: Level, _message: &str) {}
+    fn plan(&self, planned: &Planned) {
+        let mut s = self.state.borrow_mut();
+        s.plan = planned.clone();
+        s.plans.push(planned.clone());
+    }
+}
+
+fn lower_losses(part: &Part) -> ThermalParams {
+    scaled(part.thermal, 0.75, 1.0)
+}
+
+#[test]
+fn hotter_deposits_than_the_model_re_plan_the_rest_at_a_weld_path_boundary() {
+    let part = Part::parse(TWO_WALLS).unwrap();
+    let cell = Cell::bundled();
+    // The short wall first, then the tall one, each one serpentine: the planner's own
+    // order of the tall wall, given so that the windows come after the first boundary.
+    let first: Vec<Vec<usize>> = vec![
+        (0..6).chain((12..18).rev()).collect(),
+        (6..12)
+            .chain((18..24).rev())
+            .chain(24..30)
+            .chain((30..36).rev())
+            .collect(),
+    ];
+    let chosen = ChosenPlan {
+        fragments: first.clone(),
+        stats: Default::default(),
+        proven: false,
+        worst_margin_s: f64::NAN,
+    };
+    let planned = cell
+        .motion(part.clone(), chosen)
+        .expect("checked, with its motion");
+
+    // The true cell (windows widened: its verdicts are checked below).
+    let truth_part: &'static Part = Box::leak(Box::new(counting_part(&part, lower_losses(&part))));
+    let graph: &'static WeldGraph = Box::leak(Box::new(WeldGraph::new(truth_part)));
+    let model: &'static ThermalModel = Box::leak(Box::new(ThermalModel::new(truth_part, graph)));
+    let clock = Arc::new(Mutex::new(1000.0));
+    let goals = Arc::new(Mutex::new(Vec::new()));
+    let (tx, rx) = channel();
+    let outputs = Cell1 {
+        clock: Arc::clone(&clock),
+        readings: tx,
+        state: RefCell::new(Seen {
+            plan: planned.clone(),
+            truth: Simulation::new(model).with_threads(1),
+            welds: 0,
+            weld_started: 0.0,
+            arcs: Vec::new(),
+            statuses: Vec::new(),
+            plans: Vec::new(),
+        }),
+    };
+    let mut controller = InstantController {
+        clock,
+        goals: Arc::clone(&goals),
+    };
+    let setup = ReplanSetup {
+        cell: cell.clone(),
+        planner: waam_planner::Options::default(),
+    };
+    run_plan(
+        1,
+        &planned,
+        &mut controller,
+        &outputs,
+        200,
+        0.0,
+        &Cancel::new(),
+        None,
+        Some(ClosedLoopRun {
+            setup,
+            readings: &rx,
+        }),
+    )
+    .expect("executed");
+    let seen = outputs.state.into_inner();
+    for s in &seen.statuses {
+        if let JobStatus::Replanned { message, .. } = s {
+            eprintln!("{message}");
+        }
+    }
+    // A re-plan was decided and taken.
+    let replans: Vec<(&str, usize)> = seen
+        .statuses
+        .iter()
+        .filter_map(|s| match s {
+            JobStatus::Replanned { reason, values, .. } => Some((
+                reason.as_str(),
+                values
+                    .iter()
+                    .find(|v| v.key == "weld_paths_welded")
+                    .unwrap()
+                    .value
+                    .parse()
+                    .unwrap(),
+            )),
+            _ => None,
+        })
+        .collect();
+    let taken = replans
+        .iter()
+        .position(|r| r.0 == "replan")
+        .unwrap_or_else(|| panic!("no re-plan taken: {replans:?}"));
+    let welded = replans[taken].1;
+    let new = seen.plans.first().expect("the re-plan was published");
+    // The new steps start at a weld-path boundary: the weld paths welded are the plan's.
+    assert!(welded >= 1);
+    assert_eq!(new.found.fragments[..welded], first[..welded]);
+    assert_ne!(new.found.fragments, first);
+    // The arc went on and off around each weld, never left on.
+    assert!(
+        seen.arcs.chunks(2).all(|c| c == [true, false]),
+        "{:?}",
+        seen.arcs
+    );
+    let last = seen.plans.last().unwrap();
+    assert_eq!(seen.arcs.len(), 2 * last.found.fragments.len());
+    // What was welded is the last plan: valid, with every block once, and its windows kept
+    // on its own executed time line under the estimated model.
+    Plan::from_indices(&part, &last.found.fragments)
+        .validate(&part, &WeldGraph::new(&part))
+        .expect("a valid plan");
+    check_executed(
+        &last.part,
+        &last.found.fragments,
+        &last.toolpath,
+        &Interrupt::default(),
+    )
+    .expect("windows kept on the executed time line");
+    assert!((last.part.thermal.substrate_per_s / part.thermal.substrate_per_s - 0.75).abs() < 0.02);
+    // On the true cell: the walls do not exchange heat, so the remainder can be judged
+    // alone. The first plan's remainder breaks a window; the one welded keeps them all.
+    let mut true_part = part.clone();
+    true_part.thermal = lower_losses(&part);
+    let true_model = ThermalModel::new(&true_part, &WeldGraph::new(&true_part));
+    let verdict = |fragments: &[Vec<usize>]| simulate(&true_model, fragments).unwrap().violation;
+    assert!(verdict(&first[welded..]).is_some());
+    assert!(verdict(&last.found.fragments[welded..]).is_none());
+    // Every goal the controller got was sent once.
+    assert!(!goals.lock().unwrap().is_empty());
+}
