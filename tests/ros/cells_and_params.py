@@ -121,7 +121,7 @@ def run(peer, waam, cell2):
         "execution.max_points_per_goal", "execution.server_timeout_s", "execution.lead_in_s",
         "execution.joint_names", "execution.goal_tolerance_rad", "execution.path_tolerance_rad",
         "execution.goal_time_tolerance_s", "execution.start_service",
-        "dry_run.time_scale", "dry_run.rate_hz", "use_sim_time",
+        "dry_run.time_scale", "dry_run.rate_hz", "closed_loop.enabled", "use_sim_time",
     }
     check(names == expected, f"parameters listed: {sorted(names)}; missing "
           f"{sorted(expected - names)}, unexpected {sorted(names - expected)}")
