@@ -1239,3 +1239,67 @@ fn a_mesh_the_node_recorded_replays_identically() {
     assert_eq!(code, Some(1), "{json}");
     assert_eq!(json["different"], 1, "{json}");
 }
+
+/// Issue #31: with `closed_loop.enabled` a dry run decides at each weld-path boundary. The
+/// two walls welded one after the other: after the first weld path (no sensor readings:
+/// the model stays nominal) the node re-plans the rest, says so on `~/status` with reason
+/// and latency, records it, and the execution ends.
+#[test]
+fn closed_loop_dry_run_decides_at_the_weld_path_boundary_and_records_it() {
+    use waam_rosmsg::diagnostic_msgs::DiagnosticArray;
+    let tmp = tempfile::tempdir().unwrap();
+    let bag_dir = tmp.path().join("bag");
+    let out = common::run::waam()
+        .args([
+            "publish",
+            "tests/data/two-walls.yaml",
+            "--plan",
+            "tests/data/plans/two-walls.yaml",
+            "--params",
+            "tests/ros/closed_loop.params.yaml",
+            "--dry-run",
+            "--linger",
+            "0",
+            "--record",
+        ])
+        .arg(&bag_dir)
+        .current_dir(repo())
+        .env("ROS_DOMAIN_ID", fresh_domain_id().to_string())
+        .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        .env_remove("ROS_LOCALHOST_ONLY")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let bag = waam_rosbag::Bag::open(&bag_dir).unwrap();
+    let statuses: Vec<_> = bag
+        .decode_all::<DiagnosticArray>()
+        .unwrap()
+        .into_iter()
+        .flat_map(|(_, _, m)| m.status)
+        .collect();
+    let value = |s: &waam_rosmsg::diagnostic_msgs::DiagnosticStatus, key: &str| {
+        s.values
+            .iter()
+            .find(|v| v.key == key)
+            .map(|v| v.value.clone())
+    };
+    let replanned: Vec<_> = statuses
+        .iter()
+        .filter(|s| value(s, "state").as_deref() == Some("replanned"))
+        .collect();
+    // One boundary with weld paths left: after the first.
+    assert_eq!(replanned.len(), 1, "{stderr}");
+    let r = replanned[0];
+    assert_eq!(value(r, "weld_paths_welded").as_deref(), Some("1"));
+    let reason = value(r, "reason").unwrap();
+    assert!(
+        ["replan", "unchanged", "kept"].contains(&reason.as_str()),
+        "{reason}"
+    );
+    let latency: f64 = value(r, "latency_s").unwrap().parse().unwrap();
+    assert!(latency > 0.0 && latency < 60.0, "{latency}");
+    // No readings: the nominal model, fitted to nothing.
+    assert_eq!(value(r, "loss_factor").as_deref(), Some("1.0000"));
+    assert!(statuses.iter().any(|s| s.message == "part 1: executed"));
+}

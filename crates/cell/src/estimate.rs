@@ -114,6 +114,17 @@ pub fn fit(
     };
     let (before, count) = cost(1.0, 1.0);
     let rms = |sum: f64| (sum / count.max(1) as f64).sqrt();
+    if count == 0 {
+        // Nothing measured: every factor fits equally; the model stays nominal.
+        return Estimate {
+            params: nominal,
+            loss: 1.0,
+            conduction: 1.0,
+            rmse_before_c: 0.0,
+            rmse_after_c: 0.0,
+            simulations,
+        };
+    }
     let (mut loss, mut conduction) = (1.0f64, 1.0f64);
     for _sweep in 0..2 {
         loss = golden(|x| cost(x.exp(), conduction).0).exp();
@@ -205,5 +216,9 @@ mod tests {
         assert!((e.loss - 0.75).abs() < 0.01, "{e:?}");
         assert!((e.conduction - 1.0).abs() < 0.05, "{e:?}");
         assert!(e.rmse_before_c > 10.0 && e.rmse_after_c < 1.0, "{e:?}");
+        // Nothing measured: the nominal model (a flat objective once drove it to 1/4).
+        let none = fit(&part, part.thermal, &order, &[]);
+        assert_eq!((none.loss, none.conduction), (1.0, 1.0));
+        assert_eq!(none.params, part.thermal);
     }
 }

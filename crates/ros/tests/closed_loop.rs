@@ -4,11 +4,11 @@
 //! first weld-path boundary the loop re-plans the rest; the execution goes on with the new
 //! plan from where the robot stands.
 //!
-//! The part: two walls in rows y = 0 and y = 2 (not touching, so neither heats the other),
-//! 6 x 1 blocks; the first 2 layers high, the second 4, with t8/5 windows of at most 9 s on
-//! the second wall's upper two layers (as in `crates/cell/tests/closed_loop.rs`: one
-//! serpentine keeps them on the model with a margin of about 1 s and breaks them on the
-//! true cell). k = 3.
+//! The part (`tests/data/two-walls.yaml`): two walls in rows y = 0 and y = 2 (not
+//! touching, so neither heats the other), 6 x 1 blocks; the first 2 layers high, the second
+//! 4, with t8/5 windows of at most 9 s on the second wall's upper two layers (as in
+//! `crates/cell/tests/closed_loop.rs`: one serpentine keeps them on the model with a margin
+//! of about 1 s and breaks them on the true cell). k = 3.
 
 use std::cell::RefCell;
 use std::sync::mpsc::{channel, Sender};
@@ -28,28 +28,7 @@ use waam_ros::node::worker::Cancel;
 use waam_rosmsg::trajectory_msgs::JointTrajectory as TrajectoryMsg;
 use waam_thermal::{simulate, Simulation, ThermalModel};
 
-const TWO_WALLS: &str = "name: two-walls
-block_mm: [6, 6, 2.5]
-max_fragments: 3
-layers:
-- |
-  ######
-  ......
-  ######
-- |
-  ######
-  ......
-  ######
-- |
-  ......
-  ......
-  ######
-- |
-  ......
-  ......
-  ######
-t85: [{box: {min: [0,2,2], max: [5,2,3]}, min_s: 0, max_s: 9}]
-";
+const TWO_WALLS: &str = include_str!("../../../tests/data/two-walls.yaml");
 
 /// Follows each goal at once, its clock advancing by the goal's duration.
 struct InstantController {

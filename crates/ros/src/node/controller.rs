@@ -217,7 +217,11 @@ pub fn run_plan(
                             continue;
                         }
                     };
-                    outputs.status(replan.status(job));
+                    let status = replan.status(job);
+                    if let JobStatus::Replanned { message, .. } = &status {
+                        outputs.log(Level::Info, message);
+                    }
+                    outputs.status(status);
                     if let Outcome::New(new, rest) = replan.outcome {
                         outputs.plan(&new);
                         current = std::borrow::Cow::Owned(*new);
