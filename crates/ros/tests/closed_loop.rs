@@ -21,8 +21,9 @@ use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
 use waam_part::{Part, ThermalParams};
 use waam_pipeline::{check_executed, Cell, ChosenPlan, Interrupt, Planned};
-use waam_ros::node::closed_loop::ReplanSetup;
+use waam_ros::node::closed_loop::{steps_after, ReplanSetup};
 use waam_ros::node::controller::{run_plan, ClosedLoopRun, Controller, ExecError, ExecOutputs};
+use waam_ros::node::execute::{plan_steps, Step};
 use waam_ros::node::io::Level;
 use waam_ros::node::worker::Cancel;
 use waam_rosmsg::trajectory_msgs::JointTrajectory as TrajectoryMsg;
@@ -113,6 +114,19 @@ impl ExecOutputs for Cell1 {
     }
 }
 
+/// The short wall first, then the tall one, each one serpentine (the planner's own order of
+/// the tall wall), given so that the windows come after the first boundary.
+fn short_then_tall() -> Vec<Vec<usize>> {
+    vec![
+        (0..6).chain((12..18).rev()).collect(),
+        (6..12)
+            .chain((18..24).rev())
+            .chain(24..30)
+            .chain((30..36).rev())
+            .collect(),
+    ]
+}
+
 fn lower_losses(part: &Part) -> ThermalParams {
     scaled(part.thermal, 0.75, 1.0)
 }
@@ -121,16 +135,7 @@ fn lower_losses(part: &Part) -> ThermalParams {
 fn hotter_deposits_than_the_model_re_plan_the_rest_at_a_weld_path_boundary() {
     let part = Part::parse(TWO_WALLS).unwrap();
     let cell = Cell::bundled();
-    // The short wall first, then the tall one, each one serpentine: the planner's own
-    // order of the tall wall, given so that the windows come after the first boundary.
-    let first: Vec<Vec<usize>> = vec![
-        (0..6).chain((12..18).rev()).collect(),
-        (6..12)
-            .chain((18..24).rev())
-            .chain(24..30)
-            .chain((30..36).rev())
-            .collect(),
-    ];
+    let first = short_then_tall();
     let chosen = ChosenPlan {
         fragments: first.clone(),
         stats: Default::default(),
@@ -249,4 +254,44 @@ fn hotter_deposits_than_the_model_re_plan_the_rest_at_a_weld_path_boundary() {
     assert!(verdict(&last.found.fragments[welded..]).is_none());
     // Every goal the controller got was sent once.
     assert!(!goals.lock().unwrap().is_empty());
+}
+
+#[test]
+fn the_steps_after_a_weld_path_start_where_the_robot_stands_or_are_refused() {
+    let part = Part::parse(TWO_WALLS).unwrap();
+    let chosen = ChosenPlan {
+        fragments: short_then_tall(),
+        stats: Default::default(),
+        proven: false,
+        worst_margin_s: f64::NAN,
+    };
+    let planned = Cell::bundled().motion(part, chosen).unwrap();
+    let arc: Vec<bool> = planned.trajectory.points.iter().map(|p| p.arc_on).collect();
+    let steps = plan_steps(&arc, 200);
+    let weld = steps
+        .iter()
+        .position(|s| {
+            matches!(
+                s,
+                Step::Goal {
+                    welding: Some(0),
+                    ..
+                }
+            )
+        })
+        .unwrap();
+    let Step::Goal { span, .. } = &steps[weld] else {
+        unreachable!()
+    };
+    // After weld path 1 the robot stands on its goal's last point (the arc-off point).
+    let standing = *span.end();
+    assert_eq!(steps[weld + 1], Step::Arc(false));
+    assert_eq!(
+        steps_after(&planned, &planned, 1, standing, 200).unwrap(),
+        steps[weld + 2..]
+    );
+    // Standing anywhere else (the first point): refused, saying why.
+    let e = steps_after(&planned, &planned, 1, 0, 200).unwrap_err();
+    assert!(e.contains("where the robot stands"), "{e}");
+    assert!(steps_after(&planned, &planned, 5, standing, 200).is_err());
 }
