@@ -14,8 +14,10 @@ use std::time::Instant;
 
 use thiserror::Error;
 
-use waam_part::{Block, Part};
+use waam_part::graph::WeldGraph;
+use waam_part::{Block, Part, Window};
 use waam_planner::{self as planner, Built, Options, Stats};
+use waam_thermal::{Simulation, ThermalModel};
 
 use crate::estimate::{self, Estimate, Measurement};
 use crate::executed::{EstimateRecord, LayerRecord, PlanUsed};
@@ -448,6 +450,39 @@ impl ClosedLoop {
             continues: self.plan.get(done).is_some_and(|&(_, new)| !new),
             remainder,
         });
+    }
+
+    /// The part a decision's whole plan is checked on: the estimated constants, with the
+    /// windows that the deposits made so far already broke under them widened — the past
+    /// cannot be changed; the check judges what is still to come. Also the blocks whose
+    /// windows were widened, in the order they broke.
+    pub fn part_to_check(&self, decision: &Decision) -> (Part, Vec<Block>) {
+        let mut part = self.part.clone();
+        part.thermal = decision.estimate.params;
+        let mut broken = Vec::new();
+        // Each round widens one more window, which then never breaks: at most one round
+        // per window.
+        loop {
+            let violation = {
+                let graph = WeldGraph::new(&part);
+                let model = ThermalModel::new(&part, &graph);
+                let mut sim = Simulation::new(&model).with_threads(1);
+                self.executed
+                    .iter()
+                    .find_map(|&(b, new)| sim.deposit(b, new).err())
+            };
+            let Some(v) = violation else {
+                return (part, broken);
+            };
+            part.set_window(
+                v.block,
+                Window {
+                    min_s: 0.0,
+                    max_s: f64::INFINITY,
+                },
+            );
+            broken.push(self.part.block(v.block));
+        }
     }
 
     /// Every plan used (the initial one first), every estimate, every scanned layer.

@@ -222,3 +222,44 @@ fn a_rejected_decision_keeps_the_current_plan_and_says_so() {
     let last = cl.plans().last().unwrap();
     assert_eq!((last.reason.as_str(), last.at_deposit), ("kept", 6));
 }
+
+/// A window the deposits made so far already broke (block [0, 0, 0], at most 0.5 s: far
+/// below what the plate's layer cools in) must not make every check of what is still to
+/// come fail: it is widened, and only it.
+#[test]
+fn the_part_to_check_widens_the_windows_the_past_already_broke() {
+    let mut part = wall();
+    let first = part.index_of([0, 0, 0]).unwrap();
+    part.set_window(
+        first,
+        waam_part::Window {
+            min_s: 0.0,
+            max_s: 0.5,
+        },
+    );
+    // One serpentine, the first two layers welded.
+    let plan: Vec<Vec<usize>> = vec![[0, 1, 2, 3, 4, 5, 11, 10, 9, 8, 7, 6]
+        .into_iter()
+        .chain([12, 13, 14, 15, 16, 17, 23, 22, 21, 20, 19, 18])
+        .map(|x: i64| part.index_of([x % 6, 0, x / 6]).unwrap())
+        .collect()];
+    let mut cl = ClosedLoop::new(&part, &plan, options(), 0.0).unwrap();
+    for t in 0..12 {
+        let (b, new) = cl.next().unwrap();
+        cl.deposited(b, new, t as f64, 1.0).unwrap();
+    }
+    let d = cl.at_boundary(true, 12.0).unwrap();
+    let (checked, broken) = cl.part_to_check(&d);
+    assert_eq!(checked.thermal, d.estimate.params);
+    assert_eq!(broken, vec![[0, 0, 0]]);
+    // The deposits made break nothing on the part to check; every other window stays.
+    let model = ThermalModel::new(&checked, &WeldGraph::new(&checked));
+    let mut sim = Simulation::new(&model).with_threads(1);
+    for (p, &b) in plan[0][..12].iter().enumerate() {
+        sim.deposit(b, p == 0).unwrap();
+    }
+    for (i, w) in checked.windows() {
+        let original = part.window_of(*i).unwrap();
+        assert_eq!(*w == original, *i != first, "{:?}", part.block(*i));
+    }
+}

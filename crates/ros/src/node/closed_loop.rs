@@ -11,6 +11,7 @@
 
 use waam_cell::{CellError, ClosedLoop, Decision, LoopOptions, MeasureError, Measured};
 use waam_messages::status::JobStatus;
+use waam_part::{Block, Part};
 use waam_pipeline::{Cell, ChosenPlan, Interrupt, Planned};
 use waam_rosmsg::diagnostic_msgs::KeyValue;
 
@@ -44,6 +45,9 @@ pub struct Replan {
     pub ignored: Vec<MeasureError>,
     /// Weld paths welded when it was made.
     pub welded: usize,
+    /// Blocks whose t8/5 windows the welded deposits broke under the estimate (not judged
+    /// again by the new plan's check).
+    pub broken: Vec<Block>,
     /// Wall-clock time of the whole boundary (estimate, re-plan, check and motion), s.
     pub latency_s: f64,
 }
@@ -76,6 +80,13 @@ impl Replan {
         if let Outcome::Kept(why) = &self.outcome {
             message.push_str(&format!("; {why}"));
         }
+        if !self.broken.is_empty() {
+            message.push_str(&format!(
+                "; windows already broken by the welded deposits (under the estimate), not \
+                 judged again: {:?}",
+                self.broken
+            ));
+        }
         JobStatus::Replanned {
             job,
             reason: reason.into(),
@@ -91,6 +102,7 @@ impl Replan {
                 KeyValue::new("rmse_after_c", format!("{:.2}", e.rmse_after_c)),
                 KeyValue::new("planner_s", format!("{:.3}", d.latency_s)),
                 KeyValue::new("readings_ignored", self.ignored.len()),
+                KeyValue::new("windows_broken_before", self.broken.len()),
             ],
         }
     }
@@ -172,12 +184,17 @@ impl Replanner {
             return Ok(None);
         }
         let decision = self.closed.at_boundary(true, now_s)?;
+        let mut broken = Vec::new();
         let outcome = if decision.reason == "kept" {
             Outcome::Kept("no feasible completion from the estimated state".into())
         } else if !decision.changed {
             Outcome::Unchanged
         } else {
-            match self.motion(planned, &decision, standing, max_points) {
+            // Windows the welded deposits already broke under the estimate are not judged
+            // again: the check judges what is still to come.
+            let (part, past) = self.closed.part_to_check(&decision);
+            broken = past;
+            match self.motion(planned, part, &decision, standing, max_points) {
                 Ok((new, steps)) => Outcome::New(Box::new(new), steps),
                 Err(why) => Outcome::Kept(why),
             }
@@ -191,6 +208,7 @@ impl Replanner {
             outcome,
             ignored,
             welded: self.welded,
+            broken,
             latency_s: started.elapsed().as_secs_f64(),
         }))
     }
@@ -200,12 +218,11 @@ impl Replanner {
     fn motion(
         &self,
         planned: &Planned,
+        part: Part,
         decision: &Decision,
         standing: usize,
         max_points: usize,
     ) -> Result<(Planned, Vec<Step>), String> {
-        let mut part = planned.part.clone();
-        part.thermal = decision.estimate.params;
         let chosen = ChosenPlan {
             fragments: decision.fragments(),
             stats: decision.stats.clone(),
