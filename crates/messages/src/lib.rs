@@ -13,6 +13,7 @@ pub mod layer;
 pub mod planning;
 pub mod replay;
 pub mod sample;
+pub mod scan;
 pub mod status;
 
 /// The topics of node `waam_planner` (`~/name` resolves to `/waam_planner/name`). Recordings
