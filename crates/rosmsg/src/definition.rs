@@ -80,6 +80,10 @@ const DEFINITIONS: &[(&str, &str)] = &[
         "sensor_msgs/PointField",
         include_str!("defs/sensor_msgs/PointField.msg"),
     ),
+    (
+        "sensor_msgs/Temperature",
+        include_str!("defs/sensor_msgs/Temperature.msg"),
+    ),
     ("shape_msgs/Mesh", include_str!("defs/shape_msgs/Mesh.msg")),
     (
         "shape_msgs/MeshTriangle",

@@ -8,7 +8,7 @@ use super::geometry_msgs::{
 };
 use super::nav_msgs::Path;
 use super::rcl_interfaces::Log;
-use super::sensor_msgs::{CompressedImage, JointState, PointCloud2, PointField};
+use super::sensor_msgs::{CompressedImage, JointState, PointCloud2, PointField, Temperature};
 use super::shape_msgs::{Mesh, MeshTriangle};
 use super::std_msgs::{Bool, ColorRGBA, Header, String as RosString};
 use super::tf2_msgs::TFMessage;
@@ -69,6 +69,7 @@ pub fn visit_type<V: TypeVisitor>(type_name: &str, visitor: V) -> Option<V::Outp
             PointCloud2,
             PointField,
             JointState,
+            Temperature,
             DiagnosticArray,
             DiagnosticStatus,
             KeyValue,
@@ -103,6 +104,7 @@ mod tests {
             "std_msgs/msg/String",
             "waam_interfaces/msg/WeldPlan",
             "sensor_msgs/msg/PointCloud2",
+            "sensor_msgs/msg/Temperature",
             "rcl_interfaces/msg/Log",
         ] {
             assert_eq!(visit_type(name, Name), Some(name));

@@ -1,4 +1,5 @@
-//! `sensor_msgs`: point clouds (the simulated heat of a build), joint states, images.
+//! `sensor_msgs`: point clouds (the simulated heat of a build, a layer height scan), joint
+//! states, images, temperatures (a pyrometer).
 
 use serde::{Deserialize, Serialize};
 
@@ -77,4 +78,18 @@ ros_message!(
     CompressedImage,
     "sensor_msgs/msg/CompressedImage",
     "RIHS01_15640771531571185e2efc8a100baf923961a4d15d5569652e6cb6691e8e371a"
+);
+
+/// One temperature reading (a pyrometer aimed at the torch), degrees Celsius.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Temperature {
+    pub header: Header,
+    pub temperature: f64,
+    /// 0: unknown.
+    pub variance: f64,
+}
+ros_message!(
+    Temperature,
+    "sensor_msgs/msg/Temperature",
+    "RIHS01_72514a14126ab9f8a9abec974c78e5610a367b59db5da355ff1fb982d5bad4b8"
 );

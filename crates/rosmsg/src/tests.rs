@@ -12,7 +12,7 @@ use super::geometry_msgs::{
 };
 use super::nav_msgs::Path;
 use super::rcl_interfaces::Log;
-use super::sensor_msgs::{CompressedImage, JointState, PointCloud2, PointField};
+use super::sensor_msgs::{CompressedImage, JointState, PointCloud2, PointField, Temperature};
 use super::shape_msgs::{Mesh, MeshTriangle};
 use super::std_msgs::{Bool, ColorRGBA, Header, String as RosString};
 use super::tf2_msgs::TFMessage;
@@ -126,6 +126,7 @@ macro_rules! for_all_types {
         $f::<PointCloud2>();
         $f::<PointField>();
         $f::<JointState>();
+        $f::<Temperature>();
         $f::<DiagnosticArray>();
         $f::<DiagnosticStatus>();
         $f::<KeyValue>();
@@ -194,6 +195,7 @@ fn every_definition_resolves_with_its_dependencies() {
         PointCloud2,
         PointField,
         JointState,
+        Temperature,
         DiagnosticArray,
         DiagnosticStatus,
         KeyValue,
@@ -276,6 +278,21 @@ fn cdr_bytes_are_what_ros_sends() {
     })
     .unwrap();
     assert_eq!(bytes, [0, 1, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0, 3, 0, 0, 0]);
+    // A pyrometer reading as rclpy serializes it (Jazzy): the float64s are aligned to 8,
+    // and rclpy leaves its two padding bytes (here 100, 100) uninitialised.
+    let rclpy = [
+        0, 1, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0, 2, 0, 0, 0, b'p', 0, 100, 100, 0, 0, 0, 0, 0, 0, 248,
+        63, 0, 0, 0, 0, 0, 0, 208, 63,
+    ];
+    let reading = Temperature {
+        header: Header::new(Time { sec: 1, nanosec: 2 }, "p"),
+        temperature: 1.5,
+        variance: 0.25,
+    };
+    assert_eq!(from_cdr::<Temperature>(&rclpy).unwrap(), reading);
+    let mut ours = rclpy;
+    ours[18..20].fill(0);
+    assert_eq!(to_cdr(&reading).unwrap(), ours);
 }
 
 #[test]
