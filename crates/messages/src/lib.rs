@@ -14,6 +14,7 @@ pub mod planning;
 pub mod replay;
 pub mod sample;
 pub mod scan;
+pub mod sensor;
 pub mod status;
 
 /// The topics of node `waam_planner` (`~/name` resolves to `/waam_planner/name`). Recordings

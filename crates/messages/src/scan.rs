@@ -1,6 +1,7 @@
 //! A layer height scan (`sensor_msgs/PointCloud2` from a laser line scanner) read into
 //! points, with an error naming what is wrong and where — the node reports it on
-//! `/diagnostics` instead of using the data.
+//! `/diagnostics` instead of using the data. Which frame the points are in, and whether they
+//! lie on the part, is [`crate::sensor`]'s to check.
 
 use nalgebra::Point3;
 use thiserror::Error;
@@ -9,8 +10,6 @@ use waam_rosmsg::sensor_msgs::{PointCloud2, PointField};
 /// Why a scan cannot be used.
 #[derive(Debug, Error, PartialEq)]
 pub enum ScanError {
-    #[error("scan in frame '{got}', expected '{expected}' (no transform known)")]
-    UnknownFrame { got: String, expected: String },
     #[error("scan has no FLOAT32 or FLOAT64 field '{0}'")]
     MissingField(&'static str),
     #[error("scan is big-endian (only little-endian clouds are read)")]
@@ -34,14 +33,8 @@ pub enum ScanError {
     Empty,
 }
 
-/// The points of `cloud`, which must be in `frame` (the part frame) with finite x, y, z.
-pub fn scan_points(cloud: &PointCloud2, frame: &str) -> Result<Vec<Point3<f64>>, ScanError> {
-    if cloud.header.frame_id != frame {
-        return Err(ScanError::UnknownFrame {
-            got: cloud.header.frame_id.clone(),
-            expected: frame.to_string(),
-        });
-    }
+/// The points of `cloud` in its own frame, which must all have finite x, y, z.
+pub fn scan_points(cloud: &PointCloud2) -> Result<Vec<Point3<f64>>, ScanError> {
     if cloud.is_bigendian {
         return Err(ScanError::BigEndian);
     }
@@ -112,42 +105,44 @@ fn axis(cloud: &PointCloud2, name: &'static str) -> Result<Axis, ScanError> {
     })
 }
 
+/// A cloud of FLOAT32 x, y, z points in `frame` (for tests).
+#[cfg(test)]
+pub(crate) fn cloud(points: &[[f32; 3]], frame: &str) -> PointCloud2 {
+    let fields = ["x", "y", "z"]
+        .iter()
+        .enumerate()
+        .map(|(i, name)| PointField {
+            name: name.to_string(),
+            offset: 4 * i as u32,
+            datatype: PointField::FLOAT32,
+            count: 1,
+        })
+        .collect();
+    let mut c = PointCloud2 {
+        height: 1,
+        width: points.len() as u32,
+        fields,
+        point_step: 12,
+        row_step: 12 * points.len() as u32,
+        data: points
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_le_bytes())
+            .collect(),
+        ..Default::default()
+    };
+    c.header.frame_id = frame.to_string();
+    c
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn cloud(points: &[[f32; 3]], frame: &str) -> PointCloud2 {
-        let fields = ["x", "y", "z"]
-            .iter()
-            .enumerate()
-            .map(|(i, name)| PointField {
-                name: name.to_string(),
-                offset: 4 * i as u32,
-                datatype: PointField::FLOAT32,
-                count: 1,
-            })
-            .collect();
-        let mut c = PointCloud2 {
-            height: 1,
-            width: points.len() as u32,
-            fields,
-            point_step: 12,
-            row_step: 12 * points.len() as u32,
-            data: points
-                .iter()
-                .flatten()
-                .flat_map(|v| v.to_le_bytes())
-                .collect(),
-            ..Default::default()
-        };
-        c.header.frame_id = frame.to_string();
-        c
-    }
-
     #[test]
     fn reads_the_points_of_a_good_scan() {
         let c = cloud(&[[1.0, 2.0, 3.5], [-1.0, 0.0, 9.0]], "part");
-        let p = scan_points(&c, "part").unwrap();
+        let p = scan_points(&c).unwrap();
         assert_eq!(
             p,
             vec![Point3::new(1.0, 2.0, 3.5), Point3::new(-1.0, 0.0, 9.0)]
@@ -157,40 +152,31 @@ mod tests {
     #[test]
     fn names_what_is_wrong() {
         let good = cloud(&[[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]], "part");
-        let err = scan_points(&good, "world").unwrap_err();
-        assert!(err.to_string().contains("'part'"), "{err}");
-
         let mut nan = good.clone();
         nan.data[12 + 8..12 + 12].copy_from_slice(&f32::NAN.to_le_bytes());
         assert!(matches!(
-            scan_points(&nan, "part"),
+            scan_points(&nan),
             Err(ScanError::NotFinite { index: 1, .. })
         ));
 
         let mut no_z = good.clone();
         no_z.fields[2].name = "intensity".into();
-        assert_eq!(
-            scan_points(&no_z, "part"),
-            Err(ScanError::MissingField("z"))
-        );
+        assert_eq!(scan_points(&no_z), Err(ScanError::MissingField("z")));
 
         let mut short = good.clone();
         short.data.truncate(20);
         assert!(matches!(
-            scan_points(&short, "part"),
+            scan_points(&short),
             Err(ScanError::Truncated { need: 24, .. })
         ));
 
         let mut outside = good.clone();
         outside.fields[2].offset = 10;
         assert!(matches!(
-            scan_points(&outside, "part"),
+            scan_points(&outside),
             Err(ScanError::FieldOutsidePoint { .. })
         ));
 
-        assert_eq!(
-            scan_points(&cloud(&[], "part"), "part"),
-            Err(ScanError::Empty)
-        );
+        assert_eq!(scan_points(&cloud(&[], "part")), Err(ScanError::Empty));
     }
 }

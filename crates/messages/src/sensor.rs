@@ -1,0 +1,352 @@
+//! A sensor message checked before the closed loop may use it: its stamp's age, a
+//! pyrometer's reading, a scan's frame and whether it lies on the part. What fails is a
+//! [`BadReading`] that names the reason; the node reports it on `/diagnostics` and drops the
+//! message.
+
+use nalgebra::Isometry3;
+use thiserror::Error;
+use waam_cell::Measured;
+use waam_part::Part;
+use waam_rosmsg::builtin_interfaces::Time;
+use waam_rosmsg::sensor_msgs::{PointCloud2, Temperature};
+
+use crate::planning::PART_FRAME;
+use crate::scan::{scan_points, ScanError};
+
+/// The temperatures a pyrometer on a WAAM cell can read, °C: from a cold cell to above the
+/// boiling point of iron (2862 °C). Anything outside is a broken sensor or wrong units.
+pub const PLAUSIBLE_C: [f64; 2] = [-50.0, 3000.0];
+
+/// Why a sensor message is not used.
+#[derive(Debug, Error, PartialEq)]
+pub enum BadReading {
+    #[error("no stamp (header.stamp is 0)")]
+    NoStamp,
+    #[error("late: stamped {age_s:.1} s ago, more than closed_loop.max_age_s = {max_age_s} s")]
+    Late { age_s: f64, max_age_s: f64 },
+    #[error("stamped {ahead_s:.1} s in the future (is the sensor's clock synchronised?)")]
+    Future { ahead_s: f64 },
+    #[error("temperature {0} °C is not a number")]
+    NotFinite(f64),
+    #[error(
+        "temperature {0} °C is outside the plausible {lo}..{hi} °C",
+        lo = PLAUSIBLE_C[0],
+        hi = PLAUSIBLE_C[1]
+    )]
+    Implausible(f64),
+    #[error("variance {0} is negative or not a number (0 = unknown)")]
+    Variance(f64),
+    #[error(transparent)]
+    Scan(#[from] ScanError),
+    #[error("scan in frame '{got}': expected '{PART_FRAME}' or the robot's base link '{base}'")]
+    UnknownFrame { got: String, base: String },
+    #[error("no part planned yet: a scan cannot be placed on it")]
+    NoPart,
+    #[error(
+        "off the part: none of the scan's {points} points lies within {margin_mm} mm of the \
+         part's box ({lo:?}..{hi:?} mm in '{PART_FRAME}'); the first is at {first:?} mm"
+    )]
+    OffPart {
+        points: usize,
+        margin_mm: f64,
+        lo: [f64; 3],
+        hi: [f64; 3],
+        first: [f64; 3],
+    },
+}
+
+/// What a scan is checked against: the part being built and where it sits in the cell.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScanTarget {
+    /// The part's box in the part frame, mm: its lowest and highest corners.
+    pub lo_mm: [f64; 3],
+    pub hi_mm: [f64; 3],
+    /// The robot's base link, the other frame a scan may be in.
+    pub base_link: String,
+    /// The part frame in the base link (m): the plan's plate.
+    pub plate: Isometry3<f64>,
+}
+
+impl ScanTarget {
+    /// The box around every block (bead node) of `part`, placed on `plate` in `base_link`.
+    pub fn of_part(part: &Part, base_link: &str, plate: Isometry3<f64>) -> ScanTarget {
+        let half = part.block_mm.map(|v| v / 2.0);
+        let (mut lo_mm, mut hi_mm) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for &b in part.blocks() {
+            let c = part.centre_mm(b);
+            for d in 0..3 {
+                lo_mm[d] = lo_mm[d].min(c[d] - half[d]);
+                hi_mm[d] = hi_mm[d].max(c[d] + half[d]);
+            }
+        }
+        ScanTarget {
+            lo_mm,
+            hi_mm,
+            base_link: base_link.to_string(),
+            plate,
+        }
+    }
+
+    fn holds(&self, p: &[f64; 3], margin_mm: f64) -> bool {
+        (0..3).all(|d| self.lo_mm[d] - margin_mm <= p[d] && p[d] <= self.hi_mm[d] + margin_mm)
+    }
+}
+
+/// The stamp in seconds, unless it is unset, older than `max_age_s` or as far in the future.
+pub fn check_stamp(stamp: Time, now: Time, max_age_s: f64) -> Result<f64, BadReading> {
+    if stamp == Time::default() {
+        return Err(BadReading::NoStamp);
+    }
+    let secs = |t: Time| t.to_nanos() as f64 * 1e-9;
+    let age_s = secs(now) - secs(stamp);
+    if age_s > max_age_s {
+        return Err(BadReading::Late { age_s, max_age_s });
+    }
+    if -age_s > max_age_s {
+        return Err(BadReading::Future { ahead_s: -age_s });
+    }
+    Ok(secs(stamp))
+}
+
+/// A pyrometer's reading, checked: stamped within `max_age_s` of `now`, a plausible
+/// temperature, a sane variance. Its frame is not checked: the reading has no position (the
+/// deposit under the torch).
+pub fn temperature(msg: &Temperature, now: Time, max_age_s: f64) -> Result<Measured, BadReading> {
+    let stamp_s = check_stamp(msg.header.stamp, now, max_age_s)?;
+    let celsius = msg.temperature;
+    if !celsius.is_finite() {
+        return Err(BadReading::NotFinite(celsius));
+    }
+    if !(PLAUSIBLE_C[0]..=PLAUSIBLE_C[1]).contains(&celsius) {
+        return Err(BadReading::Implausible(celsius));
+    }
+    if !(msg.variance.is_finite() && msg.variance >= 0.0) {
+        return Err(BadReading::Variance(msg.variance));
+    }
+    Ok(Measured::Temperature { stamp_s, celsius })
+}
+
+/// A scan that can be used: its points on the part (part frame, mm), and how many of the
+/// cloud's points were dropped as off the part (a line scanner sees the plate beside it).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GoodScan {
+    pub measured: Measured,
+    pub dropped: usize,
+}
+
+/// A layer height scan, checked: stamped within `max_age_s` of `now`, readable, in the part
+/// frame (metres, as REP 103 has it) or the robot's base link, with at least one point
+/// within `margin_mm` of the part's box. The points off it are dropped.
+pub fn scan(
+    cloud: &PointCloud2,
+    target: Option<&ScanTarget>,
+    margin_mm: f64,
+    now: Time,
+    max_age_s: f64,
+) -> Result<GoodScan, BadReading> {
+    let stamp_s = check_stamp(cloud.header.stamp, now, max_age_s)?;
+    let points = scan_points(cloud)?;
+    let target = target.ok_or(BadReading::NoPart)?;
+    let frame = cloud.header.frame_id.as_str();
+    let to_part = if frame == PART_FRAME {
+        Isometry3::identity()
+    } else if frame == target.base_link {
+        target.plate.inverse()
+    } else {
+        return Err(BadReading::UnknownFrame {
+            got: frame.to_string(),
+            base: target.base_link.clone(),
+        });
+    };
+    let in_part: Vec<[f64; 3]> = points
+        .iter()
+        .map(|p| (to_part * p).coords.map(|v| v * 1000.0).into())
+        .collect();
+    let on_part: Vec<[f64; 3]> = in_part
+        .iter()
+        .filter(|p| target.holds(p, margin_mm))
+        .copied()
+        .collect();
+    if on_part.is_empty() {
+        return Err(BadReading::OffPart {
+            points: in_part.len(),
+            margin_mm,
+            lo: target.lo_mm,
+            hi: target.hi_mm,
+            first: in_part[0],
+        });
+    }
+    Ok(GoodScan {
+        dropped: in_part.len() - on_part.len(),
+        measured: Measured::Scan {
+            stamp_s,
+            points: on_part,
+        },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scan::cloud;
+    use nalgebra::{Translation3, UnitQuaternion};
+    use waam_rosmsg::std_msgs::Header;
+
+    const NOW: i64 = 1_800_000_000_000_000_000;
+
+    fn at(offset_s: f64) -> Time {
+        Time::from_nanos(NOW + (offset_s * 1e9) as i64)
+    }
+
+    fn reading(celsius: f64, offset_s: f64) -> Temperature {
+        Temperature {
+            header: Header::new(at(offset_s), "pyrometer"),
+            temperature: celsius,
+            variance: 0.0,
+        }
+    }
+
+    /// A 3 x 1 x 2 wall of 6 x 6 x 2.5 mm blocks: 18 x 6 x 5 mm from the part origin, its
+    /// plate 0.5 m in front of the robot and turned a quarter about z.
+    fn wall() -> ScanTarget {
+        let part = Part::parse(
+            "name: w\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nlayers:\n  - \"###\"\n  - \"###\"\n",
+        )
+        .unwrap();
+        let plate = Isometry3::from_parts(
+            Translation3::new(0.5, 0.0, 0.0),
+            UnitQuaternion::from_euler_angles(0.0, 0.0, std::f64::consts::FRAC_PI_2),
+        );
+        ScanTarget::of_part(&part, "base_link", plate)
+    }
+
+    #[test]
+    fn a_plausible_fresh_temperature_is_measured() {
+        let m = temperature(&reading(612.5, -0.5), at(0.0), 2.0).unwrap();
+        assert_eq!(
+            m,
+            Measured::Temperature {
+                stamp_s: at(-0.5).to_nanos() as f64 * 1e-9,
+                celsius: 612.5
+            }
+        );
+    }
+
+    #[test]
+    fn bad_temperatures_say_why() {
+        let now = at(0.0);
+        let bad = |msg: Temperature| temperature(&msg, now, 2.0).unwrap_err();
+        assert!(bad(reading(f64::NAN, 0.0))
+            .to_string()
+            .contains("not a number"));
+        assert_eq!(bad(reading(5000.0, 0.0)), BadReading::Implausible(5000.0));
+        assert_eq!(bad(reading(-273.0, 0.0)), BadReading::Implausible(-273.0));
+        assert!(
+            matches!(bad(reading(500.0, -3.0)), BadReading::Late { age_s, .. } if (age_s - 3.0).abs() < 1e-6)
+        );
+        assert!(matches!(
+            bad(reading(500.0, 10.0)),
+            BadReading::Future { .. }
+        ));
+        let mut unset = reading(500.0, 0.0);
+        unset.header.stamp = Time::default();
+        assert_eq!(bad(unset), BadReading::NoStamp);
+        let mut variance = reading(500.0, 0.0);
+        variance.variance = -1.0;
+        assert_eq!(bad(variance), BadReading::Variance(-1.0));
+        let late = bad(reading(500.0, -3.0)).to_string();
+        assert!(late.contains("closed_loop.max_age_s = 2"), "{late}");
+    }
+
+    #[test]
+    fn the_part_box_covers_every_block() {
+        let t = wall();
+        assert_eq!((t.lo_mm, t.hi_mm), ([0.0; 3], [18.0, 6.0, 5.0]));
+    }
+
+    #[test]
+    fn a_scan_in_the_part_frame_is_kept_on_the_part_in_mm() {
+        // Metres: two points on the top of the wall, one on the plate 0.1 m away.
+        let mut c = cloud(
+            &[
+                [0.003, 0.003, 0.005],
+                [0.015, 0.003, 0.0051],
+                [0.1, 0.0, 0.0],
+            ],
+            "part",
+        );
+        c.header.stamp = at(-1.0);
+        let good = scan(&c, Some(&wall()), 5.0, at(0.0), 2.0).unwrap();
+        assert_eq!(good.dropped, 1);
+        let Measured::Scan { points, .. } = good.measured else {
+            panic!("not a scan")
+        };
+        assert_eq!(points.len(), 2);
+        for (p, want) in points.iter().zip([[3.0, 3.0, 5.0], [15.0, 3.0, 5.1]]) {
+            assert!(
+                (0..3).all(|d| (p[d] - want[d]).abs() < 1e-3),
+                "{p:?} != {want:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_scan_in_the_base_link_is_moved_into_the_part_frame() {
+        // Part point (3, 3, 5) mm is, in the base link, 0.5 m ahead, turned a quarter: x' = -y.
+        let mut c = cloud(&[[0.497, 0.003, 0.005]], "base_link");
+        c.header.stamp = at(0.0);
+        let good = scan(&c, Some(&wall()), 0.0, at(0.0), 2.0).unwrap();
+        let Measured::Scan { points, .. } = good.measured else {
+            panic!("not a scan")
+        };
+        let want = [3.0, 3.0, 5.0];
+        assert!(
+            (0..3).all(|d| (points[0][d] - want[d]).abs() < 1e-3),
+            "{points:?}"
+        );
+    }
+
+    #[test]
+    fn bad_scans_say_why() {
+        let target = wall();
+        let check = |c: &PointCloud2, t: Option<&ScanTarget>| scan(c, t, 5.0, at(0.0), 2.0);
+        let mut c = cloud(&[[0.003, 0.003, 0.005]], "part");
+        c.header.stamp = at(0.0);
+        assert!(check(&c, Some(&target)).is_ok());
+        assert_eq!(check(&c, None), Err(BadReading::NoPart));
+
+        let mut camera = c.clone();
+        camera.header.frame_id = "scanner_link".into();
+        let e = check(&camera, Some(&target)).unwrap_err().to_string();
+        assert!(
+            e.contains("'scanner_link'") && e.contains("'base_link'"),
+            "{e}"
+        );
+
+        // Millimetres sent as metres: 3 m away, off the part.
+        let mut mm = cloud(&[[3.0, 3.0, 5.0]], "part");
+        mm.header.stamp = at(0.0);
+        let e = check(&mm, Some(&target)).unwrap_err();
+        assert!(matches!(e, BadReading::OffPart { points: 1, .. }), "{e}");
+        assert!(e.to_string().contains("[3000.0, 3000.0, 5000.0]"), "{e}");
+
+        let mut nan = c.clone();
+        nan.data[8..12].copy_from_slice(&f32::NAN.to_le_bytes());
+        assert!(matches!(
+            check(&nan, Some(&target)),
+            Err(BadReading::Scan(ScanError::NotFinite { index: 0, .. }))
+        ));
+
+        let mut no_z = c.clone();
+        no_z.fields[2].name = "intensity".into();
+        let e = check(&no_z, Some(&target)).unwrap_err().to_string();
+        assert!(e.contains("'z'"), "{e}");
+
+        let mut late = c.clone();
+        late.header.stamp = at(-5.0);
+        assert!(matches!(
+            check(&late, Some(&target)),
+            Err(BadReading::Late { .. })
+        ));
+    }
+}
