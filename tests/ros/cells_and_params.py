@@ -121,7 +121,9 @@ def run(peer, waam, cell2):
         "execution.max_points_per_goal", "execution.server_timeout_s", "execution.lead_in_s",
         "execution.joint_names", "execution.goal_tolerance_rad", "execution.path_tolerance_rad",
         "execution.goal_time_tolerance_s", "execution.start_service",
-        "dry_run.time_scale", "dry_run.rate_hz", "closed_loop.enabled", "use_sim_time",
+        "dry_run.time_scale", "dry_run.rate_hz", "closed_loop.enabled", "closed_loop.scan_topic",
+        "closed_loop.temperature_topic", "closed_loop.max_age_s", "closed_loop.scan_margin_mm",
+        "use_sim_time",
     }
     check(names == expected, f"parameters listed: {sorted(names)}; missing "
           f"{sorted(expected - names)}, unexpected {sorted(names - expected)}")

@@ -262,6 +262,16 @@ pub static DECLARED: &[Declared] = &[
         "/joint_states messages per second of wall-clock time", "> 0"),
     declare!("closed_loop.enabled", closed_loop.enabled: bool, AT_START, Range::None,
         "Closed loop: at each weld-path boundary of an execution, fit the model to the sensors and re-plan the rest", ""),
+    declare!("closed_loop.scan_topic", closed_loop.scan_topic: String, AT_START, Range::None,
+        "In: sensor_msgs/PointCloud2, a layer height scan (metres) in the part frame or the robot's base link", ""),
+    declare!("closed_loop.temperature_topic", closed_loop.temperature_topic: String, AT_START,
+        Range::None, "In: sensor_msgs/Temperature, a pyrometer aimed at the torch (°C)", ""),
+    declare!("closed_loop.max_age_s", closed_loop.max_age_s: f64, AT_START,
+        Range::Float(0.0, MAX_WAIT_S),
+        "Sensor data stamped longer ago than this (or as far ahead) is late and not used, s", "> 0"),
+    declare!("closed_loop.scan_margin_mm", closed_loop.scan_margin_mm: f64, AT_START,
+        Range::Float(0.0, 1e6),
+        "Scan points farther than this from the part's box are off the part (dropped; a scan with none on it is bad), mm", ""),
 ];
 
 /// The declared parameter `name`.

@@ -133,13 +133,34 @@ pub struct DryRunParams {
     pub rate_hz: f64,
 }
 
-/// The closed loop (#31): re-plan the rest at each weld-path boundary of an execution.
-#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+/// The closed loop (#31): the cell's sensors — what they publish on and when their data is
+/// too old — and whether to re-plan the rest at each weld-path boundary of an execution.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ClosedLoopParams {
     /// Estimate the model from the sensors and re-plan while `~/execute` runs. Off by
     /// default.
     pub enabled: bool,
+    /// In: sensor_msgs/PointCloud2, a layer height scan in the part frame or the base link.
+    pub scan_topic: String,
+    /// In: sensor_msgs/Temperature, a pyrometer aimed at the torch.
+    pub temperature_topic: String,
+    /// Data stamped longer ago than this (or as far ahead) is late, s.
+    pub max_age_s: f64,
+    /// Scan points farther than this from the part's box are off the part, mm.
+    pub scan_margin_mm: f64,
+}
+
+impl Default for ClosedLoopParams {
+    fn default() -> Self {
+        ClosedLoopParams {
+            enabled: false,
+            scan_topic: "~/scan".into(),
+            temperature_topic: "~/temperature".into(),
+            max_age_s: 2.0,
+            scan_margin_mm: 10.0,
+        }
+    }
 }
 
 impl Default for PlannerParams {
@@ -439,6 +460,19 @@ impl NodeParams {
                 self.dry_run.rate_hz
             )));
         }
+        let cl = &self.closed_loop;
+        if !(finite_pos(cl.max_age_s) && cl.max_age_s <= MAX_WAIT_S) {
+            return Err(ParamRule(format!(
+                "closed_loop.max_age_s: expected seconds in (0, {MAX_WAIT_S}], got {:?}",
+                cl.max_age_s
+            )));
+        }
+        if !(cl.scan_margin_mm.is_finite() && (0.0..=1e6).contains(&cl.scan_margin_mm)) {
+            return Err(ParamRule(format!(
+                "closed_loop.scan_margin_mm: expected a length in [0, 1e6] (mm), got {:?}",
+                cl.scan_margin_mm
+            )));
+        }
         Ok(())
     }
 }
@@ -620,6 +654,10 @@ mod tests {
         assert!(e.contains("mesh.t85_window_s"), "{e}");
         let e = err("waam_planner:\n  ros__parameters:\n    robot: {tcp: [0, 0]}\n");
         assert!(e.contains("robot.tcp"), "{e}");
+        let e = err("waam_planner:\n  ros__parameters:\n    closed_loop: {max_age_s: 0}\n");
+        assert!(e.contains("closed_loop.max_age_s"), "{e}");
+        let e = err("waam_planner:\n  ros__parameters:\n    closed_loop: {scan_margin_mm: -1}\n");
+        assert!(e.contains("closed_loop.scan_margin_mm"), "{e}");
         let e = err("someone_else:\n  ros__parameters: {}\n");
         assert!(e.contains("no section for this node"), "{e}");
         let e = err("/cell1/*:\n  ros__parameters: {}\n");
