@@ -130,8 +130,19 @@ pub fn temperature(msg: &Temperature, now: Time, max_age_s: f64) -> Result<Measu
 /// cloud's points were dropped as off the part (a line scanner sees the plate beside it).
 #[derive(Debug, Clone, PartialEq)]
 pub struct GoodScan {
-    pub measured: Measured,
+    pub stamp_s: f64,
+    pub points: Vec<[f64; 3]>,
     pub dropped: usize,
+}
+
+impl GoodScan {
+    /// The scan as the closed loop takes it.
+    pub fn measured(self) -> Measured {
+        Measured::Scan {
+            stamp_s: self.stamp_s,
+            points: self.points,
+        }
+    }
 }
 
 /// A layer height scan, checked: stamped within `max_age_s` of `now`, readable, in the part
@@ -177,11 +188,9 @@ pub fn scan(
         });
     }
     Ok(GoodScan {
+        stamp_s,
         dropped: in_part.len() - on_part.len(),
-        measured: Measured::Scan {
-            stamp_s,
-            points: on_part,
-        },
+        points: on_part,
     })
 }
 
@@ -278,11 +287,9 @@ mod tests {
         c.header.stamp = at(-1.0);
         let good = scan(&c, Some(&wall()), 5.0, at(0.0), 2.0).unwrap();
         assert_eq!(good.dropped, 1);
-        let Measured::Scan { points, .. } = good.measured else {
-            panic!("not a scan")
-        };
-        assert_eq!(points.len(), 2);
-        for (p, want) in points.iter().zip([[3.0, 3.0, 5.0], [15.0, 3.0, 5.1]]) {
+        assert_eq!(good.stamp_s, at(-1.0).to_nanos() as f64 * 1e-9);
+        assert_eq!(good.points.len(), 2);
+        for (p, want) in good.points.iter().zip([[3.0, 3.0, 5.0], [15.0, 3.0, 5.1]]) {
             assert!(
                 (0..3).all(|d| (p[d] - want[d]).abs() < 1e-3),
                 "{p:?} != {want:?}"
@@ -296,13 +303,15 @@ mod tests {
         let mut c = cloud(&[[0.497, 0.003, 0.005]], "base_link");
         c.header.stamp = at(0.0);
         let good = scan(&c, Some(&wall()), 0.0, at(0.0), 2.0).unwrap();
-        let Measured::Scan { points, .. } = good.measured else {
-            panic!("not a scan")
-        };
         let want = [3.0, 3.0, 5.0];
-        assert!(
-            (0..3).all(|d| (points[0][d] - want[d]).abs() < 1e-3),
-            "{points:?}"
+        let p = good.points[0];
+        assert!((0..3).all(|d| (p[d] - want[d]).abs() < 1e-3), "{p:?}");
+        assert_eq!(
+            good.clone().measured(),
+            Measured::Scan {
+                stamp_s: good.stamp_s,
+                points: good.points
+            }
         );
     }
 

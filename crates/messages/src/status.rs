@@ -44,13 +44,19 @@ impl Status {
     pub fn reported_by(&self, stamp: Time, name: &str, hardware_id: &str) -> DiagnosticArray {
         DiagnosticArray {
             header: Header::new(stamp, ""),
-            status: vec![DiagnosticStatus {
-                level: self.level,
-                name: name.to_string(),
-                message: self.message.clone(),
-                hardware_id: hardware_id.to_string(),
-                values: self.values.clone(),
-            }],
+            status: vec![self.diagnostic(name, hardware_id)],
+        }
+    }
+
+    /// This status as one entry of a `DiagnosticArray` (a node reporting several components,
+    /// as the node's health does for its sensors, puts one per component in the array).
+    pub fn diagnostic(&self, name: &str, hardware_id: &str) -> DiagnosticStatus {
+        DiagnosticStatus {
+            level: self.level,
+            name: name.to_string(),
+            message: self.message.clone(),
+            hardware_id: hardware_id.to_string(),
+            values: self.values.clone(),
         }
     }
 }

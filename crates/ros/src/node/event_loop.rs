@@ -18,7 +18,7 @@ use super::{
 };
 use waam_messages::status::JobStatus;
 use waam_rosmsg::builtin_interfaces::Time;
-use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, KeyValue};
+use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
 
 /// Everything the loop keeps between events.
 pub(super) struct EventLoop {
@@ -32,6 +32,12 @@ pub(super) struct EventLoop {
     pub mesh_settings: waam_pipeline::MeshSettings,
     pub torch_values: Vec<KeyValue>,
     pub action_replies: Option<std::sync::mpsc::Sender<plan_action::Reply>>,
+    /// The sensors' good readings, in the part frame: the closed loop drains it.
+    pub measured_rx: Receiver<waam_cell::Measured>,
+    /// The part the sensors' scans are checked against (the latest plan's).
+    pub scan_targets: super::sensors::ScanTargets,
+    /// Publish the health at once (a sensor went bad or good again).
+    pub health_due: bool,
     /// Planning one part: the loop ends when it is done.
     pub once: bool,
     pub stop: Arc<AtomicBool>,
@@ -43,11 +49,14 @@ impl EventLoop {
     pub fn run(&mut self, events: &Receiver<Event>, diagnostics: &io::Output<DiagnosticArray>) {
         let mut last_health: Option<Instant> = None;
         while !self.stop.load(Ordering::Relaxed) {
-            if last_health.is_none_or(|t| t.elapsed() >= health::PERIOD) {
+            if self.health_due || last_health.is_none_or(|t| t.elapsed() >= health::PERIOD) {
                 last_health = Some(Instant::now());
+                self.health_due = false;
                 // Not recorded: a recording has the events on ~/status.
                 diagnostics.publish(&self.health.to_msg(Time::now()), None);
             }
+            // Until the closed loop takes them, readings are dropped: memory cannot grow.
+            for _reading in self.measured_rx.try_iter() {}
             let event = match events.recv_timeout(Duration::from_millis(100)) {
                 Ok(event) => event,
                 Err(RecvTimeoutError::Timeout) => continue,
@@ -66,6 +75,7 @@ impl EventLoop {
             Event::Stop(answer) => {
                 let _ = answer.send(self.on_stop());
             }
+            Event::Sensor(news) => self.on_sensor(news),
             Event::Execute(execute_action::Request::Goal { goal, job }) => {
                 self.on_execute_goal(goal, job)
             }
@@ -115,6 +125,20 @@ impl EventLoop {
         self.state
             .outputs
             .log(Level::Info, "parameters changed: the next plan uses them");
+    }
+
+    /// A sensor's verdict: into the health; a sensor going bad (or good again) goes out on
+    /// `/diagnostics` at once and into the log.
+    fn on_sensor(&mut self, news: super::sensors::SensorNews) {
+        if let Some((level, line)) = self.health.sensor(news) {
+            self.health_due = true;
+            let level = if level == DiagnosticStatus::OK {
+                Level::Info
+            } else {
+                Level::Warn
+            };
+            self.state.outputs.log(level, &line);
+        }
     }
 
     /// `~/stop`: stops planning and execution; returns what was stopped.
@@ -342,6 +366,7 @@ impl EventLoop {
         match &result {
             Ok(p) => {
                 self.health.planned += 1;
+                self.scan_targets.measure(p);
                 let summary = format!(
                     "planned {} ({} blocks, {} fragment(s))",
                     p.part.name,

@@ -1,9 +1,13 @@
 //! The node's health on `/diagnostics` (diagnostic_msgs/DiagnosticArray) once a second, as
 //! diagnostic_updater nodes report it: a monitor tells a stale node by the silence, and reads
-//! the state and the last result without having seen the events on `~/status`.
+//! the state and the last result without having seen the events on `~/status`. Each sensor
+//! of the closed loop is a component of its own: OK while its data is used, WARN naming the
+//! topic and the reason while it is not.
 
+use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
+use super::sensors::{SensorKind, SensorNews, Verdict};
 use waam_messages::status::Status;
 use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, DiagnosticStatus, KeyValue};
@@ -32,6 +36,18 @@ pub struct Health {
     pub last: Option<(u64, Outcome)>,
     pub planned: u64,
     pub failed: u64,
+    /// The sensors by topic.
+    sensors: BTreeMap<String, SensorHealth>,
+}
+
+/// What a sensor's messages told so far.
+struct SensorHealth {
+    kind: SensorKind,
+    verdict: Verdict,
+    used: u64,
+    rejected: u64,
+    /// Kept after good data clears the WARN, so a passing fault still shows.
+    last_rejected: Option<String>,
 }
 
 impl Health {
@@ -43,7 +59,39 @@ impl Health {
             last: None,
             planned: 0,
             failed: 0,
+            sensors: BTreeMap::new(),
         }
+    }
+
+    /// Takes a sensor's news. Returns what changed worth saying at once (and logging): the
+    /// sensor went bad or bad for another reason (WARN), or it is good again (OK).
+    pub fn sensor(&mut self, news: SensorNews) -> Option<(u8, String)> {
+        let s = self
+            .sensors
+            .entry(news.topic.clone())
+            .or_insert_with(|| SensorHealth {
+                kind: news.kind,
+                verdict: Verdict::Waiting,
+                used: 0,
+                rejected: 0,
+                last_rejected: None,
+            });
+        let was_bad = matches!(s.verdict, Verdict::Bad(_));
+        let change = match &news.verdict {
+            Verdict::Waiting => None,
+            Verdict::Good(summary) => {
+                s.used += 1;
+                was_bad.then(|| (DiagnosticStatus::OK, format!("{}: {summary}", news.topic)))
+            }
+            Verdict::Bad(reason) => {
+                s.rejected += 1;
+                s.last_rejected = Some(reason.clone());
+                (s.verdict != news.verdict)
+                    .then(|| (DiagnosticStatus::WARN, format!("{}: {reason}", news.topic)))
+            }
+        };
+        s.verdict = news.verdict;
+        change
     }
 
     /// The health now: OK, or WARN when the last part got no plan.
@@ -75,9 +123,40 @@ impl Health {
         if let Some(job) = self.planning {
             values.push(KeyValue::new("job", job));
         }
-        let name = format!("{}: planner", self.node.trim_start_matches('/'));
-        Status::new(level, format!("{state}; last: {last}"), values)
-            .reported_by(stamp, &name, &self.node)
+        let node = self.node.trim_start_matches('/');
+        let mut msg = Status::new(level, format!("{state}; last: {last}"), values).reported_by(
+            stamp,
+            &format!("{node}: planner"),
+            &self.node,
+        );
+        for (topic, s) in &self.sensors {
+            msg.status.push(
+                s.status(topic)
+                    .diagnostic(&format!("{node}: {} sensor", s.kind.name()), &self.node),
+            );
+        }
+        msg
+    }
+}
+
+impl SensorHealth {
+    /// OK while the latest message was used (or none came yet), WARN naming the topic and
+    /// the reason while it was not.
+    fn status(&self, topic: &str) -> Status {
+        let (level, message) = match &self.verdict {
+            Verdict::Waiting => (DiagnosticStatus::OK, "no data yet".to_string()),
+            Verdict::Good(summary) => (DiagnosticStatus::OK, summary.clone()),
+            Verdict::Bad(reason) => (DiagnosticStatus::WARN, reason.clone()),
+        };
+        let mut values = vec![
+            KeyValue::new("topic", topic),
+            KeyValue::new("used", self.used),
+            KeyValue::new("rejected", self.rejected),
+        ];
+        if let Some(reason) = &self.last_rejected {
+            values.push(KeyValue::new("last_rejected", reason));
+        }
+        Status::new(level, format!("{topic}: {message}"), values)
     }
 }
 
@@ -98,6 +177,51 @@ mod tests {
         assert_eq!(
             s.message,
             "planning part 2; last: part 1: no plan: cancelled"
+        );
+    }
+
+    #[test]
+    fn a_sensor_warns_with_its_topic_and_reason_until_good_data_comes() {
+        let mut h = Health::new("/cellX/waam_planner".into());
+        let news = |verdict| SensorNews {
+            topic: "/cellX/waam_planner/temperature".into(),
+            kind: SensorKind::Temperature,
+            verdict,
+        };
+        assert_eq!(h.sensor(news(Verdict::Waiting)), None);
+        let s = &h.to_msg(Time::default()).status[1];
+        assert_eq!(s.name, "cellX/waam_planner: temperature sensor");
+        assert_eq!(
+            (s.level, s.message.as_str()),
+            (
+                DiagnosticStatus::OK,
+                "/cellX/waam_planner/temperature: no data yet"
+            )
+        );
+        let bad = Verdict::Bad("temperature 5000 °C is outside the plausible range".into());
+        let change = h.sensor(news(bad.clone())).unwrap();
+        assert_eq!(change.0, DiagnosticStatus::WARN);
+        assert_eq!(
+            h.sensor(news(bad)),
+            None,
+            "the same reason again is no news"
+        );
+        let s = &h.to_msg(Time::default()).status[1];
+        assert_eq!(s.level, DiagnosticStatus::WARN);
+        assert_eq!(
+            s.message,
+            "/cellX/waam_planner/temperature: temperature 5000 °C is outside the plausible range"
+        );
+        assert!(s.values.contains(&KeyValue::new("rejected", 2)));
+        let change = h.sensor(news(Verdict::Good("612.0 °C".into())));
+        assert_eq!(change.map(|c| c.0), Some(DiagnosticStatus::OK));
+        let s = &h.to_msg(Time::default()).status[1];
+        assert_eq!(s.level, DiagnosticStatus::OK);
+        assert_eq!(s.message, "/cellX/waam_planner/temperature: 612.0 °C");
+        assert!(s.values.iter().any(|kv| kv.key == "last_rejected"));
+        assert_eq!(
+            h.to_msg(Time::default()).status[0].level,
+            DiagnosticStatus::OK
         );
     }
 }

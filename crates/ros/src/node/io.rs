@@ -41,6 +41,12 @@ pub fn latched_qos() -> QosProfile {
         .history(ros2_client::qos::History::KeepLast { depth: 1 })
 }
 
+/// Sensors (scans, temperatures): Best effort, Volatile, keep last 10 — matches sensor
+/// drivers that publish best effort (`SensorDataQoS`) as well as reliable ones.
+pub fn sensor_qos() -> QosProfile {
+    input_qos().reliability(ros2_client::qos::Reliability::BestEffort)
+}
+
 /// Streams (arc state, joint states): Reliable, Volatile, keep last 10.
 pub fn stream_qos() -> QosProfile {
     input_qos()
@@ -227,8 +233,8 @@ impl Inputs {
         names: &NodeNames,
         topics: &TopicParams,
     ) -> Result<Inputs, IoError> {
-        let (part_topic, part) = subscribe::<RosString>(node, names, &topics.part)?;
-        let (mesh_topic, mesh) = subscribe::<Mesh>(node, names, &topics.part_mesh)?;
+        let (part_topic, part) = subscribe::<RosString>(node, names, &topics.part, input_qos())?;
+        let (mesh_topic, mesh) = subscribe::<Mesh>(node, names, &topics.part_mesh, input_qos())?;
         Ok(Inputs {
             part_topic,
             part,
@@ -238,14 +244,16 @@ impl Inputs {
     }
 }
 
-fn subscribe<M: RosMessage + 'static>(
+/// A subscription to `name` (resolved and remapped) with `qos`, and its full topic name.
+pub fn subscribe<M: RosMessage + 'static>(
     node: &mut Node,
     names: &NodeNames,
     name: &str,
+    qos: QosProfile,
 ) -> Result<(String, Subscription<M>), IoError> {
     let full = names.resolve(name)?;
     let topic = node
-        .create_topic(&full, M::message_type_name(), &input_qos())
+        .create_topic(&full, M::message_type_name(), &qos)
         .map_err(|e| IoError::Create(full.to_string(), e.to_string()))?;
     let sub = node
         .create_subscription::<M>(&topic, None)

@@ -25,6 +25,7 @@ pub mod params;
 pub mod pipeline;
 pub mod plan_action;
 pub mod ros;
+pub mod sensors;
 pub mod stop_service;
 pub mod worker;
 
@@ -97,6 +98,8 @@ enum Event {
     },
     /// `~/stop`: stop planning and execution; say what was stopped.
     Stop(Sender<String>),
+    /// What a sensor's latest message told (for `/diagnostics`).
+    Sensor(sensors::SensorNews),
     Worker(WorkerEvent<Box<Planned>, pipeline::JobError>),
 }
 
@@ -151,7 +154,14 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     let mesh_settings = pipeline.mesh.clone();
     let (pipeline_cell, pipeline_timeout_s) = (pipeline.cell.clone(), pipeline.timeout_s);
 
+    let scan_targets = sensors::ScanTargets::new(&pipeline.cell.robot.base_link);
     let (events, event_rx) = channel::<Event>();
+    // The sensors' good readings; the closed loop drains `measured_rx` in the event loop.
+    let (measured_tx, measured_rx) = channel::<waam_cell::Measured>();
+    let wiring = sensors::Wiring {
+        measured: measured_tx,
+        targets: scan_targets.clone(),
+    };
     let worker_events = events.clone();
     let worker = Worker::new(pipeline, move |e| {
         let _ = worker_events.send(Event::Worker(e));
@@ -161,7 +171,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
         mode,
         &mut node,
         &options,
-        &events,
+        (&events, wiring),
         &outputs,
         &params_stop,
         &stop,
@@ -189,6 +199,9 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
         mesh_settings,
         torch_values,
         action_replies: services.action_replies.clone(),
+        measured_rx,
+        scan_targets,
+        health_due: false,
         once: once.is_some(),
         stop: Arc::clone(&stop),
     };
@@ -210,14 +223,15 @@ fn start(
     mode: Mode,
     node: &mut ros2_client::Node,
     options: &RunOptions,
-    events: &Sender<Event>,
+    (events, sensors): (&Sender<Event>, sensors::Wiring),
     outputs: &Arc<Outputs>,
     services_stop: &Arc<AtomicBool>,
     stop: &AtomicBool,
 ) -> Result<(Services, Option<Duration>), NodeError> {
     match mode {
         Mode::Serve => {
-            let services = Services::serve(node, options, events, outputs, services_stop)?;
+            let services =
+                Services::serve(node, options, (events, sensors), outputs, services_stop)?;
             Ok((services, None))
         }
         Mode::Once {
@@ -331,8 +345,8 @@ impl Cell {
     }
 }
 
-/// What serving adds to the node: parameter services, `~/plan`, `~/execute`, `~/stop` and
-/// the input topics, each on a thread of its own; none when planning once.
+/// What serving adds to the node: parameter services, `~/plan`, `~/execute`, `~/stop`, the
+/// input topics and the sensors, each on a thread of its own; none when planning once.
 #[derive(Default)]
 struct Services {
     threads: Vec<std::thread::JoinHandle<()>>,
@@ -345,7 +359,7 @@ impl Services {
     fn serve(
         node: &mut ros2_client::Node,
         options: &RunOptions,
-        events: &Sender<Event>,
+        (events, sensors): (&Sender<Event>, sensors::Wiring),
         outputs: &Arc<Outputs>,
         stop: &Arc<AtomicBool>,
     ) -> Result<Services, NodeError> {
@@ -392,6 +406,19 @@ impl Services {
             ),
         );
         spawn_inputs(inputs, events.clone(), Arc::clone(outputs));
+        let cell_sensors = sensors::Sensors::new(node, names, &params.closed_loop)?;
+        outputs.log(
+            Level::Info,
+            &format!(
+                "closed loop: layer scans on {}, temperatures on {}",
+                cell_sensors.scan_topic, cell_sensors.temperature_topic
+            ),
+        );
+        cell_sensors.spawn(
+            sensors,
+            to_loop(events, Event::Sensor),
+            outputs.recorder.clone(),
+        )?;
         Ok(Services {
             threads,
             action_replies: Some(action_replies),

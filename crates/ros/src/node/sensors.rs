@@ -1,0 +1,263 @@
+//! The cell's sensors in (#31): a layer height scan (`sensor_msgs/PointCloud2`, e.g. from a
+//! laser line scanner after each layer) on `closed_loop.scan_topic` and a pyrometer
+//! (`sensor_msgs/Temperature`) on `closed_loop.temperature_topic`. Each message is recorded
+//! as it came, checked ([`waam_messages::sensor`]) and, when good, handed to the closed loop
+//! as a [`Measured`]; every verdict goes to the event loop, which reports it on `/diagnostics`.
+
+use std::sync::mpsc::Sender;
+use std::sync::{Arc, Mutex};
+
+use futures::StreamExt;
+use ros2_client::{Node, Subscription};
+
+use super::io::{sensor_qos, subscribe, IoError};
+use super::names::NodeNames;
+use super::params::ClosedLoopParams;
+use super::pipeline::Planned;
+use waam_cell::Measured;
+use waam_messages::sensor::{self, ScanTarget};
+use waam_rosbag::qos::Qos;
+use waam_rosbag::Recorder;
+use waam_rosmsg::builtin_interfaces::Time;
+use waam_rosmsg::sensor_msgs::{PointCloud2, Temperature};
+use waam_rosmsg::RosMessage;
+
+/// Which sensor a message came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SensorKind {
+    Scan,
+    Temperature,
+}
+
+impl SensorKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            SensorKind::Scan => "scan",
+            SensorKind::Temperature => "temperature",
+        }
+    }
+}
+
+/// What a sensor's latest message told.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Verdict {
+    /// Subscribed, nothing received yet.
+    Waiting,
+    /// Used; a one-line summary.
+    Good(String),
+    /// Not used, and why.
+    Bad(String),
+}
+
+/// One sensor's news for the node's health.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SensorNews {
+    pub topic: String,
+    pub kind: SensorKind,
+    pub verdict: Verdict,
+}
+
+/// The part scans are checked against: the latest plan's, which the event loop sets.
+#[derive(Clone)]
+pub struct ScanTargets {
+    base_link: String,
+    current: Arc<Mutex<Option<ScanTarget>>>,
+}
+
+impl ScanTargets {
+    /// No part yet; `base_link` is the robot's (scans may come in it).
+    pub fn new(base_link: &str) -> ScanTargets {
+        ScanTargets {
+            base_link: base_link.to_string(),
+            current: Arc::default(),
+        }
+    }
+
+    /// Scans from now on are of `planned`'s part, on its plate.
+    pub fn measure(&self, planned: &Planned) {
+        let target = ScanTarget::of_part(&planned.part, &self.base_link, planned.plate);
+        *self.current.lock().unwrap_or_else(|e| e.into_inner()) = Some(target);
+    }
+
+    fn current(&self) -> Option<ScanTarget> {
+        self.current
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone()
+    }
+}
+
+/// Where the sensor thread hands its data: the closed loop's channel, and the part scans
+/// are checked against.
+pub struct Wiring {
+    pub measured: Sender<Measured>,
+    pub targets: ScanTargets,
+}
+
+/// The two sensor subscriptions and how their data is judged.
+pub struct Sensors {
+    pub scan_topic: String,
+    scan: Subscription<PointCloud2>,
+    pub temperature_topic: String,
+    temperature: Subscription<Temperature>,
+    limits: ClosedLoopParams,
+}
+
+enum Incoming {
+    Scan(PointCloud2),
+    Temperature(Temperature),
+}
+
+impl Sensors {
+    pub fn new(
+        node: &mut Node,
+        names: &NodeNames,
+        params: &ClosedLoopParams,
+    ) -> Result<Sensors, IoError> {
+        let (scan_topic, scan) = subscribe(node, names, &params.scan_topic, sensor_qos())?;
+        let (temperature_topic, temperature) =
+            subscribe(node, names, &params.temperature_topic, sensor_qos())?;
+        Ok(Sensors {
+            scan_topic,
+            scan,
+            temperature_topic,
+            temperature,
+            limits: params.clone(),
+        })
+    }
+
+    /// Starts the sensor thread: good data goes to `measured`, every verdict to `news`; the
+    /// thread ends when `news` says the event loop is gone.
+    pub fn spawn(
+        self,
+        wiring: Wiring,
+        news: impl Fn(SensorNews) -> bool + Send + 'static,
+        recorder: Option<Recorder>,
+    ) -> std::io::Result<()> {
+        let Wiring { measured, targets } = wiring;
+        let Sensors {
+            scan_topic,
+            scan,
+            temperature_topic,
+            temperature,
+            limits,
+        } = self;
+        let topic = move |kind| match kind {
+            SensorKind::Scan => scan_topic.clone(),
+            SensorKind::Temperature => temperature_topic.clone(),
+        };
+        let record = move |topic: &str, message: &dyn Fn(&Recorder, &str) -> RecordResult| {
+            if let Some(r) = &recorder {
+                if let Err(e) = message(r, topic) {
+                    tracing::warn!("recording {topic}: {e}");
+                }
+            }
+        };
+        std::thread::Builder::new()
+            .name("ros-sensors".into())
+            .spawn(move || {
+                for kind in [SensorKind::Scan, SensorKind::Temperature] {
+                    let verdict = Verdict::Waiting;
+                    if !news(SensorNews {
+                        topic: topic(kind),
+                        kind,
+                        verdict,
+                    }) {
+                        return;
+                    }
+                }
+                let scans = scan
+                    .async_stream()
+                    .map(|r| (SensorKind::Scan, r.map(|(m, _)| Incoming::Scan(m))));
+                let temperatures = temperature.async_stream().map(|r| {
+                    (
+                        SensorKind::Temperature,
+                        r.map(|(m, _)| Incoming::Temperature(m)),
+                    )
+                });
+                let mut merged = futures::stream::select(Box::pin(scans), Box::pin(temperatures));
+                futures::executor::block_on(async {
+                    while let Some((kind, item)) = merged.next().await {
+                        let topic = topic(kind);
+                        let judged = match item {
+                            Ok(Incoming::Scan(cloud)) => {
+                                record(&topic, &|r, t| r.record(t, &Qos::best_effort(10), &cloud));
+                                judge_scan(&cloud, &targets, &limits)
+                            }
+                            Ok(Incoming::Temperature(reading)) => {
+                                record(&topic, &|r, t| {
+                                    r.record(t, &Qos::best_effort(10), &reading)
+                                });
+                                judge_temperature(&reading, &limits)
+                            }
+                            // A message that does not decode (another type on the topic).
+                            Err(e) => Err(format!("cannot read a {} message: {e}", type_of(kind))),
+                        };
+                        let verdict = match judged {
+                            Ok((reading, summary)) => {
+                                // Nobody listening any more only happens while stopping.
+                                let _ = measured.send(reading);
+                                Verdict::Good(summary)
+                            }
+                            Err(reason) => Verdict::Bad(reason),
+                        };
+                        if !news(SensorNews {
+                            topic,
+                            kind,
+                            verdict,
+                        }) {
+                            return;
+                        }
+                    }
+                });
+            })?;
+        Ok(())
+    }
+}
+
+type RecordResult = Result<(), waam_rosbag::BagError>;
+
+fn type_of(kind: SensorKind) -> &'static str {
+    match kind {
+        SensorKind::Scan => PointCloud2::TYPE_NAME,
+        SensorKind::Temperature => Temperature::TYPE_NAME,
+    }
+}
+
+/// A scan as the closed loop takes it, with a summary; or why not.
+fn judge_scan(
+    cloud: &PointCloud2,
+    targets: &ScanTargets,
+    limits: &ClosedLoopParams,
+) -> Result<(Measured, String), String> {
+    let target = targets.current();
+    let good = sensor::scan(
+        cloud,
+        target.as_ref(),
+        limits.scan_margin_mm,
+        Time::now(),
+        limits.max_age_s,
+    )
+    .map_err(|e| e.to_string())?;
+    let top = good
+        .points
+        .iter()
+        .map(|p| p[2])
+        .fold(f64::NEG_INFINITY, f64::max);
+    let summary = format!(
+        "{} points on the part ({} off it dropped), top at {top:.2} mm",
+        good.points.len(),
+        good.dropped
+    );
+    Ok((good.measured(), summary))
+}
+
+/// A pyrometer reading as the closed loop takes it, with a summary; or why not.
+fn judge_temperature(
+    reading: &Temperature,
+    limits: &ClosedLoopParams,
+) -> Result<(Measured, String), String> {
+    let measured =
+        sensor::temperature(reading, Time::now(), limits.max_age_s).map_err(|e| e.to_string())?;
+    Ok((measured, format!("{:.1} °C", reading.temperature)))
+}
