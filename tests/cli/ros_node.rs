@@ -251,6 +251,66 @@ fn rclpy_ring_mesh_as_beads_is_welded_on_its_centre_line_and_its_recording_repla
     assert_eq!(json["skipped"], 0, "{json}");
 }
 
+/// The closed loop's sensors on a namespaced node (closed_loop_sensors.py): good scans and
+/// temperatures are used, each kind of bad one is a WARN on /diagnostics naming the topic and
+/// the reason until good data comes again. The node's recording holds every message the
+/// sensors sent (the bad ones too), `waam bag info` lists their topics and `waam replay`
+/// re-plans the recorded part identically, passing over the measurements.
+#[test]
+fn rclpy_sensors_warn_on_bad_data_and_their_measurements_are_recorded() {
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join("sensors");
+    if run_script("closed_loop_sensors.py", &[bag.to_str().unwrap()]).is_none() {
+        return;
+    }
+    let out = crate::common::run::waam()
+        .args(["bag", "info"])
+        .arg(&bag)
+        .output()
+        .unwrap();
+    let info = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{info}");
+    for topic in [
+        "/cellX/waam_planner/scan",
+        "/cellX/waam_planner/temperature",
+    ] {
+        assert!(
+            info.contains(topic),
+            "bag info does not list {topic}:\n{info}"
+        );
+    }
+
+    let recording = waam_rosbag::Bag::open(&bag).unwrap();
+    let temperatures: Vec<waam_rosmsg::sensor_msgs::Temperature> = recording.decode().unwrap();
+    let celsius: Vec<f64> = temperatures.iter().map(|t| t.temperature).collect();
+    assert!(celsius.contains(&650.0), "{celsius:?}");
+    assert!(
+        celsius.contains(&5000.0),
+        "the implausible one is recorded too"
+    );
+    assert!(
+        celsius.iter().any(|c| c.is_nan()),
+        "the NaN one is recorded too"
+    );
+    let scans: Vec<waam_rosmsg::sensor_msgs::PointCloud2> = recording.decode().unwrap();
+    assert!(scans.iter().any(|s| s.header.frame_id == "scanner_link"));
+    let good = scans
+        .iter()
+        .filter(|s| s.header.frame_id == "part" && s.width == 5)
+        .count();
+    assert!(good >= 6, "{good} good scans recorded, 6 or more sent");
+
+    let out = crate::common::run::waam()
+        .args(["replay", "--json"])
+        .arg(&bag)
+        .output()
+        .unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|_| panic!("no JSON: {}", String::from_utf8_lossy(&out.stderr)));
+    assert_eq!(out.status.code(), Some(0), "{json}");
+    assert_eq!(json["identical"], 1, "{json}");
+}
+
 /// Two nodes side by side (`--ros-args -r __ns:=/cell1`, `-r __ns:=/cell2 -r __node:=...`),
 /// parameters listed, read, described, refused and set through the standard services.
 #[test]

@@ -1,0 +1,159 @@
+"""The closed loop's sensors (#31): a namespaced node takes a layer scan and a pyrometer.
+
+waam node runs as /cellX/waam_planner (`-r __ns:=/cellX`), recording into the directory
+given as the one argument (tests/cli/ros_node.rs checks the recording). rclpy plans s1-wall
+(24 x 6 x 7.5 mm) on ~/part, then publishes on ~/scan (sensor_msgs/PointCloud2, metres, frame
+`part`) and ~/temperature (sensor_msgs/Temperature) with the sensor-data QoS real drivers use
+(best effort): good data, then each kind of bad data followed by good data again. Each bad
+message must turn its sensor's component on /diagnostics to WARN naming the topic and the
+reason; the next good one must turn it back to OK. The node must never stop.
+"""
+
+import math
+import struct
+import sys
+import time
+
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.qos import qos_profile_sensor_data
+from sensor_msgs.msg import PointCloud2, PointField, Temperature
+from std_msgs.msg import String
+
+import waamtest
+from waamtest import REPO, check
+
+NS = "/cellX/waam_planner"
+SCAN, TEMPERATURE = NS + "/scan", NS + "/temperature"
+
+
+def stamp(peer, offset_s=0.0):
+    t = peer.node.get_clock().now().nanoseconds + int(offset_s * 1e9)
+    from builtin_interfaces.msg import Time
+
+    return Time(sec=t // 10**9, nanosec=t % 10**9)
+
+
+def cloud(peer, points, frame="part", offset_s=0.0, fields="xyz"):
+    """FLOAT32 points (metres) as a laser line scanner driver sends them."""
+    msg = PointCloud2()
+    msg.header.stamp = stamp(peer, offset_s)
+    msg.header.frame_id = frame
+    msg.height, msg.width = 1, len(points)
+    msg.fields = [PointField(name=n, offset=4 * i, datatype=PointField.FLOAT32, count=1)
+                  for i, n in enumerate(fields)]
+    msg.point_step, msg.row_step = 12, 12 * len(points)
+    msg.data = b"".join(struct.pack("<3f", *p) for p in points)
+    msg.is_dense = True
+    return msg
+
+
+def reading(peer, celsius, offset_s=0.0):
+    msg = Temperature(temperature=celsius, variance=0.0)
+    msg.header.stamp = stamp(peer, offset_s)
+    msg.header.frame_id = "pyrometer"
+    return msg
+
+
+# The top of s1-wall's third layer (7.5 mm), along its centre line, and one point on the
+# plate beside it (dropped, not an error).
+TOP = [(0.003 + 0.006 * i, 0.003, 0.0075) for i in range(4)] + [(0.040, 0.003, 0.0)]
+
+
+def sensor_status(array, kind):
+    for s in array.status:
+        if s.name == f"cellX/waam_planner: {kind} sensor":
+            return s
+    return None
+
+
+def expect(peer, publish, kind, level, words, what):
+    """Publishes (again every half second: best effort may drop one) until /diagnostics
+    reports the `kind` sensor at `level` with every one of `words` in its message."""
+    seen = len(peer.received["/diagnostics"])
+    last = [None]
+
+    def reported():
+        for array in peer.received["/diagnostics"][seen:]:
+            s = sensor_status(array, kind)
+            if s is not None:
+                last[0] = (waamtest.level(s), s.message)
+                if waamtest.level(s) == level and all(w in s.message for w in words):
+                    return True
+        return False
+
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline and not reported():
+        publish()
+        peer.spin_for(0.5)
+    check(reported(), f"{what}: /diagnostics never said level {level} with {words}; last: {last[0]}")
+    print(f"{what}: {last[0]}")
+
+
+def test(peer, waam):
+    peer.listen("/diagnostics", DiagnosticArray, qos=waamtest.INPUT_QOS)
+    peer.listen(NS + "/status", DiagnosticArray, qos=waamtest.INPUT_QOS)
+    part = peer.publisher(NS + "/part", String)
+    scan = peer.publisher(SCAN, PointCloud2, qos=qos_profile_sensor_data)
+    temperature = peer.publisher(TEMPERATURE, Temperature, qos=qos_profile_sensor_data)
+    for p in (part, scan, temperature):
+        peer.wait_for_subscriber(p)
+
+    # Both sensors are listed before any data came.
+    peer.spin_until(
+        "both sensors on /diagnostics",
+        lambda: any(sensor_status(a, "scan") and sensor_status(a, "temperature")
+                    for a in peer.received["/diagnostics"]),
+        30,
+        discovery=True,
+    )
+
+    # A temperature needs no part; a scan does.
+    ok, warn = 0, 1  # DiagnosticStatus.OK, .WARN (rclpy gives those as bytes)
+    good_t = lambda: temperature.publish(reading(peer, 650.0))  # noqa: E731
+    expect(peer, good_t, "temperature", ok, [TEMPERATURE, "650.0 °C"], "good temperature")
+    expect(peer, lambda: scan.publish(cloud(peer, TOP)), "scan", warn,
+           [SCAN, "no part planned yet"], "scan before any part")
+
+    with open(f"{REPO}/config/parts/s1-wall.yaml") as f:
+        part.publish(String(data=f.read()))
+    peer.spin_until(
+        "s1-wall planned",
+        lambda: any(kv.key == "state" and kv.value == "planned"
+                    for a in peer.received[NS + "/status"] for s in a.status for kv in s.values),
+        120,
+    )
+    good_s = lambda: scan.publish(cloud(peer, TOP))  # noqa: E731
+    expect(peer, good_s, "scan", ok, [SCAN, "4 points on the part (1 off it dropped)", "7.50 mm"],
+           "good scan")
+
+    bad_temperatures = [
+        ("NaN", lambda: reading(peer, math.nan), ["not a number"]),
+        ("5000 °C", lambda: reading(peer, 5000.0), ["5000", "plausible"]),
+        ("10 s late", lambda: reading(peer, 650.0, offset_s=-10.0), ["late", "max_age_s"]),
+    ]
+    for what, msg, words in bad_temperatures:
+        expect(peer, lambda: temperature.publish(msg()), "temperature", warn, [TEMPERATURE, *words],
+               f"temperature {what}")
+        expect(peer, good_t, "temperature", ok, [TEMPERATURE, "650.0 °C"], f"good after {what}")
+
+    nan_top = [TOP[0], (0.009, math.nan, 0.0075)]
+    bad_scans = [
+        ("a NaN point", lambda: cloud(peer, nan_top), ["point 1 is not finite"]),
+        ("no z field", lambda: cloud(peer, TOP, fields="xyw"), ["no FLOAT32 or FLOAT64 field 'z'"]),
+        ("an unknown frame", lambda: cloud(peer, TOP, frame="scanner_link"),
+         ["'scanner_link'", "base link"]),
+        ("millimetres as metres", lambda: cloud(peer, [(3.0, 3.0, 7.5)]), ["off the part"]),
+        ("5 s late", lambda: cloud(peer, TOP, offset_s=-5.0), ["late"]),
+    ]
+    for what, msg, words in bad_scans:
+        expect(peer, lambda: scan.publish(msg()), "scan", warn, [SCAN, *words], f"scan with {what}")
+        expect(peer, good_s, "scan", ok, [SCAN, "4 points on the part"], f"good after {what}")
+
+    # The planner's component stayed OK throughout, and the node is up.
+    last = peer.received["/diagnostics"][-1]
+    planner = [s for s in last.status if s.name == "cellX/waam_planner: planner"]
+    check(planner and waamtest.level(planner[0]) == ok, f"planner status: {planner}")
+    check(waam.alive(), "waam node exited")
+
+
+waamtest.run(test, "node", "--record", sys.argv[1], "--ros-args", "-r", "__ns:=/cellX")
