@@ -91,11 +91,13 @@ def test(peer, waam):
 
 
 def run(peer, waam, cell2):
-    heard = {}  # diagnostics: hardware id -> [(arrival time, status)]
+    heard = {}  # diagnostics: hardware id -> [(arrival time, planner status)]
 
     def on_diagnostics(array):
+        # Each node reports its planner and, as components of their own, its sensors.
         for s in array.status:
-            heard.setdefault(s.hardware_id, []).append((time.monotonic(), s))
+            if s.name.endswith(": planner"):
+                heard.setdefault(s.hardware_id, []).append((time.monotonic(), s))
 
     peer.node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics,
                                   waamtest.INPUT_QOS)
