@@ -38,13 +38,16 @@ pub enum BadReading {
     Variance(f64),
     #[error(transparent)]
     Scan(#[from] ScanError),
-    #[error("scan in frame '{got}': expected '{PART_FRAME}' or the robot's base link '{base}'")]
+    #[error(
+        "scan in frame '{got}': expected '{PART_FRAME}' or the robot's base link '{base}' \
+         (the node knows no transform from other frames)"
+    )]
     UnknownFrame { got: String, base: String },
     #[error("no part planned yet: a scan cannot be placed on it")]
     NoPart,
     #[error(
-        "off the part: none of the scan's {points} points lies within {margin_mm} mm of the \
-         part's box ({lo:?}..{hi:?} mm in '{PART_FRAME}'); the first is at {first:?} mm"
+        "off the part: no point of the scan ({points} in all) lies within {margin_mm} mm of \
+         the part's box ({lo:?}..{hi:?} mm in '{PART_FRAME}'); the first is at {first:?} mm"
     )]
     OffPart {
         points: usize,
