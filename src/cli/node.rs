@@ -21,7 +21,11 @@ use waam_ros::node::{Mode, RunOptions};
 /// with the parameter `mesh.bead_mm: [W, H]` (mm), sliced into beads along its contours as
 /// `waam slice --bead "W H"` does, the torch then following each bead's centre line),
 /// plans each off the executor (a newer part cancels the one in progress) and publishes the joint trajectory, poses, path, markers and weld plan on
-/// `~/plan/*` (Reliable, TransientLocal) and its state on `~/status`. Every setting of the
+/// `~/plan/*` (Reliable, TransientLocal) and its state on `~/status`. For the closed loop it
+/// takes the cell's sensors on `~/scan` (sensor_msgs/PointCloud2, a layer height scan in
+/// metres, frame `part` or the robot's base link) and `~/temperature` (sensor_msgs/Temperature,
+/// a pyrometer): bad or late data (`closed_loop.max_age_s`) is a WARN on /diagnostics naming
+/// the topic and the reason, never a stop. Every setting of the
 /// parameters file is a ROS parameter (`ros2 param list/get/set/describe/dump`); a change
 /// applies from the next plan. Honours ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE (or
 /// ROS_LOCALHOST_ONLY) and `--ros-args` as `ros2 run` and `ros2 launch` pass them. Stops on
