@@ -44,7 +44,8 @@ pub fn scan_points(cloud: &PointCloud2) -> Result<Vec<Point3<f64>>, ScanError> {
         return Err(ScanError::Empty);
     }
     let step = cloud.point_step as usize;
-    let need = points * step;
+    // Saturating: width x height x point_step of a hostile header exceeds any memory.
+    let need = points.saturating_mul(step);
     if cloud.data.len() < need {
         return Err(ScanError::Truncated {
             got: cloud.data.len(),
@@ -178,5 +179,17 @@ mod tests {
         ));
 
         assert_eq!(scan_points(&cloud(&[], "part")), Err(ScanError::Empty));
+
+        // A header claiming about 2^64 points of 12 bytes is refused, neither overflowing
+        // nor read.
+        let mut huge = good.clone();
+        (huge.width, huge.height) = (u32::MAX, u32::MAX);
+        assert!(matches!(
+            scan_points(&huge),
+            Err(ScanError::Truncated {
+                need: usize::MAX,
+                ..
+            })
+        ));
     }
 }
