@@ -182,13 +182,13 @@ impl Sensors {
                         let judged = match item {
                             Ok(Incoming::Scan(cloud)) => {
                                 record(&topic, &|r, t| r.record(t, &Qos::best_effort(10), &cloud));
-                                judge_scan(&cloud, &targets, &limits)
+                                unless_panicked(|| judge_scan(&cloud, &targets, &limits))
                             }
                             Ok(Incoming::Temperature(reading)) => {
                                 record(&topic, &|r, t| {
                                     r.record(t, &Qos::best_effort(10), &reading)
                                 });
-                                judge_temperature(&reading, &limits)
+                                unless_panicked(|| judge_temperature(&reading, &limits))
                             }
                             // A message that does not decode (another type on the topic).
                             Err(e) => Err(format!("cannot read a {} message: {e}", type_of(kind))),
@@ -222,6 +222,15 @@ fn type_of(kind: SensorKind) -> &'static str {
         SensorKind::Scan => PointCloud2::TYPE_NAME,
         SensorKind::Temperature => Temperature::TYPE_NAME,
     }
+}
+
+/// `judge()`, or a reason when it panicked: a bug in a check must not end the sensor thread
+/// (the sensors would fall silent while the node runs on).
+fn unless_panicked(
+    judge: impl FnOnce() -> Result<(Measured, String), String>,
+) -> Result<(Measured, String), String> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(judge))
+        .unwrap_or_else(|_| Err("internal error while checking it (a bug: please report)".into()))
 }
 
 /// A scan as the closed loop takes it, with a summary; or why not.
@@ -260,4 +269,25 @@ fn judge_temperature(
     let measured =
         sensor::temperature(reading, Time::now(), limits.max_age_s).map_err(|e| e.to_string())?;
     Ok((measured, format!("{:.1} °C", reading.temperature)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panicking_check_is_a_reason_not_a_dead_thread() {
+        let e = unless_panicked(|| panic!("a bug")).unwrap_err();
+        assert!(e.contains("internal error"), "{e}");
+        let ok = unless_panicked(|| {
+            Ok((
+                Measured::Temperature {
+                    stamp_s: 1.0,
+                    celsius: 2.0,
+                },
+                "2.0 °C".into(),
+            ))
+        });
+        assert_eq!(ok.unwrap().1, "2.0 °C");
+    }
 }
