@@ -32,7 +32,7 @@ pub(super) struct EventLoop {
     pub mesh_settings: waam_pipeline::MeshSettings,
     pub torch_values: Vec<KeyValue>,
     pub action_replies: Option<std::sync::mpsc::Sender<plan_action::Reply>>,
-    /// The sensors' good readings, in the part frame: the closed loop drains it.
+    /// The sensors' good readings, in the part frame: drained into the closed loop.
     pub measured_rx: Receiver<waam_cell::Measured>,
     /// The part the sensors' scans are checked against (the latest plan's).
     pub scan_targets: super::sensors::ScanTargets,
@@ -55,8 +55,10 @@ impl EventLoop {
                 // Not recorded: a recording has the events on ~/status.
                 diagnostics.publish(&self.health.to_msg(Time::now()), None);
             }
-            // Until the closed loop takes them, readings are dropped: memory cannot grow.
-            for _reading in self.measured_rx.try_iter() {}
+            // To the execution's closed loop (dropped when none runs: memory cannot grow).
+            for reading in self.measured_rx.try_iter() {
+                self.state.measured(reading);
+            }
             let event = match events.recv_timeout(Duration::from_millis(100)) {
                 Ok(event) => event,
                 Err(RecvTimeoutError::Timeout) => continue,

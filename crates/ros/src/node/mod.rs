@@ -156,7 +156,7 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
 
     let scan_targets = sensors::ScanTargets::new(&pipeline.cell.robot.base_link);
     let (events, event_rx) = channel::<Event>();
-    // The sensors' good readings; the closed loop drains `measured_rx` in the event loop.
+    // The sensors' good readings; the event loop drains `measured_rx` into the closed loop.
     let (measured_tx, measured_rx) = channel::<waam_cell::Measured>();
     let wiring = sensors::Wiring {
         measured: measured_tx,
@@ -643,7 +643,6 @@ impl LoopState {
     }
 
     /// A sensor's good reading, for the closed loop of the execution in progress.
-    #[allow(dead_code)] // the sensor subscriptions (#31, part 1) call it
     fn measured(&self, reading: waam_cell::Measured) {
         if let (Some(_), Some(tx)) = (&self.closed_loop, &self.readings) {
             let _ = tx.send(reading);
