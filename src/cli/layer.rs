@@ -6,23 +6,17 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use clap::{Args, Subcommand};
-use serde_json::json;
-use waam_layer::output::TrailFile;
 use waam_layer::part::{PartManifest, PartOptions};
-use waam_layer::plan_layer_motion;
 use waam_layer::slice::{stl_text, LayerParams};
 use waam_layer::{search, Layer, Model, SearchOptions, SearchResult};
-use waam_messages::layer::{
-    no_motion_status, plan_messages, planned_status, LayerRecording, MotionOutcome,
-};
+use waam_messages::layer::{no_motion_status, planned_status};
 use waam_plot::layer::{plot_temperature, plot_trail, TEMPERATURE_SIZE, TRAIL_SIZE};
 use waam_ros::node::once::publish_once;
 use waam_ros::node::params::TopicParams;
-use waam_rosmsg::builtin_interfaces::Time;
-use waam_rosmsg::std_msgs::Header;
-use waam_wall::{plan_part_to_dir, slice_to_dir, write_trail, LayerDone, PartRun};
+use waam_wall::layer::{plan_layer, read_layer, read_layer_dir, LayerInput, LayerRun};
+use waam_wall::{plan_part_to_dir, slice_to_dir, LayerDone, PartRun};
 
-use super::motion::{report_motion, write_motion, MotionSummary};
+use super::motion::{print_motion, MotionSummary};
 use super::{EXIT_NO, EXIT_OK};
 
 /// Plan, draw and benchmark weld trails for layers of walls (see docs/layer-format.md).
@@ -235,24 +229,6 @@ pub fn run(args: LayerArgs) -> anyhow::Result<ExitCode> {
     }
 }
 
-fn read_layer(path: &Path) -> anyhow::Result<Layer> {
-    Ok(read_layer_text(path)?.1)
-}
-
-/// The layer and its document text (recorded as received).
-fn read_layer_text(path: &Path) -> anyhow::Result<(String, Layer)> {
-    let bytes =
-        std::fs::read(path).with_context(|| format!("cannot read layer {}", path.display()))?;
-    let layer =
-        Layer::from_bytes(&bytes).with_context(|| format!("in layer {}", path.display()))?;
-    // from_bytes accepts only UTF-8.
-    Ok((String::from_utf8_lossy(&bytes).into_owned(), layer))
-}
-
-fn build_model(layer: &Layer) -> anyhow::Result<Model> {
-    Model::new(layer).map_err(|e| anyhow::anyhow!("layer {}: {e}", layer.name))
-}
-
 fn time_limit(seconds: Option<f64>) -> anyhow::Result<Option<Duration>> {
     seconds
         .map(|s| {
@@ -262,50 +238,17 @@ fn time_limit(seconds: Option<f64>) -> anyhow::Result<Option<Duration>> {
         .transpose()
 }
 
-fn result_json(model: &Model, r: &SearchResult) -> serde_json::Value {
-    let id = |v: usize| model.layer.nodes[v].id.clone();
-    let moves: Vec<_> = r
-        .trail
-        .moves
-        .iter()
-        .map(|m| {
-            let (a, b) = model.ends(m);
-            json!({"segment": m.segment, "from": id(a), "to": id(b), "reversed": m.reversed,
-                   "deadhead_before": m.deadhead_before})
-        })
-        .collect();
-    json!({
-        "layer": model.layer.name,
-        "objective": r.objective,
-        "lower_bound": r.lower_bound,
-        "proven_optimal": r.proven_optimal,
-        "gap": r.gap,
-        "relative_gap": r.relative_gap,
-        "nodes_explored": r.nodes_explored,
-        "leaves": r.leaves,
-        "seconds": r.seconds,
-        "symmetries": r.symmetries,
-        "deadheads": model.deadheads,
-        "mesh_nodes": model.mesh.points.len(),
-        "time_steps": model.horizon,
-        "trail": moves,
-    })
-}
-
 fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
     let started = Instant::now();
     let limit = time_limit(args.time_limit)?;
-    let (text, layer) = read_layer_text(&args.layer)?;
-    let model = build_model(&layer)?;
-    let mut options = SearchOptions {
-        time_limit: limit,
-        // The limit acts before the first trail too: a large layer answers "no trail".
-        give_up: limit,
+    let input = LayerInput::read(&args.layer)?;
+    let (model, layer) = (&input.model, &input.model.layer);
+    let options = SearchOptions {
         symmetry: !args.no_symmetry,
         max_memory_mb: args.max_memory_mb,
         ..SearchOptions::default()
     };
-    waam_layer::search::check_size(&model, &options)?;
+    waam_layer::search::check_size(model, &options)?;
     anyhow::ensure!(
         args.linger.is_finite() && args.linger >= 0.0,
         "--linger: expected seconds >= 0, got {}",
@@ -314,40 +257,20 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
     // The robot and the recording before the search: bad input fails at once, not after
     // minutes of searching.
     let robot = args.robot.robot_args().map(|a| a.load()).transpose()?;
-    if let Some(v) = robot
-        .as_ref()
-        .and_then(|cell| cell.settings.weld_speed_mm_s)
-    {
-        if v != layer.process.weld_speed_mm_s {
-            tracing::warn!(
-                "process settings weld_speed_mm_s = {v} is not used: the layer is welded at its \
-                 own weld speed, {} mm/s, as its heat model assumed",
-                layer.process.weld_speed_mm_s
-            );
-        }
-    }
     let recorder = super::record::layer_recorder(
         args.record.as_deref(),
         args.robot.robot.as_deref(),
         robot.as_ref(),
     )?;
-    let recording = match &recorder {
-        Some(r) => Some(LayerRecording::start(r, &text, &layer.name)?),
-        None => None,
+    let run = LayerRun {
+        out: args.out.as_deref(),
+        options,
+        deadline: limit.map(|l| started + l),
+        cell: robot.as_ref().map(|cell| (&cell.settings, &cell.robot)),
+        recorder: recorder.as_ref(),
     };
-    tracing::info!(
-        "layer {}: {} segments, {} mesh nodes, {} time steps, {} deadheading moves",
-        layer.name,
-        layer.segments.len(),
-        model.mesh.points.len(),
-        model.horizon,
-        model.deadheads
-    );
-    // Reading the layer, building its heat model, loading the robot count against the
-    // limit too: it is the command's, not the search's.
-    let left = limit.map(|l| l.saturating_sub(started.elapsed()));
-    (options.time_limit, options.give_up) = (left, left);
-    let r = search(&model, &options);
+    let plan = plan_layer(&input, &run)?;
+    let r = &plan.result;
     if !r.found() {
         eprintln!(
             "layer {}: no trail found within --time-limit {} s",
@@ -356,50 +279,14 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
         );
         return Ok(ExitCode::from(super::EXIT_NO));
     }
-    if let Some(dir) = &args.out {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        write_trail(dir, &model, &r)?;
-        std::fs::copy(&args.layer, dir.join("layer.yaml"))
-            .with_context(|| format!("cannot write {}", dir.join("layer.yaml").display()))?;
-    }
-    // Only a motion that plan_layer_motion validated is written, recorded or published.
-    let motion = robot.as_ref().map(|cell| {
-        plan_layer_motion(&model, &r.trail, &cell.settings, &cell.robot).map_err(|e| e.to_string())
-    });
-    let messages = match (&motion, &robot) {
-        (Some(Ok((tp, traj))), Some(cell)) => {
-            let header = Header::new(Time::now(), tp.frame.clone());
-            Some(plan_messages(
-                &model,
-                &r,
-                tp,
-                traj,
-                &cell.settings,
-                &header,
-            )?)
-        }
-        _ => None,
-    };
-    let motion_failed = matches!(motion, Some(Err(_)));
     if args.json {
-        let mut v = result_json(&model, &r);
-        v["motion"] = match &motion {
-            None => serde_json::Value::Null,
-            Some(Ok((tp, traj))) => {
-                if let Some(dir) = &args.out {
-                    write_motion(tp, traj, dir)?;
-                }
-                json!(MotionSummary::of(tp))
-            }
-            Some(Err(e)) => json!({ "error": e }),
-        };
-        println!("{v}");
+        println!("{}", plan.json(model));
     } else {
-        print_result(&model, &r);
-        match &motion {
+        print_result(model, r);
+        match &plan.motion {
             None => {}
-            Some(Ok((tp, traj))) => {
-                report_motion(tp, traj, args.out.as_deref())?;
+            Some(Ok((tp, _))) => {
+                print_motion(tp, args.out.as_deref());
                 if let (Some(format), Some(dir), Some(robot)) = (args.export, &args.out, &robot) {
                     println!("{}", super::export::export_default(dir, format, robot)?);
                 }
@@ -407,13 +294,7 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
             Some(Err(e)) => println!("NO MOTION: {e}"),
         }
     }
-    if let (Some(recording), Some(recorder)) = (recording, &recorder) {
-        let outcome = match (&motion, &messages) {
-            (Some(Err(e)), _) => MotionOutcome::Failed(e),
-            (_, Some(m)) => MotionOutcome::Planned(m),
-            _ => MotionOutcome::NotPlanned,
-        };
-        let frames = recording.finish(&model, &r, outcome)?;
+    if let (Some(frames), Some(recorder)) = (plan.heat_frames, recorder) {
         let summary = recorder.finish()?;
         tracing::info!(
             "recorded {} messages on {} topics ({frames} heat frames) to {}",
@@ -425,24 +306,26 @@ fn plan(args: PlanArgs) -> anyhow::Result<ExitCode> {
     if args.publish {
         // Only now: Ctrl-C during the search still ends the process at once.
         let stop = super::node::stop_on_signal()?;
-        let status = match &motion {
-            Some(Err(e)) => no_motion_status(e),
-            _ => planned_status(&model, &r),
+        let status = match &plan.motion {
+            Some(Err(e)) => no_motion_status(&e.to_string()),
+            _ => planned_status(model, r),
         };
         publish_once(
             &layer.name,
-            messages.as_ref(),
+            plan.messages.as_ref(),
             &status,
             &TopicParams::default(),
             Duration::from_secs_f64(args.linger),
             &stop,
         )?;
     }
-    Ok(ExitCode::from(if r.proven_optimal && !motion_failed {
-        EXIT_OK
-    } else {
-        EXIT_NO
-    }))
+    Ok(ExitCode::from(
+        if r.proven_optimal && !plan.motion_failed() {
+            EXIT_OK
+        } else {
+            EXIT_NO
+        },
+    ))
 }
 
 /// The search's result and the trail as text.
@@ -485,16 +368,8 @@ fn plot(args: PlotArgs) -> anyhow::Result<ExitCode> {
 /// Draws DIR/trail.png and DIR/temperature.png of a directory written by `waam layer plan
 /// --out DIR` (for `waam layer plot` and `waam plot`); `node` as `--node` takes it.
 pub fn plot_dir(dir: &Path, node: Option<&str>) -> anyhow::Result<[PathBuf; 2]> {
-    let layer = read_layer(&dir.join("layer.yaml"))?;
-    let model = build_model(&layer)?;
-    let path = dir.join("trail.yaml");
-    let text = std::fs::read_to_string(&path)
-        .with_context(|| format!("cannot read {}", path.display()))?;
-    let file: TrailFile =
-        serde_yaml::from_str(&text).with_context(|| format!("in {}", path.display()))?;
-    let trail = file
-        .trail(&model)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let (model, trail) = read_layer_dir(dir)?;
+    let layer = &model.layer;
     let node = match node {
         None => model.mesh.nearest(layer.point(0)),
         Some(s) => match s.parse::<usize>() {
@@ -535,8 +410,8 @@ fn bench(args: BenchArgs) -> anyhow::Result<ExitCode> {
     let limit = time_limit(Some(args.time_limit))?;
     println!("layer | segments | mesh nodes | steps | deadheads | objective | lower bound | root bound | proven | gap % | nodes | seconds");
     for path in layers {
-        let layer = read_layer(&path)?;
-        let model = build_model(&layer)?;
+        let model = LayerInput::read(&path)?.model;
+        let layer = &model.layer;
         let r = search(
             &model,
             &SearchOptions {
@@ -565,7 +440,7 @@ fn bench(args: BenchArgs) -> anyhow::Result<ExitCode> {
 
 fn slice(args: SliceArgs) -> anyhow::Result<ExitCode> {
     let params = match &args.params {
-        Some(p) => LayerParams::of(&read_layer(p)?),
+        Some(p) => LayerParams::of(&read_layer(p)?.1),
         None => LayerParams::default(),
     };
     let (_, layers) = slice_to_dir(
@@ -598,7 +473,7 @@ fn extrude(args: ExtrudeArgs) -> anyhow::Result<ExitCode> {
         "--height: expected a number of mm > 0, got {}",
         args.height
     );
-    let layer = read_layer(&args.layer)?;
+    let (_, layer) = read_layer(&args.layer)?;
     let mesh = waam_layer::slice::extrude(&layer, args.height);
     std::fs::write(&args.out, stl_text(&mesh, &layer.name))
         .with_context(|| format!("cannot write {}", args.out.display()))?;

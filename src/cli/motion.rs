@@ -161,27 +161,35 @@ pub fn write_motion(tp: &Toolpath, traj: &JointTrajectory, out: &Path) -> anyhow
         .with_context(|| format!("cannot write motion files in {}", out.display()))
 }
 
-/// Prints a summary of the motion and, with `out`, writes `toolpath.yaml` and
-/// `trajectory.yaml` there.
+/// Writes `toolpath.yaml` and `trajectory.yaml` into `out` first, then prints what
+/// [`print_motion`] prints.
 pub fn report_motion(
     tp: &Toolpath,
     traj: &JointTrajectory,
     out: Option<&Path>,
 ) -> anyhow::Result<()> {
+    if let Some(out) = out {
+        write_motion(tp, traj, out)?;
+    }
+    print_motion(tp, out);
+    Ok(())
+}
+
+/// Prints a summary of the motion and, when its files were written into `written_to`,
+/// their names.
+pub fn print_motion(tp: &Toolpath, written_to: Option<&Path>) {
     let s = MotionSummary::of(tp);
     println!(
         "MOTION: {} poses ({} weld poses at points), {} weld pass(es), {:.1} s total, {:.1} s arc on",
         s.poses, s.weld_points, s.passes, s.duration_s, s.arc_on_s
     );
-    if let Some(out) = out {
-        write_motion(tp, traj, out)?;
+    if let Some(out) = written_to {
         println!(
             "wrote {} and {}",
             out.join("toolpath.yaml").display(),
             out.join("trajectory.yaml").display()
         );
     }
-    Ok(())
 }
 
 /// Turn an existing plan into torch poses and a joint trajectory for a robot.

@@ -1,5 +1,5 @@
 //! Thick-wall layers: the file format's rules, the finite-element model, the search.
-//! (Through the binary, and the layer plots, which need `waam-plot`: `tests/cli/layer.rs`.)
+//! (Through the binary: `tests/cli/layer.rs`; the layer plots: `crates/plot/tests/layer.rs`.)
 
 use waam_layer::fem::Matrices;
 use waam_layer::mesh::Mesh;

@@ -1,8 +1,12 @@
-//! Thick-wall parts end to end, what `waam layer slice` and `waam layer plan-part` run: a
-//! mesh sliced into a part directory ([`slice_to_dir`]), every layer's trail searched bottom
-//! up (`waam_layer::part`), each layer's files, its motion at the layer's height and its
-//! recording, and the summary `part-plan.yaml` ([`plan_part_to_dir`], [`PartPlanLayer`]).
-//! The binary parses arguments and prints progress; the domain work is here.
+//! Thick-wall layers and parts end to end, what `waam layer plan`, `waam layer slice` and
+//! `waam layer plan-part` run: one layer read, searched, written, moved and recorded
+//! ([`layer`]); a mesh sliced into a part directory ([`slice_to_dir`]), every layer's trail
+//! searched bottom up (`waam_layer::part`), each layer's files, its motion at the layer's
+//! height and its recording, and the summary `part-plan.yaml` ([`plan_part_to_dir`],
+//! [`PartPlanLayer`]). The binary parses arguments, prints and publishes; the domain work
+//! is here.
+
+pub mod layer;
 
 use std::path::{Path, PathBuf};
 
@@ -10,10 +14,11 @@ use serde_json::json;
 use thiserror::Error;
 use waam_layer::output::TrailFile;
 use waam_layer::part::{plan_part, ManifestLayer, PartError, PartManifest, PartOptions};
+use waam_layer::search::TooLarge;
 use waam_layer::slice::{slice_mesh, LayerDoc, LayerParams, SliceError, SliceOptions, SlicedLayer};
-use waam_layer::{plan_layer_motion_at, Model, SearchResult};
+use waam_layer::{plan_layer_motion_at, LayerError, Model, ModelError, SearchResult};
 use waam_mesh::{read_stl, MeshError, Units};
-use waam_messages::convert::ConvertError;
+use waam_messages::convert::{ConvertError, PlanMessages};
 use waam_messages::layer::{plan_messages, LayerRecording, MotionOutcome};
 use waam_motion::robot::Robot;
 use waam_motion::toolpath::{MotionSummary, ProcessSettings, Toolpath};
@@ -28,6 +33,44 @@ pub use waam_layer::part::PlannedLayer;
 /// Why a thick-wall part cannot be sliced, planned or written; each names the file or layer.
 #[derive(Debug, Error)]
 pub enum WallError {
+    #[error("cannot read layer {}", path.display())]
+    ReadLayer {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("in layer {}", path.display())]
+    Layer {
+        path: PathBuf,
+        #[source]
+        source: LayerError,
+    },
+    #[error("layer {layer}")]
+    Model {
+        layer: String,
+        #[source]
+        source: ModelError,
+    },
+    #[error(transparent)]
+    TooLarge(#[from] TooLarge),
+    #[error("cannot read {}", path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("in {}", path.display())]
+    Parse {
+        path: PathBuf,
+        #[source]
+        source: serde_yaml::Error,
+    },
+    #[error("{}", path.display())]
+    Trail {
+        path: PathBuf,
+        #[source]
+        source: ModelError,
+    },
     #[error("cannot read mesh {}", path.display())]
     ReadMesh {
         path: PathBuf,
@@ -340,39 +383,61 @@ fn record_layer(
     settings: Option<&ProcessSettings>,
 ) -> Result<(), WallError> {
     let layer = &p.model.layer;
-    let record_err = |source| WallError::Record {
-        layer: layer.name.clone(),
-        source,
-    };
     let text = LayerDoc::of(layer).to_yaml();
-    let recording = LayerRecording::start(recorder, &text, &layer.name).map_err(record_err)?;
-    let messages = match (motion, settings) {
-        (Some(Ok((tp, traj))), Some(settings)) => {
-            let header = Header::new(Time::now(), tp.frame.clone());
-            Some(
-                plan_messages(&p.model, &p.result, tp, traj, settings, &header).map_err(
-                    |source| WallError::Messages {
-                        layer: layer.name.clone(),
-                        source,
-                    },
-                )?,
-            )
+    let recording = LayerRecording::start(recorder, &text, &layer.name).map_err(|source| {
+        WallError::Record {
+            layer: layer.name.clone(),
+            source,
         }
-        _ => None,
+    })?;
+    let messages = layer_messages(&p.model, &p.result, motion, settings)?;
+    finish_recording(recording, &p.model, &p.result, motion, messages.as_ref())?;
+    Ok(())
+}
+
+/// The messages of a layer's validated motion (in the robot's base link); none without one.
+fn layer_messages(
+    model: &Model,
+    r: &SearchResult,
+    motion: Option<&LayerMotion>,
+    settings: Option<&ProcessSettings>,
+) -> Result<Option<PlanMessages>, WallError> {
+    let (Some(Ok((tp, traj))), Some(settings)) = (motion, settings) else {
+        return Ok(None);
     };
+    let header = Header::new(Time::now(), tp.frame.clone());
+    plan_messages(model, r, tp, traj, settings, &header)
+        .map(Some)
+        .map_err(|source| WallError::Messages {
+            layer: model.layer.name.clone(),
+            source,
+        })
+}
+
+/// Records a layer's outcome (its motion's messages, or why it has none, and the heat) and
+/// closes its recording; the heat frames recorded.
+fn finish_recording(
+    recording: LayerRecording,
+    model: &Model,
+    r: &SearchResult,
+    motion: Option<&LayerMotion>,
+    messages: Option<&PlanMessages>,
+) -> Result<usize, WallError> {
     let failure = match motion {
         Some(Err(e)) => Some(e.to_string()),
         _ => None,
     };
-    let outcome = match (&failure, &messages) {
+    let outcome = match (&failure, messages) {
         (Some(e), _) => MotionOutcome::Failed(e),
         (_, Some(m)) => MotionOutcome::Planned(m),
         _ => MotionOutcome::NotPlanned,
     };
     recording
-        .finish(&p.model, &p.result, outcome)
-        .map_err(record_err)?;
-    Ok(())
+        .finish(model, r, outcome)
+        .map_err(|source| WallError::Record {
+            layer: model.layer.name.clone(),
+            source,
+        })
 }
 
 fn create_dir(path: &Path) -> Result<(), WallError> {

@@ -5,8 +5,11 @@
 
 #[path = "../../../../tests/support/parts.rs"]
 mod parts;
+#[path = "../../../../tests/support/robots.rs"]
+mod robots;
 
 pub use parts::*;
+pub use robots::*;
 
 use std::path::PathBuf;
 
