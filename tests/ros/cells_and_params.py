@@ -184,6 +184,10 @@ def run(peer, waam, cell2):
     check(not any(v.get("part") == "s1-wall" for _, v in states(peer, CELL1 + "/status")),
           "node 1 saw node 2's part")
     check(waam.alive() and cell2.alive(), "a node exited")
+    # Every status names its node by its fully qualified name, as /diagnostics does.
+    for topic, node in ((CELL1 + "/status", CELL1), (CELL2_STATUS, CELL2)):
+        ids = {s.hardware_id for a in peer.received[topic] for s in a.status}
+        check(ids == {node}, f"{topic}: hardware_id {ids}, expected {node}")
 
     # 5. robot_description and /diagnostics.
     with open(os.path.join(REPO, "urdf", "waam_robot.urdf")) as f:

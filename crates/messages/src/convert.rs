@@ -22,8 +22,14 @@ use waam_rosmsg::trajectory_msgs::{JointTrajectory as TrajectoryMsg, JointTrajec
 use waam_rosmsg::visualization_msgs::{Marker, MarkerArray};
 use waam_rosmsg::waam_interfaces::{Block, PlanStatistics, WeldFragment, WeldPlan, WeldPoint};
 
-/// The node's name, and the `name` and `hardware_id` of every status it reports.
+/// The node's name, and the `name` of every status it reports.
 pub const NODE_NAME: &str = "waam_planner";
+
+/// A node's fully qualified name, `/namespace/name` (`namespace` absolute, `/` for none):
+/// the `hardware_id` of every status it reports, as an integrator looks it up.
+pub fn fully_qualified(namespace: &str, name: &str) -> String {
+    format!("{}/{}", namespace.trim_end_matches('/'), name)
+}
 
 /// A domain value that has no message form.
 #[derive(Debug, thiserror::Error)]

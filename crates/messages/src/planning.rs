@@ -3,7 +3,8 @@
 //! status saying why there is none), and the simulated heat of the chosen plan.
 
 use crate::convert::{
-    block_fragments, block_msg, statistics, ConvertError, PlanMessages, WeldPlanOf, NODE_NAME,
+    block_fragments, block_msg, fully_qualified, statistics, ConvertError, PlanMessages,
+    WeldPlanOf, NODE_NAME,
 };
 use crate::heat::{record_heat, HeatOptions};
 use crate::status::Status;
@@ -215,9 +216,10 @@ pub fn mesh_settings_from_values(
     )))
 }
 
-/// A status as a recording carries it on `~/status`: stamped now, reported by [`NODE_NAME`].
+/// A status as a recording carries it on `~/status`: stamped now, reported by the node
+/// [`NODE_NAME`] without a namespace (the recordings' topics are its).
 pub fn recorded(status: Status) -> DiagnosticArray {
-    status.to_msg(Time::now(), NODE_NAME)
+    status.to_msg(Time::now(), &fully_qualified("/", NODE_NAME))
 }
 
 /// Records the planner's verdict on every candidate as `PlanCandidate` messages. Feed it

@@ -33,10 +33,12 @@ impl Status {
         Status::new(DiagnosticStatus::ERROR, message, values)
     }
 
-    /// As `~/status` carries it: reported by the node's one component ([`NODE_NAME`]) of
-    /// `hardware_id` (recordings: [`NODE_NAME`]; the node: empty).
-    pub fn to_msg(&self, stamp: Time, hardware_id: &str) -> DiagnosticArray {
-        self.reported_by(stamp, NODE_NAME, hardware_id)
+    /// As `~/status` carries it: reported by the node's one component ([`NODE_NAME`]), its
+    /// `hardware_id` the node's fully qualified name `node`
+    /// ([`fully_qualified`](crate::convert::fully_qualified); recordings
+    /// of the CLI speak for the node without a namespace, `/waam_planner`).
+    pub fn to_msg(&self, stamp: Time, node: &str) -> DiagnosticArray {
+        self.reported_by(stamp, NODE_NAME, node)
     }
 
     /// The one builder of a `DiagnosticArray`: this status as component `name` of
@@ -105,9 +107,10 @@ pub enum JobStatus {
 }
 
 impl JobStatus {
-    /// The status as a DiagnosticArray (level, one-line message, key-value details).
-    pub fn to_msg(&self, stamp: Time, hardware_id: &str) -> DiagnosticArray {
-        self.status().to_msg(stamp, hardware_id)
+    /// The status as a DiagnosticArray (level, one-line message, key-value details), as
+    /// [`Status::to_msg`] builds it for the node `node` (fully qualified).
+    pub fn to_msg(&self, stamp: Time, node: &str) -> DiagnosticArray {
+        self.status().to_msg(stamp, node)
     }
 
     /// Its level, message and details.
@@ -222,10 +225,22 @@ mod tests {
     }
 
     #[test]
+    fn the_hardware_id_is_the_nodes_fully_qualified_name() {
+        use crate::convert::fully_qualified;
+        assert_eq!(fully_qualified("/", NODE_NAME), "/waam_planner");
+        assert_eq!(fully_qualified("/cell1", "planner"), "/cell1/planner");
+        assert_eq!(fully_qualified("/cell1/", "planner"), "/cell1/planner");
+        // Recordings of the CLI speak for the node without a namespace.
+        let recorded = crate::planning::recorded(Status::ok("planned", vec![]));
+        assert_eq!(recorded.status[0].hardware_id, "/waam_planner");
+        assert_eq!(recorded.status[0].name, NODE_NAME);
+    }
+
+    #[test]
     fn a_status_is_one_diagnostic_status_of_its_reporter() {
         let values = vec![KeyValue::new("part", "wall")];
         let recorded =
-            Status::ok("received", values.clone()).to_msg(Time::from_nanos(7), NODE_NAME);
+            Status::ok("received", values.clone()).to_msg(Time::from_nanos(7), "/waam_planner");
         assert_eq!(recorded.header, Header::new(Time::from_nanos(7), ""));
         assert_eq!(
             recorded.status,
@@ -233,7 +248,7 @@ mod tests {
                 level: DiagnosticStatus::OK,
                 name: NODE_NAME.into(),
                 message: "received".into(),
-                hardware_id: NODE_NAME.into(),
+                hardware_id: "/waam_planner".into(),
                 values,
             }]
         );
@@ -241,9 +256,9 @@ mod tests {
             job: 2,
             values: vec![],
         }
-        .to_msg(Time::default(), "");
+        .to_msg(Time::default(), "/cell1/planner");
         assert_eq!(node.status[0].name, NODE_NAME);
-        assert_eq!(node.status[0].hardware_id, "");
+        assert_eq!(node.status[0].hardware_id, "/cell1/planner");
         let health = Status::error("down", vec![]).reported_by(Time::default(), "n: planner", "/n");
         assert_eq!(health.status[0].level, DiagnosticStatus::ERROR);
         assert_eq!(

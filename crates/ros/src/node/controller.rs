@@ -82,8 +82,7 @@ impl ExecOutputs for Outputs {
             .publish(&Bool { data: on }, self.recorder.as_ref());
     }
     fn status(&self, status: JobStatus) {
-        self.status
-            .publish(&status.to_msg(Time::now(), ""), self.recorder.as_ref());
+        self.publish_status(&status);
     }
     fn log(&self, level: Level, message: &str) {
         Outputs::log(self, level, message);

@@ -9,6 +9,7 @@ use ros2_client::{Node, NodeLoggingHandle, Publisher, QosProfile, Subscription};
 use super::names::NodeNames;
 use super::params::TopicParams;
 use super::ros::RosEnvError;
+use waam_messages::status::JobStatus;
 use waam_rosbag::qos::Qos;
 use waam_rosbag::Recorder;
 use waam_rosmsg::builtin_interfaces::Time;
@@ -174,6 +175,14 @@ impl Outputs {
             node_name: node.fully_qualified_name(),
             recorder,
         })
+    }
+
+    /// Publishes (and records) `status` on `~/status`, reported by this node.
+    pub fn publish_status(&self, status: &JobStatus) {
+        self.status.publish(
+            &status.to_msg(Time::now(), &self.node_name),
+            self.recorder.as_ref(),
+        );
     }
 
     /// Logs to `tracing` and to `/rosout` (recording the rosout record too).

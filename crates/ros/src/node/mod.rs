@@ -660,10 +660,7 @@ impl LoopState {
     }
 
     fn status(&self, status: JobStatus) {
-        self.outputs.status.publish(
-            &status.to_msg(Time::now(), ""),
-            self.outputs.recorder.as_ref(),
-        );
+        self.outputs.publish_status(&status);
     }
 
     /// A planning status, at most 4 per second unless the stage changes.
@@ -1011,14 +1008,10 @@ fn spawn_inputs(inputs: Inputs, events: Sender<Event>, outputs: Arc<Outputs>) {
                             // An undecodable message (wrong type on the topic, bad CDR).
                             outputs
                                 .log(Level::Error, &format!("cannot read an input message: {e}"));
-                            outputs.status.publish(
-                                &JobStatus::Error {
-                                    job: None,
-                                    reason: format!("cannot read an input message: {e}"),
-                                }
-                                .to_msg(Time::now(), ""),
-                                outputs.recorder.as_ref(),
-                            );
+                            outputs.publish_status(&JobStatus::Error {
+                                job: None,
+                                reason: format!("cannot read an input message: {e}"),
+                            });
                             continue;
                         }
                     };

@@ -37,7 +37,7 @@ impl Default for NodeNames {
 impl NodeNames {
     /// `/namespace/name`.
     pub fn fully_qualified(&self) -> String {
-        format!("{}/{}", self.namespace.trim_end_matches('/'), self.name)
+        waam_messages::convert::fully_qualified(&self.namespace, &self.name)
     }
 
     pub fn node_name(&self) -> Result<NodeName, RosEnvError> {
@@ -98,5 +98,16 @@ mod tests {
         assert_eq!(r("/joint_states"), "/joint_states", "rule for another node");
         assert_eq!(r("arc_on"), "/cell1/planner/arc");
         assert_eq!(r("~/part"), "/cell1/planner/part");
+    }
+
+    #[test]
+    fn a_node_without_a_namespace_reports_as_its_recordings_do() {
+        // The node's statuses and the CLI's recorded ones carry one hardware_id.
+        let recorded =
+            waam_messages::planning::recorded(waam_messages::status::Status::ok("planned", vec![]));
+        assert_eq!(
+            NodeNames::default().fully_qualified(),
+            recorded.status[0].hardware_id
+        );
     }
 }
