@@ -7,7 +7,6 @@ use std::collections::BTreeMap;
 
 use serde_json::Value;
 use waam_layer::output::TrailFile;
-use waam_layer::{Layer, Model};
 use waam_messages::topics;
 use waam_ros::node::frames::TF_STATIC;
 use waam_rosbag::Bag;
@@ -23,11 +22,6 @@ use common::run::{run_isolated, waam};
 
 const PAPER: &str = "config/layers/paper-16mm.yaml";
 const ROBOT: &str = "urdf/waam_robot.urdf";
-
-fn model(file: &str) -> Model {
-    let text = std::fs::read_to_string(common::root().join(file)).unwrap();
-    Model::new(&Layer::parse(&text).unwrap()).unwrap()
-}
 
 /// The URDF's topic in recordings (the node's, unnamespaced).
 const ROBOT_DESCRIPTION: &str = "/robot_description";
@@ -84,7 +78,7 @@ fn a_recording_holds_the_layer_its_status_motion_and_heat() {
         stdout.contains("PROVEN OPTIMAL") && stdout.contains("MOTION:"),
         "{stdout}"
     );
-    let model = model(PAPER);
+    let model = common::layer_model(PAPER);
     let bag = Bag::open(&bag_dir).unwrap();
     assert_eq!(bag.truncated, None);
     let heat = model.horizon as u64;
@@ -227,7 +221,7 @@ fn a_recording_holds_the_layer_its_status_motion_and_heat() {
 #[test]
 fn without_a_motion_nothing_of_a_motion_is_recorded() {
     let tmp = tempfile::tempdir().unwrap();
-    let heat = model(PAPER).horizon as u64;
+    let heat = common::layer_model(PAPER).horizon as u64;
     // No robot: the layer, its statuses and the heat.
     let bag_dir = tmp.path().join("no-robot");
     let run = waam()

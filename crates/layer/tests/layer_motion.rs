@@ -5,33 +5,12 @@
 
 mod common;
 
-use std::time::Duration;
-
 use nalgebra::Point3;
 use waam_layer::output::TrailFile;
 use waam_layer::plan_layer_motion;
-use waam_layer::{search, Layer, Model, SearchOptions, SearchResult};
 use waam_motion::toolpath::{PoseKind, ProcessSettings};
 
 const PAPER: &str = "config/layers/paper-16mm.yaml";
-
-fn model(file: &str) -> Model {
-    let text = std::fs::read_to_string(common::root().join(file)).unwrap();
-    Model::new(&Layer::parse(&text).unwrap()).unwrap()
-}
-
-/// A valid trail fast (the optimum is not what these tests are about).
-fn quick_search(model: &Model) -> SearchResult {
-    let r = search(
-        model,
-        &SearchOptions {
-            time_limit: Some(Duration::from_millis(300)),
-            ..SearchOptions::default()
-        },
-    );
-    model.check_trail(&r.trail).unwrap();
-    r
-}
 
 #[test]
 fn the_arc_is_off_on_every_deadheading_move_and_on_along_every_wall() {
@@ -44,8 +23,8 @@ fn the_arc_is_off_on_every_deadheading_move_and_on_along_every_wall() {
         "config/layers/grid-4x4.yaml",
         "config/layers/honeycomb-12.yaml",
     ] {
-        let model = model(file);
-        let r = quick_search(&model);
+        let model = common::layer_model(file);
+        let r = common::quick_search(&model);
         let (tp, traj) = plan_layer_motion(&model, &r.trail, &settings, &robot)
             .unwrap_or_else(|e| panic!("{file}: {e}"));
         let on: Vec<usize> = (0..tp.poses.len())
@@ -125,8 +104,8 @@ fn the_arc_is_off_on_every_deadheading_move_and_on_along_every_wall() {
 
 #[test]
 fn an_unreachable_layer_names_the_wall_and_gives_no_motion() {
-    let model = model(PAPER);
-    let r = quick_search(&model);
+    let model = common::layer_model(PAPER);
+    let r = common::quick_search(&model);
     let mut settings = ProcessSettings::default();
     settings.plate.position_m = [3.0, 0.0, 0.35]; // beyond the arm's 1.2 m reach
     let e = plan_layer_motion(&model, &r.trail, &settings, &common::our_robot())

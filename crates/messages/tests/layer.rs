@@ -1,40 +1,15 @@
 //! A layer's simulated temperature field as recorded heat frames (`heat_frames`).
 
-use std::path::PathBuf;
-use std::time::Duration;
-
-use waam_layer::{search, Layer, Model, SearchOptions, SearchResult};
+mod common;
 
 const PAPER: &str = "config/layers/paper-16mm.yaml";
-
-fn root() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-}
-
-fn model(file: &str) -> Model {
-    let text = std::fs::read_to_string(root().join(file)).unwrap();
-    Model::new(&Layer::parse(&text).unwrap()).unwrap()
-}
-
-/// A valid trail fast (the optimum is not what these tests are about).
-fn quick_search(model: &Model) -> SearchResult {
-    let r = search(
-        model,
-        &SearchOptions {
-            time_limit: Some(Duration::from_millis(300)),
-            ..SearchOptions::default()
-        },
-    );
-    model.check_trail(&r.trail).unwrap();
-    r
-}
 
 #[test]
 fn heat_frames_are_thinned_evenly_and_keep_the_last_step() {
     use waam_messages::layer::heat_frames;
     use waam_rosmsg::builtin_interfaces::Time;
-    let model = model(PAPER);
-    let r = quick_search(&model);
+    let model = common::layer_model(PAPER);
+    let r = common::quick_search(&model);
     let start = Time::from_nanos(1_000_000_000);
     let all = heat_frames(&model, &r.trail, "part", start, 10_000);
     assert_eq!(all.len(), model.horizon);

@@ -3,11 +3,14 @@
 //! `config/parts` and `tests/data`).
 #![allow(dead_code, unused_imports)] // each test file uses a different subset
 
+#[path = "../../../../tests/support/layers.rs"]
+mod layers;
 #[path = "../../../../tests/support/parts.rs"]
 mod parts;
 #[path = "../../../../tests/support/robots.rs"]
 mod robots;
 
+pub use layers::*;
 pub use parts::*;
 pub use robots::*;
 
