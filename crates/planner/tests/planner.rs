@@ -618,3 +618,92 @@ fn a_race_stops_within_a_second_of_a_cancel_or_timeout() {
     );
     assert!(!report.proven);
 }
+
+/// The best plan's fewest weld paths and margin, or why there is none (margins to 1 µs:
+/// the search proves a margin to that much).
+fn best_answer(part: &Part, threads: usize) -> (bool, Option<(usize, f64)>, Option<NoPlan>) {
+    let opts = Options {
+        threads,
+        ..Options::default()
+    };
+    let r = planner::plan(part, &opts, &mut |_| {}).unwrap();
+    if let Some(best) = &r.best {
+        let graph = waam_part::graph::WeldGraph::new(part);
+        best.plan(part).validate(part, &graph).unwrap();
+        assert!(is_feasible(part, &best.fragments), "{threads} threads");
+    }
+    let best = r.best.map(|b| (b.fragments.len(), b.margin));
+    (r.proven, best, r.no_plan)
+}
+
+fn same_best(
+    a: &(bool, Option<(usize, f64)>, Option<NoPlan>),
+    b: &(bool, Option<(usize, f64)>, Option<NoPlan>),
+) -> bool {
+    let close = match (a.1, b.1) {
+        (Some((ka, ma)), Some((kb, mb))) => ka == kb && (ma == mb || (ma - mb).abs() <= 1e-6),
+        (x, y) => x.is_none() && y.is_none(),
+    };
+    a.0 == b.0 && close && a.2 == b.2
+}
+
+#[test]
+fn the_best_plan_is_the_same_on_one_and_on_several_threads() {
+    // With more than one thread the first plan comes from a race; the proven answer (the
+    // fewest weld paths, the margin, or why there is no plan) is that of one thread.
+    for name in [
+        "ex1-plate-boss",
+        "ex2-bracket",
+        "s1-wall",
+        "s2-corner",
+        "s3-ring",
+        "s4-tee-k1",
+        "s5-ledge",
+        "s6-channel",
+        "s7-pad",
+    ] {
+        let part = read_part(name);
+        let alone = best_answer(&part, 1);
+        assert!(alone.0, "{name}: proven alone");
+        for threads in [2, 3] {
+            let raced = best_answer(&part, threads);
+            assert!(
+                same_best(&raced, &alone),
+                "{name} on {threads} threads: {raced:?}, alone {alone:?}"
+            );
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]
+
+    /// The best plan on two threads (a race for the first plan) is brute force's: among
+    /// the feasible plans with the fewest weld paths, the largest margin.
+    #[test]
+    fn the_raced_best_plan_equals_brute_force(part in small_part()) {
+        let graph = waam_part::graph::WeldGraph::new(&part);
+        let model = waam_thermal::ThermalModel::new(&part, &graph);
+        let feasible: Vec<_> = brute_force_plans(&part, part.max_fragments)
+            .into_iter()
+            .filter(|p| is_feasible(&part, p))
+            .collect();
+        let expected = feasible.iter().map(Vec::len).min().map(|fewest| {
+            let margin = feasible
+                .iter()
+                .filter(|p| p.len() == fewest)
+                .map(|p| model.margin(&waam_thermal::simulate(&model, p).unwrap().crossings))
+                .fold(f64::NEG_INFINITY, f64::max);
+            (fewest, margin)
+        });
+        let (proven, best, _) = best_answer(&part, 2);
+        prop_assert!(proven);
+        match (best, expected) {
+            (Some((k, m)), Some((ek, em))) => {
+                prop_assert_eq!(k, ek);
+                prop_assert!(m == em || (m - em).abs() <= 1e-6, "{} vs {}", m, em);
+            }
+            (got, want) => prop_assert!(got.is_none() && want.is_none(), "{:?} vs {:?}", got, want),
+        }
+    }
+}
