@@ -707,3 +707,41 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn a_raced_best_plan_stops_within_a_second_of_a_cancel_or_timeout() {
+    let part = Part::parse(&std::fs::read_to_string(hard_part()).unwrap()).unwrap();
+    let cancel = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&cancel);
+    let setter = std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_millis(500));
+        flag.store(true, Ordering::Relaxed);
+    });
+    let opts = Options {
+        threads: 3,
+        cancel: Some(cancel),
+        ..Options::default()
+    };
+    let t = Instant::now();
+    let report = planner::plan(&part, &opts, &mut |_| {}).unwrap();
+    setter.join().unwrap();
+    assert!(
+        t.elapsed() < Duration::from_millis(1500),
+        "{:?}",
+        t.elapsed()
+    );
+    assert!(report.best.is_none() && !report.proven && report.no_plan.is_none());
+    let opts = Options {
+        threads: 3,
+        timeout: Some(Duration::from_millis(700)),
+        ..Options::default()
+    };
+    let t = Instant::now();
+    let report = planner::plan(&part, &opts, &mut |_| {}).unwrap();
+    assert!(
+        t.elapsed() < Duration::from_millis(1700),
+        "{:?}",
+        t.elapsed()
+    );
+    assert!(!report.proven);
+}
