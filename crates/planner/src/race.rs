@@ -323,7 +323,15 @@ pub(crate) fn race_best(
                 verdict,
                 stats,
             }) => {
-                if verdict == CandidateVerdict::Feasible {
+                let feasible = verdict == CandidateVerdict::Feasible;
+                let optimizer = matches!(racer, Racer::Default | Racer::FromPlan);
+                // The optimizing searches' candidates, and of the others only the plan the
+                // race takes (so on a part without a plan the events are exactly those of
+                // `--threads 1`, like the answer).
+                if !optimizer && !(feasible && !default_has_plan && !from_plan_started) {
+                    continue;
+                }
+                if feasible {
                     first.get_or_insert((racer, started.elapsed().as_secs_f64()));
                     if racer == Racer::Default {
                         default_has_plan = true;
