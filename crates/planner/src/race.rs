@@ -328,7 +328,8 @@ pub(crate) fn race_best(
                 // The optimizing searches' candidates, and of the others only the plan the
                 // race takes (so on a part without a plan the events are exactly those of
                 // `--threads 1`, like the answer).
-                if !optimizer && !(feasible && !default_has_plan && !from_plan_started) {
+                let the_race_plan = feasible && !default_has_plan && !from_plan_started;
+                if !(optimizer || the_race_plan) {
                     continue;
                 }
                 if feasible {
