@@ -66,9 +66,10 @@ pub struct PlanArgs {
     pub max_memory_mb: u64,
     /// Worker threads of --all and --count, each searching its own share of the plans
     /// (default: the available cores). Counts and the order of the plans are the same on
-    /// any number. With --first, the configurations raced for the first plan, one thread each
-    /// (1: the default configuration alone, its varied starts on one thread too; "no plan"
-    /// is always the default's answer).
+    /// any number. For the first plan (of --first, and of the best plan, which optimizes on
+    /// from it), the configurations raced, one thread each (1: the default configuration
+    /// alone, its varied starts on one thread too). "No plan" is always the default's
+    /// answer, and the best plan's weld paths and margin are the same on any number.
     #[arg(long, value_name = "N", value_parser = super::at_least_one)]
     pub threads: Option<usize>,
     /// How cycles are excluded: lazily by cuts between solves, or eagerly by a rank order.
@@ -455,9 +456,12 @@ fn finite_or_null(x: f64) -> serde_json::Value {
 }
 
 fn print_stats(s: &Stats) {
-    let first = s
+    let mut first = s
         .first_feasible_s
         .map_or("-".to_string(), |t| format!("{t:.4} s"));
+    if let Some(racer) = &s.first_plan_racer {
+        first.push_str(&format!(" (racer: {racer})"));
+    }
     if s.torch_blocked > 0 {
         eprintln!(
             "torch: {} of the candidates weld a block the torch cannot reach",

@@ -194,6 +194,9 @@ pub struct Stats {
     pub inside_reused: u64,
     /// Clauses other racers learned, handed to this search's solver ([`race`]).
     pub clauses_imported: u64,
+    /// The racer whose feasible plan the race saw first ([`race`]: "default",
+    /// "no-warm-start", "varisat", "seed N"); None without a race.
+    pub first_plan_racer: Option<String>,
     pub clause_len_min: Option<usize>,
     pub clause_len_max: Option<usize>,
     pub clause_len_mean: Option<f64>,
@@ -281,6 +284,7 @@ impl Stats {
             inside_deposits,
             inside_reused,
             clauses_imported,
+            first_plan_racer,
             clause_len_min,
             clause_len_max,
             clause_len_mean: _,
@@ -321,6 +325,9 @@ impl Stats {
         self.inside_deposits += inside_deposits;
         self.inside_reused += inside_reused;
         self.clauses_imported += clauses_imported;
+        if self.first_plan_racer.is_none() {
+            self.first_plan_racer.clone_from(first_plan_racer);
+        }
         self.clause_len_min = clause_len_min.map_or(self.clause_len_min, |m| {
             Some(self.clause_len_min.map_or(m, |s| s.min(m)))
         });
@@ -614,9 +621,15 @@ fn stopped_early(started: Instant) -> Report {
     }
 }
 
-/// The best feasible plan: fewest fragments, then the largest worst-case t8/5 margin.
+/// The best feasible plan: fewest fragments, then the largest worst-case t8/5 margin. With
+/// the default configuration on `opts.threads` threads (0: all cores) the first feasible
+/// plan comes from a race of configurations and the optimisation goes on from it
+/// ([`race::race_best`]); the answer of a completed search is the same either way.
 pub fn plan(part: &Part, opts: &Options, progress: Progress) -> Result<Report, PlanError> {
-    search_plans(part, opts, progress, true, &race::Tuning::alone())
+    match race::threads(opts) {
+        1 => search_plans(part, opts, progress, true, &race::Tuning::alone()),
+        threads => race::race_best(part, opts, progress, threads),
+    }
 }
 
 /// The first feasible plan found, without optimizing: with the default configuration on
@@ -685,7 +698,24 @@ fn search_plans(
     // The windows are narrowed to the best plan's margin once the search is among plans
     // of its fragment count (a plan with fewer fragments is better whatever its margin).
     let mut narrowed_to_best = false;
-    if opts.warm_start {
+    if let Some(incumbent) = &tuning.incumbent {
+        // Another racer's feasible plan (judged by the part's own windows) takes the warm
+        // start's place: judged again here, it is the plan to beat and the solver's phases.
+        // No event: the race reported it when its racer found it.
+        any_valid = true;
+        search.set_phases(incumbent);
+        if let Some(verdict) = search.judge(incumbent)? {
+            let margin = feasible_margin(&mut search, verdict, &base, incumbent, opts, started)?;
+            if let Some(margin) = margin {
+                search.block_plan(incumbent);
+                search.stats.best_margin_s = Some(margin).filter(|m| m.is_finite());
+                best = Some(Found {
+                    margin,
+                    fragments: incumbent.clone(),
+                });
+            }
+        }
+    } else if opts.warm_start {
         let limits = constructive::Limits {
             deadline: opts.timeout.and_then(|t| started.checked_add(t)),
             cancel: opts.cancel.clone(),

@@ -25,8 +25,12 @@
 //! racers other than the default take them in, inside their solves.
 //!
 //! Proofs stay deterministic: "no plan" is answered only by the default configuration,
-//! which takes no clauses in (so its reasons are those of a run without a race), and the
-//! optimizing, counting and enumerating searches do not race.
+//! which takes no clauses in (so its reasons are those of a run without the race); the
+//! counting and enumerating searches do not race.
+//!
+//! The best plan races too ([`race_best`]): the default racer runs the whole optimizing
+//! search of `--threads 1`, the others look for a first plan; when one of them finds it
+//! before the default has any, a second optimizing search starts from that plan.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
@@ -52,6 +56,22 @@ pub(crate) enum Racer {
     Varisat,
     /// CaDiCaL with the warm start and its own seed.
     Seeded(u32),
+    /// Not a configuration of its own: the default's optimizing search started from the
+    /// first plan another racer found ([`race_best`]).
+    FromPlan,
+}
+
+impl Racer {
+    /// The racer's name in statistics and logs.
+    pub fn name(self) -> String {
+        match self {
+            Racer::Default => "default".into(),
+            Racer::NoWarmStart => "no-warm-start".into(),
+            Racer::Varisat => "varisat".into(),
+            Racer::Seeded(s) => format!("seed {s}"),
+            Racer::FromPlan => "from another racer's plan".into(),
+        }
+    }
 }
 
 /// What a search run inside the race does differently.
@@ -61,6 +81,9 @@ pub(crate) struct Tuning {
     pub varied_starts: bool,
     pub sharing: Option<Sharing>,
     pub seed: Option<u32>,
+    /// A feasible plan another racer found: the search judges it first, in the warm
+    /// start's place, and looks only for better plans.
+    pub incumbent: Option<Vec<Vec<usize>>>,
 }
 
 impl Tuning {
@@ -70,6 +93,7 @@ impl Tuning {
             varied_starts: true,
             sharing: None,
             seed: None,
+            incumbent: None,
         }
     }
 }
@@ -105,6 +129,7 @@ fn fitting(part: &Part, opts: &Options) -> usize {
 /// A candidate judged by a racer, sent to the calling thread.
 enum Message {
     Candidate {
+        racer: Racer,
         fragments: Vec<Vec<usize>>,
         verdict: CandidateVerdict,
         stats: Box<Stats>,
@@ -135,48 +160,21 @@ pub(crate) fn race(
     let pool = Arc::new(ClausePool::default());
     let shared = Arc::new((part.clone(), opts.clone()));
     let (tx, rx) = mpsc::channel::<Message>();
-    // Detached, not scoped: the answer does not wait for a loser that stops only between
-    // its solves (varisat); it ends on its own soon after the race's cancel.
     for (i, racer) in racers.into_iter().enumerate() {
-        let tx = tx.clone();
-        let (stop, pool, shared) = (Arc::clone(&stop), Arc::clone(&pool), Arc::clone(&shared));
-        std::thread::spawn(move || {
-            let (part, opts) = &*shared;
-            let offset = started.elapsed();
-            // One thread per racer: its varied starts and simulations take no other core.
-            let o = Options {
-                timeout: opts.timeout.map(|t| t.saturating_sub(offset)),
-                cancel: Some(Arc::clone(&stop)),
-                threads: 1,
-                ..opts.clone()
-            };
-            let sharing = Sharing::new(pool, i);
-            // The default takes no clauses in: its proofs stay those of a run alone.
-            let sharing = match racer {
-                Racer::Default => sharing.publish_only(),
-                _ => sharing,
-            };
-            let mut forward = |event: Event<'_>| {
-                if let Event::Candidate {
-                    fragments,
-                    verdict,
-                    stats,
-                } = event
-                {
-                    let _ = tx.send(Message::Candidate {
-                        fragments: fragments.to_vec(),
-                        verdict,
-                        stats: Box::new(stats.clone()),
-                    });
-                }
-            };
-            let result = run(racer, part, &o, &mut forward, sharing);
-            let _ = tx.send(Message::Done {
-                racer,
-                result: Box::new(result),
-                offset,
-            });
-        });
+        let sharing = Sharing::new(Arc::clone(&pool), i);
+        // The default takes no clauses in: its proofs stay those of a run alone.
+        let sharing = match racer {
+            Racer::Default => sharing.publish_only(),
+            _ => sharing,
+        };
+        spawn(
+            racer,
+            &shared,
+            started,
+            &stop,
+            &tx,
+            move |part, o, progress| run(racer, part, o, progress, sharing, false),
+        );
     }
     drop(tx);
     let mut winner: Option<Report> = None;
@@ -186,6 +184,7 @@ pub(crate) fn race(
     while winner.is_none() && default.is_none() {
         match rx.recv_timeout(POLL) {
             Ok(Message::Candidate {
+                racer: _,
                 fragments,
                 verdict,
                 stats,
@@ -205,8 +204,9 @@ pub(crate) fn race(
                     r
                 });
                 match result {
-                    Ok(r) if r.best.is_some() => {
+                    Ok(mut r) if r.best.is_some() => {
                         tracing::debug!("race: {racer:?} found the first feasible plan");
+                        r.stats.first_plan_racer = Some(racer.name());
                         winner = Some(r);
                     }
                     // A proof (no plan) or an error: only the default's, so the answer is
@@ -238,6 +238,255 @@ pub(crate) fn race(
     Ok(report)
 }
 
+/// The best plan of `part` (fewest weld paths, then the largest t8/5 margin), its first
+/// feasible plan raced on `threads` threads; events reach `progress` on the calling thread.
+///
+/// The default racer runs the optimizing search of `--threads 1` as it is; the others look
+/// for a first plan. Once the default has a feasible plan of its own, the others stop and
+/// its answer is awaited. When another racer finds one first, it stops the others and a
+/// second optimizing search (the default configuration, [`Racer::FromPlan`]) starts from
+/// its plan as the plan to beat, taking in the clauses the racers shared, beside the
+/// default, which goes on; the first of the two to prove its answer gives it (both stop at
+/// the deadline or a cancel: then the better plan of the two, not proven).
+///
+/// Why the answer of a completed search does not depend on which racer won: each of the
+/// two optimizing searches is complete and sound on its own. It proves the fewest weld
+/// paths level by level (no plan with f paths under the part's own windows before f + 1
+/// is tried; a plan to beat narrows the windows only among plans with as many paths), and
+/// the margin by finding no plan under windows narrowed by the best margin + 1 µs. What
+/// the second search starts from only removes plans: the winner's plan (blocked once it
+/// is the best) and shared clauses, each a fact about the part's own windows (a racer
+/// stops publishing once it narrows, [`Sharing::stop_publishing`]). So both prove the same
+/// k and, to 1 µs, the same margin; only which of several equally good plans is returned
+/// may differ. "No plan" is never the second search's answer (it starts from a plan):
+/// it comes only from the default racer, which takes no clauses in, so it and its
+/// reasons are those of `--threads 1`.
+pub(crate) fn race_best(
+    part: &Part,
+    opts: &Options,
+    progress: Progress,
+    threads: usize,
+) -> Result<Report, PlanError> {
+    let started = Instant::now();
+    let mut racers = racers(threads);
+    // The second optimizing search takes the place of a racer that was stopped.
+    racers.truncate(fitting(part, opts));
+    if racers.len() == 1 {
+        return search_plans(part, opts, progress, true, &Tuning::alone());
+    }
+    // The racers looking for a first plan stop once there is one; the optimizing searches
+    // once one of them has the answer.
+    let seekers = Arc::new(AtomicBool::new(false));
+    let optimizers = Arc::new(AtomicBool::new(false));
+    let pool = Arc::new(ClausePool::default());
+    let shared = Arc::new((part.clone(), opts.clone()));
+    let (tx, rx) = mpsc::channel::<Message>();
+    let from_plan_id = racers.len();
+    for (i, racer) in racers.into_iter().enumerate() {
+        let sharing = Sharing::new(Arc::clone(&pool), i);
+        if racer == Racer::Default {
+            // Takes no clauses in: its "no plan" is that of a run alone.
+            let sharing = sharing.publish_only();
+            spawn(
+                racer,
+                &shared,
+                started,
+                &optimizers,
+                &tx,
+                move |part, o, progress| run(racer, part, o, progress, sharing, true),
+            );
+        } else {
+            spawn(
+                racer,
+                &shared,
+                started,
+                &seekers,
+                &tx,
+                move |part, o, progress| run(racer, part, o, progress, sharing, false),
+            );
+        }
+    }
+    // The first feasible plan the race saw: which racer, when.
+    let mut first: Option<(Racer, f64)> = None;
+    let mut default_has_plan = false;
+    let mut from_plan_started = false;
+    // Optimizing searches still running, and the best unproven answer of those that ended
+    // (or the winner's first plan, should its search end with nothing better).
+    let mut optimizing = 1;
+    let mut kept: Option<Report> = None;
+    let mut proven: Option<Result<Report, PlanError>> = None;
+    while proven.is_none() && optimizing > 0 {
+        match rx.recv_timeout(POLL) {
+            Ok(Message::Candidate {
+                racer,
+                fragments,
+                verdict,
+                stats,
+            }) => {
+                let feasible = verdict == CandidateVerdict::Feasible;
+                let optimizer = matches!(racer, Racer::Default | Racer::FromPlan);
+                // The optimizing searches' candidates, and of the others only the plan the
+                // race takes (so on a part without a plan the events are exactly those of
+                // `--threads 1`, like the answer).
+                let the_race_plan = feasible && !default_has_plan && !from_plan_started;
+                if !(optimizer || the_race_plan) {
+                    continue;
+                }
+                if feasible {
+                    first.get_or_insert((racer, started.elapsed().as_secs_f64()));
+                    if racer == Racer::Default {
+                        default_has_plan = true;
+                        seekers.store(true, Ordering::Relaxed);
+                    }
+                }
+                progress(Event::Candidate {
+                    fragments: &fragments,
+                    verdict,
+                    stats: &stats,
+                });
+            }
+            Ok(Message::Done { racer, result, .. }) => match (racer, *result) {
+                (Racer::Default | Racer::FromPlan, Ok(r)) => {
+                    optimizing -= 1;
+                    if r.proven {
+                        proven = Some(Ok(r));
+                    } else {
+                        kept = Some(better(kept, r));
+                    }
+                }
+                // The default's error is the answer a run alone gives.
+                (Racer::Default, Err(e)) => proven = Some(Err(e)),
+                (racer, Err(e)) => {
+                    optimizing -= usize::from(racer == Racer::FromPlan);
+                    tracing::warn!("race: {racer:?} stopped: {e}");
+                }
+                (racer, Ok(mut r)) => {
+                    let Some(plan) = r.best.as_ref().map(|b| b.fragments.clone()) else {
+                        continue;
+                    };
+                    if default_has_plan || from_plan_started {
+                        continue;
+                    }
+                    tracing::debug!(
+                        "race: {racer:?} found the first feasible plan; optimizing from it"
+                    );
+                    seekers.store(true, Ordering::Relaxed);
+                    from_plan_started = true;
+                    optimizing += 1;
+                    let tuning = Tuning {
+                        varied_starts: false,
+                        sharing: Some(Sharing::new(Arc::clone(&pool), from_plan_id)),
+                        seed: None,
+                        incumbent: Some(plan),
+                    };
+                    let opt = Racer::FromPlan;
+                    spawn(
+                        opt,
+                        &shared,
+                        started,
+                        &optimizers,
+                        &tx,
+                        move |part, o, progress| search_plans(part, o, progress, true, &tuning),
+                    );
+                    // Not proven optimal: the answer unless the optimizing searches find better.
+                    r.proven = false;
+                    r.no_plan = None;
+                    kept = Some(better(kept, r));
+                }
+            },
+            Err(mpsc::RecvTimeoutError::Timeout) => {
+                if opts
+                    .cancel
+                    .as_ref()
+                    .is_some_and(|c| c.load(Ordering::Relaxed))
+                {
+                    optimizers.store(true, Ordering::Relaxed);
+                    seekers.store(true, Ordering::Relaxed);
+                }
+            }
+            Err(mpsc::RecvTimeoutError::Disconnected) => break,
+        }
+    }
+    optimizers.store(true, Ordering::Relaxed);
+    seekers.store(true, Ordering::Relaxed);
+    let mut report = match (proven, kept) {
+        (Some(answer), _) => answer?,
+        (None, Some(kept)) => kept,
+        (None, None) => stopped_early(started),
+    };
+    if report.best.is_some() {
+        if let Some((racer, at_s)) = first {
+            report.stats.first_plan_racer = Some(racer.name());
+            report.stats.first_feasible_s = Some(at_s);
+        }
+    }
+    report.stats.total_s = started.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+/// The better of two unproven answers: fewer weld paths, then the larger margin (a plan
+/// over none; on a tie the one kept first).
+fn better(kept: Option<Report>, new: Report) -> Report {
+    let Some(kept) = kept else { return new };
+    let key = |r: &Report| {
+        r.best
+            .as_ref()
+            .map(|b| (std::cmp::Reverse(b.fragments.len()), b.margin))
+    };
+    match (key(&kept), key(&new)) {
+        (None, Some(_)) => new,
+        (Some((kn, km)), Some((nn, nm))) if nn > kn || (nn == kn && nm > km) => new,
+        _ => kept,
+    }
+}
+
+/// Runs `search` on a thread of its own as `racer`, stopped by `stop` or the run's
+/// deadline (counted from `started`), its events and its result sent on `tx`.
+/// Detached, not scoped: the answer does not wait for a loser that stops only between
+/// its solves (varisat); it ends on its own soon after its stop flag is raised.
+fn spawn(
+    racer: Racer,
+    shared: &Arc<(Part, Options)>,
+    started: Instant,
+    stop: &Arc<AtomicBool>,
+    tx: &mpsc::Sender<Message>,
+    search: impl FnOnce(&Part, &Options, Progress) -> Result<Report, PlanError> + Send + 'static,
+) {
+    let (shared, stop, tx) = (Arc::clone(shared), Arc::clone(stop), tx.clone());
+    std::thread::spawn(move || {
+        let (part, opts) = &*shared;
+        let offset = started.elapsed();
+        // One thread per racer: its varied starts and simulations take no other core.
+        let o = Options {
+            timeout: opts.timeout.map(|t| t.saturating_sub(offset)),
+            cancel: Some(stop),
+            threads: 1,
+            ..opts.clone()
+        };
+        let mut forward = |event: Event<'_>| {
+            if let Event::Candidate {
+                fragments,
+                verdict,
+                stats,
+            } = event
+            {
+                let _ = tx.send(Message::Candidate {
+                    racer,
+                    fragments: fragments.to_vec(),
+                    verdict,
+                    stats: Box::new(stats.clone()),
+                });
+            }
+        };
+        let result = search(part, &o, &mut forward);
+        let _ = tx.send(Message::Done {
+            racer,
+            result: Box::new(result),
+            offset,
+        });
+    });
+}
+
 /// One racer's run, stopped by `opts.cancel` (the race's) or its deadline.
 fn run(
     racer: Racer,
@@ -245,6 +494,7 @@ fn run(
     opts: &Options,
     progress: Progress,
     sharing: Sharing,
+    optimize: bool,
 ) -> Result<Report, PlanError> {
     let tuning = Tuning {
         varied_starts: racer == Racer::Default,
@@ -253,9 +503,10 @@ fn run(
             Racer::Seeded(s) => Some(s),
             _ => None,
         },
+        incumbent: None,
     };
     let o = match racer {
-        Racer::Default | Racer::Seeded(_) => opts.clone(),
+        Racer::Default | Racer::Seeded(_) | Racer::FromPlan => opts.clone(),
         Racer::NoWarmStart => Options {
             warm_start: false,
             ..opts.clone()
@@ -265,7 +516,7 @@ fn run(
             ..opts.clone()
         },
     };
-    search_plans(part, &o, progress, false, &tuning)
+    search_plans(part, &o, progress, optimize, &tuning)
 }
 
 #[cfg(test)]
@@ -310,6 +561,66 @@ mod tests {
         assert_eq!(fitting(&part, &o(3 * each)), 3);
         assert_eq!(fitting(&part, &o(3 * each - 1)), 2);
         assert_eq!(fitting(&part, &o(each / 2)), 1, "the default always runs");
+    }
+
+    #[test]
+    fn optimizing_from_another_racers_plan_proves_the_same_answer() {
+        // A 3 x 2 plate, 2 layers, k = 2, a wide window on a top block: the worst feasible
+        // plan (most weld paths, smallest margin) as the plan to beat.
+        let blocks = (0..2)
+            .flat_map(|z| (0..2).flat_map(move |y| (0..3).map(move |x| [x, y, z])))
+            .collect();
+        let mut part =
+            Part::from_blocks("plate".into(), [6.0, 6.0, 2.5], [0.0; 3], 2, blocks).unwrap();
+        let top = part.index_of([1, 1, 1]).unwrap();
+        part.set_window(
+            top,
+            waam_part::Window {
+                min_s: 0.0,
+                max_s: 1e4,
+            },
+        );
+        let opts = Options {
+            threads: 1,
+            ..Options::default()
+        };
+        let graph = waam_part::graph::WeldGraph::new(&part);
+        let model = waam_thermal::ThermalModel::new(&part, &graph);
+        let mut feasible = Vec::new();
+        crate::enumerate(&part, &opts, &mut |_| {}, &mut |p| {
+            feasible.push(p.to_vec());
+            Ok(())
+        })
+        .unwrap();
+        let margin =
+            |p: &[Vec<usize>]| model.margin(&waam_thermal::simulate(&model, p).unwrap().crossings);
+        let worst = feasible
+            .iter()
+            .max_by(|a, b| a.len().cmp(&b.len()).then(margin(b).total_cmp(&margin(a))))
+            .unwrap()
+            .clone();
+        let alone = search_plans(&part, &opts, &mut |_| {}, true, &Tuning::alone()).unwrap();
+        let tuning = Tuning {
+            varied_starts: false,
+            sharing: None,
+            seed: None,
+            incumbent: Some(worst.clone()),
+        };
+        let from_plan = search_plans(&part, &opts, &mut |_| {}, true, &tuning).unwrap();
+        let (a, f) = (alone.best.unwrap(), from_plan.best.unwrap());
+        assert!(alone.proven && from_plan.proven);
+        assert_eq!(f.fragments.len(), a.fragments.len());
+        assert!(
+            (f.margin - a.margin).abs() <= 1e-6,
+            "{} vs {}",
+            f.margin,
+            a.margin
+        );
+        assert!(
+            worst.len() > a.fragments.len() || margin(&worst) < a.margin - 1e-6,
+            "the plan to beat is not the best: the test needs a worse one"
+        );
+        assert_ne!(f.fragments, worst, "a better plan than the one to beat");
     }
 
     #[test]

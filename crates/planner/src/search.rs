@@ -172,8 +172,13 @@ impl<'p> Search<'p> {
         }
     }
 
-    /// Judges later candidates by `model` (e.g. narrowed windows while optimizing).
+    /// Judges later candidates by `model` (e.g. narrowed windows while optimizing). What
+    /// it learns from then on is not shared: a race's clauses must hold for the part's own
+    /// windows.
     pub fn set_thermal(&mut self, model: ThermalModel) {
+        if let Some(sharing) = &self.sharing {
+            sharing.stop_publishing();
+        }
         self.thermal = Arc::new(model);
         self.cooled_inside = None;
         self.cache.borrow_mut().clear();

@@ -5,9 +5,12 @@
 //! seed or warm start found it, and (shortened) only where the shortening is proven. The
 //! racers encode the same part with the same k and acyclicity, so the same literals mean
 //! the same moves in every one of them, and the race judges by the part's own windows
-//! (never narrowed). Cycle cuts and blocked plans are not shared: only violations.
+//! (never narrowed: an optimizing racer stops publishing once it narrows its windows, see
+//! [`Sharing::stop_publishing`]). Cycle cuts and blocked plans are not shared: only
+//! violations. Taking clauses in stays sound under narrowed windows: a plan that breaks a
+//! window of the part breaks the narrowed window too.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 use crate::sat::Lit;
@@ -30,6 +33,10 @@ pub struct Sharing {
     /// False: publish only (the default racer, whose "no plan" and its reasons must be
     /// those of a run on its own).
     import: bool,
+    /// False once the search judges by narrowed windows: its clauses are then no longer
+    /// facts about the part's own windows. Shared by the clones of one handle (the search
+    /// and its propagator).
+    publishing: Arc<AtomicBool>,
 }
 
 impl Sharing {
@@ -39,6 +46,7 @@ impl Sharing {
             me,
             seen: 0,
             import: true,
+            publishing: Arc::new(AtomicBool::new(true)),
         }
     }
 
@@ -50,7 +58,15 @@ impl Sharing {
         }
     }
 
+    /// This handle and its clones publish nothing from now on.
+    pub fn stop_publishing(&self) {
+        self.publishing.store(false, Ordering::Relaxed);
+    }
+
     pub fn publish(&self, clause: &[Lit]) {
+        if !self.publishing.load(Ordering::Relaxed) {
+            return;
+        }
         let mut clauses = self.pool.clauses.lock().expect("no racer panics");
         clauses.push((self.me, clause.to_vec()));
         self.pool.len.store(clauses.len(), Ordering::Release);
@@ -97,5 +113,19 @@ mod tests {
         b.publish(&[Lit::positive(4)]);
         a.publish(&[Lit::positive(5)]);
         assert_eq!(quiet.take_new(&mut got_b), 0, "publishes only");
+    }
+
+    #[test]
+    fn a_handle_that_stopped_publishing_still_reads() {
+        let pool = Arc::new(ClausePool::default());
+        let (mut a, mut b) = (Sharing::new(pool.clone(), 0), Sharing::new(pool, 1));
+        let a_inside = a.clone();
+        a.stop_publishing();
+        a_inside.publish(&[Lit::positive(1)]);
+        let mut got_b = Vec::new();
+        assert_eq!(b.take_new(&mut got_b), 0, "its clones stopped too");
+        b.publish(&[Lit::positive(2)]);
+        let mut got_a = Vec::new();
+        assert_eq!(a.take_new(&mut got_a), 1);
     }
 }
