@@ -62,3 +62,19 @@ fn an_unknown_family_is_refused_by_name() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("\"pipe\""));
 }
+
+/// `--best` times a folder's best plans; with --generate it is refused (exit 2, both flags
+/// named) rather than silently left out.
+#[test]
+fn best_with_generate_is_refused() {
+    let out = waam()
+        .args(["bench", "scale", "--generate", "1", "--best"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--best") && stderr.contains("--generate"),
+        "{stderr}"
+    );
+}

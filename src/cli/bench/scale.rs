@@ -30,8 +30,9 @@ pub struct ScaleArgs {
     #[arg(long, default_value_t = 60.0, value_name = "SECONDS")]
     pub timeout: f64,
     /// Also search for the best plan (fewest weld paths, then largest t8/5 margin) with
-    /// the same timeout; by default only the first feasible plan is timed.
-    #[arg(long)]
+    /// the same timeout; by default only the first feasible plan is timed. Not with
+    /// --generate: write the parts with --out, then time that folder with --best.
+    #[arg(long, conflicts_with = "generate")]
     pub best: bool,
     /// The pitch of one mesh: "NAME.stl=X Y Z" (repeatable); others take --pitch.
     #[arg(long = "mesh-pitch", value_name = "NAME=X Y Z", value_parser = parse_mesh_pitch)]
