@@ -241,26 +241,23 @@ pub(crate) fn race(
 /// The best plan of `part` (fewest weld paths, then the largest t8/5 margin), its first
 /// feasible plan raced on `threads` threads; events reach `progress` on the calling thread.
 ///
-/// The default racer runs the optimizing search of `--threads 1` as it is; the others look
-/// for a first plan. Once the default has a feasible plan of its own, the others stop and
-/// its answer is awaited. When another racer finds one first, it stops the others and a
-/// second optimizing search (the default configuration, [`Racer::FromPlan`]) starts from
+/// The default racer runs the optimizing search of `--threads 1` as it is (it takes no
+/// clauses in); the others look for a first plan. Once the default has a feasible plan of
+/// its own, the others stop. When another racer finds one first, it stops the others and
+/// a second optimizing search (the default configuration, [`Racer::FromPlan`]) starts from
 /// its plan as the plan to beat, taking in the clauses the racers shared, beside the
-/// default, which goes on; the first of the two to prove its answer gives it (both stop at
-/// the deadline or a cancel: then the better plan of the two, not proven).
+/// default, which goes on.
 ///
-/// Why the answer of a completed search does not depend on which racer won: each of the
-/// two optimizing searches is complete and sound on its own. It proves the fewest weld
-/// paths level by level (no plan with f paths under the part's own windows before f + 1
-/// is tried; a plan to beat narrows the windows only among plans with as many paths), and
-/// the margin by finding no plan under windows narrowed by the best margin + 1 µs. What
-/// the second search starts from only removes plans: the winner's plan (blocked once it
-/// is the best) and shared clauses, each a fact about the part's own windows (a racer
-/// stops publishing once it narrows, [`Sharing::stop_publishing`]). So both prove the same
-/// k and, to 1 µs, the same margin; only which of several equally good plans is returned
-/// may differ. "No plan" is never the second search's answer (it starts from a plan):
-/// it comes only from the default racer, which takes no clauses in, so it and its
-/// reasons are those of `--threads 1`.
+/// The answer is deterministic: a proven answer is only ever the default racer's, which is
+/// the `--threads 1` search itself — the same plan, the same candidates (only the
+/// default's events reach `progress`), the same "no plan" and reasons, so a recording
+/// replays identically on any number of threads. The race helps when the deadline or a
+/// cancel comes first: then the answer is the better plan of the two optimizing searches
+/// (or the race's first plan), not proven. Waiting for the default's proof costs little:
+/// the search from the race's plan proves the same k and margin (it is complete and sound;
+/// its plan to beat and the shared clauses, each a fact about the part's own windows —
+/// a racer stops publishing once it narrows, [`Sharing::stop_publishing`] — only remove
+/// plans) but may return another plan equally good.
 pub(crate) fn race_best(
     part: &Part,
     opts: &Options,
@@ -324,20 +321,18 @@ pub(crate) fn race_best(
                 stats,
             }) => {
                 let feasible = verdict == CandidateVerdict::Feasible;
-                let optimizer = matches!(racer, Racer::Default | Racer::FromPlan);
-                // The optimizing searches' candidates, and of the others only the plan the
-                // race takes (so on a part without a plan the events are exactly those of
-                // `--threads 1`, like the answer).
-                let the_race_plan = feasible && !default_has_plan && !from_plan_started;
-                if !(optimizer || the_race_plan) {
+                if feasible && (racer == Racer::Default || !(default_has_plan || from_plan_started))
+                {
+                    first.get_or_insert((racer, started.elapsed().as_secs_f64()));
+                }
+                // Only the default's candidates: the events (and so a recording) are
+                // those of `--threads 1`, whichever racer was faster.
+                if racer != Racer::Default {
                     continue;
                 }
                 if feasible {
-                    first.get_or_insert((racer, started.elapsed().as_secs_f64()));
-                    if racer == Racer::Default {
-                        default_has_plan = true;
-                        seekers.store(true, Ordering::Relaxed);
-                    }
+                    default_has_plan = true;
+                    seekers.store(true, Ordering::Relaxed);
                 }
                 progress(Event::Candidate {
                     fragments: &fragments,
@@ -346,13 +341,15 @@ pub(crate) fn race_best(
                 });
             }
             Ok(Message::Done { racer, result, .. }) => match (racer, *result) {
-                (Racer::Default | Racer::FromPlan, Ok(r)) => {
+                // Only the default's proof is the answer: it is the `--threads 1` search as
+                // it is, so a proven answer is the same plan on any number of threads (a
+                // recording replays identically). The search from another racer's plan is
+                // the fallback when the deadline or a cancel comes first.
+                (Racer::Default, Ok(r)) if r.proven => proven = Some(Ok(r)),
+                (Racer::Default | Racer::FromPlan, Ok(mut r)) => {
                     optimizing -= 1;
-                    if r.proven {
-                        proven = Some(Ok(r));
-                    } else {
-                        kept = Some(better(kept, r));
-                    }
+                    r.proven = false;
+                    kept = Some(better(kept, r));
                 }
                 // The default's error is the answer a run alone gives.
                 (Racer::Default, Err(e)) => proven = Some(Err(e)),

@@ -649,8 +649,9 @@ fn same_best(
 
 #[test]
 fn the_best_plan_is_the_same_on_one_and_on_several_threads() {
-    // With more than one thread the first plan comes from a race; the proven answer (the
-    // fewest weld paths, the margin, or why there is no plan) is that of one thread.
+    // With more than one thread the first plan comes from a race; the proven answer is
+    // that of one thread: the same plan (not only as many weld paths and the same margin)
+    // and the same candidates, so a recording replays identically on any number of threads.
     for name in [
         "ex1-plate-boss",
         "ex2-bracket",
@@ -665,12 +666,22 @@ fn the_best_plan_is_the_same_on_one_and_on_several_threads() {
         let part = read_part(name);
         let alone = best_answer(&part, 1);
         assert!(alone.0, "{name}: proven alone");
+        let plan = |threads: usize| {
+            let opts = Options {
+                threads,
+                ..Options::default()
+            };
+            let r = planner::plan(&part, &opts, &mut |_| {}).unwrap();
+            (r.best.map(|b| b.fragments), r.stats.candidates)
+        };
+        let one = plan(1);
         for threads in [2, 3] {
             let raced = best_answer(&part, threads);
             assert!(
                 same_best(&raced, &alone),
                 "{name} on {threads} threads: {raced:?}, alone {alone:?}"
             );
+            assert_eq!(plan(threads), one, "{name} on {threads} threads");
         }
     }
 }
