@@ -69,7 +69,8 @@ pub struct PlanArgs {
     /// any number. For the first plan (of --first, and of the best plan, which optimizes on
     /// from it), the configurations raced, one thread each (1: the default configuration
     /// alone, its varied starts on one thread too). "No plan" is always the default's
-    /// answer, and the best plan's weld paths and margin are the same on any number.
+    /// answer, and a proven best plan is the same plan on any number (the race helps the
+    /// best plan when --timeout or Ctrl-C comes before the proof).
     #[arg(long, value_name = "N", value_parser = super::at_least_one)]
     pub threads: Option<usize>,
     /// How cycles are excluded: lazily by cuts between solves, or eagerly by a rank order.
