@@ -311,6 +311,56 @@ fn rclpy_sensors_warn_on_bad_data_and_their_measurements_are_recorded() {
     assert_eq!(json["identical"], 1, "{json}");
 }
 
+/// The closed loop fed over DDS (#31, closed_loop.py): a namespaced dry run with
+/// `closed_loop.enabled`, rclpy's pyrometer readings (hotter than the model) published while
+/// the arc is on; at the weld-path boundary the `replanned` status counts the readings used and
+/// a fitted loss factor below 0.9, the execution succeeds, and the recording holds the
+/// temperatures and that status.
+#[test]
+fn rclpy_sensor_readings_reach_the_closed_loop_and_its_decision_is_recorded() {
+    let Some(mut python) = interfaces_python() else {
+        return;
+    };
+    // The script needs sensor_msgs and diagnostic_msgs as well: the ROS venv's (the same
+    // rclpy wheels the interfaces were built with) instead of the build venv.
+    let ros_venv = ros_python().unwrap();
+    python[1] = ros_venv.parent().unwrap().parent().unwrap().to_path_buf();
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join("closed-loop");
+    run_script_with(python, "closed_loop.py", &[bag.to_str().unwrap()]);
+
+    let recording = waam_rosbag::Bag::open(&bag).unwrap();
+    assert!(
+        recording.count("/cellY/waam_planner/temperature") > 0,
+        "no temperature recorded"
+    );
+    let statuses = recording
+        .decode_all::<waam_rosmsg::diagnostic_msgs::DiagnosticArray>()
+        .unwrap();
+    let replanned: Vec<_> = statuses
+        .iter()
+        .filter(|(_, topic, _)| *topic == "/cellY/waam_planner/status")
+        .flat_map(|(_, _, a)| &a.status)
+        .filter(|s| {
+            s.values
+                .iter()
+                .any(|kv| kv.key == "state" && kv.value == "replanned")
+        })
+        .collect();
+    assert!(!replanned.is_empty(), "no replanned status recorded");
+    let value = |key: &str| {
+        replanned[0]
+            .values
+            .iter()
+            .find(|kv| kv.key == key)
+            .unwrap_or_else(|| panic!("no {key} in {:?}", replanned[0]))
+            .value
+            .clone()
+    };
+    assert!(value("readings_used").parse::<u64>().unwrap() > 0);
+    assert!(value("loss_factor").parse::<f64>().unwrap() < 0.9);
+}
+
 /// Two nodes side by side (`--ros-args -r __ns:=/cell1`, `-r __ns:=/cell2 -r __node:=...`),
 /// parameters listed, read, described, refused and set through the standard services.
 #[test]

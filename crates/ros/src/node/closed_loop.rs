@@ -43,6 +43,8 @@ pub struct Replan {
     pub decision: Decision,
     pub outcome: Outcome,
     pub ignored: Vec<MeasureError>,
+    /// Readings the loop placed and fitted the model to.
+    pub used: usize,
     /// Weld paths welded when it was made.
     pub welded: usize,
     /// Blocks whose t8/5 windows the welded deposits broke under the estimate (not judged
@@ -101,6 +103,7 @@ impl Replan {
                 KeyValue::new("rmse_before_c", format!("{:.2}", e.rmse_before_c)),
                 KeyValue::new("rmse_after_c", format!("{:.2}", e.rmse_after_c)),
                 KeyValue::new("planner_s", format!("{:.3}", d.latency_s)),
+                KeyValue::new("readings_used", self.used),
                 KeyValue::new("readings_ignored", self.ignored.len()),
                 KeyValue::new("windows_broken_before", self.broken.len()),
             ],
@@ -176,9 +179,14 @@ impl Replanner {
         now_s: f64,
     ) -> Result<Option<Replan>, CellError> {
         let started = std::time::Instant::now();
+        let mut used = 0;
         let ignored: Vec<MeasureError> = readings
             .into_iter()
-            .filter_map(|m| self.closed.measured(&m).err())
+            .filter_map(|m| {
+                let placed = self.closed.measured(&m);
+                used += usize::from(placed.is_ok());
+                placed.err()
+            })
             .collect();
         if self.closed.next().is_none() {
             return Ok(None);
@@ -207,6 +215,7 @@ impl Replanner {
             decision,
             outcome,
             ignored,
+            used,
             welded: self.welded,
             broken,
             latency_s: started.elapsed().as_secs_f64(),

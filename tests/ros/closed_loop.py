@@ -1,0 +1,149 @@
+"""Published sensor readings reach the node's closed loop (#31).
+
+waam node runs as /cellY/waam_planner (`-r __ns:=/cellY`), a dry run at 20 times real time
+with `closed_loop.enabled: true` (tests/ros/closed_loop_execute.params.yaml), recording into
+the directory given as the one argument (tests/cli/ros_node.rs checks the recording). rclpy
+sends tests/data/two-walls.yaml on ~/part, runs it through ~/execute and, while ~/arc_on is
+true, publishes pyrometer readings on ~/temperature at about 200 Hz, stamped now, with the
+sensor-data QoS (best effort), and a scan of the tall wall's top on ~/scan.
+
+The readings are of a cell hotter than the planner's model: every one is the part's deposit
+temperature (`deposit_c`, 2500 °C), as if the block under the torch had lost no heat at
+all. No model with losses predicts that much at the end of a deposit, whichever deposit is
+under the torch, so the test needs no knowledge of the node's timing to know which way the
+fit must go: the loss factor fitted at the weld-path boundary must come out below 0.9.
+
+It checks: the `replanned` status at the boundary counts readings used (> 0) and a loss
+factor < 0.9; the ~/execute goal succeeds; the temperature sensor is OK on /diagnostics.
+"""
+
+import struct
+import sys
+import time
+
+import rclpy
+
+from action_msgs.msg import GoalStatus
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.action import ActionClient
+from rclpy.qos import qos_profile_sensor_data
+from sensor_msgs.msg import PointCloud2, PointField, Temperature
+from std_msgs.msg import Bool, String
+from waam_interfaces.action import ExecutePlan
+
+import waamtest
+from waamtest import REPO, check
+
+NS = "/cellY/waam_planner"
+DEPOSIT_C = 2500.0  # the part's deposit temperature (two-walls.yaml has no thermal: keys)
+# The tall wall (row y = 2 of 6 mm blocks, 4 layers of 2.5 mm): its top along the centre line.
+TALL_TOP = [(0.003 + 0.006 * i, 0.015, 0.010) for i in range(6)]
+
+
+def now(peer):
+    t = peer.node.get_clock().now().nanoseconds
+    return Time(sec=t // 10**9, nanosec=t % 10**9)
+
+
+def reading(peer):
+    msg = Temperature(temperature=DEPOSIT_C, variance=0.0)
+    msg.header.stamp = now(peer)
+    msg.header.frame_id = "pyrometer"
+    return msg
+
+
+def cloud(peer, points):
+    msg = PointCloud2()
+    msg.header.stamp = now(peer)
+    msg.header.frame_id = "part"
+    msg.height, msg.width = 1, len(points)
+    msg.fields = [PointField(name=n, offset=4 * i, datatype=PointField.FLOAT32, count=1)
+                  for i, n in enumerate("xyz")]
+    msg.point_step, msg.row_step = 12, 12 * len(points)
+    msg.data = b"".join(struct.pack("<3f", *p) for p in points)
+    msg.is_dense = True
+    return msg
+
+
+def values(status):
+    return {kv.key: kv.value for kv in status.values}
+
+
+def statuses(peer, state):
+    return [values(s) for a in peer.received[NS + "/status"] for s in a.status
+            if values(s).get("state") == state]
+
+
+def test(peer, waam):
+    peer.listen("/diagnostics", DiagnosticArray, qos=waamtest.INPUT_QOS)
+    peer.listen(NS + "/status", DiagnosticArray, qos=waamtest.INPUT_QOS)
+    arc = []
+    peer.node.create_subscription(Bool, NS + "/arc_on", lambda m: arc.append(m.data),
+                                  waamtest.INPUT_QOS)
+    part = peer.publisher(NS + "/part", String)
+    scan = peer.publisher(NS + "/scan", PointCloud2, qos=qos_profile_sensor_data)
+    temperature = peer.publisher(NS + "/temperature", Temperature, qos=qos_profile_sensor_data)
+    for p in (part, scan, temperature):
+        peer.wait_for_subscriber(p)
+    execute = ActionClient(peer.node, ExecutePlan, NS + "/execute")
+    if not execute.wait_for_server(timeout_sec=30):
+        raise waamtest.DiscoveryTimeout("no ~/execute action server after 30 s")
+
+    with open(f"{REPO}/tests/data/two-walls.yaml") as f:
+        part.publish(String(data=f.read()))
+    peer.spin_until("two-walls planned", lambda: statuses(peer, "planned"), 120)
+    job = int(statuses(peer, "planned")[-1]["job"])
+
+    sent = execute.send_goal_async(ExecutePlan.Goal(job=job))
+    peer.spin_until("the ~/execute goal accepted", sent.done, 30)
+    check(sent.result().accepted, "the ~/execute goal was rejected")
+    result = sent.result().get_result_async()
+
+    # Readings at 200 Hz while the arc is on (a 1 s deposit lasts 0.05 s at time_scale 20);
+    # a scan with every 20th.
+    sent_t = sent_s = 0
+    start = time.monotonic()
+    arc_on_s = 0.0
+    tick = 0
+    while not result.done() and time.monotonic() < start + 180:
+        if arc and arc[-1]:
+            temperature.publish(reading(peer))
+            sent_t += 1
+            if sent_t % 20 == 0:
+                scan.publish(cloud(peer, TALL_TOP))
+                sent_s += 1
+            arc_on_s += 0.005
+        rclpy.spin_once(peer.node, timeout_sec=0)
+        tick += 1
+        time.sleep(max(0.0, start + tick * 0.005 - time.monotonic()))
+    check(result.done(), "~/execute did not end within 180 s")
+    r = result.result()
+    check(r.status == GoalStatus.STATUS_SUCCEEDED
+          and r.result.outcome == ExecutePlan.Result.EXECUTED,
+          f"~/execute: status {r.status}, {r.result}")
+    print(f"~/execute: {r.result.message!r}; {sent_t} temperatures ({sent_t / arc_on_s:.0f} Hz "
+          f"while the arc was on) and {sent_s} scans sent")
+
+    peer.spin_until("a replanned status", lambda: statuses(peer, "replanned"), 10)
+    for s in statuses(peer, "replanned"):
+        print(f"replanned: {s}")
+    first = statuses(peer, "replanned")[0]
+    check(int(first["readings_used"]) > 0, f"no reading reached the loop: {first}")
+    check(float(first["loss_factor"]) < 0.9,
+          f"readings hotter than the model, yet a loss factor of {first['loss_factor']}: {first}")
+
+    # The temperature sensor's last word on /diagnostics is OK.
+    def sensor(array):
+        return [s for s in array.status if s.name == "cellY/waam_planner: temperature sensor"]
+
+    peer.spin_until("a temperature sensor status", lambda: any(
+        sensor(a) for a in peer.received["/diagnostics"]), 10)
+    last = [sensor(a)[0] for a in peer.received["/diagnostics"] if sensor(a)][-1]
+    check(waamtest.level(last) == 0, f"temperature sensor: {last.message}")
+    print(f"temperature sensor: {last.message}")
+    check(waam.alive(), "waam node exited")
+
+
+waamtest.run(test, "node", "--dry-run", "--params", "tests/ros/closed_loop_execute.params.yaml",
+             "--record", sys.argv[1], "--ros-args", "-r", "__ns:=/cellY")
