@@ -312,10 +312,10 @@ fn rclpy_sensors_warn_on_bad_data_and_their_measurements_are_recorded() {
 }
 
 /// The closed loop fed over DDS (#31, closed_loop.py): a namespaced dry run with
-/// `closed_loop.enabled`, rclpy's pyrometer readings (hotter than the model) published while
-/// the arc is on; at the weld-path boundary the `replanned` status counts the readings used and
-/// a fitted loss factor below 0.9, the execution succeeds, and the recording holds the
-/// temperatures and that status.
+/// `closed_loop.enabled`, rclpy publishing while the arc is on what the pyrometer of a cell with
+/// 25 % lower heat losses reads (computed here); at the weld-path boundary the `replanned`
+/// status counts the readings used and a fitted loss factor below 0.9, the execution succeeds,
+/// and the recording holds the temperatures and that status.
 #[test]
 fn rclpy_sensor_readings_reach_the_closed_loop_and_its_decision_is_recorded() {
     let Some(mut python) = interfaces_python() else {
@@ -327,7 +327,13 @@ fn rclpy_sensor_readings_reach_the_closed_loop_and_its_decision_is_recorded() {
     python[1] = ros_venv.parent().unwrap().parent().unwrap().to_path_buf();
     let dir = tempfile::tempdir().unwrap();
     let bag = dir.path().join("closed-loop");
-    run_script_with(python, "closed_loop.py", &[bag.to_str().unwrap()]);
+    let truth = dir.path().join("truth.json");
+    std::fs::write(&truth, lower_loss_pyrometer().to_string()).unwrap();
+    run_script_with(
+        python,
+        "closed_loop.py",
+        &[bag.to_str().unwrap(), truth.to_str().unwrap()],
+    );
 
     let recording = waam_rosbag::Bag::open(&bag).unwrap();
     assert!(
@@ -359,6 +365,46 @@ fn rclpy_sensor_readings_reach_the_closed_loop_and_its_decision_is_recorded() {
     };
     assert!(value("readings_used").parse::<u64>().unwrap() > 0);
     assert!(value("loss_factor").parse::<f64>().unwrap() < 0.9);
+}
+
+/// What the pyrometer of a cell with 25 % lower heat losses than two-walls' model reads on
+/// the first weld path of the plan `waam plan` makes (the node's, as the script checks): each
+/// deposit's true temperature at its end, in weld order, as `crates/ros/tests/closed_loop.rs`
+/// computes it.
+fn lower_loss_pyrometer() -> serde_json::Value {
+    let path = repo().join("tests/data/two-walls.yaml");
+    let out = crate::common::run::waam()
+        .args(["plan", "--json", "-q"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let first: Vec<waam_part::Block> =
+        serde_json::from_value(json["plan"]["fragments"][0].clone()).unwrap();
+    let part = waam_part::Part::parse(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let truth = waam_cell::estimate::counting_part(
+        &part,
+        waam_cell::estimate::scaled(part.thermal, 0.75, 1.0),
+    );
+    let graph = waam_part::graph::WeldGraph::new(&truth);
+    let model = waam_thermal::ThermalModel::new(&truth, &graph);
+    let mut sim = waam_thermal::Simulation::new(&model).with_threads(1);
+    let deposits: Vec<serde_json::Value> = first
+        .iter()
+        .enumerate()
+        .map(|(j, &block)| {
+            let b = truth.index_of(block).unwrap();
+            if j == 0 {
+                sim.transit().unwrap();
+                sim.deposit_after_transit(b).unwrap();
+            } else {
+                sim.deposit(b, false).unwrap();
+            }
+            let celsius = sim.temperatures().find(|&(o, _)| o == b).unwrap().1;
+            serde_json::json!({"block": block, "celsius": celsius})
+        })
+        .collect();
+    serde_json::Value::Array(deposits)
 }
 
 /// Two nodes side by side (`--ros-args -r __ns:=/cell1`, `-r __ns:=/cell2 -r __node:=...`),
