@@ -161,6 +161,39 @@ fn run_once(python: &[PathBuf], script: &str, args: &[&str]) -> (Output, String)
     (output, text)
 }
 
+/// `waam bag info BAG`'s listing, asserting that it lists every one of `topics`.
+fn assert_bag_lists(bag: &Path, topics: &[&str]) {
+    let out = crate::common::run::waam()
+        .args(["bag", "info"])
+        .arg(bag)
+        .output()
+        .unwrap();
+    let info = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{info}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for topic in topics {
+        assert!(
+            info.contains(topic),
+            "bag info does not list {topic}:\n{info}"
+        );
+    }
+}
+
+/// `waam replay --json BAG`: its exit code and JSON report.
+fn replay_json(bag: &Path) -> (Option<i32>, serde_json::Value) {
+    let out = crate::common::run::waam()
+        .args(["replay", "--json"])
+        .arg(bag)
+        .output()
+        .unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|_| panic!("no JSON: {}", String::from_utf8_lossy(&out.stderr)));
+    (out.status.code(), json)
+}
+
 #[test]
 fn rclpy_part_yields_trajectory_poses_markers_and_errors_on_bad_parts() {
     run_script("part_to_plan.py", &[]);
@@ -185,28 +218,15 @@ fn rclpy_ring_mesh_as_beads_is_welded_on_its_centre_line_and_its_recording_repla
     let bag = dir.path().join("ring");
     run_script_with(python, "mesh_beads.py", &[bag.to_str().unwrap()]);
 
-    let out = crate::common::run::waam()
-        .args(["bag", "info"])
-        .arg(&bag)
-        .output()
-        .unwrap();
-    let info = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{info}{}",
-        String::from_utf8_lossy(&out.stderr)
+    assert_bag_lists(
+        &bag,
+        &[
+            "/waam_planner/part_mesh",
+            "/waam_planner/plan/weld_plan",
+            "/waam_planner/plan/joint_trajectory",
+            "/waam_planner/plan/markers",
+        ],
     );
-    for topic in [
-        "/waam_planner/part_mesh",
-        "/waam_planner/plan/weld_plan",
-        "/waam_planner/plan/joint_trajectory",
-        "/waam_planner/plan/markers",
-    ] {
-        assert!(
-            info.contains(topic),
-            "bag info does not list {topic}:\n{info}"
-        );
-    }
 
     // The recorded markers: one cube per bead node, at the node's centre on the ring's
     // centre line (radius 20 mm about the nodes' mean, which for a whole ring of equally
@@ -239,14 +259,8 @@ fn rclpy_ring_mesh_as_beads_is_welded_on_its_centre_line_and_its_recording_repla
         }
     }
 
-    let out = crate::common::run::waam()
-        .args(["replay", "--json"])
-        .arg(&bag)
-        .output()
-        .unwrap();
-    let json: serde_json::Value = serde_json::from_slice(&out.stdout)
-        .unwrap_or_else(|_| panic!("no JSON: {}", String::from_utf8_lossy(&out.stderr)));
-    assert_eq!(out.status.code(), Some(0), "{json}");
+    let (code, json) = replay_json(&bag);
+    assert_eq!(code, Some(0), "{json}");
     assert_eq!(json["identical"], 1, "{json}");
     assert_eq!(json["skipped"], 0, "{json}");
 }
@@ -263,22 +277,13 @@ fn rclpy_sensors_warn_on_bad_data_and_their_measurements_are_recorded() {
     if run_script("closed_loop_sensors.py", &[bag.to_str().unwrap()]).is_none() {
         return;
     }
-    let out = crate::common::run::waam()
-        .args(["bag", "info"])
-        .arg(&bag)
-        .output()
-        .unwrap();
-    let info = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{info}");
-    for topic in [
-        "/cellX/waam_planner/scan",
-        "/cellX/waam_planner/temperature",
-    ] {
-        assert!(
-            info.contains(topic),
-            "bag info does not list {topic}:\n{info}"
-        );
-    }
+    assert_bag_lists(
+        &bag,
+        &[
+            "/cellX/waam_planner/scan",
+            "/cellX/waam_planner/temperature",
+        ],
+    );
 
     let recording = waam_rosbag::Bag::open(&bag).unwrap();
     let temperatures: Vec<waam_rosmsg::sensor_msgs::Temperature> = recording.decode().unwrap();
@@ -300,14 +305,8 @@ fn rclpy_sensors_warn_on_bad_data_and_their_measurements_are_recorded() {
         .count();
     assert!(good >= 6, "{good} good scans recorded, 6 or more sent");
 
-    let out = crate::common::run::waam()
-        .args(["replay", "--json"])
-        .arg(&bag)
-        .output()
-        .unwrap();
-    let json: serde_json::Value = serde_json::from_slice(&out.stdout)
-        .unwrap_or_else(|_| panic!("no JSON: {}", String::from_utf8_lossy(&out.stderr)));
-    assert_eq!(out.status.code(), Some(0), "{json}");
+    let (code, json) = replay_json(&bag);
+    assert_eq!(code, Some(0), "{json}");
     assert_eq!(json["identical"], 1, "{json}");
 }
 
@@ -1364,17 +1363,7 @@ fn a_mesh_the_node_recorded_replays_identically() {
         plan.statistics.feasible
     );
 
-    let replay = |bag: &Path| {
-        let out = crate::common::run::waam()
-            .args(["replay", "--json"])
-            .arg(bag)
-            .output()
-            .unwrap();
-        let json: serde_json::Value = serde_json::from_slice(&out.stdout)
-            .unwrap_or_else(|_| panic!("no JSON: {}", String::from_utf8_lossy(&out.stderr)));
-        (out.status.code(), json)
-    };
-    let (code, json) = replay(&bag_dir);
+    let (code, json) = replay_json(&bag_dir);
     assert_eq!(code, Some(0), "{json}");
     assert_eq!(json["identical"], 1, "{json}");
     assert_eq!(json["skipped"], 0, "{json}");
@@ -1391,7 +1380,7 @@ fn a_mesh_the_node_recorded_replays_identically() {
         }
         Some(to_cdr(&mesh).unwrap())
     });
-    let (code, json) = replay(&doctored);
+    let (code, json) = replay_json(&doctored);
     assert_eq!(code, Some(1), "{json}");
     assert_eq!(json["different"], 1, "{json}");
 }
