@@ -291,7 +291,9 @@ fn the_steps_after_a_weld_path_start_where_the_robot_stands_or_are_refused() {
         steps[weld + 2..]
     );
     // Standing anywhere else (the first point): refused, saying why.
-    let e = steps_after(&planned, &planned, 1, 0, 200).unwrap_err();
+    let e = steps_after(&planned, &planned, 1, 0, 200)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("where the robot stands"), "{e}");
     assert!(steps_after(&planned, &planned, 5, standing, 200).is_err());
 }

@@ -12,7 +12,7 @@
 use waam_cell::{CellError, ClosedLoop, Decision, LoopOptions, MeasureError, Measured};
 use waam_messages::status::JobStatus;
 use waam_part::{Block, Part};
-use waam_pipeline::{Cell, ChosenPlan, Interrupt, Planned};
+use waam_pipeline::{Cell, ChosenPlan, Interrupt, PipelineError, Planned};
 use waam_rosmsg::diagnostic_msgs::KeyValue;
 
 use super::execute::{plan_steps, Step};
@@ -31,10 +31,29 @@ pub enum Outcome {
     /// The current remainder is still the plan's best.
     Unchanged,
     /// The current plan goes on; why the new one was not taken.
-    Kept(String),
+    Kept(NotTaken),
     /// The new plan (whole, checked, with its motion) and the steps that follow from where
     /// the robot stands.
     New(Box<Planned>, Vec<Step>),
+}
+
+/// Why a new plan was not taken at a boundary.
+#[derive(Debug, thiserror::Error)]
+pub enum NotTaken {
+    #[error("no feasible completion from the estimated state")]
+    NoCompletion,
+    #[error("the new plan fails its check: {0}")]
+    Check(PipelineError),
+    #[error("the new plan has no weld path {0}")]
+    NoWeldPath(usize),
+    #[error("weld path {0} of the new plan does not end its arc")]
+    NoArcOff(usize),
+    #[error(
+        "the new motion does not start where the robot stands (joints differ by up to {0:.2e} rad)"
+    )]
+    NotWhereItStands(f64),
+    #[error("the new plan's time line differs from the executed one by {0:.3} s at the boundary")]
+    OffTimeline(f64),
 }
 
 /// One boundary: the decision, what came of it, and the readings that could not be placed.
@@ -194,7 +213,7 @@ impl Replanner {
         let decision = self.closed.at_boundary(true, now_s)?;
         let mut broken = Vec::new();
         let outcome = if decision.reason == "kept" {
-            Outcome::Kept("no feasible completion from the estimated state".into())
+            Outcome::Kept(NotTaken::NoCompletion)
         } else if !decision.changed {
             Outcome::Unchanged
         } else {
@@ -231,7 +250,7 @@ impl Replanner {
         decision: &Decision,
         standing: usize,
         max_points: usize,
-    ) -> Result<(Planned, Vec<Step>), String> {
+    ) -> Result<(Planned, Vec<Step>), NotTaken> {
         let chosen = ChosenPlan {
             fragments: decision.fragments(),
             stats: decision.stats.clone(),
@@ -244,7 +263,7 @@ impl Replanner {
             .setup
             .cell
             .motion_until(part, chosen, &interrupt)
-            .map_err(|e| format!("the new plan fails its check: {e}"))?;
+            .map_err(NotTaken::Check)?;
         let steps = steps_after(planned, &new, self.welded, standing, max_points)?;
         Ok((new, steps))
     }
@@ -259,7 +278,7 @@ pub fn steps_after(
     welded: usize,
     standing: usize,
     max_points: usize,
-) -> Result<Vec<Step>, String> {
+) -> Result<Vec<Step>, NotTaken> {
     let arc: Vec<bool> = new.trajectory.points.iter().map(|p| p.arc_on).collect();
     let steps = plan_steps(&arc, max_points);
     let weld = welded
@@ -269,12 +288,10 @@ pub fn steps_after(
                 .iter()
                 .position(|s| matches!(s, Step::Goal { welding: Some(w), .. } if *w == f))
         })
-        .ok_or_else(|| format!("the new plan has no weld path {welded}"))?;
+        .ok_or(NotTaken::NoWeldPath(welded))?;
     let (Step::Goal { span, .. }, Some(Step::Arc(false))) = (&steps[weld], steps.get(weld + 1))
     else {
-        return Err(format!(
-            "weld path {welded} of the new plan does not end its arc"
-        ));
+        return Err(NotTaken::NoArcOff(welded));
     };
     let (a, b) = (
         &old.trajectory.points[standing],
@@ -287,17 +304,11 @@ pub fn steps_after(
         .map(|(x, y)| (x - y).abs())
         .fold(0.0, f64::max);
     if a.positions.len() != b.positions.len() || joints > 1e-6 {
-        return Err(format!(
-            "the new motion does not start where the robot stands (joints differ by up to \
-             {joints:.2e} rad)"
-        ));
+        return Err(NotTaken::NotWhereItStands(joints));
     }
     let dt = (a.time_from_start - b.time_from_start).abs();
     if dt > 1e-6 {
-        return Err(format!(
-            "the new plan's time line differs from the executed one by {dt:.3} s at the \
-             boundary"
-        ));
+        return Err(NotTaken::OffTimeline(dt));
     }
     Ok(steps[weld + 2..].to_vec())
 }

@@ -302,8 +302,8 @@ impl NodeParams {
             merge(&mut merged, &found);
         }
         let invalid = |where_: String, msg: String| ParamsError::Invalid { where_, msg };
-        let mut params: NodeParams = serde_yaml::from_value(serde_yaml::Value::Mapping(merged))
-            .map_err(|e| invalid(format!(" {}", join(files)), format!("ros__parameters: {e}")))?;
+        let mut params = from_mapping(merged)
+            .map_err(|e| invalid(format!(" {}", join(files)), e.to_string()))?;
         params
             .check()
             .map_err(|e| invalid(format!(" {}", join(files)), e.0))?;
@@ -335,8 +335,7 @@ impl NodeParams {
         };
         waam_part::yaml::check(text).map_err(|e| invalid(format!("not valid YAML: {e}")))?;
         let merged = sections(text, "/waam_planner").map_err(|e| invalid(e.to_string()))?;
-        let params: NodeParams = serde_yaml::from_value(serde_yaml::Value::Mapping(merged))
-            .map_err(|e| invalid(format!("ros__parameters: {e}")))?;
+        let params = from_mapping(merged).map_err(|e| invalid(e.to_string()))?;
         params.check().map_err(|e| invalid(e.0))?;
         Ok(params)
     }
@@ -501,6 +500,30 @@ enum SectionError {
     SimTime,
 }
 
+/// A parameter with a value of the wrong type, or one this node does not have, named by its
+/// path (`ros__parameters.closed_loop.enabled: invalid type ...`), not only by its type.
+#[derive(Debug, thiserror::Error)]
+#[error("ros__parameters{path}: {msg}")]
+struct WrongValue {
+    path: String,
+    msg: String,
+}
+
+/// The merged `ros__parameters` as parameters.
+fn from_mapping(merged: serde_yaml::Mapping) -> Result<NodeParams, WrongValue> {
+    serde_path_to_error::deserialize(serde_yaml::Value::Mapping(merged)).map_err(|e| {
+        let path = e.path().to_string();
+        WrongValue {
+            path: if path == "." {
+                String::new()
+            } else {
+                format!(".{path}")
+            },
+            msg: e.into_inner().to_string(),
+        }
+    })
+}
+
 /// The `ros__parameters` of every section of `text` whose key addresses the node `fqn`,
 /// merged in file order.
 fn sections(text: &str, fqn: &str) -> Result<serde_yaml::Mapping, SectionError> {
@@ -658,6 +681,8 @@ mod tests {
         assert!(e.contains("closed_loop.max_age_s"), "{e}");
         let e = err("waam_planner:\n  ros__parameters:\n    closed_loop: {scan_margin_mm: -1}\n");
         assert!(e.contains("closed_loop.scan_margin_mm"), "{e}");
+        let e = err("waam_planner:\n  ros__parameters:\n    closed_loop: {enabled: \"yes\"}\n");
+        assert!(e.contains("closed_loop.enabled: invalid type"), "{e}");
         let e = err("someone_else:\n  ros__parameters: {}\n");
         assert!(e.contains("no section for this node"), "{e}");
         let e = err("/cell1/*:\n  ros__parameters: {}\n");

@@ -191,7 +191,10 @@ impl Sensors {
                                 unless_panicked(|| judge_temperature(&reading, &limits))
                             }
                             // A message that does not decode (another type on the topic).
-                            Err(e) => Err(format!("cannot read a {} message: {e}", type_of(kind))),
+                            Err(e) => Err(Rejected::Undecodable {
+                                type_name: type_of(kind),
+                                msg: e.to_string(),
+                            }),
                         };
                         let verdict = match judged {
                             Ok((reading, summary)) => {
@@ -199,7 +202,7 @@ impl Sensors {
                                 let _ = measured.send(reading);
                                 Verdict::Good(summary)
                             }
-                            Err(reason) => Verdict::Bad(reason),
+                            Err(reason) => Verdict::Bad(reason.to_string()),
                         };
                         if !news(SensorNews {
                             topic,
@@ -224,21 +227,31 @@ fn type_of(kind: SensorKind) -> &'static str {
     }
 }
 
+/// Why a sensor message was not taken.
+#[derive(Debug, thiserror::Error)]
+enum Rejected {
+    #[error("cannot read a {type_name} message: {msg}")]
+    Undecodable {
+        type_name: &'static str,
+        msg: String,
+    },
+    #[error(transparent)]
+    Bad(#[from] sensor::BadReading),
+    #[error("internal error while checking it (a bug: please report)")]
+    Panicked,
+}
+
+/// A reading the closed loop takes, with a summary for `/diagnostics`.
+type Judged = Result<(Measured, String), Rejected>;
+
 /// `judge()`, or a reason when it panicked: a bug in a check must not end the sensor thread
 /// (the sensors would fall silent while the node runs on).
-fn unless_panicked(
-    judge: impl FnOnce() -> Result<(Measured, String), String>,
-) -> Result<(Measured, String), String> {
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(judge))
-        .unwrap_or_else(|_| Err("internal error while checking it (a bug: please report)".into()))
+fn unless_panicked(judge: impl FnOnce() -> Judged) -> Judged {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(judge)).unwrap_or(Err(Rejected::Panicked))
 }
 
 /// A scan as the closed loop takes it, with a summary; or why not.
-fn judge_scan(
-    cloud: &PointCloud2,
-    targets: &ScanTargets,
-    limits: &ClosedLoopParams,
-) -> Result<(Measured, String), String> {
+fn judge_scan(cloud: &PointCloud2, targets: &ScanTargets, limits: &ClosedLoopParams) -> Judged {
     let target = targets.current();
     let good = sensor::scan(
         cloud,
@@ -246,8 +259,7 @@ fn judge_scan(
         limits.scan_margin_mm,
         Time::now(),
         limits.max_age_s,
-    )
-    .map_err(|e| e.to_string())?;
+    )?;
     let top = good
         .points
         .iter()
@@ -262,12 +274,8 @@ fn judge_scan(
 }
 
 /// A pyrometer reading as the closed loop takes it, with a summary; or why not.
-fn judge_temperature(
-    reading: &Temperature,
-    limits: &ClosedLoopParams,
-) -> Result<(Measured, String), String> {
-    let measured =
-        sensor::temperature(reading, Time::now(), limits.max_age_s).map_err(|e| e.to_string())?;
+fn judge_temperature(reading: &Temperature, limits: &ClosedLoopParams) -> Judged {
+    let measured = sensor::temperature(reading, Time::now(), limits.max_age_s)?;
     Ok((measured, format!("{:.1} °C", reading.temperature)))
 }
 
@@ -277,7 +285,7 @@ mod tests {
 
     #[test]
     fn a_panicking_check_is_a_reason_not_a_dead_thread() {
-        let e = unless_panicked(|| panic!("a bug")).unwrap_err();
+        let e = unless_panicked(|| panic!("a bug")).unwrap_err().to_string();
         assert!(e.contains("internal error"), "{e}");
         let ok = unless_panicked(|| {
             Ok((
