@@ -73,6 +73,7 @@ struct Seen {
 }
 
 impl ExecOutputs for Cell1 {
+    fn wire_feed(&self, _relative: f64) {}
     fn arc(&self, on: bool) {
         let now = *self.clock.lock().unwrap();
         let mut s = self.state.borrow_mut();
@@ -173,6 +174,7 @@ fn hotter_deposits_than_the_model_re_plan_the_rest_at_a_weld_path_boundary() {
     let setup = ReplanSetup {
         cell: cell.clone(),
         planner: waam_planner::Options::default(),
+        wire_feed: (1.0, 1.0),
     };
     run_plan(
         1,
@@ -296,4 +298,119 @@ fn the_steps_after_a_weld_path_start_where_the_robot_stands_or_are_refused() {
         .to_string();
     assert!(e.contains("where the robot stands"), "{e}");
     assert!(steps_after(&planned, &planned, 5, standing, 200).is_err());
+}
+
+/// A wall of 4 layers, one weld path each, on a cell whose beads come out 10 % low at the
+/// nominal wire feed (height proportional to wire feed); a line scanner measures the top
+/// when a weld path ends. `limits`: the wire feed the node may set. Returns the wire feeds
+/// the node sent, one per weld path as it began. (The first boundary's re-plan may weld the
+/// remaining layers in fewer weld paths: on a wall nothing stops it.)
+fn build_low_wall(limits: (f64, f64)) -> Vec<f64> {
+    const WALL: &str = "name: wall4\nblock_mm: [6, 6, 2.5]\nmax_fragments: 4\nlayers:\n- '######'\n- '######'\n- '######'\n- '######'\n";
+    let part = Part::parse(WALL).unwrap();
+    let fragments: Vec<Vec<usize>> = (0..4)
+        .map(|z| {
+            let row: Vec<usize> = (6 * z..6 * z + 6).collect();
+            if z % 2 == 0 {
+                row
+            } else {
+                row.into_iter().rev().collect()
+            }
+        })
+        .collect();
+    let chosen = ChosenPlan {
+        fragments,
+        stats: Default::default(),
+        proven: false,
+        worst_margin_s: f64::NAN,
+    };
+    let cell = Cell::bundled();
+    let planned = cell.motion(part.clone(), chosen).unwrap();
+
+    /// The cell's wire feed and deposit, and its scanner.
+    struct LowCell {
+        clock: Arc<Mutex<f64>>,
+        readings: Sender<Measured>,
+        feed: RefCell<f64>,
+        feeds: RefCell<Vec<f64>>,
+        top_mm: RefCell<f64>,
+    }
+    impl ExecOutputs for LowCell {
+        fn wire_feed(&self, relative: f64) {
+            *self.feed.borrow_mut() = relative;
+            self.feeds.borrow_mut().push(relative);
+        }
+        fn arc(&self, on: bool) {
+            if on {
+                return;
+            }
+            // Only the first weld path's layer is scanned: the second weld path's wire
+            // feed is what this test is about.
+            let mut top = self.top_mm.borrow_mut();
+            if *top > 0.0 {
+                return;
+            }
+            *top += 0.9 * 2.5 * *self.feed.borrow();
+            let points = (0..6).map(|i| [3.0 + 6.0 * i as f64, 3.0, *top]).collect();
+            let _ = self.readings.send(Measured::Scan {
+                stamp_s: *self.clock.lock().unwrap(),
+                points,
+            });
+        }
+        fn status(&self, _status: JobStatus) {}
+        fn log(&self, _level: Level, _message: &str) {}
+        fn plan(&self, _planned: &Planned) {}
+    }
+    let clock = Arc::new(Mutex::new(1000.0));
+    let (tx, rx) = channel();
+    let outputs = LowCell {
+        clock: Arc::clone(&clock),
+        readings: tx,
+        feed: RefCell::new(1.0),
+        feeds: RefCell::new(Vec::new()),
+        top_mm: RefCell::new(0.0),
+    };
+    let mut controller = InstantController {
+        clock,
+        goals: Arc::default(),
+    };
+    let setup = ReplanSetup {
+        cell,
+        planner: waam_planner::Options::default(),
+        wire_feed: limits,
+    };
+    run_plan(
+        1,
+        &planned,
+        &mut controller,
+        &outputs,
+        200,
+        0.0,
+        &Cancel::new(),
+        None,
+        Some(ClosedLoopRun {
+            setup,
+            readings: &rx,
+        }),
+    )
+    .expect("executed");
+    outputs.feeds.into_inner()
+}
+
+#[test]
+fn a_layer_scanned_low_raises_the_next_weld_paths_wire_feed_within_the_limits() {
+    // Limits 1 and 1 (the rule off): nominal throughout.
+    let feeds = build_low_wall((1.0, 1.0));
+    assert!(
+        feeds.len() >= 2 && feeds.iter().all(|&f| f == 1.0),
+        "{feeds:?}"
+    );
+    // The first layer at nominal (nothing measured yet) came out 2.25 mm of 2.5: the next
+    // weld path makes up the 0.25 mm missing at the gain measured, 2.75 / 2.25.
+    let feeds = build_low_wall((0.7, 1.3));
+    assert_eq!(feeds[0], 1.0);
+    assert!((feeds[1] - 2.75 / 2.25).abs() < 1e-9, "{feeds:?}");
+    // Within the process limits.
+    let feeds = build_low_wall((0.9, 1.1));
+    assert_eq!(feeds[1], 1.1, "{feeds:?}");
 }

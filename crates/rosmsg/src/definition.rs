@@ -94,6 +94,10 @@ const DEFINITIONS: &[(&str, &str)] = &[
         "std_msgs/ColorRGBA",
         include_str!("defs/std_msgs/ColorRGBA.msg"),
     ),
+    (
+        "std_msgs/Float64",
+        include_str!("defs/std_msgs/Float64.msg"),
+    ),
     ("std_msgs/Header", include_str!("defs/std_msgs/Header.msg")),
     ("std_msgs/String", include_str!("defs/std_msgs/String.msg")),
     (

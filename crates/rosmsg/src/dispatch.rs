@@ -10,7 +10,7 @@ use super::nav_msgs::Path;
 use super::rcl_interfaces::Log;
 use super::sensor_msgs::{CompressedImage, JointState, PointCloud2, PointField, Temperature};
 use super::shape_msgs::{Mesh, MeshTriangle};
-use super::std_msgs::{Bool, ColorRGBA, Header, String as RosString};
+use super::std_msgs::{Bool, ColorRGBA, Float64, Header, String as RosString};
 use super::tf2_msgs::TFMessage;
 use super::trajectory_msgs::{JointTrajectory, JointTrajectoryPoint};
 use super::visualization_msgs::{Marker, MarkerArray, MeshFile, UVCoordinate};
@@ -48,6 +48,7 @@ pub fn visit_type<V: TypeVisitor>(type_name: &str, visitor: V) -> Option<V::Outp
             Header,
             RosString,
             Bool,
+            Float64,
             ColorRGBA,
             Point,
             Quaternion,

@@ -54,6 +54,17 @@ ros_message!(
     "RIHS01_feb91e995ff9ebd09c0cb3d2aed18b11077585839fb5db80193b62d74528f6c9"
 );
 
+/// A number (the wire feed override, relative to nominal).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Float64 {
+    pub data: f64,
+}
+ros_message!(
+    Float64,
+    "std_msgs/msg/Float64",
+    "RIHS01_705ba9c3d1a09df43737eb67095534de36fd426c0587779bda2bc51fe790182a"
+);
+
 /// A colour, components in `[0, 1]`.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct ColorRGBA {

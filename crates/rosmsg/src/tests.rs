@@ -14,7 +14,7 @@ use super::nav_msgs::Path;
 use super::rcl_interfaces::Log;
 use super::sensor_msgs::{CompressedImage, JointState, PointCloud2, PointField, Temperature};
 use super::shape_msgs::{Mesh, MeshTriangle};
-use super::std_msgs::{Bool, ColorRGBA, Header, String as RosString};
+use super::std_msgs::{Bool, ColorRGBA, Float64, Header, String as RosString};
 use super::tf2_msgs::TFMessage;
 use super::trajectory_msgs::{JointTrajectory, JointTrajectoryPoint};
 use super::visualization_msgs::{Marker, MarkerArray, MeshFile, UVCoordinate};
@@ -105,6 +105,7 @@ macro_rules! for_all_types {
         $f::<Header>();
         $f::<RosString>();
         $f::<Bool>();
+        $f::<Float64>();
         $f::<ColorRGBA>();
         $f::<Point>();
         $f::<Quaternion>();
@@ -177,6 +178,7 @@ fn every_definition_resolves_with_its_dependencies() {
         Header,
         RosString,
         Bool,
+        Float64,
         ColorRGBA,
         Point,
         Quaternion,

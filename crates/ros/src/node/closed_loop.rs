@@ -18,11 +18,13 @@ use waam_rosmsg::diagnostic_msgs::KeyValue;
 use super::execute::{plan_steps, Step};
 
 /// What the closed loop re-plans with: the cell the plans are made in and the planner's
-/// options (its time limit bounds each re-plan; its cancel flag is the execution's).
+/// options (its time limit bounds each re-plan; its cancel flag is the execution's), and
+/// the wire feed the height rule may set, relative to nominal (the process limits).
 #[derive(Clone)]
 pub struct ReplanSetup {
     pub cell: Cell,
     pub planner: waam_planner::Options,
+    pub wire_feed: (f64, f64),
 }
 
 /// How a boundary ended.
@@ -143,8 +145,7 @@ impl Replanner {
     pub fn new(planned: &Planned, setup: ReplanSetup) -> Result<Replanner, CellError> {
         let opts = LoopOptions {
             planner: setup.planner.clone(),
-            // The node sets no wire feed (yet): the height rule's output is not used.
-            wire_feed: (1.0, 1.0),
+            wire_feed: setup.wire_feed,
         };
         let closed = ClosedLoop::new(&planned.part, &planned.found.fragments, opts, 0.0)?;
         Ok(Replanner {
@@ -152,6 +153,16 @@ impl Replanner {
             closed,
             welded: 0,
         })
+    }
+
+    /// The wire feed (relative to nominal) for weld path `fragment` of `planned`, about to
+    /// start, and the layer it is set for: the height rule's for the layer of the weld
+    /// path's first deposit (what the scans of the layers below asked for). The welder
+    /// keeps it for the whole weld path: it changes only while the arc is off.
+    pub fn wire_feed(&mut self, planned: &Planned, fragment: usize) -> Option<(i64, f64)> {
+        let &first = planned.found.fragments.get(fragment)?.first()?;
+        let z = planned.part.block(first)[2];
+        Some((z, self.closed.wire_feed(usize::try_from(z).ok()?)))
     }
 
     /// Weld path `fragment` of `planned` was welded by a goal that began at `goal_start_s`

@@ -17,7 +17,7 @@ use waam_messages::status::JobStatus;
 use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::diagnostic_msgs::DiagnosticStatus;
 use waam_rosmsg::sensor_msgs::JointState;
-use waam_rosmsg::std_msgs::{Bool, Header};
+use waam_rosmsg::std_msgs::{Bool, Float64, Header};
 use waam_rosmsg::trajectory_msgs::JointTrajectory as TrajectoryMsg;
 
 /// Why an execution stopped: the controller's answer, a timeout, or a cancel.
@@ -69,6 +69,8 @@ pub type OnChunk = Box<dyn Fn(ExecutePlanFeedback) + Send>;
 pub trait ExecOutputs {
     /// `~/arc_on`.
     fn arc(&self, on: bool);
+    /// `~/wire_feed` (closed loop): the next weld path's wire feed, relative to nominal.
+    fn wire_feed(&self, relative: f64);
     /// `~/status`.
     fn status(&self, status: JobStatus);
     fn log(&self, level: Level, message: &str);
@@ -80,6 +82,10 @@ impl ExecOutputs for Outputs {
     fn arc(&self, on: bool) {
         self.arc_on
             .publish(&Bool { data: on }, self.recorder.as_ref());
+    }
+    fn wire_feed(&self, relative: f64) {
+        self.wire_feed
+            .publish(&Float64 { data: relative }, self.recorder.as_ref());
     }
     fn status(&self, status: JobStatus) {
         self.publish_status(&status);
@@ -184,6 +190,27 @@ pub fn run_plan(
             i += 1;
             match step {
                 Step::Arc(on) => {
+                    // The wire feed goes out before the arc strikes: the welder takes it
+                    // for the whole weld path.
+                    let next_weld = steps[i..]
+                        .iter()
+                        .find_map(|s| match s {
+                            Step::Goal { welding, .. } => Some(*welding),
+                            Step::Arc(_) => None,
+                        })
+                        .flatten();
+                    if let (true, Some(cl), Some(f)) = (on, replanner.as_mut(), next_weld) {
+                        if let Some((z, feed)) = cl.wire_feed(&current, f) {
+                            outputs.wire_feed(feed);
+                            outputs.log(
+                                Level::Info,
+                                &format!(
+                                    "part {job}: weld path {} (layer {z}) at wire feed {feed:.3} x nominal",
+                                    f + 1
+                                ),
+                            );
+                        }
+                    }
                     outputs.arc(on);
                     arc_is_on = on;
                     let (Some(cl), Some(run), false, Some((f, standing, started))) =

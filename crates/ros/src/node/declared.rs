@@ -230,6 +230,8 @@ pub static DECLARED: &[Declared] = &[
         "Out: diagnostic_msgs/DiagnosticArray on every event", ""),
     declare!("topics.arc_on", topics.arc_on: String, AT_START, Range::None,
         "Out: std_msgs/Bool, the arc state during execution", ""),
+    declare!("topics.wire_feed", topics.wire_feed: String, AT_START, Range::None,
+        "Out: std_msgs/Float64, with the closed loop: the wire feed of the weld path about to start, relative to nominal", ""),
     declare!("topics.joint_states", topics.joint_states: String, AT_START, Range::None,
         "Out (dry run): sensor_msgs/JointState of the simulated robot", ""),
     declare!("execution.enabled", execution.enabled: bool, AT_START, Range::None,
@@ -272,6 +274,12 @@ pub static DECLARED: &[Declared] = &[
     declare!("closed_loop.scan_margin_mm", closed_loop.scan_margin_mm: f64, AT_START,
         Range::Float(0.0, 1e6),
         "Scan points farther than this from the part's box are off the part (dropped; a scan with none on it is bad), mm", ""),
+    declare!("closed_loop.wire_feed_min", closed_loop.wire_feed_min: f64, AT_START,
+        Range::Float(0.0, 1.0),
+        "The least wire feed the height rule may set, relative to nominal (process limit)", "> 0"),
+    declare!("closed_loop.wire_feed_max", closed_loop.wire_feed_max: f64, AT_START,
+        Range::Float(1.0, 10.0),
+        "The most wire feed the height rule may set, relative to nominal (process limit)", ""),
 ];
 
 /// The declared parameter `name`.

@@ -19,7 +19,7 @@ use waam_rosmsg::nav_msgs::Path;
 use waam_rosmsg::rcl_interfaces::Log;
 use waam_rosmsg::sensor_msgs::JointState;
 use waam_rosmsg::shape_msgs::Mesh;
-use waam_rosmsg::std_msgs::{Bool, String as RosString};
+use waam_rosmsg::std_msgs::{Bool, Float64, String as RosString};
 use waam_rosmsg::trajectory_msgs::JointTrajectory;
 use waam_rosmsg::visualization_msgs::MarkerArray;
 use waam_rosmsg::waam_interfaces::WeldPlan;
@@ -128,6 +128,8 @@ pub struct Outputs {
     pub weld_plan: Output<WeldPlan>,
     pub status: Output<DiagnosticArray>,
     pub arc_on: Output<Bool>,
+    /// With the closed loop: each weld path's wire feed, relative to nominal.
+    pub wire_feed: Output<Float64>,
     /// Dry run only.
     pub joint_states: Option<Output<JointState>>,
     logger: NodeLoggingHandle,
@@ -171,6 +173,13 @@ impl Outputs {
             )?,
             status: Output::new(node, names, &topics.status, latched_qos(), Qos::latched())?,
             arc_on: Output::new(node, names, &topics.arc_on, stream_qos(), Qos::reliable(10))?,
+            wire_feed: Output::new(
+                node,
+                names,
+                &topics.wire_feed,
+                stream_qos(),
+                Qos::reliable(10),
+            )?,
             joint_states: if dry_run {
                 Some(Output::new(
                     node,

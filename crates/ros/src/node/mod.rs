@@ -513,6 +513,10 @@ fn replan_setup(
                 max_memory_mb: params.planner.max_memory_mb.max(1) as u64,
                 ..waam_planner::Options::default()
             },
+            wire_feed: (
+                params.closed_loop.wire_feed_min,
+                params.closed_loop.wire_feed_max,
+            ),
         })
 }
 

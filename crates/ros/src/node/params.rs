@@ -92,6 +92,7 @@ pub struct TopicParams {
     pub weld_plan: String,
     pub status: String,
     pub arc_on: String,
+    pub wire_feed: String,
     pub joint_states: String,
 }
 
@@ -149,6 +150,10 @@ pub struct ClosedLoopParams {
     pub max_age_s: f64,
     /// Scan points farther than this from the part's box are off the part, mm.
     pub scan_margin_mm: f64,
+    /// The wire feed the height rule may set for a weld path, relative to the welder's
+    /// nominal schedule: the process limits (1 and 1: the rule is off).
+    pub wire_feed_min: f64,
+    pub wire_feed_max: f64,
 }
 
 impl Default for ClosedLoopParams {
@@ -159,6 +164,8 @@ impl Default for ClosedLoopParams {
             temperature_topic: "~/temperature".into(),
             max_age_s: 2.0,
             scan_margin_mm: 10.0,
+            wire_feed_min: 0.7,
+            wire_feed_max: 1.3,
         }
     }
 }
@@ -195,6 +202,7 @@ impl Default for TopicParams {
             weld_plan: "~/plan/weld_plan".into(),
             status: "~/status".into(),
             arc_on: "~/arc_on".into(),
+            wire_feed: "~/wire_feed".into(),
             joint_states: "/joint_states".into(),
         }
     }
@@ -470,6 +478,17 @@ impl NodeParams {
             return Err(ParamRule(format!(
                 "closed_loop.scan_margin_mm: expected a length in [0, 1e6] (mm), got {:?}",
                 cl.scan_margin_mm
+            )));
+        }
+        if !(finite_pos(cl.wire_feed_min)
+            && cl.wire_feed_min <= 1.0
+            && cl.wire_feed_max >= 1.0
+            && cl.wire_feed_max <= 10.0)
+        {
+            return Err(ParamRule(format!(
+                "closed_loop.wire_feed_min, wire_feed_max: expected 0 < min <= 1 <= max <= 10 \
+                 (relative to the nominal wire feed), got {:?} and {:?}",
+                cl.wire_feed_min, cl.wire_feed_max
             )));
         }
         Ok(())
