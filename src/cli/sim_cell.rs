@@ -107,10 +107,18 @@ pub fn run(args: SimCellArgs, global: &super::GlobalArgs) -> anyhow::Result<Exit
         );
     }
     println!(
-        "height: top {:.2} mm of nominal {:.2} mm ({:+.2} mm)",
+        "height: top {:.2} mm of nominal {:.2} mm ({:+.2} mm){}",
         executed.top_mm,
         executed.nominal_top_mm,
-        executed.top_mm - executed.nominal_top_mm
+        executed.top_mm - executed.nominal_top_mm,
+        if executed.complete {
+            String::new()
+        } else {
+            format!(
+                " over the {} layer(s) finished before the stop",
+                executed.layers.len()
+            )
+        }
     );
     let code = match &on_truth.violation {
         None => {

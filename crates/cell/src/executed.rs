@@ -69,6 +69,8 @@ pub struct Executed {
     pub plans: Vec<PlanUsed>,
     pub estimates: Vec<EstimateRecord>,
     pub layers: Vec<LayerRecord>,
+    /// The top of the layers finished (the whole part when complete), measured and
+    /// nominal, mm.
     pub top_mm: f64,
     pub nominal_top_mm: f64,
     /// False when the run was stopped before every block was deposited.

@@ -138,12 +138,13 @@ pub fn run(
         plans: cl.plans().to_vec(),
         estimates: cl.estimates().to_vec(),
         layers: cl.layers().to_vec(),
-        top_mm: if complete {
-            cl.layers().iter().map(|l| l.height_mm).sum()
+        // Stopped early: the layers finished so far, against their nominal.
+        top_mm: cl.layers().iter().map(|l| l.height_mm).sum(),
+        nominal_top_mm: if complete {
+            part.layers() as f64 * nominal_h
         } else {
-            0.0
+            cl.layers().iter().map(|l| l.nominal_mm).sum()
         },
-        nominal_top_mm: part.layers() as f64 * nominal_h,
         complete,
     };
     // The true cell's heat, run through every window (its verdicts come from

@@ -152,3 +152,43 @@ fn noisy_sensors_still_give_an_estimate_near_the_truth() {
     };
     assert_eq!(timeless(execute(&part, &truth, true)), timeless(closed));
 }
+
+#[test]
+fn a_stopped_run_reports_the_top_of_the_layers_it_finished() {
+    // Open loop, every layer 10 % low, stopped when the first weld path is cut short (after
+    // 15 deposits: two layers and a half of the wall, a serpentine of 6 per layer).
+    let part = wall(1000.0);
+    let truth = Truth::parse(
+        "height_factor: 0.9\ncut_short: {path: 1, after: 15}\n",
+        &part,
+    )
+    .unwrap();
+    let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let opts = CellOptions {
+        closed_loop: false,
+        planner: waam_planner::Options {
+            cancel: Some(cancel.clone()),
+            ..Default::default()
+        },
+        ..CellOptions::default()
+    };
+    let stop = |line: &str| {
+        if line.contains("cut short") {
+            cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+    };
+    let executed = waam_cell::run(&part, &truth, &opts, &mut { stop }).unwrap();
+    assert!(!executed.complete);
+    assert_eq!(executed.deposits.len(), 15);
+    assert_eq!(executed.layers.len(), 2, "{:?}", executed.layers);
+    assert!(
+        (executed.nominal_top_mm - 5.0).abs() < 1e-9,
+        "{}",
+        executed.nominal_top_mm
+    );
+    assert!(
+        (executed.top_mm - 0.9 * 5.0).abs() < 1e-9,
+        "{}",
+        executed.top_mm
+    );
+}
