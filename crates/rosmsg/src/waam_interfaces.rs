@@ -9,7 +9,8 @@ use super::geometry_msgs::Pose;
 use super::ros_message;
 use super::std_msgs::Header;
 
-/// One block of a part by its grid coordinates (z = layer).
+/// One deposit of a part: a block part's grid coordinates (z = layer); a graph part's
+/// stand-in `[rank among its layer's nodes, 0, layer]` (its place is in the plan's points).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct Block {
     pub x: i32,
