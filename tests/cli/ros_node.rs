@@ -316,17 +316,14 @@ fn rclpy_sensors_warn_on_bad_data_and_their_measurements_are_recorded() {
 /// The closed loop fed over DDS (#31, closed_loop.py): a namespaced dry run with
 /// `closed_loop.enabled`, rclpy publishing while the arc is on what the pyrometer of a cell with
 /// 25 % lower heat losses reads (computed here); at the weld-path boundary the `replanned`
-/// status counts the readings used and a fitted loss factor below 0.9, the execution succeeds,
-/// and the recording holds the temperatures and that status.
+/// status counts the readings used and a fitted loss factor below 0.9, the windowed wall still
+/// to come is re-planned and the new plan published, the execution succeeds, and the recording
+/// holds the temperatures, that status and the new plan.
 #[test]
 fn rclpy_sensor_readings_reach_the_closed_loop_and_its_decision_is_recorded() {
-    let Some(mut python) = interfaces_python() else {
+    let Some(python) = interfaces_python() else {
         return;
     };
-    // The script needs sensor_msgs and diagnostic_msgs as well: the ROS venv's (the same
-    // rclpy wheels the interfaces were built with) instead of the build venv.
-    let ros_venv = ros_python().unwrap();
-    python[1] = ros_venv.parent().unwrap().parent().unwrap().to_path_buf();
     let dir = tempfile::tempdir().unwrap();
     let bag = dir.path().join("closed-loop");
     let truth = dir.path().join("truth.json");
@@ -367,14 +364,18 @@ fn rclpy_sensor_readings_reach_the_closed_loop_and_its_decision_is_recorded() {
     };
     assert!(value("readings_used").parse::<u64>().unwrap() > 0);
     assert!(value("loss_factor").parse::<f64>().unwrap() < 0.9);
+    assert_eq!(value("reason"), "replan");
+    let plans: Vec<waam_rosmsg::waam_interfaces::WeldPlan> = recording.decode().unwrap();
+    assert!(plans.len() >= 2, "{} weld plans recorded", plans.len());
+    assert_ne!(plans[0].fragments, plans.last().unwrap().fragments);
 }
 
-/// What the pyrometer of a cell with 25 % lower heat losses than two-walls' model reads on
+/// What the pyrometer of a cell with 25 % lower heat losses than twin-walls' model reads on
 /// the first weld path of the plan `waam plan` makes (the node's, as the script checks): each
 /// deposit's true temperature at its end, in weld order, as `crates/ros/tests/closed_loop.rs`
 /// computes it.
 fn lower_loss_pyrometer() -> serde_json::Value {
-    let path = repo().join("tests/data/two-walls.yaml");
+    let path = repo().join("tests/data/twin-walls.yaml");
     let out = crate::common::run::waam()
         .args(["plan", "--json", "-q"])
         .arg(&path)

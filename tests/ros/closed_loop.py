@@ -3,7 +3,7 @@
 waam node runs as /cellY/waam_planner (`-r __ns:=/cellY`), a dry run at 20 times real time
 with `closed_loop.enabled: true` (tests/ros/closed_loop_execute.params.yaml), recording into
 the directory given as the first argument (tests/cli/ros_node.rs checks the recording). rclpy
-sends tests/data/two-walls.yaml on ~/part, runs it through ~/execute and, while ~/arc_on is
+sends tests/data/twin-walls.yaml on ~/part, runs it through ~/execute and, while ~/arc_on is
 true, publishes pyrometer readings on ~/temperature at about 200 Hz, stamped now, with the
 sensor-data QoS (best effort), and a scan of the tall wall's top on ~/scan.
 
@@ -102,9 +102,9 @@ def test(peer, waam):
     if not execute.wait_for_server(timeout_sec=30):
         raise waamtest.DiscoveryTimeout("no ~/execute action server after 30 s")
 
-    with open(f"{REPO}/tests/data/two-walls.yaml") as f:
+    with open(f"{REPO}/tests/data/twin-walls.yaml") as f:
         part.publish(String(data=f.read()))
-    peer.spin_until("two-walls planned", lambda: statuses(peer, "planned"), 120)
+    peer.spin_until("twin-walls planned", lambda: statuses(peer, "planned"), 120)
     job = int(statuses(peer, "planned")[-1]["job"])
 
     sent = execute.send_goal_async(ExecutePlan.Goal(job=job))
@@ -164,6 +164,14 @@ def test(peer, waam):
     check(int(first["readings_used"]) > 0, f"no reading reached the loop: {first}")
     check(0.6 < float(first["loss_factor"]) < 0.9,
           f"25 % lower losses, yet a loss factor of {first['loss_factor']}: {first}")
+    # The windowed wall is still to come: its serpentine breaks the windows under the
+    # estimate, so the rest is re-planned, and the new plan is published.
+    check(first["reason"] == "replan", f"the boundary did not re-plan: {first}")
+    plans = [[[(b.x, b.y, b.z) for b in f.blocks] for f in p.fragments]
+             for p in peer.received[NS + "/plan/weld_plan"]]
+    check(len(plans) >= 2 and plans[-1] != plans[0] and plans[-1][0] == plans[0][0],
+          f"no new plan after the first weld path: {len(plans)} weld plan(s) received")
+    print(f"new plan: {len(plans[-1])} weld paths after the re-plan, {len(plans[0])} before")
 
     # A wire feed before each weld path, within the process limits (0.7..1.3 x nominal), the
     # first nominal: no layer was scanned yet.
