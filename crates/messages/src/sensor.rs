@@ -335,77 +335,60 @@ mod tests {
         );
     }
 
-    #[test]
-    fn a_scan_in_a_frame_tf_connects_is_moved_into_the_part_frame() {
+    /// A frame tree of one static transform: `child` at `xyz` (m) in `parent`, not turned.
+    fn mounted(parent: &str, child: &str, xyz: [f64; 3]) -> TfBuffer {
         use waam_rosmsg::geometry_msgs::{Transform, TransformStamped, Vector3};
-        use waam_rosmsg::tf2_msgs::TFMessage;
-        // A scanner fixed 0.4 m along the base link's x axis (/tf_static); the part point
-        // (3, 3, 5) mm is (0.497, 0.003, 0.005) m in the base link, so (0.097, 0.003, 0.005)
-        // m in the scanner's frame.
-        let mut frames = TfBuffer::default();
         let mount = TransformStamped {
             header: waam_rosmsg::std_msgs::Header {
                 stamp: Time::default(),
-                frame_id: "base_link".into(),
+                frame_id: parent.into(),
             },
-            child_frame_id: "scanner_link".into(),
+            child_frame_id: child.into(),
             transform: Transform {
                 translation: Vector3 {
-                    x: 0.4,
-                    y: 0.0,
-                    z: 0.0,
+                    x: xyz[0],
+                    y: xyz[1],
+                    z: xyz[2],
                 },
                 ..Transform::default()
             },
         };
-        let refused = frames.add(
-            &TFMessage {
-                transforms: vec![mount],
-            },
-            true,
-        );
-        assert!(refused.is_empty(), "{refused:?}");
-        let mut c = cloud(&[[0.097, 0.003, 0.005]], "/scanner_link");
-        c.header.stamp = at(0.0);
-        let good = scan(&c, Some(&wall()), &frames, 0.0, at(0.0), 2.0).unwrap();
-        let (p, want) = (good.points[0], [3.0, 3.0, 5.0]);
-        assert!((0..3).all(|d| (p[d] - want[d]).abs() < 1e-3), "{p:?}");
+        let mut frames = TfBuffer::default();
+        let transforms = vec![mount];
+        let msg = waam_rosmsg::tf2_msgs::TFMessage { transforms };
+        assert!(frames.add(&msg, true).is_empty());
+        frames
     }
 
     #[test]
-    fn a_scan_in_a_frame_on_the_part_frame_needs_no_base_link() {
-        use waam_rosmsg::geometry_msgs::{Transform, TransformStamped, Vector3};
-        use waam_rosmsg::tf2_msgs::TFMessage;
-        // A scanner 0.1 m above the part frame's origin, tied to the part frame only.
-        let mut frames = TfBuffer::default();
-        let mount = TransformStamped {
-            header: waam_rosmsg::std_msgs::Header {
-                stamp: Time::default(),
-                frame_id: PART_FRAME.into(),
-            },
-            child_frame_id: "fixture_scanner".into(),
-            transform: Transform {
-                translation: Vector3 {
-                    x: 0.0,
-                    y: 0.0,
-                    z: 0.1,
-                },
-                ..Transform::default()
-            },
+    fn a_scan_in_a_frame_tf_connects_is_moved_into_the_part_frame() {
+        let on = |frames: &TfBuffer, point: [f32; 3], frame: &str| {
+            let mut c = cloud(&[point], frame);
+            c.header.stamp = at(0.0);
+            scan(&c, Some(&wall()), frames, 0.0, at(0.0), 2.0)
+                .unwrap()
+                .points[0]
         };
-        assert!(frames
-            .add(
-                &TFMessage {
-                    transforms: vec![mount]
-                },
-                true
-            )
-            .is_empty());
-        let mut c = cloud(&[[0.003, 0.003, -0.096]], "fixture_scanner");
-        c.header.stamp = at(0.0);
-        let good = scan(&c, Some(&wall()), &frames, 0.0, at(0.0), 2.0).unwrap();
-        let (p, want) = (good.points[0], [3.0, 3.0, 4.0]);
-        assert!((0..3).all(|d| (p[d] - want[d]).abs() < 1e-3), "{p:?}");
+        let near = |p: [f64; 3], want: [f64; 3]| {
+            assert!(
+                (0..3).all(|d| (p[d] - want[d]).abs() < 1e-3),
+                "{p:?} != {want:?}"
+            );
+        };
+        // A scanner fixed 0.4 m along the base link's x axis: the part point (3, 3, 5) mm
+        // is (0.497, 0.003, 0.005) m in the base link, so (0.097, 0.003, 0.005) m in the
+        // scanner's frame (named the ROS 1 way, with a leading '/').
+        let cell = mounted("base_link", "scanner_link", [0.4, 0.0, 0.0]);
+        near(
+            on(&cell, [0.097, 0.003, 0.005], "/scanner_link"),
+            [3.0, 3.0, 5.0],
+        );
+        // A scanner 0.1 m above the part frame's origin, tied to the part frame only.
+        let fixture = mounted(PART_FRAME, "fixture_scanner", [0.0, 0.0, 0.1]);
+        near(
+            on(&fixture, [0.003, 0.003, -0.096], "fixture_scanner"),
+            [3.0, 3.0, 4.0],
+        );
     }
 
     #[test]

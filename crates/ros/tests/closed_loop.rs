@@ -115,6 +115,36 @@ impl ExecOutputs for Cell1 {
     }
 }
 
+/// `~/execute` of `planned` in `cell` with the closed loop on (its wire feed within
+/// `wire_feed`), the readings from `readings`, goals of at most 200 points.
+fn execute_closed(
+    planned: &Planned,
+    controller: &mut dyn Controller,
+    outputs: &dyn ExecOutputs,
+    cell: &Cell,
+    wire_feed: (f64, f64),
+    readings: &std::sync::mpsc::Receiver<Measured>,
+) {
+    let setup = ReplanSetup {
+        cell: cell.clone(),
+        planner: waam_planner::Options::default(),
+        wire_feed,
+    };
+    let run = ClosedLoopRun { setup, readings };
+    run_plan(
+        1,
+        planned,
+        controller,
+        outputs,
+        200,
+        0.0,
+        &Cancel::new(),
+        None,
+        Some(run),
+    )
+    .expect("executed");
+}
+
 /// The short wall first, then the tall one, each one serpentine (the planner's own order of
 /// the tall wall), given so that the windows come after the first boundary.
 fn short_then_tall() -> Vec<Vec<usize>> {
@@ -171,26 +201,7 @@ fn hotter_deposits_than_the_model_re_plan_the_rest_at_a_weld_path_boundary() {
         clock,
         goals: Arc::clone(&goals),
     };
-    let setup = ReplanSetup {
-        cell: cell.clone(),
-        planner: waam_planner::Options::default(),
-        wire_feed: (1.0, 1.0),
-    };
-    run_plan(
-        1,
-        &planned,
-        &mut controller,
-        &outputs,
-        200,
-        0.0,
-        &Cancel::new(),
-        None,
-        Some(ClosedLoopRun {
-            setup,
-            readings: &rx,
-        }),
-    )
-    .expect("executed");
+    execute_closed(&planned, &mut controller, &outputs, &cell, (1.0, 1.0), &rx);
     let seen = outputs.state.into_inner();
     for s in &seen.statuses {
         if let JobStatus::Replanned { message, .. } = s {
@@ -374,26 +385,7 @@ fn build_low_wall(limits: (f64, f64)) -> Vec<f64> {
         clock,
         goals: Arc::default(),
     };
-    let setup = ReplanSetup {
-        cell,
-        planner: waam_planner::Options::default(),
-        wire_feed: limits,
-    };
-    run_plan(
-        1,
-        &planned,
-        &mut controller,
-        &outputs,
-        200,
-        0.0,
-        &Cancel::new(),
-        None,
-        Some(ClosedLoopRun {
-            setup,
-            readings: &rx,
-        }),
-    )
-    .expect("executed");
+    execute_closed(&planned, &mut controller, &outputs, &cell, limits, &rx);
     outputs.feeds.into_inner()
 }
 
