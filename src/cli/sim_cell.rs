@@ -1,4 +1,5 @@
-//! `waam sim-cell PART --truth TRUTH.yaml [--open-loop] --out DIR`: a simulated cell.
+//! `waam sim-cell PART --truth TRUTH.yaml [--open-loop] --out DIR`: a simulated cell; with
+//! `--node`, the same cell's sensors as a ROS 2 node beside `waam node`.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -22,8 +23,14 @@ use super::{EXIT_INTERRUPTED, EXIT_NO, EXIT_OK};
 /// the estimates, the layer heights: docs/closed-loop.md) and prints the true model's
 /// verdict on the executed time line.
 ///
+/// With `--node` it is the true cell's sensors as a ROS 2 node (`waam_sim_cell`) for a
+/// `waam node` executing PART (e.g. `waam node --dry-run -p closed_loop.enabled:=true`): it
+/// follows the planner's `~/plan/weld_plan`, `~/arc_on` and `~/wire_feed` and publishes on
+/// the planner's `~/temperature` the true temperature of each deposit and on `~/scan` the
+/// true top of each finished layer, until Ctrl-C (docs/closed-loop.md).
+///
 /// Exit code 0: every block deposited and every t8/5 window kept on the true model; 1: a
-/// window broke (or no plan); 2: bad input; 130: stopped by Ctrl-C.
+/// window broke (or no plan); 2: bad input; 130: stopped by Ctrl-C (`--node`: 0).
 #[derive(Debug, clap::Args)]
 pub struct SimCellArgs {
     /// The part file (block part, shared part format).
@@ -36,12 +43,37 @@ pub struct SimCellArgs {
     /// cut short resumes where it stopped, with a new arc start).
     #[arg(long)]
     pub open_loop: bool,
-    /// The folder to write executed.yaml into (new or empty).
-    #[arg(long, value_name = "DIR")]
-    pub out: PathBuf,
+    /// The folder to write executed.yaml into (new or empty); not with --node.
+    #[arg(
+        long,
+        value_name = "DIR",
+        required_unless_present = "node",
+        conflicts_with = "node"
+    )]
+    pub out: Option<PathBuf>,
     /// Time limit of each plan and re-plan, seconds.
     #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
     pub timeout: f64,
+    /// Run as a ROS 2 node: the true cell's pyrometer and layer scanner for a `waam node`
+    /// that executes PART.
+    #[arg(long, conflicts_with = "open_loop")]
+    pub node: bool,
+    /// --node: the planner node whose topics are followed, as a name in this node's
+    /// namespace.
+    #[arg(
+        long,
+        value_name = "NAME",
+        default_value = "waam_planner",
+        requires = "node"
+    )]
+    pub planner: String,
+    /// --node: how many times as fast as planned the planner executes (its
+    /// `dry_run.time_scale`; 1 on a real controller).
+    #[arg(long, value_name = "X", default_value_t = 1.0, requires = "node")]
+    pub time_scale: f64,
+    /// --node: ROS 2 arguments as rcl reads them (`-r __ns:=/cell1`, `-r __node:=NAME`).
+    #[arg(long = "ros-args", num_args = 0.., allow_hyphen_values = true, value_name = "ARG", requires = "node")]
+    pub ros_args: Option<Vec<String>>,
 }
 
 pub fn run(args: SimCellArgs, global: &super::GlobalArgs) -> anyhow::Result<ExitCode> {
@@ -50,7 +82,10 @@ pub fn run(args: SimCellArgs, global: &super::GlobalArgs) -> anyhow::Result<Exit
         .with_context(|| format!("reading {}", args.truth.display()))?;
     let truth =
         Truth::parse(&text, &part).map_err(|e| anyhow::anyhow!("{}: {e}", args.truth.display()))?;
-    let dir = super::first_run::output_dir(Some(&args.out))?;
+    if args.node {
+        return run_node(&part, &truth, &args);
+    }
+    let dir = super::first_run::output_dir(args.out.as_deref())?;
     let stop = super::node::stop_on_signal()?;
     let opts = CellOptions {
         closed_loop: !args.open_loop,
@@ -140,4 +175,26 @@ pub fn run(args: SimCellArgs, global: &super::GlobalArgs) -> anyhow::Result<Exit
     };
     println!("{} written", path.display());
     Ok(ExitCode::from(code))
+}
+
+/// `--node`: the true cell's sensors over ROS 2 until Ctrl-C.
+fn run_node(part: &waam_part::Part, truth: &Truth, args: &SimCellArgs) -> anyhow::Result<ExitCode> {
+    if !(args.time_scale.is_finite() && args.time_scale > 0.0) {
+        anyhow::bail!(
+            "--time-scale: expected a positive number, got {}",
+            args.time_scale
+        );
+    }
+    let ros = waam_ros::node::args::RosArgs::parse(args.ros_args.as_deref().unwrap_or_default())?;
+    let mut names = ros.names();
+    if ros.node_name.is_none() {
+        names.name = "waam_sim_cell".into();
+    }
+    let options = waam_ros::sim_cell::SimCellOptions {
+        names,
+        planner: args.planner.clone(),
+        time_scale: args.time_scale,
+    };
+    waam_ros::sim_cell::run(part, truth, &options, super::node::stop_on_signal()?)?;
+    Ok(ExitCode::from(EXIT_OK))
 }

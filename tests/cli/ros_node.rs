@@ -370,6 +370,17 @@ fn rclpy_sensor_readings_reach_the_closed_loop_and_its_decision_is_recorded() {
     assert_ne!(plans[0].fragments, plans.last().unwrap().fragments);
 }
 
+/// The simulated cell as a node (#31, sim_cell_node.py): `waam sim-cell --node` publishes the
+/// true cell's temperatures and scans for a namespaced dry run with the closed loop on, which
+/// re-plans from them; rclpy only sends the part and the goal.
+#[test]
+fn rclpy_simulated_cell_node_feeds_the_closed_loop() {
+    let Some(python) = interfaces_python() else {
+        return;
+    };
+    run_script_with(python, "sim_cell_node.py", &[]);
+}
+
 /// What the pyrometer of a cell with 25 % lower heat losses than twin-walls' model reads on
 /// the first weld path of the plan `waam plan` makes (the node's, as the script checks): each
 /// deposit's true temperature at its end, in weld order, as `crates/ros/tests/closed_loop.rs`

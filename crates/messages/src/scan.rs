@@ -106,9 +106,9 @@ fn axis(cloud: &PointCloud2, name: &'static str) -> Result<Axis, ScanError> {
     })
 }
 
-/// A cloud of FLOAT32 x, y, z points in `frame` (for tests).
-#[cfg(test)]
-pub(crate) fn cloud(points: &[[f32; 3]], frame: &str) -> PointCloud2 {
+/// A cloud of FLOAT32 x, y, z points (metres) in `frame`, as a laser line scanner's driver
+/// sends them (the simulated cell's scanner, tests).
+pub fn cloud(points: &[[f32; 3]], frame: &str) -> PointCloud2 {
     let fields = ["x", "y", "z"]
         .iter()
         .enumerate()

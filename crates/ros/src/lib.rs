@@ -7,3 +7,4 @@
 pub mod node;
 pub mod playback;
 pub mod qos;
+pub mod sim_cell;

@@ -1,0 +1,372 @@
+//! The simulated cell as a ROS 2 node (`waam sim-cell PART --truth TRUTH.yaml --node`): the
+//! sensors of a cell whose true model differs from the planner's, for a `waam node` that
+//! executes PART (a dry run, or a real controller without real sensors). It follows the
+//! planner's `~/plan/weld_plan`, `~/arc_on` and `~/wire_feed` and publishes on the planner's
+//! `~/temperature` what a pyrometer aimed at the torch reads on the true model — each
+//! deposit's true temperature at its end, stamped in its middle — and on `~/scan`, when a
+//! weld path ends, the true top of each layer it finished (beads `height_factor` × the wire
+//! feed high). The deposits are timed by the weld plan, from the moment the arc strikes,
+//! `time_scale` times as fast as planned (the planner's `dry_run.time_scale`).
+//!
+//! Not simulated here: weld paths cut short (`cut_short` is `waam sim-cell`'s, without
+//! `--node`). The true model's temperatures follow the planned transit between weld paths,
+//! as `waam sim-cell` does.
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use ros2_client::Subscription;
+use waam_cell::estimate::counting_part;
+use waam_cell::{Noise, Truth};
+use waam_part::graph::WeldGraph;
+use waam_part::Part;
+use waam_rosbag::qos::Qos;
+use waam_rosmsg::builtin_interfaces::Time;
+use waam_rosmsg::sensor_msgs::{PointCloud2, Temperature};
+use waam_rosmsg::std_msgs::{Bool, Float64, Header};
+use waam_rosmsg::waam_interfaces::{WeldPlan, WeldPoint};
+use waam_thermal::{Simulation, ThermalModel};
+
+use crate::node::io::{latched_qos, sensor_qos, stream_qos, subscribe, Output};
+use crate::node::names::NodeNames;
+use crate::node::ros::RosEnv;
+use crate::node::{start_node, NodeError};
+
+/// How the simulated cell runs.
+#[derive(Debug, Clone)]
+pub struct SimCellOptions {
+    /// This node's names (`--ros-args`).
+    pub names: NodeNames,
+    /// The planner node whose topics are followed, resolved as a topic name in this node's
+    /// namespace (`waam_planner`: `/<ns>/waam_planner/...`).
+    pub planner: String,
+    /// How many times as fast as planned the planner executes (its `dry_run.time_scale`).
+    pub time_scale: f64,
+}
+
+/// Why the simulated cell could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum SimCellError {
+    #[error(transparent)]
+    Node(#[from] NodeError),
+    #[error(transparent)]
+    Env(#[from] crate::node::ros::RosEnvError),
+    #[error(transparent)]
+    Io(#[from] crate::node::io::IoError),
+    #[error("the simulated cell takes block parts (a graph part has no block layers to scan)")]
+    GraphPart,
+}
+
+/// One weld path of the planner's plan: its deposits (part indices) and when each starts,
+/// and when the arc goes out, on the plan's time line (s).
+#[derive(Debug, Clone, PartialEq)]
+struct WeldPath {
+    blocks: Vec<usize>,
+    starts_s: Vec<f64>,
+    arc_off_s: f64,
+}
+
+/// The weld paths of a weld plan, for `part`; `None` when a block is not the part's (the
+/// plan of another part) or a deposit has no time.
+fn weld_paths(part: &Part, plan: &WeldPlan) -> Option<Vec<WeldPath>> {
+    let secs = |p: &WeldPoint| p.time_from_start.as_secs_f64();
+    let mut first: HashMap<(i32, i32), f64> = HashMap::new();
+    let mut off: HashMap<i32, f64> = HashMap::new();
+    for p in &plan.points {
+        if p.arc_on && p.block >= 0 {
+            let t = first.entry((p.fragment, p.block)).or_insert(secs(p));
+            *t = t.min(secs(p));
+        }
+        if p.kind == WeldPoint::ARC_OFF {
+            off.insert(p.fragment, secs(p));
+        }
+    }
+    plan.fragments
+        .iter()
+        .enumerate()
+        .map(|(f, fragment)| {
+            let f = i32::try_from(f).ok()?;
+            let blocks = fragment
+                .blocks
+                .iter()
+                .map(|b| part.index_of(b.to_part()))
+                .collect::<Option<Vec<_>>>()?;
+            let starts_s = (0..blocks.len())
+                .map(|j| first.get(&(f, i32::try_from(j).ok()?)).copied())
+                .collect::<Option<Vec<_>>>()?;
+            let arc_off_s = *off.get(&f)?;
+            Some(WeldPath {
+                blocks,
+                starts_s,
+                arc_off_s,
+            })
+        })
+        .collect()
+}
+
+/// Runs the simulated cell for `part` on `truth` until `stop` is raised.
+pub fn run(
+    part: &Part,
+    truth: &Truth,
+    options: &SimCellOptions,
+    stop: Arc<AtomicBool>,
+) -> Result<(), SimCellError> {
+    if part.bead_part().is_some() {
+        return Err(SimCellError::GraphPart);
+    }
+    let env = RosEnv::from_env()?;
+    let names = &options.names;
+    let mut node = start_node(&env, names)?;
+    let topic = |name: &str| format!("{}/{name}", options.planner.trim_end_matches('/'));
+    let (_, plans): (_, Subscription<WeldPlan>) =
+        subscribe(&mut node, names, &topic("plan/weld_plan"), latched_qos())?;
+    let (_, arcs): (_, Subscription<Bool>) =
+        subscribe(&mut node, names, &topic("arc_on"), stream_qos())?;
+    let (_, feeds): (_, Subscription<Float64>) =
+        subscribe(&mut node, names, &topic("wire_feed"), stream_qos())?;
+    let pyrometer = Output::<Temperature>::new(
+        &mut node,
+        names,
+        &topic("temperature"),
+        sensor_qos(),
+        Qos::best_effort(10),
+    )?;
+    let scanner = Output::<PointCloud2>::new(
+        &mut node,
+        names,
+        &topic("scan"),
+        sensor_qos(),
+        Qos::best_effort(10),
+    )?;
+
+    let true_part = counting_part(part, truth.thermal);
+    let graph = WeldGraph::new(&true_part);
+    let model = ThermalModel::new(&true_part, &graph);
+    let mut cell = TrueCell {
+        part,
+        truth,
+        sim: Simulation::new(&model).with_threads(1),
+        noise: Noise::new(truth.seed, truth.noise_c),
+        left_in_layer: layer_counts(part),
+        layer_mm: vec![None; part.layers().max(0) as usize],
+        scanned: 0,
+        feed: 1.0,
+    };
+    tracing::info!(
+        "simulated cell for {} ({} blocks) following {}: heat losses and heights of the true cell",
+        part.name,
+        part.len(),
+        topic("")
+    );
+    let mut paths: Vec<WeldPath> = Vec::new();
+    // The weld path being welded: its index, when its arc struck, deposits read so far.
+    let mut welding: Option<(usize, Instant, std::time::SystemTime, usize)> = None;
+    let mut welds = 0;
+    while !stop.load(Ordering::Relaxed) {
+        while let Ok(Some((plan, _))) = plans.take() {
+            match weld_paths(part, &plan) {
+                Some(p) => paths = p,
+                None => tracing::warn!("a weld plan of another part ({}): ignored", plan.part_name),
+            }
+        }
+        while let Ok(Some((feed, _))) = feeds.take() {
+            cell.feed = feed.data;
+        }
+        let mut arc_changes = Vec::new();
+        while let Ok(Some((arc, _))) = arcs.take() {
+            arc_changes.push(arc.data);
+        }
+        for on in arc_changes {
+            match (on, welding) {
+                (true, None) => {
+                    welding = Some((welds, Instant::now(), std::time::SystemTime::now(), 0));
+                    welds += 1;
+                }
+                (false, Some((w, _, wall, read))) => {
+                    if let Some(path) = paths.get(w) {
+                        let all = path.blocks.len();
+                        cell.read(path, read..all, wall, options.time_scale, &pyrometer);
+                        cell.scan(&scanner);
+                    }
+                    welding = None;
+                }
+                _ => {}
+            }
+        }
+        // The deposits ended by now on the weld path being welded.
+        if let Some((w, lit, wall, read)) = &mut welding {
+            if let Some(path) = paths.get(*w) {
+                let t = path.starts_s[0] + lit.elapsed().as_secs_f64() * options.time_scale;
+                let ended = (0..path.blocks.len())
+                    .take_while(|&j| {
+                        path.starts_s.get(j + 1).copied().unwrap_or(path.arc_off_s) <= t
+                    })
+                    .count();
+                if ended > *read {
+                    cell.read(path, *read..ended, *wall, options.time_scale, &pyrometer);
+                    *read = ended;
+                }
+            }
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    drop(node);
+    Ok(())
+}
+
+/// Blocks per layer.
+fn layer_counts(part: &Part) -> Vec<usize> {
+    let mut n = vec![0; part.layers().max(0) as usize];
+    for i in 0..part.len() {
+        n[part.block(i)[2] as usize] += 1;
+    }
+    n
+}
+
+/// The true cell: its heat, its deposits' heights, and its sensors.
+struct TrueCell<'a> {
+    part: &'a Part,
+    truth: &'a Truth,
+    sim: Simulation<'a>,
+    noise: Noise,
+    left_in_layer: Vec<usize>,
+    /// Each layer's true height, mm (set by its first deposit's wire feed).
+    layer_mm: Vec<Option<f64>>,
+    /// Layers scanned so far (from the bottom).
+    scanned: usize,
+    /// The wire feed the planner asked for, relative to nominal.
+    feed: f64,
+}
+
+impl TrueCell<'_> {
+    /// Deposits `range` of `path` welded on the true model, each read by the pyrometer: its
+    /// true temperature at its end, stamped in its middle (on the wall clock: the arc struck
+    /// at `lit`, the plan runs `time_scale` times as fast).
+    fn read(
+        &mut self,
+        path: &WeldPath,
+        range: std::ops::Range<usize>,
+        lit: std::time::SystemTime,
+        time_scale: f64,
+        pyrometer: &Output<Temperature>,
+    ) {
+        for j in range {
+            let b = path.blocks[j];
+            // Windows are widened on the true part: a deposit is never refused.
+            let deposited = if j == 0 {
+                self.sim
+                    .transit()
+                    .and_then(|()| self.sim.deposit_after_transit(b))
+            } else {
+                self.sim.deposit(b, false)
+            };
+            if deposited.is_err() {
+                return;
+            }
+            let z = self.part.block(b)[2] as usize;
+            let nominal = self.part.block_mm[2];
+            self.layer_mm[z].get_or_insert(nominal * self.truth.height_factor * self.feed);
+            self.left_in_layer[z] = self.left_in_layer[z].saturating_sub(1);
+            let Some(celsius) = self.sim.temperatures().find(|&(o, _)| o == b).map(|t| t.1) else {
+                continue;
+            };
+            let end = path.starts_s.get(j + 1).copied().unwrap_or(path.arc_off_s);
+            let mid = (path.starts_s[j] + end) / 2.0 - path.starts_s[0];
+            let stamp = lit + Duration::from_secs_f64((mid / time_scale).max(0.0));
+            pyrometer.publish(
+                &Temperature {
+                    header: header(stamp, "pyrometer"),
+                    temperature: celsius + self.noise.sample(),
+                    variance: self.truth.noise_c * self.truth.noise_c,
+                },
+                None,
+            );
+        }
+    }
+
+    /// A scan of every layer finished and not scanned yet, bottom first: its blocks' centres
+    /// at the layer's true top, in the part frame (metres).
+    fn scan(&mut self, scanner: &Output<PointCloud2>) {
+        while self.scanned < self.left_in_layer.len() && self.left_in_layer[self.scanned] == 0 {
+            let z = self.scanned;
+            let top_mm = self.part.origin_mm[2]
+                + self.layer_mm[..=z]
+                    .iter()
+                    .map(|h| h.unwrap_or(self.part.block_mm[2]))
+                    .sum::<f64>();
+            let points: Vec<[f32; 3]> = (0..self.part.len())
+                .filter(|&i| self.part.block(i)[2] as usize == z)
+                .map(|i| {
+                    let c = self.part.centre_mm(self.part.block(i));
+                    [c[0], c[1], top_mm].map(|v| (v / 1000.0) as f32)
+                })
+                .collect();
+            let mut cloud =
+                waam_messages::scan::cloud(&points, waam_messages::planning::PART_FRAME);
+            cloud.header.stamp = header(std::time::SystemTime::now(), "").stamp;
+            scanner.publish(&cloud, None);
+            self.scanned += 1;
+        }
+    }
+}
+
+/// A header stamped `at` (wall clock) in `frame`.
+fn header(at: std::time::SystemTime, frame: &str) -> Header {
+    let nanos = at
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
+    Header {
+        stamp: Time::from_nanos(nanos),
+        frame_id: frame.into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use waam_rosmsg::builtin_interfaces::Duration as RosDuration;
+    use waam_rosmsg::waam_interfaces::{Block, WeldFragment};
+
+    #[test]
+    fn the_weld_plan_gives_each_deposit_its_start_and_each_path_its_arc_off() {
+        let part =
+            Part::parse("name: w\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nlayers: ['##']\n")
+                .unwrap();
+        let point = |t: f64, kind: u8, arc_on: bool, block: i32| WeldPoint {
+            time_from_start: RosDuration::from_secs_f64(t),
+            kind,
+            arc_on,
+            fragment: 0,
+            block,
+            ..Default::default()
+        };
+        let plan = WeldPlan {
+            fragments: vec![WeldFragment {
+                blocks: vec![Block { x: 1, y: 0, z: 0 }, Block { x: 0, y: 0, z: 0 }],
+            }],
+            points: vec![
+                point(0.0, WeldPoint::APPROACH, false, -1),
+                point(1.0, WeldPoint::ARC_ON, true, 0),
+                point(1.5, WeldPoint::WELD, true, 0),
+                point(2.0, WeldPoint::WELD, true, 1),
+                point(3.0, WeldPoint::ARC_OFF, false, -1),
+            ],
+            ..Default::default()
+        };
+        let paths = weld_paths(&part, &plan).unwrap();
+        assert_eq!(
+            paths,
+            [WeldPath {
+                blocks: vec![1, 0],
+                starts_s: vec![1.0, 2.0],
+                arc_off_s: 3.0
+            }]
+        );
+        // A block the part does not have: another part's plan.
+        let mut other = plan.clone();
+        other.fragments[0].blocks[0].x = 7;
+        assert!(weld_paths(&part, &other).is_none());
+    }
+}

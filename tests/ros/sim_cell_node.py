@@ -1,0 +1,110 @@
+"""The simulated cell as a node (#31): `waam sim-cell --node` gives `waam node` its sensors.
+
+waam node runs as /cellZ/waam_planner, a dry run at 20 times real time with the closed loop
+on (tests/ros/closed_loop_execute.params.yaml); `waam sim-cell tests/data/twin-walls.yaml
+--truth docs/examples/closed-loop/truth.yaml --node --time-scale 20` runs beside it in /cellZ
+(a cell with 25 % lower heat losses whose beads come out 10 % low). rclpy only sends the part
+and the ~/execute goal: the temperatures and scans come from the simulated cell.
+
+It checks: the execution succeeds; at the first weld-path boundary the `replanned` status
+counts readings used (> 0), fits a loss factor between 0.6 and 0.9 and re-plans the windowed
+wall still to come (`reason: replan`); the scans the node took show the layers' true tops
+(2.25 mm a layer); a wire feed went out before each weld path.
+"""
+
+import time
+
+from action_msgs.msg import GoalStatus
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.action import ActionClient
+from std_msgs.msg import Float64, String
+from waam_interfaces.action import ExecutePlan
+
+import waamtest
+from waamtest import REPO, WaamProcess, check
+
+NS = "/cellZ/waam_planner"
+
+
+def values(status):
+    return {kv.key: kv.value for kv in status.values}
+
+
+def statuses(peer, state):
+    return [values(s) for a in peer.received[NS + "/status"] for s in a.status
+            if values(s).get("state") == state]
+
+
+def sensor(peer, name):
+    return [s for a in peer.received["/diagnostics"] for s in a.status
+            if s.name == f"cellZ/waam_planner: {name} sensor"]
+
+
+def test(peer, waam):
+    cell = WaamProcess("sim-cell", "tests/data/twin-walls.yaml",
+                       "--truth", "docs/examples/closed-loop/truth.yaml", "--node",
+                       "--time-scale", "20", "--ros-args", "-r", "__ns:=/cellZ")
+    try:
+        run(peer, cell)
+    except waamtest.Failure:
+        print(f"--- log of the simulated cell ---\n{cell.output()}")
+        raise
+    finally:
+        cell.stop()
+    print(f"--- log of the simulated cell ---\n{cell.output()}")
+
+
+def run(peer, cell):
+    peer.listen("/diagnostics", DiagnosticArray, qos=waamtest.INPUT_QOS)
+    peer.listen(NS + "/status", DiagnosticArray, qos=waamtest.INPUT_QOS)
+    feeds = []
+    peer.node.create_subscription(Float64, NS + "/wire_feed", lambda m: feeds.append(m.data),
+                                  waamtest.INPUT_QOS)
+    part = peer.publisher(NS + "/part", String)
+    peer.wait_for_subscriber(part)
+    execute = ActionClient(peer.node, ExecutePlan, NS + "/execute")
+    if not execute.wait_for_server(timeout_sec=30):
+        raise waamtest.DiscoveryTimeout("no ~/execute action server after 30 s")
+    # The simulated cell follows the planner's topics: wait until it is discovered.
+    peer.spin_until("the simulated cell's node",
+                    lambda: "waam_sim_cell" in peer.node.get_node_names(), 30, discovery=True)
+    check(cell.alive(), "the simulated cell exited")
+
+    with open(f"{REPO}/tests/data/twin-walls.yaml") as f:
+        part.publish(String(data=f.read()))
+    peer.spin_until("twin-walls planned", lambda: statuses(peer, "planned"), 120)
+    job = int(statuses(peer, "planned")[-1]["job"])
+    sent = execute.send_goal_async(ExecutePlan.Goal(job=job))
+    peer.spin_until("the ~/execute goal accepted", sent.done, 30)
+    check(sent.result().accepted, "the ~/execute goal was rejected")
+    result = sent.result().get_result_async()
+    peer.spin_until("~/execute done", result.done, 180)
+    r = result.result()
+    check(r.status == GoalStatus.STATUS_SUCCEEDED
+          and r.result.outcome == ExecutePlan.Result.EXECUTED,
+          f"~/execute: status {r.status}, {r.result}")
+
+    peer.spin_until("a replanned status", lambda: statuses(peer, "replanned"), 10)
+    for s in statuses(peer, "replanned"):
+        print(f"replanned: {s}")
+    first = statuses(peer, "replanned")[0]
+    check(int(first["readings_used"]) > 0, f"no reading reached the loop: {first}")
+    check(0.6 < float(first["loss_factor"]) < 0.9,
+          f"25 % lower losses, yet a loss factor of {first['loss_factor']}: {first}")
+    check(first["reason"] == "replan", f"the boundary did not re-plan: {first}")
+
+    # Every weld path of twin-walls starts on layer 0 (nothing scanned yet): nominal feed.
+    peer.spin_for(1.0)
+    print(f"wire feeds: {feeds}")
+    check(len(feeds) == 3 and all(f == 1.0 for f in feeds), f"wire feeds: {feeds}")
+    # The scanner saw the finished layers 10 % low: tops at multiples of 2.25 mm.
+    scans = [s.message for s in sensor(peer, "scan") if "top at" in s.message]
+    print(f"scans: {sorted(set(scans))}")
+    tops = {float(m.split("top at ")[1].split(" mm")[0]) for m in scans}
+    check(tops and all(abs(t / 2.25 - round(t / 2.25)) < 0.01 for t in tops),
+          f"scanned tops {sorted(tops)} mm are not those of 2.25 mm layers")
+    check(cell.alive(), "the simulated cell exited")
+
+
+waamtest.run(test, "node", "--dry-run", "--params", "tests/ros/closed_loop_execute.params.yaml",
+             "--ros-args", "-r", "__ns:=/cellZ")
