@@ -23,8 +23,9 @@ use waam_ros::node::{Mode, RunOptions};
 /// plans each off the executor (a newer part cancels the one in progress) and publishes the joint trajectory, poses, path, markers and weld plan on
 /// `~/plan/*` (Reliable, TransientLocal) and its state on `~/status`. For the closed loop it
 /// takes the cell's sensors on `~/scan` (sensor_msgs/PointCloud2, a layer height scan in
-/// metres, frame `part` or the robot's base link) and `~/temperature` (sensor_msgs/Temperature,
-/// a pyrometer): bad or late data (`closed_loop.max_age_s`) is a WARN on /diagnostics naming
+/// metres, frame `part`, the robot's base link or any frame /tf and /tf_static connect to
+/// them) and `~/temperature` (sensor_msgs/Temperature, a pyrometer), and sends each weld
+/// path's wire feed on `~/wire_feed` (std_msgs/Float64, relative to nominal): bad or late data (`closed_loop.max_age_s`) is a WARN on /diagnostics naming
 /// the topic and the reason, never a stop. Every setting of the
 /// parameters file is a ROS parameter (`ros2 param list/get/set/describe/dump`); a change
 /// applies from the next plan. Honours ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE (or

@@ -265,7 +265,7 @@ pub static DECLARED: &[Declared] = &[
     declare!("closed_loop.enabled", closed_loop.enabled: bool, AT_START, Range::None,
         "Closed loop: at each weld-path boundary of an execution, fit the model to the sensors and re-plan the rest", ""),
     declare!("closed_loop.scan_topic", closed_loop.scan_topic: String, AT_START, Range::None,
-        "In: sensor_msgs/PointCloud2, a layer height scan (metres) in the part frame or the robot's base link", ""),
+        "In: sensor_msgs/PointCloud2, a layer height scan (metres) in the part frame, the robot's base link or a frame /tf connects", ""),
     declare!("closed_loop.temperature_topic", closed_loop.temperature_topic: String, AT_START,
         Range::None, "In: sensor_msgs/Temperature, a pyrometer aimed at the torch (°C)", ""),
     declare!("closed_loop.max_age_s", closed_loop.max_age_s: f64, AT_START,

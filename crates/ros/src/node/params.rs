@@ -142,7 +142,8 @@ pub struct ClosedLoopParams {
     /// Estimate the model from the sensors and re-plan while `~/execute` runs. Off by
     /// default.
     pub enabled: bool,
-    /// In: sensor_msgs/PointCloud2, a layer height scan in the part frame or the base link.
+    /// In: sensor_msgs/PointCloud2, a layer height scan in the part frame, the base link or
+    /// a frame /tf and /tf_static connect to them.
     pub scan_topic: String,
     /// In: sensor_msgs/Temperature, a pyrometer aimed at the torch.
     pub temperature_topic: String,
