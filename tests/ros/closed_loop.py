@@ -39,7 +39,7 @@ from waam_interfaces.action import ExecutePlan
 from waam_interfaces.msg import WeldPlan
 
 import waamtest
-from waamtest import REPO, check
+from waamtest import check
 
 NS = "/cellY/waam_planner"
 TIME_SCALE = 20.0  # dry_run.time_scale of closed_loop_execute.params.yaml
@@ -72,13 +72,8 @@ def cloud(peer, points):
     return msg
 
 
-def values(status):
-    return {kv.key: kv.value for kv in status.values}
-
-
 def statuses(peer, state):
-    return [values(s) for a in peer.received[NS + "/status"] for s in a.status
-            if values(s).get("state") == state]
+    return waamtest.statuses(peer, NS + "/status", state)
 
 
 def test(peer, waam):
@@ -102,15 +97,8 @@ def test(peer, waam):
     if not execute.wait_for_server(timeout_sec=30):
         raise waamtest.DiscoveryTimeout("no ~/execute action server after 30 s")
 
-    with open(f"{REPO}/tests/data/twin-walls.yaml") as f:
-        part.publish(String(data=f.read()))
-    peer.spin_until("twin-walls planned", lambda: statuses(peer, "planned"), 120)
-    job = int(statuses(peer, "planned")[-1]["job"])
-
-    sent = execute.send_goal_async(ExecutePlan.Goal(job=job))
-    peer.spin_until("the ~/execute goal accepted", sent.done, 30)
-    check(sent.result().accepted, "the ~/execute goal was rejected")
-    result = sent.result().get_result_async()
+    result = waamtest.plan_then_execute(peer, part, execute, NS + "/status",
+                                        "tests/data/twin-walls.yaml", ExecutePlan.Goal)
 
     # Deposit j of the first weld path starts at starts[j] on the plan's time line.
     peer.spin_until("the weld plan", lambda: peer.received[NS + "/plan/weld_plan"], 30)

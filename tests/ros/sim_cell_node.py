@@ -21,18 +21,13 @@ from std_msgs.msg import Float64, String
 from waam_interfaces.action import ExecutePlan
 
 import waamtest
-from waamtest import REPO, WaamProcess, check
+from waamtest import WaamProcess, check
 
 NS = "/cellZ/waam_planner"
 
 
-def values(status):
-    return {kv.key: kv.value for kv in status.values}
-
-
 def statuses(peer, state):
-    return [values(s) for a in peer.received[NS + "/status"] for s in a.status
-            if values(s).get("state") == state]
+    return waamtest.statuses(peer, NS + "/status", state)
 
 
 def sensor(peer, name):
@@ -70,14 +65,8 @@ def run(peer, cell):
                     lambda: "waam_sim_cell" in peer.node.get_node_names(), 30, discovery=True)
     check(cell.alive(), "the simulated cell exited")
 
-    with open(f"{REPO}/tests/data/twin-walls.yaml") as f:
-        part.publish(String(data=f.read()))
-    peer.spin_until("twin-walls planned", lambda: statuses(peer, "planned"), 120)
-    job = int(statuses(peer, "planned")[-1]["job"])
-    sent = execute.send_goal_async(ExecutePlan.Goal(job=job))
-    peer.spin_until("the ~/execute goal accepted", sent.done, 30)
-    check(sent.result().accepted, "the ~/execute goal was rejected")
-    result = sent.result().get_result_async()
+    result = waamtest.plan_then_execute(peer, part, execute, NS + "/status",
+                                        "tests/data/twin-walls.yaml", ExecutePlan.Goal)
     peer.spin_until("~/execute done", result.done, 180)
     r = result.result()
     check(r.status == GoalStatus.STATUS_SUCCEEDED

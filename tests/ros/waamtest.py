@@ -14,6 +14,7 @@ import time
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import String
 
 # Inputs of waam_planner: Reliable, Volatile, depth 10.
 INPUT_QOS = QoSProfile(
@@ -125,6 +126,32 @@ class DiscoveryTimeout(Failure):
 def check(condition, message):
     if not condition:
         raise Failure(message)
+
+
+def values(status):
+    """A DiagnosticStatus's key-values as a dict."""
+    return {kv.key: kv.value for kv in status.values}
+
+
+def statuses(peer, topic, state):
+    """The key-values of every status in `state` the peer received on `topic` (a node's
+    ~/status, listened to)."""
+    return [values(s) for a in peer.received[topic] for s in a.status
+            if values(s).get("state") == state]
+
+
+def plan_then_execute(peer, part, execute, status_topic, path, goal_type):
+    """Publishes the part file `path` (relative to the repository) on `part`, waits until the
+    node on `status_topic` planned it, and sends its job to the ~/execute client `execute`;
+    returns the result future of the accepted goal."""
+    with open(f"{REPO}/{path}") as f:
+        part.publish(String(data=f.read()))
+    peer.spin_until(f"{path} planned", lambda: statuses(peer, status_topic, "planned"), 120)
+    job = int(statuses(peer, status_topic, "planned")[-1]["job"])
+    sent = execute.send_goal_async(goal_type(job=job))
+    peer.spin_until("the ~/execute goal accepted", sent.done, 30)
+    check(sent.result().accepted, "the ~/execute goal was rejected")
+    return sent.result().get_result_async()
 
 
 class WaamProcess:
