@@ -145,16 +145,7 @@ def test(peer, waam):
     print(f"~/execute: {r.result.message!r}; {sent_t} temperatures ({sent_t / arc_on_s:.0f} Hz "
           f"on the first weld path) and {sent_s} scans sent")
 
-    peer.spin_until("a replanned status", lambda: statuses(peer, "replanned"), 10)
-    for s in statuses(peer, "replanned"):
-        print(f"replanned: {s}")
-    first = statuses(peer, "replanned")[0]
-    check(int(first["readings_used"]) > 0, f"no reading reached the loop: {first}")
-    check(0.6 < float(first["loss_factor"]) < 0.9,
-          f"25 % lower losses, yet a loss factor of {first['loss_factor']}: {first}")
-    # The windowed wall is still to come: its serpentine breaks the windows under the
-    # estimate, so the rest is re-planned, and the new plan is published.
-    check(first["reason"] == "replan", f"the boundary did not re-plan: {first}")
+    waamtest.check_replanned_on_lower_losses(peer, NS + "/status")
     plans = [[[(b.x, b.y, b.z) for b in f.blocks] for f in p.fragments]
              for p in peer.received[NS + "/plan/weld_plan"]]
     check(len(plans) >= 2 and plans[-1] != plans[0] and plans[-1][0] == plans[0][0],

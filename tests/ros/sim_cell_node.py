@@ -9,7 +9,7 @@ and the ~/execute goal: the temperatures and scans come from the simulated cell.
 It checks: the execution succeeds; at the first weld-path boundary the `replanned` status
 counts readings used (> 0), fits a loss factor between 0.6 and 0.9 and re-plans the windowed
 wall still to come (`reason: replan`); the scans the node took show the layers' true tops
-(2.25 mm a layer); a wire feed went out before each weld path.
+(2.25 mm a layer); a wire feed went out before each weld path, within the limits.
 """
 
 import time
@@ -73,19 +73,14 @@ def run(peer, cell):
           and r.result.outcome == ExecutePlan.Result.EXECUTED,
           f"~/execute: status {r.status}, {r.result}")
 
-    peer.spin_until("a replanned status", lambda: statuses(peer, "replanned"), 10)
-    for s in statuses(peer, "replanned"):
-        print(f"replanned: {s}")
-    first = statuses(peer, "replanned")[0]
-    check(int(first["readings_used"]) > 0, f"no reading reached the loop: {first}")
-    check(0.6 < float(first["loss_factor"]) < 0.9,
-          f"25 % lower losses, yet a loss factor of {first['loss_factor']}: {first}")
-    check(first["reason"] == "replan", f"the boundary did not re-plan: {first}")
+    waamtest.check_replanned_on_lower_losses(peer, NS + "/status")
 
-    # Every weld path of twin-walls starts on layer 0 (nothing scanned yet): nominal feed.
+    # A wire feed before each weld path (at least the two of the first plan), the first
+    # nominal (nothing scanned yet), all within the process limits.
     peer.spin_for(1.0)
     print(f"wire feeds: {feeds}")
-    check(len(feeds) == 3 and all(f == 1.0 for f in feeds), f"wire feeds: {feeds}")
+    check(len(feeds) >= 2 and feeds[0] == 1.0 and all(0.7 <= f <= 1.3 for f in feeds),
+          f"wire feeds: {feeds}")
     # The scanner saw the finished layers 10 % low: tops at multiples of 2.25 mm.
     scans = [s.message for s in sensor(peer, "scan") if "top at" in s.message]
     print(f"scans: {sorted(set(scans))}")

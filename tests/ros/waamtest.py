@@ -154,6 +154,21 @@ def plan_then_execute(peer, part, execute, status_topic, path, goal_type):
     return sent.result().get_result_async()
 
 
+def check_replanned_on_lower_losses(peer, topic):
+    """The closed loop's first boundary on a cell with 25 % lower heat losses than the model,
+    as `topic` (a node's ~/status) told it: readings used, a loss factor fitted between 0.6
+    and 0.9, and the rest re-planned. Returns that status."""
+    peer.spin_until("a replanned status", lambda: statuses(peer, topic, "replanned"), 10)
+    for s in statuses(peer, topic, "replanned"):
+        print(f"replanned: {s}")
+    first = statuses(peer, topic, "replanned")[0]
+    check(int(first["readings_used"]) > 0, f"no reading reached the loop: {first}")
+    check(0.6 < float(first["loss_factor"]) < 0.9,
+          f"25 % lower losses, yet a loss factor of {first['loss_factor']}: {first}")
+    check(first["reason"] == "replan", f"the boundary did not re-plan: {first}")
+    return first
+
+
 class WaamProcess:
     """`waam ARGS` as a child process, its log kept in a file and shown when a test fails."""
 
