@@ -617,6 +617,59 @@ mod tests {
     }
 
     #[test]
+    fn a_t_layer_has_three_covers_by_two_paths_and_each_is_built() {
+        // A bar of 7 with a stem of 3 from its middle, 3 layers: two paths per layer, and
+        // the junction goes with the left half, the right half or the stem.
+        let t: Vec<[i64; 2]> = (0..7)
+            .map(|x| [x, 0])
+            .chain((1..=3).map(|y| [3, y]))
+            .collect();
+        let blocks: Vec<_> = (0..3)
+            .flat_map(|z| t.iter().map(move |&[x, y]| [x, y, z]))
+            .collect();
+        let part = Part::from_blocks("t".into(), [6.0, 6.0, 2.5], [0.0; 3], 2, blocks).unwrap();
+        let graph = WeldGraph::new(&part);
+        let base = layered_plan(&part, &graph, 2, Backend::Cadical, &unlimited()).unwrap();
+        let first: Vec<Vec<usize>> = base
+            .iter()
+            .map(|f| f.iter().copied().take_while(|&b| b < t.len()).collect())
+            .collect();
+        let covers = first_layer_covers(&part, Backend::Cadical, &unlimited(), &first);
+        assert_eq!(covers[0], first, "the base's cover first");
+        // Which arm the junction's block is welded without: one per cover.
+        let junction = part.index_of([3, 0, 0]).unwrap();
+        let mut apart: Vec<usize> = covers
+            .iter()
+            .map(|c| {
+                let with: Vec<usize> = c
+                    .iter()
+                    .flat_map(|p| p.windows(2))
+                    .filter(|w| w.contains(&junction))
+                    .map(|w| w[0] + w[1] - junction)
+                    .collect();
+                assert_eq!(with.len(), 2, "the junction joins two arms");
+                graph
+                    .successors(junction)
+                    .iter()
+                    .map(|&b| b as usize)
+                    .filter(|&b| b < t.len())
+                    .find(|b| !with.contains(b))
+                    .unwrap()
+            })
+            .collect();
+        apart.sort();
+        apart.dedup();
+        assert_eq!(apart.len(), 3, "three covers: {covers:?}");
+        for cover in &covers {
+            let plan = layered_plan_from(&part, &graph, 2, Backend::Cadical, &unlimited(), cover)
+                .expect("a plan from each cover");
+            for (f, piece) in plan.iter().zip(cover) {
+                assert_eq!(&f[..piece.len()], &piece[..], "each path as given");
+            }
+        }
+    }
+
+    #[test]
     fn two_fragments_standing_on_each_other_have_no_order() {
         // Two columns side by side, each fragment taking the bottom of one and the top of
         // the other.
