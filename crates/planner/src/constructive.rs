@@ -60,24 +60,29 @@ pub fn layered_plan(
     backend: Backend,
     limits: &Limits,
 ) -> Option<Vec<Vec<usize>>> {
-    layered_plan_from(part, graph, k, backend, limits, None)
+    layered_plan_from(part, graph, k, backend, limits, &[])
 }
 
 /// The first weld path's first move `(from, to)` (global block indices, both in the first
 /// layer): where the construction starts and which way it sets off.
 pub type FirstMove = (usize, usize);
 
-/// [`layered_plan`] with its first weld path set off by `first` (when the first layer's
-/// solve allows that move; else `None`). Where a layer starts decides where its seam lies
-/// and so when each block gets the block above it: the warm-start portfolio
-/// (`crate::portfolio`) varies it.
+/// How the first layer's weld paths begin: path i starts with the blocks `first[i]` (global
+/// indices, in weld order; empty: as the solve likes). A first move is the first path's
+/// first two blocks; a whole cover of the layer fixes every path, its way and its order.
+///
+/// [`layered_plan`] with its first layer set off so (when the first layer's solve allows
+/// it; else `None`). Where a layer starts decides where its seam lies and so when each
+/// block gets the block above it; on a layer that needs several paths, which of them takes
+/// a junction decides which blocks climb together: the warm-start portfolio
+/// (`crate::portfolio`) varies both.
 pub fn layered_plan_from(
     part: &Part,
     graph: &WeldGraph,
     k: usize,
     backend: Backend,
     limits: &Limits,
-    first: Option<FirstMove>,
+    first: &[Vec<usize>],
 ) -> Option<Vec<Vec<usize>>> {
     let layers = layer_ranges(part);
     let mut plan: Vec<Vec<usize>> = Vec::new();
@@ -135,12 +140,17 @@ pub fn layered_plan_from(
         let steer = steer.filter(|s| s.allowed.iter().any(|&ok| ok));
         let starts: Vec<usize> = arriving.iter().map(|&(_, b)| b).collect();
         let new_fragments_left = k.saturating_sub(plan.len());
-        let first_here = first
-            .filter(|_| l == 0)
-            .map(|(from, to)| (from - range.start, to - range.start));
+        let first_here: Vec<Vec<usize>> = if l == 0 {
+            first
+                .iter()
+                .map(|p| p.iter().map(|&b| b - range.start).collect())
+                .collect()
+        } else {
+            Vec::new()
+        };
         let Some((pieces, continued)) = layer.solve(
             &starts,
-            first_here,
+            &first_here,
             steer.as_ref(),
             new_fragments_left,
             backend,
@@ -192,6 +202,98 @@ pub fn layered_plan_from(
             None
         }
     }
+}
+
+/// The covers of the first layer by as many paths as `base` (its pieces, global blocks in
+/// weld order): `base` first, then each cover in which an end of one of its pieces welds on
+/// to a neighbour it does not weld to in `base`, so that some path ends elsewhere (on a
+/// branching layer another branch takes the junction; on a ring the seam moves). Each cover
+/// once (as its set of welded pairs), in a fixed order, paths in the solve's order; fewer
+/// when the run stops.
+pub fn first_layer_covers(
+    part: &Part,
+    backend: Backend,
+    limits: &Limits,
+    base: &[Vec<usize>],
+) -> Vec<Vec<Vec<usize>>> {
+    let mut out = vec![base.to_vec()];
+    let Some(range) = layer_ranges(part).into_iter().next() else {
+        return out;
+    };
+    if base.iter().flatten().any(|b| !range.contains(b)) {
+        return out;
+    }
+    let local: Vec<Vec<usize>> = base
+        .iter()
+        .map(|p| p.iter().map(|&b| b - range.start).collect())
+        .collect();
+    let layer = Layer::new(part, range.clone());
+    let graph = WeldGraph::new(&layer.part);
+    let pairs = |pieces: &[Vec<usize>]| -> std::collections::BTreeSet<(usize, usize)> {
+        pieces
+            .iter()
+            .flat_map(|p| p.windows(2).map(|w| (w[0].min(w[1]), w[0].max(w[1]))))
+            .collect()
+    };
+    let mut seen = vec![pairs(&local)];
+    let run_limits = thermal::Interrupt {
+        deadline: limits.deadline,
+        cancel: limits.cancel.clone(),
+    };
+    let Some(mut search) = Search::new(
+        &layer.part,
+        &graph,
+        local.len().max(1),
+        Acyclicity::Lazy,
+        0,
+        backend,
+        run_limits,
+    ) else {
+        return out;
+    };
+    for piece in &local {
+        let (Some(&head), Some(&tail)) = (piece.first(), piece.last()) else {
+            continue;
+        };
+        // Each end with the block it welds to in its piece (none on a one-block piece).
+        let n = piece.len();
+        let mut ends = vec![(head, piece.get(1).copied())];
+        if n > 1 {
+            ends.push((tail, Some(piece[n - 2])));
+        }
+        for (end, along) in ends {
+            for &next in graph.successors(end) {
+                let next = next as usize;
+                if Some(next) == along {
+                    continue;
+                }
+                for (a, b) in [(end, next), (next, end)] {
+                    if limits.stopped() {
+                        return out;
+                    }
+                    let Some(welded) = search.enc.edge(a, b) else {
+                        continue;
+                    };
+                    let deadline = limits.attempt(layer.part.len());
+                    search.set_interrupt(Some(deadline), limits.cancel.clone());
+                    let Some(pieces) = search.next_candidate(&[welded]) else {
+                        continue;
+                    };
+                    let key = pairs(&pieces);
+                    if !seen.contains(&key) {
+                        seen.push(key);
+                        out.push(
+                            pieces
+                                .into_iter()
+                                .map(|p| p.into_iter().map(|b| range.start + b).collect())
+                                .collect(),
+                        );
+                    }
+                }
+            }
+        }
+    }
+    out
 }
 
 /// The fragments reordered so that each stands only on fragments welded before it (the
@@ -296,12 +398,12 @@ impl Layer {
     /// The layer's paths (global indices, in order) and how many of them start at the
     /// first of `arriving` (in that order: path i starts at `arriving[i]`), as many as
     /// the solve allows; steered where `steer` allows when they can. Paths beyond those each
-    /// take one of `new_fragments_left`. `first` (local blocks): the first path's first move,
-    /// when no path arrives.
+    /// take one of `new_fragments_left`. `first` (local blocks): how the new paths begin
+    /// (path i with `first[i]`), when no path arrives.
     fn solve(
         &self,
         arriving: &[usize],
-        first: Option<(usize, usize)>,
+        first: &[Vec<usize>],
         steer: Option<&Steer>,
         new_fragments_left: usize,
         backend: Backend,
@@ -314,14 +416,16 @@ impl Layer {
         // Continue as many arriving paths as possible, then fewer (the last ones first).
         for continued in (0..=arriving.len()).rev() {
             let starts = &arriving[..continued];
-            for paths in fewest.max(continued).max(1)..=new_fragments_left + continued {
+            let own: &[Vec<usize>] = if starts.is_empty() { first } else { &[] };
+            let low = fewest.max(continued).max(own.len()).max(1);
+            for paths in low..=new_fragments_left + continued {
                 // With as few paths as the colours allow, a start on the minority colour
                 // is impossible, and a SAT solver is slow to prove parity: skip it.
-                let own_start = first.filter(|_| starts.is_empty()).map(|(from, _)| from);
+                let own_starts = own.iter().filter_map(|p| p.first());
                 if paths == fewest
                     && !starts
                         .iter()
-                        .chain(&own_start)
+                        .chain(own_starts)
                         .all(|&b| self.path_may_start(b))
                 {
                     continue;
@@ -347,9 +451,12 @@ impl Layer {
                         .enumerate()
                         .map(|(i, &b)| enc.starts_fragment(b, i))
                         .collect();
-                    if let Some((from, to)) = first.filter(|_| starts.is_empty()) {
-                        assume.push(enc.starts_fragment(from, 0));
-                        assume.push(enc.edge(from, to)?);
+                    for (i, piece) in own.iter().enumerate() {
+                        let Some(&from) = piece.first() else { continue };
+                        assume.push(enc.starts_fragment(from, i));
+                        for w in piece.windows(2) {
+                            assume.push(enc.edge(w[0], w[1])?);
+                        }
                     }
                     if let Some(steer) = steer {
                         let barred = (0..steer.allowed.len()).filter(|&b| !steer.allowed[b]);
@@ -497,7 +604,9 @@ mod tests {
         let limits = unlimited();
         let built: Vec<_> = moves
             .iter()
-            .map(|&m| layered_plan_from(&part, &graph, k, Backend::Cadical, &limits, Some(m)))
+            .map(|&(a, b)| {
+                layered_plan_from(&part, &graph, k, Backend::Cadical, &limits, &[vec![a, b]])
+            })
             .collect();
         assert!(
             built.iter().all(Option::is_some),
@@ -505,6 +614,59 @@ mod tests {
             built.iter().flatten().count(),
             moves.len()
         );
+    }
+
+    #[test]
+    fn a_t_layer_has_three_covers_by_two_paths_and_each_is_built() {
+        // A bar of 7 with a stem of 3 from its middle, 3 layers: two paths per layer, and
+        // the junction goes with the left half, the right half or the stem.
+        let t: Vec<[i64; 2]> = (0..7)
+            .map(|x| [x, 0])
+            .chain((1..=3).map(|y| [3, y]))
+            .collect();
+        let blocks: Vec<_> = (0..3)
+            .flat_map(|z| t.iter().map(move |&[x, y]| [x, y, z]))
+            .collect();
+        let part = Part::from_blocks("t".into(), [6.0, 6.0, 2.5], [0.0; 3], 2, blocks).unwrap();
+        let graph = WeldGraph::new(&part);
+        let base = layered_plan(&part, &graph, 2, Backend::Cadical, &unlimited()).unwrap();
+        let first: Vec<Vec<usize>> = base
+            .iter()
+            .map(|f| f.iter().copied().take_while(|&b| b < t.len()).collect())
+            .collect();
+        let covers = first_layer_covers(&part, Backend::Cadical, &unlimited(), &first);
+        assert_eq!(covers[0], first, "the base's cover first");
+        // Which arm the junction's block is welded without: one per cover.
+        let junction = part.index_of([3, 0, 0]).unwrap();
+        let mut apart: Vec<usize> = covers
+            .iter()
+            .map(|c| {
+                let with: Vec<usize> = c
+                    .iter()
+                    .flat_map(|p| p.windows(2))
+                    .filter(|w| w.contains(&junction))
+                    .map(|w| w[0] + w[1] - junction)
+                    .collect();
+                assert_eq!(with.len(), 2, "the junction joins two arms");
+                graph
+                    .successors(junction)
+                    .iter()
+                    .map(|&b| b as usize)
+                    .filter(|&b| b < t.len())
+                    .find(|b| !with.contains(b))
+                    .unwrap()
+            })
+            .collect();
+        apart.sort();
+        apart.dedup();
+        assert_eq!(apart.len(), 3, "three covers: {covers:?}");
+        for cover in &covers {
+            let plan = layered_plan_from(&part, &graph, 2, Backend::Cadical, &unlimited(), cover)
+                .expect("a plan from each cover");
+            for (f, piece) in plan.iter().zip(cover) {
+                assert_eq!(&f[..piece.len()], &piece[..], "each path as given");
+            }
+        }
     }
 
     #[test]

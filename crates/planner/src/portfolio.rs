@@ -11,6 +11,15 @@
 //! judged in rounds of a fixed size on all cores, and the first round with a feasible
 //! variant gives the one with the largest margin (ties: the earlier variant), so the
 //! answer does not depend on the number of cores or on which thread finishes first.
+//!
+//! Why the cover: on a layer that needs several paths (a T, two rings) a first move fixes
+//! only where the first path starts, and on a branching layer no path can start inside a
+//! branch, so those variants cannot be built at all. Which path takes a junction decides
+//! which blocks climb together and so when each is reheated. When no start keeps every
+//! window, the portfolio varies the first layer's cover: the base's, and each the weld
+//! graph allows with a path end moved on to a neighbour (another branch takes the
+//! junction), each with every way round and every order of its paths, judged in the same
+//! rounds.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -19,7 +28,7 @@ use waam_part::graph::WeldGraph;
 use waam_part::Part;
 use waam_thermal::{self as thermal, ThermalModel};
 
-use crate::constructive::{self, FirstMove, Limits};
+use crate::constructive::{self, Limits};
 use crate::sat::Backend;
 
 /// Variants judged together; fixed, so the choice is the same on any machine.
@@ -41,6 +50,10 @@ pub struct Portfolio<'a> {
     pub workers: usize,
 }
 
+/// How a variant's first layer begins: its paths' first blocks (a first move: one path's
+/// first two; a cover: every path whole), as [`constructive::layered_plan_from`] takes them.
+type Variant = Vec<Vec<usize>>;
+
 /// A variant built and simulated: `(plan, margin)` with the margin `None` when it breaks a
 /// window; `None` when it could not be built or the run stopped its simulation.
 type Judged = Option<(Vec<Vec<usize>>, Option<f64>)>;
@@ -51,7 +64,32 @@ impl Portfolio<'_> {
     /// run stopped first).
     pub fn varied_start(&self, base: &[Vec<usize>]) -> Option<(Vec<Vec<usize>>, f64)> {
         let moves = first_moves(self.part, self.graph, base);
-        for (r, round) in moves.chunks(ROUND).enumerate() {
+        let starts: Vec<Variant> = moves.iter().map(|&(a, b)| vec![vec![a, b]]).collect();
+        let rounds = starts.len().div_ceil(ROUND);
+        if let Some(found) = self.first_feasible(&starts, 0) {
+            return Some(found);
+        }
+        // No start keeps every window: other covers of the first layer, judged in rounds
+        // numbered on from the starts' (the solves of the covers cost little beside them).
+        if self.limits.stopped() {
+            return None;
+        }
+        let covers = cover_variants(self, base, &moves);
+        tracing::debug!(
+            "warm-start portfolio: {} variants of the first layer's cover",
+            covers.len()
+        );
+        self.first_feasible(&covers, rounds)
+    }
+
+    /// The best feasible variant of the first round (of [`ROUND`]) that has one; rounds are
+    /// numbered from `first_round` in the log.
+    fn first_feasible(
+        &self,
+        variants: &[Variant],
+        first_round: usize,
+    ) -> Option<(Vec<Vec<usize>>, f64)> {
+        for (r, round) in variants.chunks(ROUND).enumerate() {
             if self.limits.stopped() {
                 return None;
             }
@@ -65,11 +103,14 @@ impl Portfolio<'_> {
                 .max_by(|a, b| a.2.total_cmp(&b.2).then(b.0.cmp(&a.0)));
             tracing::debug!(
                 "warm-start portfolio: round {} ({} variants built and judged): {}",
-                r + 1,
+                first_round + r + 1,
                 tried,
                 best.as_ref()
                     .map_or("none feasible".to_string(), |(i, _, m)| {
-                        format!("variant {} feasible, margin {m:.2} s", r * ROUND + i)
+                        format!(
+                            "variant {} feasible, margin {m:.2} s",
+                            (first_round + r) * ROUND + i
+                        )
                     })
             );
             if let Some((_, plan, margin)) = best {
@@ -81,14 +122,14 @@ impl Portfolio<'_> {
 
     /// Each variant of a round built and simulated by `workers` threads; slot i holds
     /// variant i whichever thread judged it, and whenever.
-    fn judge_round(&self, round: &[FirstMove], workers: usize) -> Vec<Judged> {
+    fn judge_round(&self, round: &[Variant], workers: usize) -> Vec<Judged> {
         let next = AtomicUsize::new(0);
         let results: Mutex<Vec<Judged>> = Mutex::new(vec![None; round.len()]);
         std::thread::scope(|scope| {
             for _ in 0..workers.clamp(1, round.len().max(1)) {
                 scope.spawn(|| loop {
                     let i = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(&first) = round.get(i) else { break };
+                    let Some(first) = round.get(i) else { break };
                     let judged = self.judge_variant(first);
                     results.lock().expect("no worker panics")[i] = judged;
                 });
@@ -98,7 +139,7 @@ impl Portfolio<'_> {
     }
 
     /// One variant built and simulated (on one thread: the variants are the parallel work).
-    fn judge_variant(&self, first: FirstMove) -> Judged {
+    fn judge_variant(&self, first: &[Vec<usize>]) -> Judged {
         let Portfolio {
             part,
             graph,
@@ -108,11 +149,10 @@ impl Portfolio<'_> {
             model,
             workers: _,
         } = *self;
-        let (from, to) = (part.block(first.0), part.block(first.1));
-        let Some(plan) =
-            constructive::layered_plan_from(part, graph, k, backend, limits, Some(first))
+        let name = describe(part, first);
+        let Some(plan) = constructive::layered_plan_from(part, graph, k, backend, limits, first)
         else {
-            tracing::debug!("warm-start variant {from:?} -> {to:?}: not built");
+            tracing::debug!("warm-start variant {name}: not built");
             return None;
         };
         let sim = thermal::Simulation::new(model)
@@ -126,7 +166,7 @@ impl Portfolio<'_> {
         let margin = match &outcome.violation {
             Some(v) => {
                 tracing::debug!(
-                    "warm-start variant {from:?} -> {to:?}: {:?} window of {:?} broken at {:.1} s (t8/5 {:.2} s)",
+                    "warm-start variant {name}: {:?} window of {:?} broken at {:.1} s (t8/5 {:.2} s)",
                     v.kind,
                     part.block(v.block),
                     v.time_s,
@@ -136,12 +176,80 @@ impl Portfolio<'_> {
             }
             None => {
                 let m = model.margin(&outcome.crossings);
-                tracing::debug!("warm-start variant {from:?} -> {to:?}: feasible, margin {m:.2} s");
+                tracing::debug!("warm-start variant {name}: feasible, margin {m:.2} s");
                 Some(m)
             }
         };
         Some((plan, margin))
     }
+}
+
+/// A variant for the log: each path's first block, and where it goes next.
+fn describe(part: &Part, first: &[Vec<usize>]) -> String {
+    let paths: Vec<String> = first
+        .iter()
+        .map(|p| match p.as_slice() {
+            [a, b, ..] => format!("{:?} -> {:?}", part.block(*a), part.block(*b)),
+            [a] => format!("{:?}", part.block(*a)),
+            [] => "any".to_string(),
+        })
+        .collect();
+    paths.join(" | ")
+}
+
+/// The first layer's covers (the base's and the others the weld graph allows), each with
+/// every order of its paths (rotations) and every way round of each; the base's own first
+/// layer left out, and on a one-path layer the variants whose first move was tried as a
+/// start (a first move fixes a single path's start and way already).
+fn cover_variants(p: &Portfolio, base: &[Vec<usize>], moves: &[(usize, usize)]) -> Vec<Variant> {
+    let own = first_layer_pieces(p.part, base);
+    if own.is_empty() {
+        return Vec::new();
+    }
+    let covers = constructive::first_layer_covers(p.part, p.backend, p.limits, &own);
+    let mut out: Vec<Variant> = Vec::new();
+    for cover in covers {
+        let m = cover.len();
+        for rotation in 0..m {
+            for ways in 0..1usize << m {
+                let variant: Variant = (0..m)
+                    .map(|i| {
+                        let mut piece = cover[(i + rotation) % m].clone();
+                        if (ways >> i) & 1 == 1 {
+                            piece.reverse();
+                        }
+                        piece
+                    })
+                    .collect();
+                let tried = m == 1 && variant[0].len() >= 2 && {
+                    let (a, b) = (variant[0][0], variant[0][1]);
+                    moves.contains(&(a, b))
+                        || (base[0].len() >= 2 && (a, b) == (base[0][0], base[0][1]))
+                };
+                if variant != own && !tried && !out.contains(&variant) {
+                    out.push(variant);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The base plan's first layer: the pieces of the weld paths that start in it, in weld
+/// order (empty when a path starts above it first).
+fn first_layer_pieces(part: &Part, base: &[Vec<usize>]) -> Vec<Vec<usize>> {
+    let Some(z0) = base.iter().flatten().map(|&b| part.block(b)[2]).min() else {
+        return Vec::new();
+    };
+    base.iter()
+        .filter(|f| f.first().is_some_and(|&b| part.block(b)[2] == z0))
+        .map(|f| {
+            f.iter()
+                .copied()
+                .take_while(|&b| part.block(b)[2] == z0)
+                .collect()
+        })
+        .collect()
 }
 
 /// The available cores (a run on all cores judges a round on all of them).
@@ -153,7 +261,7 @@ pub fn cores() -> usize {
 /// (in the order the first weld path welds it: 1/2, 1/4, 3/4, 1/8, ... of the way), each
 /// setting off forwards and backwards along that order, where the weld graph allows; the
 /// base plan's own first move left out.
-fn first_moves(part: &Part, graph: &WeldGraph, base: &[Vec<usize>]) -> Vec<FirstMove> {
+fn first_moves(part: &Part, graph: &WeldGraph, base: &[Vec<usize>]) -> Vec<(usize, usize)> {
     let Some(first) = base.first() else {
         return Vec::new();
     };
@@ -255,7 +363,8 @@ mod tests {
         assert!(moves.len() >= 8, "{} first moves", moves.len());
         let limits = no_limits();
         let portfolio = on_one_path(&part, &graph, &limits, &model);
-        let judged = portfolio.judge_round(&moves, 2);
+        let variants: Vec<Variant> = moves.iter().map(|&(a, b)| vec![vec![a, b]]).collect();
+        let judged = portfolio.judge_round(&variants, 2);
         for (m, j) in moves.iter().zip(&judged) {
             let (plan, margin) = j.as_ref().expect("each start of a ring can be built");
             assert_eq!(plan[0][..2], [m.0, m.1], "the variant sets off as asked");
@@ -271,7 +380,10 @@ mod tests {
     fn a_round_judges_the_same_on_any_number_of_threads() {
         // Each variant lands in its own slot whatever thread judged it and when.
         let (part, graph, model, base) = ring_and_base(10, 1e6);
-        let moves = first_moves(&part, &graph, &base);
+        let moves: Vec<Variant> = first_moves(&part, &graph, &base)
+            .into_iter()
+            .map(|(a, b)| vec![vec![a, b]])
+            .collect();
         let limits = no_limits();
         let portfolio = on_one_path(&part, &graph, &limits, &model);
         let judge = |workers| portfolio.judge_round(&moves, workers);
@@ -294,7 +406,10 @@ mod tests {
             ))),
         };
         let portfolio = on_one_path(&part, &graph, &limits, &model);
-        let moves = first_moves(&part, &graph, &base);
+        let moves: Vec<Variant> = first_moves(&part, &graph, &base)
+            .into_iter()
+            .map(|(a, b)| vec![vec![a, b]])
+            .collect();
         assert!(portfolio.judge_round(&moves, 2).iter().all(Option::is_none));
         assert!(portfolio.varied_start(&base).is_none());
     }

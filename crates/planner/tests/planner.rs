@@ -541,6 +541,142 @@ fn a_warm_start_that_breaks_windows_is_set_off_elsewhere() {
     );
 }
 
+/// A one-block T `h` layers high: a bar of `bar` blocks along x with a stem of `stem`
+/// blocks along y from its block `junction`, k = 2 (a T layer needs two weld paths).
+fn t_tower(bar: i64, junction: i64, stem: i64, h: i64) -> Part {
+    let blocks = (0..h)
+        .flat_map(|z| {
+            (0..bar)
+                .map(move |x| [x, 0, z])
+                .chain((1..=stem).map(move |y| [junction, y, z]))
+        })
+        .collect();
+    Part::from_blocks("t".into(), [6.0, 6.0, 2.5], [0.0; 3], 2, blocks).unwrap()
+}
+
+#[test]
+fn a_warm_start_on_a_t_that_breaks_windows_takes_another_cover_of_its_layers() {
+    // A T layer is a tree with three ends, so both its weld paths run end to end and no
+    // path can start inside a branch: the first moves of the start portfolio cannot be
+    // built. What can change is the layer's cover: which half of the bar goes with the
+    // junction (or whether the stem is welded alone), each path's way and their order. The
+    // windows are those of a hidden plan as the generator's T-walls have: two weld paths,
+    // each climbing its piece of every layer, their cover not the plain warm start's.
+    let (bar, junction, stem, h) = (9, 3, 5, 24);
+    let mut part = t_tower(bar, junction, stem, h);
+    let graph = waam_part::graph::WeldGraph::new(&part);
+    let limits = planner::constructive::Limits {
+        deadline: None,
+        cancel: None,
+    };
+    let base = planner::constructive::layered_plan(&part, &graph, 2, Backend::Cadical, &limits)
+        .expect("a T tower has a layer-by-layer plan");
+    // The three covers of a T layer, as (x, y) in weld order.
+    let left: Vec<(i64, i64)> = (0..junction).map(|x| (x, 0)).collect();
+    let right: Vec<(i64, i64)> = (junction + 1..bar).rev().map(|x| (x, 0)).collect();
+    let down: Vec<(i64, i64)> = (1..=stem).map(|y| (junction, y)).collect();
+    let through = |a: &[(i64, i64)], b: &[(i64, i64)]| -> Vec<(i64, i64)> {
+        let mut p = a.to_vec();
+        p.push((junction, 0));
+        p.extend(b.iter().rev());
+        p
+    };
+    let covers = [
+        [through(&left, &down), right.clone()],
+        [through(&right, &down), left.clone()],
+        [through(&left, &right), down.clone()],
+    ];
+    let pairs = |pieces: &[Vec<(i64, i64)>]| {
+        let mut p: Vec<_> = pieces
+            .iter()
+            .flat_map(|p| p.windows(2).map(|w| (w[0].min(w[1]), w[0].max(w[1]))))
+            .collect();
+        p.sort();
+        p
+    };
+    let base_cover: Vec<Vec<(i64, i64)>> = base
+        .iter()
+        .map(|f| {
+            f.iter()
+                .map(|&b| part.block(b))
+                .take_while(|b| b[2] == 0)
+                .map(|[x, y, _]| (x, y))
+                .collect()
+        })
+        .collect();
+    let cover = covers
+        .iter()
+        .find(|c| pairs(&c[..]) != pairs(&base_cover))
+        .expect("the warm start takes one cover of three");
+    // The hidden plan: each piece climbs, walked back over itself layer by layer.
+    let hidden: Vec<Vec<usize>> = cover
+        .iter()
+        .map(|piece| {
+            (0..h)
+                .flat_map(|z| {
+                    let layer: Vec<(i64, i64)> = if z % 2 == 0 {
+                        piece.clone()
+                    } else {
+                        piece.iter().rev().copied().collect()
+                    };
+                    layer.into_iter().map(move |(x, y)| [x, y, z])
+                })
+                .map(|b| part.index_of(b).unwrap())
+                .collect()
+        })
+        .collect();
+    let watched: Vec<usize> = [[1, 0, 8], [junction, stem - 1, 14], [bar - 2, 0, 20]]
+        .iter()
+        .map(|&b| part.index_of(b).unwrap())
+        .collect();
+    let simulate = |part: &Part, plan: &[Vec<usize>]| {
+        let model = waam_thermal::ThermalModel::new(part, &graph);
+        waam_thermal::simulate(&model, plan).unwrap()
+    };
+    for &b in &watched {
+        let wide = waam_part::Window {
+            min_s: 0.0,
+            max_s: 1e6,
+        };
+        part.set_window(b, wide);
+    }
+    let seen = simulate(&part, &hidden).crossings;
+    for &b in &watched {
+        let t85 = || seen.iter().filter(|c| c.block == b).map(|c| c.t85_s);
+        let window = waam_part::Window {
+            min_s: 0.95 * t85().fold(f64::INFINITY, f64::min),
+            max_s: 1.01 * t85().fold(0.0, f64::max),
+        };
+        part.set_window(b, window);
+    }
+    assert!(simulate(&part, &hidden).violation.is_none());
+    assert!(
+        simulate(&part, &base).violation.is_some(),
+        "the plain warm start breaks a window"
+    );
+
+    // One configuration (no race): the portfolio's choice, before any solve of the search.
+    let alone = Options {
+        threads: 1,
+        ..Options::default()
+    };
+    let run = || planner::first(&part, &alone, &mut |_| {}).unwrap();
+    let report = run();
+    let best = report.best.expect("another cover keeps the windows");
+    assert_eq!(
+        (report.stats.candidates, report.stats.sat_solves),
+        (2, 0),
+        "the plain warm start, then the portfolio's choice; no search"
+    );
+    best.plan(&part).validate(&part, &graph).unwrap();
+    assert!(simulate(&part, &best.fragments).violation.is_none());
+    assert_eq!(
+        run().best.unwrap().fragments,
+        best.fragments,
+        "the same choice"
+    );
+}
+
 #[test]
 fn a_race_finds_a_checked_plan_and_proofs_are_the_defaults() {
     // Any number of racers: the plan is valid and keeps its windows in a fresh simulation.
