@@ -188,7 +188,16 @@ pub fn run(
                     if let Some(path) = paths.get(w) {
                         let all = path.blocks.len();
                         cell.read(path, read..all, wall, options.time_scale, &pyrometer);
+                        let before = cell.scanned;
                         cell.scan(&scanner);
+                        tracing::info!(
+                            "weld path {}: {all} deposits read by the pyrometer at wire feed {:.3}; {} layer(s) scanned",
+                            w + 1,
+                            cell.feed,
+                            cell.scanned - before
+                        );
+                    } else {
+                        tracing::warn!("weld path {} is not in the weld plan received", w + 1);
                     }
                     welding = None;
                 }
