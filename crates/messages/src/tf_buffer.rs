@@ -32,6 +32,23 @@ pub enum TfError {
         stamp_s: f64,
         why: String,
     },
+    #[error("cannot read a tf2_msgs/TFMessage: {0}")]
+    Unreadable(String),
+}
+
+impl TfError {
+    /// The frames the fault is about (parent or target first), to report it once per pair.
+    pub fn frames(&self) -> (String, String) {
+        match self {
+            TfError::Rejected { parent, child, .. } => (parent.clone(), child.clone()),
+            TfError::NoTransform {
+                target,
+                source_frame,
+                ..
+            } => (target.clone(), source_frame.clone()),
+            TfError::Unreadable(_) => Default::default(),
+        }
+    }
 }
 
 /// The frame tree of `/tf` (dynamic, kept [`HISTORY_S`]) and `/tf_static`.

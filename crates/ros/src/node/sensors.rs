@@ -19,7 +19,7 @@ use super::params::ClosedLoopParams;
 use super::pipeline::Planned;
 use waam_cell::Measured;
 use waam_messages::sensor::{self, ScanTarget};
-use waam_messages::tf_buffer::TfBuffer;
+use waam_messages::tf_buffer::{TfBuffer, TfError};
 use waam_rosbag::qos::Qos;
 use waam_rosbag::Recorder;
 use waam_rosmsg::builtin_interfaces::Time;
@@ -117,9 +117,10 @@ pub struct Sensors {
 enum Incoming {
     Scan(PointCloud2),
     Temperature(Temperature),
-    /// Transforms, from `/tf_static` when `fixed`.
+    /// Transforms (or why a message on the topic could not be read), from `/tf_static`
+    /// when `fixed`.
     Frames {
-        msg: TFMessage,
+        msg: Result<TFMessage, String>,
         fixed: bool,
     },
 }
@@ -197,13 +198,11 @@ impl Sensors {
                         r.map(|(m, _)| Incoming::Temperature(m)),
                     )
                 });
-                // Transforms are for the scans: what cannot be read is the scan's news.
+                // Transforms are for the scans; what is wrong with them goes to the log.
                 let frames_of = |fixed| {
-                    move |r: Result<(TFMessage, _), _>| {
-                        (
-                            SensorKind::Scan,
-                            r.map(|(msg, _)| Incoming::Frames { msg, fixed }),
-                        )
+                    move |r: ros2_client::ReadResult<(TFMessage, _)>| {
+                        let msg = r.map(|(msg, _)| msg).map_err(|e| e.to_string());
+                        (SensorKind::Scan, Ok(Incoming::Frames { msg, fixed }))
                     }
                 };
                 let mut merged = futures::stream::select_all([
@@ -219,13 +218,16 @@ impl Sensors {
                         let topic = topic(kind);
                         let judged = match item {
                             Ok(Incoming::Frames { msg, fixed }) => {
-                                for refused in frames.add(&msg, fixed) {
-                                    // Once per kind of fault: /tf runs at 100 Hz.
-                                    if warned.insert(refused.to_string()) {
-                                        tracing::warn!(
-                                            "{}: {refused}",
-                                            if fixed { TF_STATIC } else { TF }
-                                        );
+                                let on = if fixed { TF_STATIC } else { TF };
+                                let faults = match msg {
+                                    Ok(msg) => frames.add(&msg, fixed),
+                                    Err(e) => vec![TfError::Unreadable(e)],
+                                };
+                                // Once per pair of frames (or kind of fault): /tf runs at
+                                // 100 Hz, and the set stays as small as the frame tree.
+                                for fault in faults {
+                                    if warned.insert(fault.frames()) {
+                                        tracing::warn!("{on}: {fault}");
                                     }
                                 }
                                 continue;
