@@ -81,13 +81,14 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     let (recorder, mut planning) =
         record::start_planning(&bag_dir, None, &part, &opts, Some((&cell, BUNDLED_URDF)))?;
     let mut bar = super::plan::LazyBar::new(global.quiet);
+    let objective = if args.first {
+        Objective::First
+    } else {
+        Objective::Best
+    };
     let options = waam_pipeline::Options {
         planner: opts.clone(),
-        objective: if args.first {
-            Objective::First
-        } else {
-            Objective::Best
-        },
+        objective,
         motion: Interrupt::default(),
     };
     let outcome = waam_pipeline::plan(&part, Some(&cell), &options, &mut |p| {
@@ -224,7 +225,7 @@ pub fn run(args: PlanArgs, global: &GlobalArgs) -> anyhow::Result<ExitCode> {
     say(format!(
         "redraw the pictures: waam plot {d}    print the block lists: waam plan --print-plan"
     ));
-    let ring_ok = ring_run(&cell, &dir.join("ring"), &say)?;
+    let ring_ok = ring_run(&cell, &dir.join("ring"), objective, &say)?;
     let ok = motion.is_some() && ring_ok;
     Ok(ExitCode::from(if ok { EXIT_OK } else { EXIT_NO }))
 }
@@ -268,7 +269,12 @@ fn tube_mesh(r_in: f64, r_out: f64, height: f64, n: u32) -> (Vec<[f64; 3]>, Vec<
 /// The first run's round part: a ring mesh sliced into beads (a graph part), planned and
 /// welded along its bead by the same cell, exported as G-code and drawn, in `dir`.
 /// `Ok(false)`: no plan or no motion (said why).
-fn ring_run(cell: &waam_pipeline::Cell, dir: &Path, say: &dyn Fn(String)) -> anyhow::Result<bool> {
+fn ring_run(
+    cell: &waam_pipeline::Cell,
+    dir: &Path,
+    objective: Objective,
+    say: &dyn Fn(String),
+) -> anyhow::Result<bool> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let (r_in, r_out, height) = RING_MM;
     let (vertices, triangles) = tube_mesh(r_in / 1e3, r_out / 1e3, height / 1e3, 128);
@@ -287,10 +293,11 @@ fn ring_run(cell: &waam_pipeline::Cell, dir: &Path, say: &dyn Fn(String)) -> any
         std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))
     };
     write("part.yaml", &beads.to_yaml())?;
-    // The cell's torch (none with --no-torch) and robot check the planner's candidates.
+    // The cell's torch (none with --no-torch) and robot check the planner's candidates; the
+    // best plan, as for the first part (the first found depends on which racer wins).
     let options = waam_pipeline::Options {
         planner: waam_pipeline::planner_options(&part, Some(cell), &Default::default()),
-        objective: Objective::First,
+        objective,
         motion: Interrupt::default(),
     };
     let outcome = waam_pipeline::plan(&part, Some(cell), &options, &mut |_| {})?;
