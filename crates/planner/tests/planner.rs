@@ -494,39 +494,15 @@ fn a_warm_start_that_breaks_windows_is_set_off_elsewhere() {
         .iter()
         .map(|&b| part.index_of(b).unwrap())
         .collect();
-    let simulate = |part: &Part, plan: &[Vec<usize>]| {
-        let model = waam_thermal::ThermalModel::new(part, &graph);
-        waam_thermal::simulate(&model, plan).unwrap()
-    };
-    for &b in &watched {
-        let wide = waam_part::Window {
-            min_s: 0.0,
-            max_s: 1e6,
-        };
-        part.set_window(b, wide);
-    }
-    let seen = simulate(&part, &hidden).crossings;
-    for &b in &watched {
-        let t85 = || seen.iter().filter(|c| c.block == b).map(|c| c.t85_s);
-        let window = waam_part::Window {
-            min_s: 0.95 * t85().fold(f64::INFINITY, f64::min),
-            max_s: 1.01 * t85().fold(0.0, f64::max),
-        };
-        part.set_window(b, window);
-    }
-    assert!(simulate(&part, &hidden).violation.is_none());
+    let simulate = |part: &Part, plan: &[Vec<usize>]| simulated(part, &graph, plan);
+    windows_around(&mut part, &graph, &hidden, &watched);
     assert!(
         simulate(&part, &base).violation.is_some(),
         "the plain warm start breaks a window"
     );
 
     // One configuration (no race): the portfolio's choice, deterministically.
-    let alone = Options {
-        threads: 1,
-        ..Options::default()
-    };
-    let run = || planner::first(&part, &alone, &mut |_| {}).unwrap();
-    let report = run();
+    let report = first_alone_twice(&part);
     let best = report.best.expect("another start keeps the windows");
     assert_eq!(
         report.stats.candidates, 2,
@@ -534,11 +510,6 @@ fn a_warm_start_that_breaks_windows_is_set_off_elsewhere() {
     );
     best.plan(&part).validate(&part, &graph).unwrap();
     assert!(simulate(&part, &best.fragments).violation.is_none());
-    assert_eq!(
-        run().best.unwrap().fragments,
-        best.fragments,
-        "the same choice"
-    );
 }
 
 /// A one-block T `h` layers high: a bar of `bar` blocks along x with a stem of `stem`
@@ -629,39 +600,15 @@ fn a_warm_start_on_a_t_that_breaks_windows_takes_another_cover_of_its_layers() {
         .iter()
         .map(|&b| part.index_of(b).unwrap())
         .collect();
-    let simulate = |part: &Part, plan: &[Vec<usize>]| {
-        let model = waam_thermal::ThermalModel::new(part, &graph);
-        waam_thermal::simulate(&model, plan).unwrap()
-    };
-    for &b in &watched {
-        let wide = waam_part::Window {
-            min_s: 0.0,
-            max_s: 1e6,
-        };
-        part.set_window(b, wide);
-    }
-    let seen = simulate(&part, &hidden).crossings;
-    for &b in &watched {
-        let t85 = || seen.iter().filter(|c| c.block == b).map(|c| c.t85_s);
-        let window = waam_part::Window {
-            min_s: 0.95 * t85().fold(f64::INFINITY, f64::min),
-            max_s: 1.01 * t85().fold(0.0, f64::max),
-        };
-        part.set_window(b, window);
-    }
-    assert!(simulate(&part, &hidden).violation.is_none());
+    let simulate = |part: &Part, plan: &[Vec<usize>]| simulated(part, &graph, plan);
+    windows_around(&mut part, &graph, &hidden, &watched);
     assert!(
         simulate(&part, &base).violation.is_some(),
         "the plain warm start breaks a window"
     );
 
     // One configuration (no race): the portfolio's choice, before any solve of the search.
-    let alone = Options {
-        threads: 1,
-        ..Options::default()
-    };
-    let run = || planner::first(&part, &alone, &mut |_| {}).unwrap();
-    let report = run();
+    let report = first_alone_twice(&part);
     let best = report.best.expect("another cover keeps the windows");
     assert_eq!(
         (report.stats.candidates, report.stats.sat_solves),
@@ -670,11 +617,6 @@ fn a_warm_start_on_a_t_that_breaks_windows_takes_another_cover_of_its_layers() {
     );
     best.plan(&part).validate(&part, &graph).unwrap();
     assert!(simulate(&part, &best.fragments).violation.is_none());
-    assert_eq!(
-        run().best.unwrap().fragments,
-        best.fragments,
-        "the same choice"
-    );
 }
 
 #[test]
@@ -923,4 +865,57 @@ fn the_race_gives_the_best_plan_its_first_plan() {
         first_plan.len(),
         margin(&first_plan)
     );
+}
+
+/// A simulation of `plan` on `part` (windows checked).
+fn simulated(
+    part: &Part,
+    graph: &waam_part::graph::WeldGraph,
+    plan: &[Vec<usize>],
+) -> waam_thermal::Outcome {
+    let model = waam_thermal::ThermalModel::new(part, graph);
+    waam_thermal::simulate(&model, plan).unwrap()
+}
+
+/// Windows on the `watched` blocks just around the t8/5 the `hidden` plan gives them (so
+/// that plan keeps them, and plans that heat those blocks otherwise may not).
+fn windows_around(
+    part: &mut Part,
+    graph: &waam_part::graph::WeldGraph,
+    hidden: &[Vec<usize>],
+    watched: &[usize],
+) {
+    for &b in watched {
+        let wide = waam_part::Window {
+            min_s: 0.0,
+            max_s: 1e6,
+        };
+        part.set_window(b, wide);
+    }
+    let seen = simulated(part, graph, hidden).crossings;
+    for &b in watched {
+        let t85 = || seen.iter().filter(|c| c.block == b).map(|c| c.t85_s);
+        let window = waam_part::Window {
+            min_s: 0.95 * t85().fold(f64::INFINITY, f64::min),
+            max_s: 1.01 * t85().fold(0.0, f64::max),
+        };
+        part.set_window(b, window);
+    }
+    assert!(simulated(part, graph, hidden).violation.is_none());
+}
+
+/// The first plan of one configuration (no race), run twice: the same plan both times.
+fn first_alone_twice(part: &Part) -> planner::Report {
+    let alone = Options {
+        threads: 1,
+        ..Options::default()
+    };
+    let run = || planner::first(part, &alone, &mut |_| {}).unwrap();
+    let report = run();
+    assert_eq!(
+        run().best.map(|b| b.fragments),
+        report.best.as_ref().map(|b| b.fragments.clone()),
+        "the same choice"
+    );
+    report
 }
