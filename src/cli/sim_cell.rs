@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
+use std::time::Instant;
 
 use anyhow::Context;
 use waam_cell::{CellOptions, Truth};
@@ -97,11 +98,43 @@ pub fn run(args: SimCellArgs, global: &super::GlobalArgs) -> anyhow::Result<Exit
         ..CellOptions::default()
     };
     let quiet = global.quiet;
-    let executed = waam_cell::run(&part, &truth, &opts, &mut |line| {
+    let mut progress = |line: &str| {
         if !quiet {
             eprintln!("{line}");
         }
-    })?;
+    };
+    let started = Instant::now();
+    let planning = waam_pipeline::Options {
+        planner: opts.planner.clone(),
+        ..Default::default()
+    };
+    let first = waam_pipeline::plan(&part, None, &planning, &mut |_| {})?.report;
+    let Some(found) = first.best else {
+        let why = first.no_plan.map_or_else(
+            || "the planner stopped before a plan".to_string(),
+            |n| n.to_string(),
+        );
+        if stop.load(std::sync::atomic::Ordering::Relaxed) {
+            println!("STOPPED before a plan");
+            return Ok(ExitCode::from(EXIT_INTERRUPTED));
+        }
+        println!("NO PLAN to execute: {why}");
+        return Ok(ExitCode::from(EXIT_NO));
+    };
+    let planned_in_s = started.elapsed().as_secs_f64();
+    progress(&format!(
+        "planned: {} weld path(s), margin {} ({planned_in_s:.2} s)",
+        found.fragments.len(),
+        found.margin_text(),
+    ));
+    let executed = waam_cell::run(
+        &part,
+        &found.fragments,
+        planned_in_s,
+        &truth,
+        &opts,
+        &mut progress,
+    )?;
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let path = dir.join("executed.yaml");
     std::fs::write(&path, executed.to_yaml()?)

@@ -30,4 +30,5 @@ mod replay;
 mod replay_publish;
 mod robustness;
 mod ros_node;
+mod sim_cell;
 mod torch;

@@ -17,13 +17,12 @@ pub mod measured;
 pub mod truth;
 
 use std::sync::atomic::Ordering;
-use std::time::Instant;
 
 use thiserror::Error;
 
 use waam_part::graph::WeldGraph;
 use waam_part::Part;
-use waam_planner::{self as planner, Options, PlanError, RestError};
+use waam_planner::{Options, RestError};
 use waam_thermal::{Simulation, ThermalModel};
 
 pub use closed_loop::{ClosedLoop, Decision, LoopOptions, MeasureError};
@@ -38,8 +37,8 @@ pub struct CellOptions {
     /// Measure, estimate, re-plan and control the height (false: execute the first plan
     /// as it is, resuming a path cut short where it stopped).
     pub closed_loop: bool,
-    /// The planner's options (the first plan and every re-plan; its timeout applies to
-    /// each, its cancel flag stops the whole run).
+    /// The planner's options of every re-plan (its timeout applies to each, its cancel
+    /// flag stops the whole run).
     pub planner: Options,
     /// The wire feed the height controller may set, relative to nominal (process limits).
     pub wire_feed: (f64, f64),
@@ -60,12 +59,8 @@ impl Default for CellOptions {
 pub enum CellError {
     #[error("the simulated cell takes block parts (a graph part has no block layers to scan)")]
     GraphPart,
-    #[error("planning the part: {0}")]
-    Plan(#[from] PlanError),
     #[error("re-planning the rest: {0}")]
     Rest(#[from] RestError),
-    #[error("no plan to execute: {0}")]
-    NoPlan(String),
     #[error("the execution left the plan: {0}")]
     OffPlan(String),
 }
@@ -86,34 +81,18 @@ pub fn next_wire_feed(nominal_mm: f64, missing_mm: f64, gain: f64, limits: (f64,
     ((nominal_mm + missing_mm) / (nominal_mm * gain)).clamp(limits.0, limits.1)
 }
 
-/// Executes `part` on the true cell `truth`: a driver of [`ClosedLoop`] that deposits on
-/// the true model, reads its sensors and, in closed loop, asks for a decision after every
-/// weld path and layer.
+/// Executes `part` on the true cell `truth`, starting with `plan` (fragments of block
+/// indices, found by the pipeline in `planned_in_s`): a driver of [`ClosedLoop`] that
+/// deposits on the true model, reads its sensors and, in closed loop, asks for a decision
+/// after every weld path and layer.
 pub fn run(
     part: &Part,
+    plan: &[Vec<usize>],
+    planned_in_s: f64,
     truth: &Truth,
     opts: &CellOptions,
     progress: Progress,
 ) -> Result<Executed, CellError> {
-    if part.bead_part().is_some() {
-        return Err(CellError::GraphPart);
-    }
-    let started = Instant::now();
-    let first = planner::plan(part, &opts.planner, &mut |_| {})?;
-    let Some(found) = first.best else {
-        let why = first
-            .no_plan
-            .map_or("the planner stopped before a plan".to_string(), |n| {
-                n.to_string()
-            });
-        return Err(CellError::NoPlan(why));
-    };
-    progress(&format!(
-        "planned: {} weld path(s), margin {} ({:.2} s)",
-        found.fragments.len(),
-        found.margin_text(),
-        started.elapsed().as_secs_f64()
-    ));
     let loop_opts = LoopOptions {
         planner: opts.planner.clone(),
         // Open loop keeps the nominal feed.
@@ -123,12 +102,7 @@ pub fn run(
             (1.0, 1.0)
         },
     };
-    let mut cl = ClosedLoop::new(
-        part,
-        &found.fragments,
-        loop_opts,
-        started.elapsed().as_secs_f64(),
-    )?;
+    let mut cl = ClosedLoop::new(part, plan, loop_opts, planned_in_s)?;
     let nominal_h = part.block_mm[2];
     let mut deposits = Vec::new();
     let record = |cl: &ClosedLoop, deposits: Vec<Deposit>, complete: bool| Executed {

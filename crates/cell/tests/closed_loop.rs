@@ -10,12 +10,16 @@
 //! anything is measured), at 9 open loop breaks one and closed loop keeps every one. The
 //! tests check each claim again by simulation, not by these numbers.
 
+mod support;
+
 use std::collections::HashSet;
 
 use waam_cell::{CellOptions, Executed, Truth};
 use waam_part::graph::WeldGraph;
 use waam_part::Part;
 use waam_thermal::{simulate, ThermalModel};
+
+use support::first_plan;
 
 const WALL: &str = "name: wall\nblock_mm: [6, 6, 2.5]\nmax_fragments: 2\n\
                     layers: ['######', '######', '######', '######']\n";
@@ -36,7 +40,8 @@ fn execute(part: &Part, truth: &str, closed_loop: bool) -> Executed {
         closed_loop,
         ..CellOptions::default()
     };
-    let executed = waam_cell::run(part, &truth, &opts, &mut |_| {}).unwrap();
+    let executed =
+        waam_cell::run(part, &first_plan(part), 0.0, &truth, &opts, &mut |_| {}).unwrap();
     assert!(executed.complete);
     // executed.yaml reads back as written.
     let text = executed.to_yaml().unwrap();
@@ -177,7 +182,8 @@ fn a_stopped_run_reports_the_top_of_the_layers_it_finished() {
             cancel.store(true, std::sync::atomic::Ordering::Relaxed);
         }
     };
-    let executed = waam_cell::run(&part, &truth, &opts, &mut { stop }).unwrap();
+    let plan = first_plan(&part);
+    let executed = waam_cell::run(&part, &plan, 0.0, &truth, &opts, &mut { stop }).unwrap();
     assert!(!executed.complete);
     assert_eq!(executed.deposits.len(), 15);
     assert_eq!(executed.layers.len(), 2, "{:?}", executed.layers);

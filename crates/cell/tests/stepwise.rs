@@ -2,6 +2,8 @@
 //! its own clock, a pyrometer's readings of the deposit under the torch, layer scans as
 //! point clouds, a decision at each boundary.
 
+mod support;
+
 use waam_cell::estimate::{counting_part, scaled};
 use waam_cell::{CellError, ClosedLoop, LoopOptions, MeasureError, Measured};
 use waam_part::graph::WeldGraph;
@@ -9,6 +11,8 @@ use waam_part::plan::Plan;
 use waam_part::Part;
 use waam_planner::Options;
 use waam_thermal::{simulate, Simulation, ThermalModel};
+
+use support::first_plan;
 
 /// The wall of `tests/closed_loop.rs`: 6 x 1 x 4 blocks, k = 2, t8/5 at most 9 s on top.
 fn wall() -> Part {
@@ -25,11 +29,6 @@ fn options() -> LoopOptions {
         planner: Options::default(),
         wire_feed: (0.7, 1.3),
     }
-}
-
-fn first_plan(part: &Part) -> Vec<Vec<usize>> {
-    let report = waam_planner::plan(part, &Options::default(), &mut |_| {}).unwrap();
-    report.best.unwrap().fragments
 }
 
 #[test]

@@ -120,7 +120,7 @@ enum Incoming {
     /// Transforms (or why a message on the topic could not be read), from `/tf_static`
     /// when `fixed`.
     Frames {
-        msg: Result<TFMessage, String>,
+        msg: Result<TFMessage, TfError>,
         fixed: bool,
     },
 }
@@ -201,7 +201,9 @@ impl Sensors {
                 // Transforms are for the scans; what is wrong with them goes to the log.
                 let frames_of = |fixed| {
                     move |r: ros2_client::ReadResult<(TFMessage, _)>| {
-                        let msg = r.map(|(msg, _)| msg).map_err(|e| e.to_string());
+                        let msg = r
+                            .map(|(msg, _)| msg)
+                            .map_err(|e| TfError::Unreadable(e.to_string()));
                         (SensorKind::Scan, Ok(Incoming::Frames { msg, fixed }))
                     }
                 };
@@ -221,7 +223,7 @@ impl Sensors {
                                 let on = if fixed { TF_STATIC } else { TF };
                                 let faults = match msg {
                                     Ok(msg) => frames.add(&msg, fixed),
-                                    Err(e) => vec![TfError::Unreadable(e)],
+                                    Err(e) => vec![e],
                                 };
                                 // Once per pair of frames (or kind of fault): /tf runs at
                                 // 100 Hz, and the set stays as small as the frame tree.

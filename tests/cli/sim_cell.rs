@@ -1,0 +1,56 @@
+//! `waam sim-cell` through the binary (#31): the part planned by the pipeline, then welded
+//! on a true cell with 25 % lower heat losses — open loop breaks a window, closed loop
+//! keeps them all — and a bad TRUTH.yaml named. The loop itself is tested in
+//! `crates/cell/tests/`.
+
+use crate::common::run::run_at_root;
+
+const WALL: &str = "docs/examples/closed-loop/wall.yaml";
+const TRUTH: &str = "docs/examples/closed-loop/truth.yaml";
+
+fn sim_cell(extra: &[&str], out: &std::path::Path) -> (Option<i32>, String, String) {
+    let out = out.to_str().unwrap();
+    let mut args = vec!["sim-cell", WALL, "--truth", TRUTH, "--out", out];
+    args.extend_from_slice(extra);
+    let run = run_at_root(&args);
+    let text = |b: &[u8]| String::from_utf8_lossy(b).into_owned();
+    (run.status.code(), text(&run.stdout), text(&run.stderr))
+}
+
+#[test]
+fn open_loop_breaks_a_window_on_the_true_cell_that_closed_loop_keeps() {
+    let dir = tempfile::tempdir().unwrap();
+    let (code, out, err) = sim_cell(&["--open-loop"], &dir.path().join("open"));
+    assert_eq!(code, Some(1), "{out}{err}");
+    assert!(err.starts_with("planned: 1 weld path(s)"), "{err}");
+    assert!(out.contains("TRUE MODEL: window of block"), "{out}");
+    let (code, out, err) = sim_cell(&[], &dir.path().join("closed"));
+    assert_eq!(code, Some(0), "{out}{err}");
+    assert!(out.contains("TRUE MODEL: every t8/5 window kept"), "{out}");
+    assert!(err.contains("replan after"), "{err}");
+    let executed = std::fs::read_to_string(dir.path().join("closed/executed.yaml")).unwrap();
+    assert!(executed.contains("loop: closed"), "{executed}");
+}
+
+#[test]
+fn a_truth_file_with_an_unknown_key_is_bad_input_named_by_file_and_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = dir.path().join("truth.yaml");
+    std::fs::write(&truth, "thermal: {bogus: 1}\n").unwrap();
+    let out = dir.path().join("out");
+    let run = run_at_root(&[
+        "sim-cell",
+        WALL,
+        "--truth",
+        truth.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("truth.yaml") && err.contains("unknown key 'bogus'"),
+        "{err}"
+    );
+    assert!(!out.exists(), "nothing written for bad input");
+}
