@@ -1,8 +1,9 @@
 //! Issue #18, the reproducers that need time and memory bounds: each runs `waam` as a
 //! child under an address-space limit (so a regression fails here instead of eating the
 //! machine) and asserts its exit code, its one-line error, its wall time and its peak
-//! resident memory (getrusage of the child). Library-level checks of the same limits sit
-//! beside them.
+//! resident memory (getrusage of the child). The libraries' own checks of the same limits
+//! are in their crates: `crates/{thermal/tests/stop.rs, planner/tests/limits.rs,
+//! ros/tests/limits.rs, layer/tests/layer_part.rs}`.
 
 use std::io::Read;
 use std::os::unix::process::CommandExt;
@@ -11,10 +12,7 @@ use std::process::Stdio;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
-
-use waam_part::graph::WeldGraph;
-use waam_part::Part;
-use waam_thermal::ThermalModel;
+use waam_fixtures::{grid_layer, plate_layers, stacked_plate, two_towers};
 
 /// The address space a child may take: a blow-up ends in an allocation failure at 3 GB,
 /// not in a machine that swaps.
@@ -203,15 +201,6 @@ fn a_part_with_no_valid_plan_is_answered_in_seconds_not_at_the_timeout() {
     assert!(run.wall < Duration::from_secs(15), "{}", run.describe());
 }
 
-/// Two single blocks apart, so every plan has one transit; `transit_s` long.
-fn two_towers(transit_s: f64) -> String {
-    format!(
-        "name: towers\nblock_mm: [6, 6, 2.5]\nmax_fragments: 2\nblocks: [[0,0,0], [3,0,0]]\n\
-         t85:\n  - {{block: [0,0,0], min_s: 0.1, max_s: 1.0e8}}\n\
-         thermal: {{transit_time_s: {transit_s}}}\n"
-    )
-}
-
 /// Issue #18, H1: once a plan was found, its margin was measured by a second simulation
 /// that ignored the deadline (`--timeout 15` answered after 25 s with a 5 x 10^6 s
 /// transit). Whatever the search reaches before it, the answer comes at the timeout.
@@ -226,76 +215,6 @@ fn the_margin_of_a_found_plan_is_measured_within_the_timeout() {
     );
     assert!(matches!(run.code, Some(0 | 1)), "{}", run.describe());
     assert!(run.wall < Duration::from_millis(7500), "{}", run.describe());
-}
-
-/// Issue #18, H1 (library level, the node's case): raising the cancel flag stops a whole
-/// simulation with a 10^8-step transit within a second, and a passed deadline stops it at
-/// once.
-#[test]
-fn a_cancel_stops_a_long_simulation_within_a_second() {
-    let part = Part::parse(&two_towers(5.0e7)).unwrap();
-    let graph = WeldGraph::new(&part);
-    let model = ThermalModel::new(&part, &graph);
-    let fragments = vec![vec![0], vec![1]];
-    let cancel = Arc::new(AtomicBool::new(false));
-    let raiser = {
-        let cancel = Arc::clone(&cancel);
-        std::thread::spawn(move || {
-            std::thread::sleep(Duration::from_millis(300));
-            cancel.store(true, Ordering::Relaxed);
-            Instant::now()
-        })
-    };
-    let outcome = waam_thermal::simulate_until(&model, &fragments, None, Some(cancel)).unwrap();
-    let stopped = Instant::now();
-    let raised = raiser.join().unwrap();
-    assert!(outcome.is_none(), "a cancelled run has no outcome");
-    assert!(
-        stopped.duration_since(raised) < Duration::from_secs(1),
-        "{:?} after the cancel",
-        stopped.duration_since(raised)
-    );
-    let t = Instant::now();
-    let outcome =
-        waam_thermal::simulate_until(&model, &fragments, Some(Instant::now()), None).unwrap();
-    assert!(outcome.is_none());
-    assert!(t.elapsed() < Duration::from_secs(1), "{:?}", t.elapsed());
-}
-
-/// Issue #18, H1: the planner (as the node runs it, with a cancel flag) stops within a
-/// second of a cancel while simulating a 10^8-step transit.
-#[test]
-fn a_cancelled_planner_stops_within_a_second() {
-    let part = Part::parse(&two_towers(5.0e7)).unwrap();
-    let cancel = Arc::new(AtomicBool::new(false));
-    let opts = waam_planner::Options {
-        cancel: Some(Arc::clone(&cancel)),
-        ..waam_planner::Options::default()
-    };
-    let raiser = {
-        let cancel = Arc::clone(&cancel);
-        std::thread::spawn(move || {
-            std::thread::sleep(Duration::from_millis(500));
-            cancel.store(true, Ordering::Relaxed);
-            Instant::now()
-        })
-    };
-    let report = waam_planner::plan(&part, &opts, &mut |_| {}).unwrap();
-    let stopped = Instant::now();
-    let raised = raiser.join().unwrap();
-    assert!(!report.proven);
-    assert!(
-        stopped.duration_since(raised) < Duration::from_secs(1),
-        "{:?} after the cancel",
-        stopped.duration_since(raised)
-    );
-}
-
-fn plate_layers(n: usize) -> String {
-    format!(
-        "name: plate\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nlayers:\n  - |\n{}",
-        format!("    {}\n", "#".repeat(n)).repeat(n)
-    )
 }
 
 /// Issue #18, H2: a 1,000 x 1,000 plate (a 1 MB part file) took 3-7 GB and ignored
@@ -350,90 +269,6 @@ fn a_100_cubed_block_list_is_refused_before_it_is_parsed() {
     );
     assert!(run.wall < Duration::from_secs(5), "{}", run.describe());
     assert!(run.peak_rss < MAX_RSS_BYTES, "{}", run.describe());
-}
-
-/// Issue #18, H2: the limit is the planner's, so the node (and `count`, `--all`) refuse
-/// the same part by the same estimate; a raised limit lets a part through.
-#[test]
-fn the_memory_limit_is_checked_by_every_planner_entry_and_can_be_raised() {
-    let part = Part::parse(&plate_layers(300)).unwrap();
-    let small = waam_planner::Options {
-        max_memory_mb: 100,
-        timeout: Some(Duration::from_millis(1)),
-        ..waam_planner::Options::default()
-    };
-    let t = Instant::now();
-    for err in [
-        waam_planner::plan(&part, &small, &mut |_| {}).err(),
-        waam_planner::first(&part, &small, &mut |_| {}).err(),
-        waam_planner::count(&part, &small, true, &mut |_| {}).err(),
-        waam_planner::enumerate(&part, &small, &mut |_| {}, &mut |_| Ok(())).err(),
-    ] {
-        let err = err.expect("refused").to_string();
-        assert!(err.contains("max_memory_mb = 100"), "{err}");
-    }
-    assert!(t.elapsed() < Duration::from_secs(1), "{:?}", t.elapsed());
-    // The estimate for a plate this size (90,000 blocks, k = 1) is about 1.4 GB.
-    let estimate = waam_planner::estimated_memory_mb(part.len(), 1);
-    assert!((1300..1500).contains(&estimate), "{estimate}");
-    let tiny = Part::parse(&plate_layers(10)).unwrap();
-    let raised = waam_planner::Options {
-        max_memory_mb: 100,
-        ..waam_planner::Options::default()
-    };
-    assert!(waam_planner::plan(&tiny, &raised, &mut |_| {})
-        .unwrap()
-        .best
-        .is_some());
-}
-
-/// Issue #18, H2: the node's parameter carries the limit and is checked.
-#[test]
-fn the_node_parameter_max_memory_mb_is_read_and_checked() {
-    use waam_ros::node::params::NodeParams;
-    let file = |v: &str| {
-        format!("waam_planner:\n  ros__parameters:\n    planner: {{max_memory_mb: {v}}}\n")
-    };
-    assert_eq!(
-        NodeParams::parse(&file("512"))
-            .unwrap()
-            .planner
-            .max_memory_mb,
-        512
-    );
-    let err = NodeParams::parse(&file("0")).unwrap_err().to_string();
-    assert!(err.contains("planner.max_memory_mb"), "{err}");
-    assert_eq!(
-        NodeParams::default().planner.max_memory_mb,
-        waam_planner::DEFAULT_MAX_MEMORY_MB as i64
-    );
-}
-
-/// A square grid layer of `cells` x `cells` cells (7 mm pitch, 2 mm walls), with the
-/// parameters of config/layers/paper-16mm.yaml: 2 c (c + 1) segments.
-fn grid_layer(cells: usize) -> String {
-    let id = |i: usize, j: usize| format!("n{i}_{j}");
-    let mut text = format!("name: grid{cells}\nwall_width_mm: 2.0\nnodes:\n");
-    for j in 0..=cells {
-        for i in 0..=cells {
-            let (x, y) = (1.0 + 7.0 * i as f64, 1.0 + 7.0 * j as f64);
-            text.push_str(&format!("  - {{id: {}, x: {x}, y: {y}}}\n", id(i, j)));
-        }
-    }
-    text.push_str("segments:\n");
-    for j in 0..=cells {
-        for i in 0..cells {
-            text.push_str(&format!("  - [{}, {}]\n", id(i, j), id(i + 1, j)));
-            text.push_str(&format!("  - [{}, {}]\n", id(j, i), id(j, i + 1)));
-        }
-    }
-    text.push_str(
-        "process:\n  weld_speed_mm_s: 10.0\n  time_step_s: 0.1\n  transit_speed_mm_s: 50.0\n  \
-         mesh_refinement: 0\nmaterial:\n  diffusivity_mm2_s: 5.0\n  robin_mm_s: 0.5\n\
-         temperatures:\n  ambient_c: 20.0\n  initial_c: 20.0\n  target_c: 400.0\n\
-         source:\n  peak_k_s: 8000.0\n  radii_mm: [1.0, 2.0]\n  weights: [1.0, 0.4]\n",
-    );
-    text
 }
 
 /// Issue #18: a 1,000-segment layer took 2.7 GB and gave no result in 60 s. Its search
@@ -665,96 +500,6 @@ fn a_fifo_in_the_metadata_blocks_neither_bag_info_nor_replay() {
     }
 }
 
-/// Issue #18, H2: the node took 3 GB from a 1 MB message (a 1,000 x 1,000 plate). Its
-/// pipeline, with the default parameters and the SAT planner, now answers with the
-/// memory-limit error within a second and without the memory.
-#[test]
-fn the_node_pipeline_refuses_a_1_mb_plate_by_its_memory_limit() {
-    use waam_ros::node::params::NodeParams;
-    use waam_ros::node::pipeline::{sat_planner, Job, PlanningPipeline};
-    use waam_ros::node::worker::{Cancel, JobContext, Pipeline};
-    let pipeline = PlanningPipeline::from_params(&NodeParams::default(), sat_planner()).unwrap();
-    let document = plate_layers(1000);
-    assert!(document.len() > 1_000_000);
-    let ctx = JobContext::new(1, Cancel::new(), |_| {});
-    let t = Instant::now();
-    let input = waam_pipeline::PartInput::Document(document);
-    let err = match pipeline.run(Job::from(input), &ctx) {
-        Ok(_) => panic!("a 10^6-block plate was planned"),
-        Err(e) => e.to_string(),
-    };
-    assert!(
-        err.contains("1000000 blocks") && err.contains("planner.max_memory_mb"),
-        "{err}"
-    );
-    assert!(t.elapsed() < Duration::from_secs(3), "{:?}", t.elapsed());
-    // SAFETY: a zeroed rusage is a valid value for getrusage to fill.
-    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    // SAFETY: usage points to a live local.
-    assert_eq!(unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) }, 0);
-    let peak = usage.ru_maxrss as u64 * 1024;
-    assert!(
-        peak < MAX_RSS_BYTES,
-        "this test process peaked at {} MB",
-        peak >> 20
-    );
-}
-
-/// Issue #18: a part's layers (`waam layer plan-part`) are held to the same memory limit,
-/// each before its search.
-#[test]
-fn a_part_with_a_1000_segment_layer_is_refused_by_the_memory_limit() {
-    let layer = waam_layer::Layer::parse(&grid_layer(22)).unwrap();
-    let t = Instant::now();
-    let err = match waam_layer::part::plan_part(&[(0.0, layer)], &Default::default(), |_, _| {}) {
-        Ok(_) => panic!("a 1,000-segment layer was searched"),
-        Err(e) => e.to_string(),
-    };
-    assert!(
-        err.starts_with("layer 0 (grid22)") && err.contains("max_memory_mb = 1024"),
-        "{err}"
-    );
-    assert!(t.elapsed() < Duration::from_secs(15), "{:?}", t.elapsed());
-}
-
-/// A plate of `nx` x `ny` blocks, `nz` layers high, every block windowed by a window no plan
-/// breaks, and a one-weld-path plan of it: each layer a serpentine, the next layer the same
-/// serpentine backwards, starting on the block above where the layer below ended.
-fn stacked_plate(nx: i64, ny: i64, nz: i64) -> (String, String) {
-    let layer: Vec<(i64, i64)> = (0..ny)
-        .flat_map(|y| {
-            let xs: Vec<i64> = if y % 2 == 0 {
-                (0..nx).collect()
-            } else {
-                (0..nx).rev().collect()
-            };
-            xs.into_iter().map(move |x| (x, y))
-        })
-        .collect();
-    let mut order = Vec::new();
-    for z in 0..nz {
-        let mut cells = layer.clone();
-        if z % 2 == 1 {
-            cells.reverse();
-        }
-        order.extend(cells.into_iter().map(|(x, y)| format!("[{x},{y},{z}]")));
-    }
-    let part = format!(
-        "name: plate\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nlayers:\n{}\
-         t85:\n  - {{box: {{min: [0,0,0], max: [{},{},{}]}}, min_s: 0.0, max_s: 1.0e7}}\n",
-        format!(
-            "  - |\n{}",
-            format!("    {}\n", "#".repeat(nx as usize)).repeat(ny as usize)
-        )
-        .repeat(nz as usize),
-        nx - 1,
-        ny - 1,
-        nz - 1
-    );
-    let plan = format!("part: plate\nfragments:\n  - [{}]\n", order.join(", "));
-    (part, plan)
-}
-
 /// The two towers apart by a 5 x 10^7 s transit (10^8 Euler steps) and their plan.
 fn long_transit_plan(dir: &Path) {
     std::fs::write(dir.join("part.yaml"), two_towers(5.0e7)).unwrap();
@@ -908,115 +653,6 @@ fn check_stops_on_ctrl_c_within_a_second() {
     use std::os::unix::process::ExitStatusExt;
     assert_eq!(status.signal(), Some(libc::SIGINT), "{status:?}");
     assert!(stopped_after < Duration::from_secs(1), "{stopped_after:?}");
-}
-
-/// Issue #18, H1 (the node past planning): a job whose planner is done goes on to check
-/// the plan and plan its motion, which simulate the whole build again; a newer part or a
-/// cancelled goal (the cancel flag) now stops that stage within a second too.
-#[test]
-fn a_cancelled_node_job_stops_within_a_second_past_planning() {
-    use waam_ros::node::params::NodeParams;
-    use waam_ros::node::pipeline::{Job, JobError, PlanRequest, PlanningPipeline};
-    use waam_ros::node::worker::{Cancel, JobContext, Pipeline};
-    // The planner's part: the towers' plan, at once (as a planner that found it).
-    let planner = Arc::new(|request: &PlanRequest| {
-        request.motion(waam_pipeline::ChosenPlan {
-            fragments: vec![vec![0], vec![1]],
-            stats: Default::default(),
-            proven: false,
-            worst_margin_s: 0.0,
-        })
-    });
-    let pipeline = PlanningPipeline::from_params(&NodeParams::default(), planner).unwrap();
-    let cancel = Cancel::new();
-    let ctx = JobContext::new(1, cancel.clone(), |_| {});
-    let raiser = std::thread::spawn(move || {
-        std::thread::sleep(Duration::from_millis(500));
-        cancel.cancel();
-        Instant::now()
-    });
-    let input = waam_pipeline::PartInput::Document(two_towers(5.0e7));
-    let result = pipeline.run(Job::from(input), &ctx);
-    let stopped = Instant::now();
-    let raised = raiser.join().unwrap();
-    assert!(
-        matches!(result, Err(JobError::Cancelled)),
-        "{:?}",
-        result.map(|_| ())
-    );
-    assert!(
-        stopped.duration_since(raised) < Duration::from_secs(1),
-        "{:?} after the cancel",
-        stopped.duration_since(raised)
-    );
-}
-
-/// Issue #18: the planner's early stop (a first feasible plan) is not a cancel: the stage
-/// after it still checks the plan, and a time limit of the library's own stops it.
-#[test]
-fn the_motion_stage_honours_its_interrupt_and_not_the_planners_stop() {
-    use waam_pipeline::{Interrupt, PipelineError};
-    let part = Part::parse(&two_towers(5.0e7)).unwrap();
-    let cell = waam_ros::node::frames::bundled_cell();
-    let found = waam_pipeline::ChosenPlan {
-        fragments: vec![vec![0], vec![1]],
-        stats: Default::default(),
-        proven: false,
-        worst_margin_s: 0.0,
-    };
-    let t = Instant::now();
-    let interrupt = Interrupt::after(Some(Duration::from_millis(300)));
-    let err = cell.motion_until(part, found, &interrupt).unwrap_err();
-    assert!(matches!(err, PipelineError::Interrupted(_)), "{err}");
-    assert!(
-        err.to_string()
-            .starts_with("stopped by the time limit or a cancel while checking"),
-        "{err}"
-    );
-    assert!(
-        t.elapsed() < Duration::from_millis(1300),
-        "{:?}",
-        t.elapsed()
-    );
-}
-
-/// Issue #30: `plan --robot --timeout 5` on a generated 10,034-block cup answered after
-/// 9.5 s: the motion stage (toolpath, inverse kinematics, clearance) never looked at the
-/// deadline. On a 20,000-block plate whose check is quick (one Euler step per block, no
-/// window) and whose motion takes seconds, the interrupt now stops the motion itself.
-#[test]
-fn the_motion_stage_stops_inside_the_inverse_kinematics_at_its_interrupt() {
-    use waam_pipeline::{Interrupt, PipelineError};
-    let (text, plan) = stacked_plate(20, 25, 40);
-    let text = text.split("t85:").next().unwrap().to_string()
-        + "thermal: {substeps: 1, max_cooldown_s: 0}\n";
-    let part = Part::parse(&text).unwrap();
-    let order: Vec<usize> = plan
-        .split('[')
-        .filter_map(|s| s.split(']').next())
-        .filter(|s| s.split(',').count() == 3)
-        .map(|s| {
-            let c: Vec<_> = s.split(',').map(|v| v.trim().parse().unwrap()).collect();
-            part.index_of([c[0], c[1], c[2]]).unwrap()
-        })
-        .collect();
-    assert_eq!(order.len(), 20_000);
-    let cell = waam_ros::node::frames::bundled_cell();
-    let found = waam_pipeline::ChosenPlan {
-        fragments: vec![order],
-        stats: Default::default(),
-        proven: false,
-        worst_margin_s: 0.0,
-    };
-    let t = Instant::now();
-    let interrupt = Interrupt::after(Some(Duration::from_millis(1500)));
-    let err = cell.motion_until(part, found, &interrupt).unwrap_err();
-    assert!(matches!(err, PipelineError::Interrupted(_)), "{err}");
-    assert!(
-        t.elapsed() < Duration::from_millis(2500),
-        "{:?}: {err}",
-        t.elapsed()
-    );
 }
 
 /// Issue #18 / #12: `plan --timeout 5` on a 90,000-block plate returned after 5.35 s: the

@@ -4,8 +4,9 @@
 //! (Through the binary: `tests/cli/layer_part.rs`.)
 
 use std::path::Path;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
+use waam_fixtures::grid_layer;
 use waam_layer::part::{plan_part, PartManifest, PartOptions};
 use waam_layer::slice::{slice_mesh, LayerDoc, LayerParams, SliceOptions};
 use waam_layer::{Layer, SearchOptions};
@@ -231,4 +232,21 @@ fn from_a_carried_field_with_forbidden_moves_the_bound_holds_and_matches_enumera
     // Unconstrained from the same field, the optimum is at least as good.
     let free = waam_layer::search(&model, &SearchOptions::default());
     assert!(free.objective <= bb.objective * (1.0 + 1e-12));
+}
+
+/// Issue #18: a part's layers (`waam layer plan-part`) are held to the same memory limit,
+/// each before its search.
+#[test]
+fn a_part_with_a_1000_segment_layer_is_refused_by_the_memory_limit() {
+    let layer = Layer::parse(&grid_layer(22)).unwrap();
+    let t = Instant::now();
+    let err = match plan_part(&[(0.0, layer)], &Default::default(), |_, _| {}) {
+        Ok(_) => panic!("a 1,000-segment layer was searched"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        err.starts_with("layer 0 (grid22)") && err.contains("max_memory_mb = 1024"),
+        "{err}"
+    );
+    assert!(t.elapsed() < Duration::from_secs(15), "{:?}", t.elapsed());
 }
