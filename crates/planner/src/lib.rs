@@ -13,6 +13,7 @@ pub mod constructive;
 mod contour;
 pub mod cubes;
 pub mod encoding;
+mod lit;
 mod portfolio;
 mod prefix_cache;
 mod race;

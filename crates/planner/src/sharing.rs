@@ -13,7 +13,7 @@
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
-use crate::sat::Lit;
+use crate::lit::Lit;
 
 /// Every shared clause with the racer that learned it.
 #[derive(Default)]

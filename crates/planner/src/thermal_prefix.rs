@@ -22,8 +22,8 @@ use std::time::Instant;
 
 use waam_thermal::{Phase, Simulation, Snapshot, ThermalModel};
 
+use super::lit::Lit;
 use super::prefix_cache::{extend_key, snapshot_spacing, Key, SharedCache, EMPTY_KEY};
-use super::sat::Lit;
 use super::sharing::Sharing;
 use super::shortening::shorten;
 use waam_part::graph::WeldGraph;
