@@ -34,7 +34,7 @@ use super::{EXIT_INTERRUPTED, EXIT_NO, EXIT_OK};
 /// window broke (or no plan); 2: bad input; 130: stopped by Ctrl-C (`--node`: 0).
 #[derive(Debug, clap::Args)]
 pub struct SimCellArgs {
-    /// The part file (block part, shared part format).
+    /// The part file: a block part (shared part format) or a graph part (`waam slice`).
     pub part: PathBuf,
     /// How the true cell differs: `thermal:` keys, `height_factor`, `cut_short: {path,
     /// after}` (or a list), `sensors: {noise_c, seed}` (docs/closed-loop.md).

@@ -135,9 +135,6 @@ impl ClosedLoop {
         opts: LoopOptions,
         latency_s: f64,
     ) -> Result<ClosedLoop, CellError> {
-        if part.bead_part().is_some() {
-            return Err(CellError::GraphPart);
-        }
         let layers = part.layers().max(0) as usize;
         let mut left_in_layer = vec![0usize; layers];
         for i in 0..part.len() {
@@ -336,15 +333,23 @@ impl ClosedLoop {
         }
     }
 
-    /// The median z of the points that lie over a block of layer `z`.
+    /// The median z of the points that lie over a block of layer `z` (a graph part: within
+    /// half a bead width of a centre line of that layer).
     fn median_top(&self, z: usize, points: &[[f64; 3]]) -> Option<f64> {
         let [bx, by, _] = self.part.block_mm;
         let [ox, oy, _] = self.part.origin_mm;
-        let over = |p: &[f64; 3]| {
-            let (x, y) = (((p[0] - ox) / bx).floor(), ((p[1] - oy) / by).floor());
-            x.is_finite()
-                && y.is_finite()
-                && self.part.index_of([x as i64, y as i64, z as i64]).is_some()
+        let over = |p: &[f64; 3]| match self.part.bead_part() {
+            Some(beads) => beads
+                .beads
+                .iter()
+                .filter(|b| b.layer as usize == z)
+                .any(|b| b.distance_mm([p[0], p[1]]) <= beads.bead_mm[0] / 2.0),
+            None => {
+                let (x, y) = (((p[0] - ox) / bx).floor(), ((p[1] - oy) / by).floor());
+                x.is_finite()
+                    && y.is_finite()
+                    && self.part.index_of([x as i64, y as i64, z as i64]).is_some()
+            }
         };
         let mut zs: Vec<f64> = points
             .iter()

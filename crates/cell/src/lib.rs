@@ -57,8 +57,6 @@ impl Default for CellOptions {
 /// Why the cell could not run.
 #[derive(Debug, Error)]
 pub enum CellError {
-    #[error("the simulated cell takes block parts (a graph part has no block layers to scan)")]
-    GraphPart,
     #[error("re-planning the rest: {0}")]
     Rest(#[from] RestError),
     #[error("the execution left the plan: {0}")]

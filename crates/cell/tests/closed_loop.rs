@@ -198,3 +198,29 @@ fn a_stopped_run_reports_the_top_of_the_layers_it_finished() {
         executed.top_mm
     );
 }
+
+/// The bundled ring sliced into beads (a graph part: two rings a layer, 4 layers), without
+/// its window so that its best plan is proven at once.
+fn ring_beads() -> Part {
+    let text = include_str!("../../../tests/data/ring-beads.yaml");
+    let text = text.split("\nt85:").next().unwrap();
+    Part::of_beads(waam_part::BeadPart::parse(text).unwrap()).unwrap()
+}
+
+#[test]
+fn a_graph_part_runs_closed_loop_and_its_height_comes_back() {
+    let part = ring_beads();
+    let truth = "height_factor: 0.9\n";
+    let open = execute(&part, truth, false);
+    let closed = execute(&part, truth, true);
+    let nominal = 4.0 * 2.5;
+    assert!(
+        (open.top_mm - 0.9 * nominal).abs() < 1e-9,
+        "{}",
+        open.top_mm
+    );
+    assert!((closed.top_mm - nominal).abs() < 0.5, "{}", closed.top_mm);
+    assert_eq!(closed.layers.len(), 4);
+    assert!(closed.plans.len() > 1, "re-planned at its boundaries");
+    assert_every_block_once(&part, &closed, part.max_fragments);
+}

@@ -262,3 +262,41 @@ fn the_part_to_check_widens_the_windows_the_past_already_broke() {
         assert_eq!(*w == original, *i != first, "{:?}", part.block(*i));
     }
 }
+
+/// A graph part's layer scan: the points that lie on the layer's beads (within half a bead
+/// width of a centre line) measure it; points elsewhere (the ring's hollow) do not.
+#[test]
+fn a_scan_of_a_graph_part_measures_the_points_on_its_beads() {
+    let text = include_str!("../../../tests/data/ring-beads.yaml");
+    let text = text.split("\nt85:").next().unwrap();
+    let part = Part::of_beads(waam_part::BeadPart::parse(text).unwrap()).unwrap();
+    let plan = first_plan(&part);
+    let mut cl = ClosedLoop::new(&part, &plan, options(), 0.0).unwrap();
+    let layer0 = (0..part.len()).filter(|&i| part.block(i)[2] == 0).count();
+    let mut t = 0.0;
+    for _ in 0..layer0 {
+        let (b, new) = cl.next().unwrap();
+        assert_eq!(part.block(b)[2], 0, "the plan welds layer 0 first");
+        cl.deposited(b, new, t, 1.0).unwrap();
+        t += 1.0;
+    }
+    // The hollow inside the inner ring (r < 18) and the outer edge (r > 30) hold no bead.
+    let off = vec![[0.0, 0.0, 9.0], [5.0, 5.0, 9.0], [31.0, 0.0, 9.0]];
+    assert!(matches!(
+        cl.measured(&Measured::Scan {
+            stamp_s: t,
+            points: off.clone()
+        }),
+        Err(MeasureError::NoPoints { .. })
+    ));
+    // On the beads: the outer ring's centre line (r = 27) and the inner one's (r = 21).
+    let mut points = off;
+    points.extend((0..36).map(|i| {
+        let a = i as f64 * std::f64::consts::TAU / 36.0;
+        let r = if i % 2 == 0 { 27.0 } else { 21.0 };
+        [r * a.cos(), r * a.sin(), 2.25]
+    }));
+    cl.measured(&Measured::Scan { stamp_s: t, points }).unwrap();
+    let layer = cl.layers().last().expect("layer 0 measured");
+    assert!((layer.height_mm - 2.25).abs() < 1e-9, "{layer:?}");
+}

@@ -72,6 +72,30 @@ impl Bead {
         }
     }
 
+    /// The distance from `xy` to the centre line, mm (the closing segment of a closed bead
+    /// included): a point within W/2 of it lies on the bead.
+    pub fn distance_mm(&self, xy: [f64; 2]) -> f64 {
+        let to_segment = |a: [f64; 2], b: [f64; 2]| {
+            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+            let len2 = dx * dx + dy * dy;
+            let t = if len2 > 0.0 {
+                (((xy[0] - a[0]) * dx + (xy[1] - a[1]) * dy) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            (xy[0] - (a[0] + t * dx)).hypot(xy[1] - (a[1] + t * dy))
+        };
+        let n = self.points.len();
+        let closing = (self.closed && n > 1).then(|| [self.points[n - 1], self.points[0]]);
+        self.points
+            .windows(2)
+            .map(|w| [w[0], w[1]])
+            .chain(closing)
+            .chain((n == 1).then(|| [self.points[0], self.points[0]]))
+            .map(|[a, b]| to_segment(a, b))
+            .fold(f64::INFINITY, f64::min)
+    }
+
     /// The centre line from arc length `from_mm` to `to_mm` (clamped to the line, from
     /// <= to): the point at each end and the vertices between, in order. A node's piece
     /// (its footprint's spine, for torch access and clearance).

@@ -55,8 +55,6 @@ pub enum SimCellError {
     Env(#[from] crate::node::ros::RosEnvError),
     #[error(transparent)]
     Io(#[from] crate::node::io::IoError),
-    #[error("the simulated cell takes block parts (a graph part has no block layers to scan)")]
-    GraphPart,
 }
 
 /// One weld path of the planner's plan: its deposits (part indices) and when each starts,
@@ -113,9 +111,6 @@ pub fn run(
     options: &SimCellOptions,
     stop: Arc<AtomicBool>,
 ) -> Result<(), SimCellError> {
-    if part.bead_part().is_some() {
-        return Err(SimCellError::GraphPart);
-    }
     let env = RosEnv::from_env()?;
     let names = &options.names;
     let mut node = start_node(&env, names)?;

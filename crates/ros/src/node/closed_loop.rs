@@ -140,8 +140,7 @@ pub struct Replanner {
 }
 
 impl Replanner {
-    /// The loop of an execution of `planned` (block parts only: a graph part has no block
-    /// layers to scan).
+    /// The loop of an execution of `planned` (a block part or a graph part).
     pub fn new(planned: &Planned, setup: ReplanSetup) -> Result<Replanner, CellError> {
         let opts = LoopOptions {
             planner: setup.planner.clone(),
