@@ -129,6 +129,7 @@ fn execute_closed(
         cell: cell.clone(),
         planner: waam_planner::Options::default(),
         wire_feed,
+        scan_margin_mm: 5.0,
     };
     let run = ClosedLoopRun { setup, readings };
     run_plan(
