@@ -1462,4 +1462,48 @@ fn closed_loop_dry_run_decides_at_the_weld_path_boundary_and_records_it() {
     // No readings: the nominal model, fitted to nothing.
     assert_eq!(value(r, "loss_factor").as_deref(), Some("1.0000"));
     assert!(statuses.iter().any(|s| s.message == "part 1: executed"));
+
+    // `waam replay` makes the decision again from the recording (the plan was given with
+    // --plan, not planned: only the decisions are compared).
+    let replay = |bag: &Path| {
+        let out = common::run::waam()
+            .args(["replay", "--json", "--decisions-only"])
+            .arg(bag)
+            .output()
+            .unwrap();
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout)
+            .unwrap_or_else(|_| panic!("no JSON: {}", String::from_utf8_lossy(&out.stderr)));
+        (out.status.code(), json)
+    };
+    let (code, json) = replay(&bag_dir);
+    assert_eq!(code, Some(0), "{json}");
+    assert_eq!(json["decisions_identical"], 1, "{json}");
+    assert_eq!(
+        json["decisions"][0]["recorded_reason"],
+        reason.as_str(),
+        "{json}"
+    );
+    // The recorded decision's plan altered: its last two blocks swapped.
+    let doctored = tmp.path().join("doctored");
+    common::run::copy_bag(&bag_dir, &doctored, |topic, data| {
+        if !topic.ends_with("/status") {
+            return Some(data.to_vec());
+        }
+        let mut msg: DiagnosticArray = waam_rosmsg::from_cdr(data).unwrap();
+        for kv in msg.status.iter_mut().flat_map(|s| s.values.iter_mut()) {
+            if kv.key == "loop.fragments" {
+                let mut plan: Vec<Vec<[i64; 3]>> = serde_json::from_str(&kv.value).unwrap();
+                let last = plan.last_mut().unwrap();
+                let n = last.len();
+                last.swap(n - 1, n - 2);
+                kv.value = serde_json::to_string(&plan).unwrap();
+            }
+        }
+        Some(waam_rosmsg::to_cdr(&msg).unwrap())
+    });
+    let (code, json) = replay(&doctored);
+    assert_eq!(code, Some(1), "{json}");
+    assert_eq!(json["decisions_different"], 1, "{json}");
+    let details = json["decisions"][0]["details"].to_string();
+    assert!(details.contains("first differing block"), "{details}");
 }
