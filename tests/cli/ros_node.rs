@@ -368,6 +368,26 @@ fn rclpy_sensor_readings_reach_the_closed_loop_and_its_decision_is_recorded() {
     let plans: Vec<waam_rosmsg::waam_interfaces::WeldPlan> = recording.decode().unwrap();
     assert!(plans.len() >= 2, "{} weld plans recorded", plans.len());
     assert_ne!(plans[0].fragments, plans.last().unwrap().fragments);
+    // `waam replay` makes each decision again from the recorded temperatures: the same
+    // readings, estimate and plan.
+    let out = common::run::waam()
+        .args(["replay", "--json", "--decisions-only"])
+        .arg(&bag)
+        .output()
+        .unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|_| panic!("no JSON: {}", String::from_utf8_lossy(&out.stderr)));
+    assert_eq!(out.status.code(), Some(0), "{json}");
+    assert_eq!(json["decisions_different"], 0, "{json}");
+    assert_eq!(json["decisions_not_reproducible"], 0, "{json}");
+    assert_eq!(json["decisions_identical"], replanned.len(), "{json}");
+    assert_eq!(json["decisions"][0]["recorded_reason"], "replan", "{json}");
+    assert_eq!(
+        json["decisions"][0]["readings"].as_u64().unwrap(),
+        value("readings_used").parse::<u64>().unwrap()
+            + value("readings_ignored").parse::<u64>().unwrap(),
+        "{json}"
+    );
 }
 
 /// The simulated cell as a node (#31, sim_cell_node.py): `waam sim-cell --node` publishes the
