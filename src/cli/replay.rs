@@ -35,8 +35,20 @@ use super::{EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_NO, EXIT_OK};
 /// DIFFERENT with the fragments, the first differing block and the statistics that changed
 /// (candidates, feasible plans, learned clauses; never times). A truncated recording (a killed
 /// process) is read up to its last complete chunk and said to be truncated.
-/// Exit code 0: every compared plan is identical; 1: a difference, or `--timeout` came
-/// first; 2: bad input (unreadable bag, no parts in it); 130: stopped by Ctrl-C.
+///
+/// Closed loop: every execution the node ran with `closed_loop.enabled` is re-run decision
+/// by decision, on the part its job received and the plan it executed, from what each
+/// `replanned` status records (`loop.*`: the deposits' times, the boundary's time, which
+/// readings had come, by stamp and value) and the recorded Temperature and PointCloud2
+/// messages themselves. Each decision is IDENTICAL or DIFFERENT (the loop's decision, the
+/// estimate's factors and rms errors bit for bit, the new plan's fragments), or NOT
+/// REPRODUCIBLE with the reason (a reading missing from the recording, a re-plan that the
+/// node's time limit cut short). The node's robot-motion check of a new plan is not re-run:
+/// the loop follows what the node did.
+///
+/// Exit code 0: every compared plan and decision is identical; 1: a difference, or
+/// `--timeout` came first; 2: bad input (unreadable bag, nothing to compare in it); 130:
+/// stopped by Ctrl-C.
 #[derive(Debug, clap::Args)]
 pub struct ReplayArgs {
     /// The recording: a bag directory (with metadata.yaml) or an .mcap file.
