@@ -724,6 +724,63 @@ pub fn received_job(values: &[(String, String)]) -> Vec<u64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use waam_rosmsg::std_msgs::Header;
+
+    /// A scan is taken again from its recorded cloud as the node took it (part frame,
+    /// points off the part dropped); one the recording lacks, or that gives other points,
+    /// is said to be so.
+    #[test]
+    fn a_recorded_scan_is_placed_again_as_the_node_placed_it() {
+        let part =
+            Part::parse("name: w\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nlayers:\n  - \"###\"\n")
+                .unwrap();
+        let stamp = Time::from_nanos(1_800_000_000_123_456_789);
+        let mut cloud = crate::scan::cloud(
+            &[
+                [0.003, 0.003, 0.00225],
+                [0.009, 0.003, 0.0023],
+                [0.5, 0.5, 0.0],
+            ],
+            PART_FRAME,
+        );
+        cloud.header = Header::new(stamp, PART_FRAME);
+        let target = ScanTarget::of_part(&part, "base_link", Isometry3::identity());
+        let node = sensor::scan(
+            &cloud,
+            Some(&target),
+            &TfBuffer::default(),
+            10.0,
+            stamp,
+            1.0,
+        )
+        .unwrap()
+        .measured();
+        let mut sensors = Sensors {
+            raw: vec![Raw::Scan(cloud)],
+            used: vec![false],
+            frames: TfBuffer::default(),
+            base_link: None,
+        };
+        let r = ReadingRef::of(&node);
+        assert_eq!(
+            r,
+            ReadingRef::Scan {
+                stamp_s: stamp_s(stamp),
+                points: 2
+            }
+        );
+        assert_eq!(sensors.take(&r, &part, 10.0).unwrap(), node);
+        // Each recorded message is taken once.
+        let e = sensors.take(&r, &part, 10.0).unwrap_err();
+        assert!(e.contains("not in the recording"), "{e}");
+        sensors.used[0] = false;
+        let other = ReadingRef::Scan {
+            stamp_s: stamp_s(stamp),
+            points: 3,
+        };
+        let e = sensors.take(&other, &part, 10.0).unwrap_err();
+        assert!(e.contains("gives 2 points"), "{e}");
+    }
 
     #[test]
     fn a_boundary_record_reads_back_exactly() {
