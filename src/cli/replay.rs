@@ -521,7 +521,7 @@ fn recorded_outcome(b: &decisions::RecordedBoundary) -> String {
         "unchanged" => "the remainder unchanged".to_string(),
         "kept" => "the current plan kept".to_string(),
         _ => format!(
-            "{}: the new plan of {} weld path(s) taken",
+            "{}: a new plan of {} weld path(s) in all taken",
             b.reason,
             r.fragments.len()
         ),
@@ -608,6 +608,12 @@ fn decisions_json(decided: &[Decided]) -> Vec<serde_json::Value> {
                     "loss_factor": b.record.estimate[0],
                     "conduction_factor": b.record.estimate[1],
                     "readings": b.record.readings.len(),
+                    // The re-run's own estimate and plan size, when it ran.
+                    "rerun": r.new.map(|(loss, conduction, weld_paths)| json!({
+                        "loss_factor": loss,
+                        "conduction_factor": conduction,
+                        "weld_paths": weld_paths,
+                    })),
                     "verdict": verdict,
                     "details": details,
                 })
