@@ -363,14 +363,34 @@ fn a_recorded_closed_loop_execution_replays_its_decisions_identically() {
     assert_eq!(first.record.readings.len(), 12);
     assert!((first.record.estimate[0] - 0.75).abs() < 0.02);
 
+    // A copy of the recording, each message passed through `doctor` (None: left out).
+    let copy = |to: &std::path::Path, doctor: &mut dyn FnMut(&str, Vec<u8>) -> Option<Vec<u8>>| {
+        let recorder = Recorder::create(to).unwrap();
+        for m in &bag.messages {
+            let t = bag.topic_of(m);
+            let Some(data) = doctor(&t.name, m.data.clone()) else {
+                continue;
+            };
+            recorder
+                .record_raw(
+                    &t.name,
+                    &t.type_name,
+                    &t.definition,
+                    &t.type_hash,
+                    &t.offered_qos,
+                    m.log_time,
+                    &data,
+                )
+                .unwrap();
+        }
+        recorder.finish().unwrap();
+        Bag::open(to).unwrap()
+    };
+
     // The same recording with the first decision's loss factor altered in its status.
-    let doctored = tmp.path().join("doctored");
-    let altered = Recorder::create(&doctored).unwrap();
     let mut done = false;
-    for m in &bag.messages {
-        let t = bag.topic_of(m);
-        let mut data = m.data.clone();
-        if t.name == topics::STATUS && !done {
+    let doctored = copy(&tmp.path().join("doctored"), &mut |topic, mut data| {
+        if topic == topics::STATUS && !done {
             let mut msg: waam_rosmsg::diagnostic_msgs::DiagnosticArray =
                 waam_rosmsg::from_cdr(&data).unwrap();
             for kv in msg.status.iter_mut().flat_map(|s| s.values.iter_mut()) {
@@ -383,21 +403,10 @@ fn a_recorded_closed_loop_execution_replays_its_decisions_identically() {
             }
             data = waam_rosmsg::to_cdr(&msg).unwrap();
         }
-        altered
-            .record_raw(
-                &t.name,
-                &t.type_name,
-                &t.definition,
-                &t.type_hash,
-                &t.offered_qos,
-                m.log_time,
-                &data,
-            )
-            .unwrap();
-    }
-    altered.finish().unwrap();
+        Some(data)
+    });
     assert!(done);
-    let reports = replay(&Bag::open(&doctored).unwrap());
+    let reports = replay(&doctored);
     let DecisionVerdict::Different(d) = &reports[0].verdict else {
         panic!("{:?}", reports[0]);
     };
@@ -410,6 +419,24 @@ fn a_recorded_closed_loop_execution_replays_its_decisions_identically() {
     assert!(reports[1..]
         .iter()
         .all(|r| r.verdict == DecisionVerdict::Identical));
+
+    // A reading the status names left out of the recording: not reproducible, and said so.
+    let mut dropped = false;
+    let lacking = copy(&tmp.path().join("lacking"), &mut |topic, data| {
+        if topic == TEMPERATURE && !dropped {
+            dropped = true;
+            return None;
+        }
+        Some(data)
+    });
+    let reports = replay(&lacking);
+    let DecisionVerdict::NotReproducible(why) = &reports[0].verdict else {
+        panic!("{:?}", reports[0]);
+    };
+    assert!(why.contains("not in the recording"), "{why}");
+    assert!(reports
+        .iter()
+        .all(|r| matches!(r.verdict, DecisionVerdict::NotReproducible(_))));
 }
 
 #[test]
