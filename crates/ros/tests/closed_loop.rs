@@ -326,6 +326,9 @@ fn hotter_deposits_than_the_model_re_plan_the_rest_at_a_weld_path_boundary() {
     assert!(verdict(&last.found.fragments[welded..]).is_none());
 }
 
+/// What becomes of a recorded message (topic, CDR) in a copy of a recording; None: left out.
+type Doctor<'a> = dyn FnMut(&str, Vec<u8>) -> Option<Vec<u8>> + 'a;
+
 /// Issue #31: the recording of a closed-loop execution (the pyrometer's messages, the
 /// statuses with their boundary records) re-runs every decision identically offline; a
 /// recorded decision altered is found different.
@@ -364,7 +367,7 @@ fn a_recorded_closed_loop_execution_replays_its_decisions_identically() {
     assert!((first.record.estimate[0] - 0.75).abs() < 0.02);
 
     // A copy of the recording, each message passed through `doctor` (None: left out).
-    let copy = |to: &std::path::Path, doctor: &mut dyn FnMut(&str, Vec<u8>) -> Option<Vec<u8>>| {
+    let copy = |to: &std::path::Path, doctor: &mut Doctor| {
         let recorder = Recorder::create(to).unwrap();
         for m in &bag.messages {
             let t = bag.topic_of(m);
