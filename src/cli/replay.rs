@@ -608,6 +608,12 @@ fn decisions_json(decided: &[Decided]) -> Vec<serde_json::Value> {
                     "loss_factor": b.record.estimate[0],
                     "conduction_factor": b.record.estimate[1],
                     "readings": b.record.readings.len(),
+                    "scans": b
+                        .record
+                        .readings
+                        .iter()
+                        .filter(|r| matches!(r, decisions::ReadingRef::Scan { .. }))
+                        .count(),
                     // The re-run's own estimate and plan size, when it ran.
                     "rerun": r.new.map(|(loss, conduction, weld_paths)| json!({
                         "loss_factor": loss,
