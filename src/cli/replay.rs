@@ -272,6 +272,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
             part: case.map_or(0, |c| c + 1),
             job: execution.job,
             reports,
+            unreadable: execution.unreadable.clone(),
         });
     }
     let decision_count = |f: fn(&DecisionVerdict) -> bool| {
@@ -283,7 +284,8 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     };
     let d_identical = decision_count(|v| *v == DecisionVerdict::Identical);
     let d_different = decision_count(|v| matches!(v, DecisionVerdict::Different(_)));
-    let d_skipped = decision_count(|v| matches!(v, DecisionVerdict::NotReproducible(_)));
+    let d_skipped = decision_count(|v| matches!(v, DecisionVerdict::NotReproducible(_)))
+        + decided.iter().map(|d| d.unreadable.len()).sum::<usize>();
     let different = reports
         .iter()
         .filter(|r| matches!(r.verdict, Verdict::Different(_)))
@@ -389,8 +391,13 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     if identical + different + d_identical + d_different == 0 {
         // A truncated recording can leave parts without outcomes: nothing was checked, so
         // this is not a pass.
+        let decisions_note = if d_skipped > 0 {
+            format!(", all {d_skipped} closed-loop decision(s) not reproducible")
+        } else {
+            String::new()
+        };
         eprintln!(
-            "error: {}: nothing to compare: all {} part(s) skipped",
+            "error: {}: nothing to compare: all {} part(s) skipped{decisions_note}",
             args.bag.display(),
             reports.len()
         );
@@ -499,6 +506,8 @@ struct Decided {
     part: usize,
     job: u64,
     reports: Vec<DecisionReport>,
+    /// Recorded decisions whose record is missing or does not read, and why.
+    unreadable: Vec<String>,
 }
 
 /// Every boundary of `execution`, not re-run, and why.
@@ -540,9 +549,13 @@ fn print_decisions(decided: &[Decided]) {
         execution,
         part: case,
         reports,
+        unreadable,
         ..
     } in decided
     {
+        for why in unreadable {
+            println!("execution {execution} (part {case}), a decision: NOT REPRODUCIBLE: {why}");
+        }
         for r in reports {
             let b = &r.boundary;
             let what = format!(
@@ -584,7 +597,16 @@ fn decisions_json(decided: &[Decided]) -> Vec<serde_json::Value> {
     decided
         .iter()
         .flat_map(|d| {
-            d.reports.iter().map(move |r| {
+            let unreadable = d.unreadable.iter().map(move |why| {
+                json!({
+                    "execution": d.execution,
+                    "part": d.part,
+                    "job": d.job,
+                    "verdict": "not_reproducible",
+                    "details": [why],
+                })
+            });
+            unreadable.chain(d.reports.iter().map(move |r| {
                 let b = &r.boundary;
                 let (verdict, details) = match &r.verdict {
                     DecisionVerdict::Identical => ("identical", vec![]),
@@ -623,7 +645,7 @@ fn decisions_json(decided: &[Decided]) -> Vec<serde_json::Value> {
                     "verdict": verdict,
                     "details": details,
                 })
-            })
+            }))
         })
         .collect()
 }

@@ -423,6 +423,40 @@ fn a_recorded_closed_loop_execution_replays_its_decisions_identically() {
         .iter()
         .all(|r| r.verdict == DecisionVerdict::Identical));
 
+    // A record that does not read: said so, never dropped silently; the decisions after it
+    // cannot be re-run without the plan it held.
+    let garbled = copy(&tmp.path().join("garbled"), &mut |topic, data| {
+        if topic != topics::STATUS {
+            return Some(data);
+        }
+        let mut msg: waam_rosmsg::diagnostic_msgs::DiagnosticArray =
+            waam_rosmsg::from_cdr(&data).unwrap();
+        for kv in msg.status.iter_mut().flat_map(|s| s.values.iter_mut()) {
+            if kv.key == "loop.plan" {
+                kv.value = "[[[0, 0".into();
+            }
+        }
+        Some(waam_rosmsg::to_cdr(&msg).unwrap())
+    });
+    let (executions, mut sensors) = decisions::recorded_executions(&garbled).unwrap();
+    assert_eq!(executions.len(), 1);
+    assert_eq!(executions[0].unreadable.len(), 1);
+    assert!(
+        executions[0].unreadable[0].contains("loop.plan"),
+        "{:?}",
+        executions[0].unreadable
+    );
+    let reports = decisions::replay_execution(
+        &executions[0],
+        &part,
+        &waam_planner::Options::default(),
+        &mut sensors,
+    );
+    assert_eq!(reports.len(), boundaries - 1);
+    assert!(reports
+        .iter()
+        .all(|r| matches!(r.verdict, DecisionVerdict::NotReproducible(_))));
+
     // A reading the status names left out of the recording: not reproducible, and said so.
     let mut dropped = false;
     let lacking = copy(&tmp.path().join("lacking"), &mut |topic, data| {

@@ -257,11 +257,13 @@ pub struct RecordedBoundary {
     pub record: BoundaryRecord,
 }
 
-/// One execution that ran closed loop: its job and boundaries in order.
+/// One execution that ran closed loop: its job and boundaries in order, and the `replanned`
+/// statuses of its job whose boundary record is missing (an older node) or does not read.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RecordedExecution {
     pub job: u64,
     pub boundaries: Vec<RecordedBoundary>,
+    pub unreadable: Vec<String>,
 }
 
 /// A sensor message as recorded.
@@ -345,14 +347,35 @@ pub fn recorded_executions(bag: &Bag) -> Result<(Vec<RecordedExecution>, Sensors
                     if value("state").as_deref() != Some("replanned") {
                         continue;
                     }
-                    let record = match BoundaryRecord::from_values(&values) {
-                        Ok(Some(r)) => r,
-                        // A recording made before boundaries were recorded, or damaged:
-                        // nothing to re-run.
-                        Ok(None) | Err(_) => continue,
-                    };
                     let Some(job) = value("job").and_then(|j| j.parse().ok()) else {
                         continue;
+                    };
+                    let record = match BoundaryRecord::from_values(&values) {
+                        Ok(Some(r)) => Ok(r),
+                        Ok(None) => Err(format!(
+                            "the replanned status at {} ns holds no boundary record (loop.*): \
+                             recorded by a node that did not record its decisions",
+                            m.log_time
+                        )),
+                        Err(e) => Err(format!(
+                            "the replanned status at {} ns: its boundary record does not read: {e}",
+                            m.log_time
+                        )),
+                    };
+                    let record = match record {
+                        Ok(r) => r,
+                        Err(why) => {
+                            let first = value("loop.boundary").as_deref() == Some("1");
+                            match executions.iter_mut().rev().find(|e| e.job == job) {
+                                Some(e) if !first => e.unreadable.push(why),
+                                _ => executions.push(RecordedExecution {
+                                    job,
+                                    boundaries: Vec::new(),
+                                    unreadable: vec![why],
+                                }),
+                            }
+                            continue;
+                        }
                     };
                     let boundary = RecordedBoundary {
                         log_time: m.log_time,
@@ -362,10 +385,13 @@ pub fn recorded_executions(bag: &Bag) -> Result<(Vec<RecordedExecution>, Sensors
                         record,
                     };
                     match executions.iter_mut().rev().find(|e| e.job == job) {
-                        Some(e) if boundary.record.boundary > 1 => e.boundaries.push(boundary),
+                        Some(e) if boundary.record.boundary > 1 || e.boundaries.is_empty() => {
+                            e.boundaries.push(boundary)
+                        }
                         _ => executions.push(RecordedExecution {
                             job,
                             boundaries: vec![boundary],
+                            unreadable: Vec::new(),
                         }),
                     }
                 }
