@@ -43,8 +43,9 @@ use super::{EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_NO, EXIT_OK};
 /// messages themselves. Each decision is IDENTICAL or DIFFERENT (the loop's decision, the
 /// estimate's factors and rms errors bit for bit, the new plan's fragments), or NOT
 /// REPRODUCIBLE with the reason (a reading missing from the recording, a re-plan that the
-/// node's time limit cut short). The node's robot-motion check of a new plan is not re-run:
-/// the loop follows what the node did.
+/// node's time limit cut short, a status without a readable record). The node's robot-motion
+/// check of a new plan is not re-run: the loop follows what the node did. `--decisions-only`
+/// skips re-planning the parts.
 ///
 /// Exit code 0: every compared plan and decision is identical; 1: a difference, or
 /// `--timeout` came first; 2: bad input (unreadable bag, nothing to compare in it); 130:
