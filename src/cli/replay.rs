@@ -12,6 +12,7 @@ use waam_messages::convert::statistics;
 use waam_messages::planning::{
     mesh_settings_from_values, options_from, PlanningRecorder, RecordError,
 };
+use waam_messages::replay::decisions::{self, DecisionReport, DecisionVerdict};
 use waam_messages::replay::{self, CaseInput, Replanned, Verdict};
 use waam_part::writer;
 use waam_part::Part;
@@ -34,8 +35,21 @@ use super::{EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_NO, EXIT_OK};
 /// DIFFERENT with the fragments, the first differing block and the statistics that changed
 /// (candidates, feasible plans, learned clauses; never times). A truncated recording (a killed
 /// process) is read up to its last complete chunk and said to be truncated.
-/// Exit code 0: every compared plan is identical; 1: a difference, or `--timeout` came
-/// first; 2: bad input (unreadable bag, no parts in it); 130: stopped by Ctrl-C.
+///
+/// Closed loop: every execution the node ran with `closed_loop.enabled` is re-run decision
+/// by decision, on the part its job received and the plan it executed, from what each
+/// `replanned` status records (`loop.*`: the deposits' times, the boundary's time, which
+/// readings had come, by stamp and value) and the recorded Temperature and PointCloud2
+/// messages themselves. Each decision is IDENTICAL or DIFFERENT (the loop's decision, the
+/// estimate's factors and rms errors bit for bit, the new plan's fragments), or NOT
+/// REPRODUCIBLE with the reason (a reading missing from the recording, a re-plan that the
+/// node's time limit cut short, a status without a readable record). The node's robot-motion
+/// check of a new plan is not re-run: the loop follows what the node did. `--decisions-only`
+/// skips re-planning the parts.
+///
+/// Exit code 0: every compared plan and decision is identical; 1: a difference, or
+/// `--timeout` came first; 2: bad input (unreadable bag, nothing to compare in it); 130:
+/// stopped by Ctrl-C.
 #[derive(Debug, clap::Args)]
 pub struct ReplayArgs {
     /// The recording: a bag directory (with metadata.yaml) or an .mcap file.
@@ -46,6 +60,10 @@ pub struct ReplayArgs {
     /// Compare only the plans, not the planner's statistics.
     #[arg(long)]
     pub plans_only: bool,
+    /// Re-run only the closed loop's decisions, not the parts' plans (e.g. a recording of
+    /// `waam publish --plan`, whose plan is not the planner's).
+    #[arg(long, conflicts_with_all = ["record", "plans_only"])]
+    pub decisions_only: bool,
     /// Re-plan with this max_fragments (k) instead of the recorded setting (or the part's own).
     #[arg(long, value_name = "K", value_parser = super::at_least_one)]
     pub max_fragments: Option<usize>,
@@ -58,7 +76,7 @@ pub struct ReplayArgs {
     /// Instead of re-planning, play the recorded messages back to ROS 2 topics with their
     /// original timing and QoS (a dry run of a past session). Honours ROS_DOMAIN_ID and
     /// ROS_AUTOMATIC_DISCOVERY_RANGE / ROS_LOCALHOST_ONLY.
-    #[arg(long, conflicts_with_all = ["record", "plans_only", "max_fragments"])]
+    #[arg(long, conflicts_with_all = ["record", "plans_only", "max_fragments", "decisions_only"])]
     pub publish: bool,
     /// With --publish: play this many times faster than recorded.
     #[arg(long, default_value_t = 1.0, requires = "publish")]
@@ -102,6 +120,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
         return publish(&args, &bag);
     }
     let cases = replay::recorded_cases(&bag)?;
+    let (executions, mut sensors) = decisions::recorded_executions(&bag)?;
     if cases.is_empty() {
         let layer_note = if bag.count(waam_messages::topics::LAYER) > 0 {
             "; it is a layer recording (`waam layer plan --record`), which replay does not \
@@ -144,6 +163,9 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
         || interrupted.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d);
     let mut record_error = None;
     let reports = replay::replay(cases, !args.plans_only, |case| {
+        if args.decisions_only {
+            return Replanned::Unsupported("not re-planned (--decisions-only)".into());
+        }
         if stopped() {
             return Replanned::Unsupported(STOPPED.into());
         }
@@ -156,37 +178,9 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
             },
             Err(e) => return Replanned::Unsupported(e.to_string()),
         };
-        // A mesh is voxelized (or sliced into beads) with the settings the node recorded
-        // when it received it.
-        let (part, text) = match &case.input {
-            CaseInput::PartText(text) => match read_document(text) {
-                Ok(part) => (part, text.clone()),
-                Err(e) => return Replanned::NoPlan(format!("bad part: {e}")),
-            },
-            CaseInput::Mesh(mesh) => {
-                let (settings, name) = match mesh_settings_from_values(&case.status_values) {
-                    Ok(Some(found)) => found,
-                    Ok(None) => {
-                        return Replanned::Unsupported(
-                            "a mesh recorded without the node's voxelizing settings \
-                             (mesh.block_mm ...)"
-                                .into(),
-                        )
-                    }
-                    Err(e) => return Replanned::Unsupported(e.to_string()),
-                };
-                let (vertices, triangles) = mesh_arrays(mesh);
-                match settings.part_of_mesh(name, &vertices, &triangles) {
-                    Ok(part) => {
-                        let text = match part.bead_part() {
-                            Some(beads) => beads.to_yaml(),
-                            None => writer::to_yaml(&part),
-                        };
-                        (part, text)
-                    }
-                    Err(e) => return Replanned::NoPlan(e.to_string()),
-                }
-            }
+        let (part, text) = match case_part(case) {
+            Ok(found) => found,
+            Err(why) => return why,
         };
         let mut planning = recorder.as_ref().and_then(|r| {
             PlanningRecorder::start(r, &text, &part.name, &opts)
@@ -239,6 +233,60 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
             summary.dir.display()
         );
     }
+    // The closed loop's decisions: each execution re-run on the part its job received.
+    let mut decided: Vec<Decided> = Vec::new();
+    for (n, execution) in executions.iter().enumerate() {
+        let case = reports
+            .iter()
+            .map(|r| &r.case)
+            .position(|c| decisions::received_job(&c.status_values).contains(&execution.job));
+        let part = case
+            .ok_or_else(|| {
+                format!(
+                    "the recording holds no part received as job {}",
+                    execution.job
+                )
+            })
+            .and_then(|c| {
+                case_part(&reports[c].case)
+                    .map(|(p, _)| p)
+                    .map_err(|e| match e {
+                        Replanned::NoPlan(why) | Replanned::Unsupported(why) => why,
+                        Replanned::Plan { .. } => unreachable!("case_part gives no plan"),
+                    })
+            });
+        let reports = match (&part, stopped()) {
+            (_, true) => not_reproducible(execution, STOPPED),
+            (Ok(part), false) => {
+                // As the node re-plans (`closed_loop.enabled`): the planner's defaults;
+                // its time limit is not applied offline.
+                let planner = Options {
+                    cancel: Some(Arc::clone(&interrupted)),
+                    ..Options::default()
+                };
+                decisions::replay_execution(execution, part, &planner, &mut sensors)
+            }
+            (Err(why), false) => not_reproducible(execution, why),
+        };
+        decided.push(Decided {
+            execution: n + 1,
+            part: case.map_or(0, |c| c + 1),
+            job: execution.job,
+            reports,
+            unreadable: execution.unreadable.clone(),
+        });
+    }
+    let decision_count = |f: fn(&DecisionVerdict) -> bool| {
+        decided
+            .iter()
+            .flat_map(|d| &d.reports)
+            .filter(|r| f(&r.verdict))
+            .count()
+    };
+    let d_identical = decision_count(|v| *v == DecisionVerdict::Identical);
+    let d_different = decision_count(|v| matches!(v, DecisionVerdict::Different(_)));
+    let d_skipped = decision_count(|v| matches!(v, DecisionVerdict::NotReproducible(_)))
+        + decided.iter().map(|d| d.unreadable.len()).sum::<usize>();
     let different = reports
         .iter()
         .filter(|r| matches!(r.verdict, Verdict::Different(_)))
@@ -277,6 +325,10 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
                 "different": different,
                 "skipped": skipped,
                 "cases": cases,
+                "decisions_identical": d_identical,
+                "decisions_different": d_different,
+                "decisions_not_reproducible": d_skipped,
+                "decisions": decisions_json(&decided),
             })
         );
     } else {
@@ -303,6 +355,7 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
                 Verdict::Skipped(why) => println!("{what}: SKIPPED: {why}"),
             }
         }
+        print_decisions(&decided);
         println!(
             "{} part(s): {identical} identical, {different} different, {skipped} skipped{}",
             reports.len(),
@@ -312,6 +365,13 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
                 ""
             }
         );
+        if !decided.is_empty() {
+            println!(
+                "{} closed-loop decision(s): {d_identical} identical, {d_different} different, \
+                 {d_skipped} not reproducible",
+                d_identical + d_different + d_skipped
+            );
+        }
     }
     let cut = reports
         .iter()
@@ -329,17 +389,22 @@ pub fn run(args: ReplayArgs) -> anyhow::Result<ExitCode> {
         );
         return Ok(ExitCode::from(code));
     }
-    if identical + different == 0 {
+    if identical + different + d_identical + d_different == 0 {
         // A truncated recording can leave parts without outcomes: nothing was checked, so
         // this is not a pass.
+        let decisions_note = if d_skipped > 0 {
+            format!(", all {d_skipped} closed-loop decision(s) not reproducible")
+        } else {
+            String::new()
+        };
         eprintln!(
-            "error: {}: nothing to compare: all {} part(s) skipped",
+            "error: {}: nothing to compare: all {} part(s) skipped{decisions_note}",
             args.bag.display(),
             reports.len()
         );
         return Ok(ExitCode::from(EXIT_BAD_INPUT));
     }
-    Ok(ExitCode::from(if different > 0 {
+    Ok(ExitCode::from(if different + d_different > 0 {
         EXIT_NO
     } else {
         EXIT_OK
@@ -377,6 +442,42 @@ fn publish(args: &ReplayArgs, bag: &Bag) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::from(EXIT_OK))
 }
 
+/// The part a recorded case received, and its document; or why not (as replay's outcome).
+/// A mesh is voxelized (or sliced into beads) with the settings the node recorded when it
+/// received it.
+fn case_part(case: &replay::RecordedCase) -> Result<(Part, String), Replanned> {
+    match &case.input {
+        CaseInput::PartText(text) => match read_document(text) {
+            Ok(part) => Ok((part, text.clone())),
+            Err(e) => Err(Replanned::NoPlan(format!("bad part: {e}"))),
+        },
+        CaseInput::Mesh(mesh) => {
+            let (settings, name) = match mesh_settings_from_values(&case.status_values) {
+                Ok(Some(found)) => found,
+                Ok(None) => {
+                    return Err(Replanned::Unsupported(
+                        "a mesh recorded without the node's voxelizing settings \
+                         (mesh.block_mm ...)"
+                            .into(),
+                    ))
+                }
+                Err(e) => return Err(Replanned::Unsupported(e.to_string())),
+            };
+            let (vertices, triangles) = mesh_arrays(mesh);
+            match settings.part_of_mesh(name, &vertices, &triangles) {
+                Ok(part) => {
+                    let text = match part.bead_part() {
+                        Some(beads) => beads.to_yaml(),
+                        None => writer::to_yaml(&part),
+                    };
+                    Ok((part, text))
+                }
+                Err(e) => Err(Replanned::NoPlan(e.to_string())),
+            }
+        }
+    }
+}
+
 /// A recorded part document: a block part or a graph part of beads.
 fn read_document(text: &str) -> Result<Part, waam_pipeline::PipelineError> {
     // Mesh settings do not matter for a document.
@@ -397,4 +498,155 @@ fn part_name(input: &CaseInput) -> String {
             .unwrap_or_else(|_| "unreadable part".into()),
         CaseInput::Mesh(m) => format!("mesh of {} triangles", m.triangles.len()),
     }
+}
+
+/// The re-run decisions of one recorded execution: its number in the recording, the part
+/// (1-based, as printed; 0: not found) and job it executed.
+struct Decided {
+    execution: usize,
+    part: usize,
+    job: u64,
+    reports: Vec<DecisionReport>,
+    /// Recorded decisions whose record is missing or does not read, and why.
+    unreadable: Vec<String>,
+}
+
+/// Every boundary of `execution`, not re-run, and why.
+fn not_reproducible(execution: &decisions::RecordedExecution, why: &str) -> Vec<DecisionReport> {
+    execution
+        .boundaries
+        .iter()
+        .map(|b| DecisionReport {
+            boundary: b.clone(),
+            verdict: DecisionVerdict::NotReproducible(why.to_string()),
+            new: None,
+        })
+        .collect()
+}
+
+/// What the node did at a boundary, as recorded.
+fn recorded_outcome(b: &decisions::RecordedBoundary) -> String {
+    let r = &b.record;
+    let what = match b.reason.as_str() {
+        "unchanged" => "the remainder unchanged".to_string(),
+        "kept" => "the current plan kept".to_string(),
+        _ => format!(
+            "{}: a new plan of {} weld path(s) in all taken",
+            b.reason,
+            r.fragments.len()
+        ),
+    };
+    format!(
+        "{what}; loss x{:.4}, conduction x{:.4}, {} reading(s)",
+        r.estimate[0],
+        r.estimate[1],
+        r.readings.len()
+    )
+}
+
+/// One line per decision, in the style of the plans' lines.
+fn print_decisions(decided: &[Decided]) {
+    for Decided {
+        execution,
+        part: case,
+        reports,
+        unreadable,
+        ..
+    } in decided
+    {
+        for why in unreadable {
+            println!("execution {execution} (part {case}), a decision: NOT REPRODUCIBLE: {why}");
+        }
+        for r in reports {
+            let b = &r.boundary;
+            let what = format!(
+                "execution {execution} (part {case}), decision {} (after {} weld path(s), at {} s)",
+                b.record.boundary,
+                b.weld_paths_welded.map_or("?".into(), |w| w.to_string()),
+                b.record.now_s
+            );
+            match &r.verdict {
+                DecisionVerdict::Identical => {
+                    println!("{what}: IDENTICAL ({})", recorded_outcome(b));
+                    if b.record.changed {
+                        let how = if b.reason == "kept" {
+                            "refused"
+                        } else {
+                            "passed"
+                        };
+                        println!(
+                            "  (the new plan {how} the node's robot-motion check, which is not \
+                             re-run offline)"
+                        );
+                    }
+                }
+                DecisionVerdict::Different(d) => {
+                    println!("{what}: DIFFERENT (recorded: {})", recorded_outcome(b));
+                    for d in d {
+                        println!("  {d}");
+                    }
+                }
+                DecisionVerdict::NotReproducible(why) => {
+                    println!("{what}: NOT REPRODUCIBLE: {why}")
+                }
+            }
+        }
+    }
+}
+
+fn decisions_json(decided: &[Decided]) -> Vec<serde_json::Value> {
+    decided
+        .iter()
+        .flat_map(|d| {
+            let unreadable = d.unreadable.iter().map(move |why| {
+                json!({
+                    "execution": d.execution,
+                    "part": d.part,
+                    "job": d.job,
+                    "verdict": "not_reproducible",
+                    "details": [why],
+                })
+            });
+            unreadable.chain(d.reports.iter().map(move |r| {
+                let b = &r.boundary;
+                let (verdict, details) = match &r.verdict {
+                    DecisionVerdict::Identical => ("identical", vec![]),
+                    DecisionVerdict::Different(d) => {
+                        ("different", d.iter().map(|d| d.to_string()).collect())
+                    }
+                    DecisionVerdict::NotReproducible(why) => {
+                        ("not_reproducible", vec![why.clone()])
+                    }
+                };
+                json!({
+                    "execution": d.execution,
+                    "part": d.part,
+                    "job": d.job,
+                    "boundary": b.record.boundary,
+                    "log_time_ns": b.log_time,
+                    "now_s": b.record.now_s,
+                    "weld_paths_welded": b.weld_paths_welded,
+                    "recorded_reason": b.reason,
+                    "recorded_decision": b.record.decision,
+                    "loss_factor": b.record.estimate[0],
+                    "conduction_factor": b.record.estimate[1],
+                    "readings": b.record.readings.len(),
+                    "scans": b
+                        .record
+                        .readings
+                        .iter()
+                        .filter(|r| matches!(r, decisions::ReadingRef::Scan { .. }))
+                        .count(),
+                    // The re-run's own estimate and plan size, when it ran.
+                    "rerun": r.new.map(|(loss, conduction, weld_paths)| json!({
+                        "loss_factor": loss,
+                        "conduction_factor": conduction,
+                        "weld_paths": weld_paths,
+                    })),
+                    "verdict": verdict,
+                    "details": details,
+                })
+            }))
+        })
+        .collect()
 }

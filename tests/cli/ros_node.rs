@@ -368,17 +368,59 @@ fn rclpy_sensor_readings_reach_the_closed_loop_and_its_decision_is_recorded() {
     let plans: Vec<waam_rosmsg::waam_interfaces::WeldPlan> = recording.decode().unwrap();
     assert!(plans.len() >= 2, "{} weld plans recorded", plans.len());
     assert_ne!(plans[0].fragments, plans.last().unwrap().fragments);
+    // `waam replay` makes each decision again from the recorded temperatures: the same
+    // readings, estimate and plan.
+    let out = common::run::waam()
+        .args(["replay", "--json", "--decisions-only"])
+        .arg(&bag)
+        .output()
+        .unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|_| panic!("no JSON: {}", String::from_utf8_lossy(&out.stderr)));
+    assert_eq!(out.status.code(), Some(0), "{json}");
+    assert_eq!(json["decisions_different"], 0, "{json}");
+    assert_eq!(json["decisions_not_reproducible"], 0, "{json}");
+    assert_eq!(json["decisions_identical"], replanned.len(), "{json}");
+    assert_eq!(json["decisions"][0]["recorded_reason"], "replan", "{json}");
+    assert_eq!(
+        json["decisions"][0]["readings"].as_u64().unwrap(),
+        value("readings_used").parse::<u64>().unwrap()
+            + value("readings_ignored").parse::<u64>().unwrap(),
+        "{json}"
+    );
 }
 
 /// The simulated cell as a node (#31, sim_cell_node.py): `waam sim-cell --node` publishes the
 /// true cell's temperatures and scans for a namespaced dry run with the closed loop on, which
-/// re-plans from them; rclpy only sends the part and the goal.
+/// re-plans from them; rclpy only sends the part and the goal. The node's recording replays
+/// its decisions identically.
 #[test]
 fn rclpy_simulated_cell_node_feeds_the_closed_loop() {
     let Some(python) = interfaces_python() else {
         return;
     };
-    run_script_with(python, "sim_cell_node.py", &[]);
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join("sim-cell");
+    run_script_with(python, "sim_cell_node.py", &[bag.to_str().unwrap()]);
+    // `waam replay` makes each decision again from the recorded readings. (The scans come
+    // after a boundary — a layer spans both walls, so it is finished late — and so reach
+    // no decision here; the estimate and the re-plan do not use them.)
+    let recording = waam_rosbag::Bag::open(&bag).unwrap();
+    assert!(
+        recording.count("/cellZ/waam_planner/scan") > 0,
+        "no scan recorded"
+    );
+    let out = common::run::waam()
+        .args(["replay", "--json", "--decisions-only"])
+        .arg(&bag)
+        .output()
+        .unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|_| panic!("no JSON: {}", String::from_utf8_lossy(&out.stderr)));
+    assert_eq!(out.status.code(), Some(0), "{json}");
+    assert_eq!(json["decisions_different"], 0, "{json}");
+    assert_eq!(json["decisions_not_reproducible"], 0, "{json}");
+    assert!(json["decisions_identical"].as_u64().unwrap() >= 1, "{json}");
 }
 
 /// What the pyrometer of a cell with 25 % lower heat losses than twin-walls' model reads on
@@ -1462,4 +1504,48 @@ fn closed_loop_dry_run_decides_at_the_weld_path_boundary_and_records_it() {
     // No readings: the nominal model, fitted to nothing.
     assert_eq!(value(r, "loss_factor").as_deref(), Some("1.0000"));
     assert!(statuses.iter().any(|s| s.message == "part 1: executed"));
+
+    // `waam replay` makes the decision again from the recording (the plan was given with
+    // --plan, not planned: only the decisions are compared).
+    let replay = |bag: &Path| {
+        let out = common::run::waam()
+            .args(["replay", "--json", "--decisions-only"])
+            .arg(bag)
+            .output()
+            .unwrap();
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout)
+            .unwrap_or_else(|_| panic!("no JSON: {}", String::from_utf8_lossy(&out.stderr)));
+        (out.status.code(), json)
+    };
+    let (code, json) = replay(&bag_dir);
+    assert_eq!(code, Some(0), "{json}");
+    assert_eq!(json["decisions_identical"], 1, "{json}");
+    assert_eq!(
+        json["decisions"][0]["recorded_reason"],
+        reason.as_str(),
+        "{json}"
+    );
+    // The recorded decision's plan altered: its last two blocks swapped.
+    let doctored = tmp.path().join("doctored");
+    common::run::copy_bag(&bag_dir, &doctored, |topic, data| {
+        if !topic.ends_with("/status") {
+            return Some(data.to_vec());
+        }
+        let mut msg: DiagnosticArray = waam_rosmsg::from_cdr(data).unwrap();
+        for kv in msg.status.iter_mut().flat_map(|s| s.values.iter_mut()) {
+            if kv.key == "loop.fragments" {
+                let mut plan: Vec<Vec<[i64; 3]>> = serde_json::from_str(&kv.value).unwrap();
+                let last = plan.last_mut().unwrap();
+                let n = last.len();
+                last.swap(n - 1, n - 2);
+                kv.value = serde_json::to_string(&plan).unwrap();
+            }
+        }
+        Some(waam_rosmsg::to_cdr(&msg).unwrap())
+    });
+    let (code, json) = replay(&doctored);
+    assert_eq!(code, Some(1), "{json}");
+    assert_eq!(json["decisions_different"], 1, "{json}");
+    let details = json["decisions"][0]["details"].to_string();
+    assert!(details.contains("first differing block"), "{details}");
 }

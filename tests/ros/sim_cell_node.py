@@ -12,6 +12,7 @@ wall still to come (`reason: replan`); the scans the node took show the layers' 
 (2.25 mm a layer); a wire feed went out before each weld path, within the limits.
 """
 
+import sys
 import time
 
 from action_msgs.msg import GoalStatus
@@ -90,5 +91,6 @@ def run(peer, cell):
     check(cell.alive(), "the simulated cell exited")
 
 
+# The node records to the directory given (argument 1): `waam replay` re-runs its decisions.
 waamtest.run(test, "node", "--dry-run", "--params", "tests/ros/closed_loop_execute.params.yaml",
-             "--ros-args", "-r", "__ns:=/cellZ")
+             "--record", sys.argv[1], "--ros-args", "-r", "__ns:=/cellZ")

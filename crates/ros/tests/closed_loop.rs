@@ -16,7 +16,9 @@ use std::sync::{Arc, Mutex};
 
 use waam_cell::estimate::{counting_part, scaled};
 use waam_cell::Measured;
+use waam_messages::replay::decisions::{self, DecisionVerdict};
 use waam_messages::status::JobStatus;
+use waam_messages::{sensor, topics};
 use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
 use waam_part::{Part, ThermalParams};
@@ -26,10 +28,16 @@ use waam_ros::node::controller::{run_plan, ClosedLoopRun, Controller, ExecError,
 use waam_ros::node::execute::{plan_steps, Step};
 use waam_ros::node::io::Level;
 use waam_ros::node::worker::Cancel;
+use waam_rosbag::qos::Qos;
+use waam_rosbag::{Bag, Recorder};
+use waam_rosmsg::builtin_interfaces::Time;
+use waam_rosmsg::sensor_msgs::Temperature;
+use waam_rosmsg::std_msgs::{Header, String as RosString};
 use waam_rosmsg::trajectory_msgs::JointTrajectory as TrajectoryMsg;
 use waam_thermal::{simulate, Simulation, ThermalModel};
 
 const TWO_WALLS: &str = include_str!("../../../tests/data/two-walls.yaml");
+const TEMPERATURE: &str = "/waam_planner/temperature";
 
 /// Follows each goal at once, its clock advancing by the goal's duration.
 struct InstantController {
@@ -60,6 +68,8 @@ struct Cell1 {
     clock: Arc<Mutex<f64>>,
     readings: Sender<Measured>,
     state: RefCell<Seen>,
+    /// Records the pyrometer's messages and the statuses, as the node does.
+    recorder: Option<Recorder>,
 }
 
 struct Seen {
@@ -98,13 +108,27 @@ impl ExecOutputs for Cell1 {
             let celsius = s.truth.temperatures().find(|&(o, _)| o == b).unwrap().1;
             let end = starts.get(j + 1).copied().unwrap_or(off);
             let mid = (starts[j] + end) / 2.0 - starts[0];
-            let _ = self.readings.send(Measured::Temperature {
-                stamp_s: s.weld_started + mid,
-                celsius,
-            });
+            // As the node takes a pyrometer's message (checked as it arrives).
+            let msg = Temperature {
+                header: Header::new(
+                    Time::from_nanos(((s.weld_started + mid) * 1e9).round() as i64),
+                    "pyrometer",
+                ),
+                temperature: celsius,
+                variance: 0.0,
+            };
+            if let Some(r) = &self.recorder {
+                r.record(TEMPERATURE, &Qos::best_effort(10), &msg).unwrap();
+            }
+            let measured = sensor::temperature(&msg, msg.header.stamp, 1.0).unwrap();
+            let _ = self.readings.send(measured);
         }
     }
     fn status(&self, status: JobStatus) {
+        if let Some(r) = &self.recorder {
+            let msg = status.to_msg(Time::now(), "/waam_planner");
+            r.record(topics::STATUS, &Qos::latched(), &msg).unwrap();
+        }
         self.state.borrow_mut().statuses.push(status);
     }
     fn log(&self, _level: Level, _message: &str) {}
@@ -129,6 +153,7 @@ fn execute_closed(
         cell: cell.clone(),
         planner: waam_planner::Options::default(),
         wire_feed,
+        scan_margin_mm: 5.0,
     };
     let run = ClosedLoopRun { setup, readings };
     run_plan(
@@ -162,8 +187,9 @@ fn lower_losses(part: &Part) -> ThermalParams {
     scaled(part.thermal, 0.75, 1.0)
 }
 
-#[test]
-fn hotter_deposits_than_the_model_re_plan_the_rest_at_a_weld_path_boundary() {
+/// The two walls executed closed loop on the cell with lower losses (recorded to `record`
+/// when given): the first plan, and what the node did.
+fn execute_two_walls(record: Option<&std::path::Path>) -> (Part, Vec<Vec<usize>>, Seen) {
     let part = Part::parse(TWO_WALLS).unwrap();
     let cell = Cell::bundled();
     let first = short_then_tall();
@@ -184,7 +210,31 @@ fn hotter_deposits_than_the_model_re_plan_the_rest_at_a_weld_path_boundary() {
     let clock = Arc::new(Mutex::new(1000.0));
     let goals = Arc::new(Mutex::new(Vec::new()));
     let (tx, rx) = channel();
+    let recorder = record.map(|dir| {
+        let r = Recorder::create(dir).unwrap();
+        // The part as the node receives it, then its "received" status (job 1).
+        r.record(
+            topics::PART,
+            &Qos::reliable(10),
+            &RosString::from(TWO_WALLS),
+        )
+        .unwrap();
+        let received = JobStatus::Received {
+            job: 1,
+            source: "part".into(),
+            cancelled: None,
+            settings: vec![],
+        };
+        r.record(
+            topics::STATUS,
+            &Qos::latched(),
+            &received.to_msg(Time::now(), "/waam_planner"),
+        )
+        .unwrap();
+        r
+    });
     let outputs = Cell1 {
+        recorder,
         clock: Arc::clone(&clock),
         readings: tx,
         state: RefCell::new(Seen {
@@ -202,7 +252,16 @@ fn hotter_deposits_than_the_model_re_plan_the_rest_at_a_weld_path_boundary() {
         goals: Arc::clone(&goals),
     };
     execute_closed(&planned, &mut controller, &outputs, &cell, (1.0, 1.0), &rx);
-    let seen = outputs.state.into_inner();
+    if let Some(r) = &outputs.recorder {
+        r.finish().unwrap();
+    }
+    assert!(!goals.lock().unwrap().is_empty());
+    (part, first, outputs.state.into_inner())
+}
+
+#[test]
+fn hotter_deposits_than_the_model_re_plan_the_rest_at_a_weld_path_boundary() {
+    let (part, first, seen) = execute_two_walls(None);
     for s in &seen.statuses {
         if let JobStatus::Replanned { message, .. } = s {
             eprintln!("{message}");
@@ -265,8 +324,156 @@ fn hotter_deposits_than_the_model_re_plan_the_rest_at_a_weld_path_boundary() {
     let verdict = |fragments: &[Vec<usize>]| simulate(&true_model, fragments).unwrap().violation;
     assert!(verdict(&first[welded..]).is_some());
     assert!(verdict(&last.found.fragments[welded..]).is_none());
-    // Every goal the controller got was sent once.
-    assert!(!goals.lock().unwrap().is_empty());
+}
+
+/// What becomes of a recorded message (topic, CDR) in a copy of a recording; None: left out.
+type Doctor<'a> = dyn FnMut(&str, Vec<u8>) -> Option<Vec<u8>> + 'a;
+
+/// Issue #31: the recording of a closed-loop execution (the pyrometer's messages, the
+/// statuses with their boundary records) re-runs every decision identically offline; a
+/// recorded decision altered is found different.
+#[test]
+fn a_recorded_closed_loop_execution_replays_its_decisions_identically() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("bag");
+    let (part, _, seen) = execute_two_walls(Some(&dir));
+    let boundaries = seen
+        .statuses
+        .iter()
+        .filter(|s| matches!(s, JobStatus::Replanned { .. }))
+        .count();
+    let replay = |bag: &Bag| {
+        let (executions, mut sensors) = decisions::recorded_executions(bag).unwrap();
+        assert_eq!(executions.len(), 1);
+        assert_eq!(executions[0].job, 1);
+        decisions::replay_execution(
+            &executions[0],
+            &part,
+            &waam_planner::Options::default(),
+            &mut sensors,
+        )
+    };
+    let bag = Bag::open(&dir).unwrap();
+    let reports = replay(&bag);
+    assert_eq!(reports.len(), boundaries);
+    assert!(boundaries >= 2, "{boundaries}");
+    for r in &reports {
+        assert_eq!(r.verdict, DecisionVerdict::Identical, "{r:?}");
+    }
+    // The first decision re-planned from the readings (all the first weld path's).
+    let first = &reports[0].boundary;
+    assert_eq!(first.reason, "replan");
+    assert_eq!(first.record.readings.len(), 12);
+    assert!((first.record.estimate[0] - 0.75).abs() < 0.02);
+
+    // A copy of the recording, each message passed through `doctor` (None: left out).
+    let copy = |to: &std::path::Path, doctor: &mut Doctor| {
+        let recorder = Recorder::create(to).unwrap();
+        for m in &bag.messages {
+            let t = bag.topic_of(m);
+            let Some(data) = doctor(&t.name, m.data.clone()) else {
+                continue;
+            };
+            recorder
+                .record_raw(
+                    &t.name,
+                    &t.type_name,
+                    &t.definition,
+                    &t.type_hash,
+                    &t.offered_qos,
+                    m.log_time,
+                    &data,
+                )
+                .unwrap();
+        }
+        recorder.finish().unwrap();
+        Bag::open(to).unwrap()
+    };
+
+    // The same recording with the first decision's loss factor altered in its status.
+    let mut done = false;
+    let doctored = copy(&tmp.path().join("doctored"), &mut |topic, mut data| {
+        if topic == topics::STATUS && !done {
+            let mut msg: waam_rosmsg::diagnostic_msgs::DiagnosticArray =
+                waam_rosmsg::from_cdr(&data).unwrap();
+            for kv in msg.status.iter_mut().flat_map(|s| s.values.iter_mut()) {
+                if kv.key == "loop.estimate" {
+                    let mut v: Vec<f64> = kv.value.split(' ').map(|x| x.parse().unwrap()).collect();
+                    v[0] += 0.01;
+                    kv.value = v.iter().map(f64::to_string).collect::<Vec<_>>().join(" ");
+                    done = true;
+                }
+            }
+            data = waam_rosmsg::to_cdr(&msg).unwrap();
+        }
+        Some(data)
+    });
+    assert!(done);
+    let reports = replay(&doctored);
+    let DecisionVerdict::Different(d) = &reports[0].verdict else {
+        panic!("{:?}", reports[0]);
+    };
+    assert!(
+        d.iter()
+            .any(|d| d.to_string().starts_with("estimate: loss factor")),
+        "{d:?}"
+    );
+    // The later ones follow the recorded plan and are still the node's.
+    assert!(reports[1..]
+        .iter()
+        .all(|r| r.verdict == DecisionVerdict::Identical));
+
+    // A record that does not read: said so, never dropped silently; the decisions after it
+    // cannot be re-run without the plan it held.
+    let garbled = copy(&tmp.path().join("garbled"), &mut |topic, data| {
+        if topic != topics::STATUS {
+            return Some(data);
+        }
+        let mut msg: waam_rosmsg::diagnostic_msgs::DiagnosticArray =
+            waam_rosmsg::from_cdr(&data).unwrap();
+        for kv in msg.status.iter_mut().flat_map(|s| s.values.iter_mut()) {
+            if kv.key == "loop.plan" {
+                kv.value = "[[[0, 0".into();
+            }
+        }
+        Some(waam_rosmsg::to_cdr(&msg).unwrap())
+    });
+    let (executions, mut sensors) = decisions::recorded_executions(&garbled).unwrap();
+    assert_eq!(executions.len(), 1);
+    assert_eq!(executions[0].unreadable.len(), 1);
+    assert!(
+        executions[0].unreadable[0].contains("loop.plan"),
+        "{:?}",
+        executions[0].unreadable
+    );
+    let reports = decisions::replay_execution(
+        &executions[0],
+        &part,
+        &waam_planner::Options::default(),
+        &mut sensors,
+    );
+    assert_eq!(reports.len(), boundaries - 1);
+    assert!(reports
+        .iter()
+        .all(|r| matches!(r.verdict, DecisionVerdict::NotReproducible(_))));
+
+    // A reading the status names left out of the recording: not reproducible, and said so.
+    let mut dropped = false;
+    let lacking = copy(&tmp.path().join("lacking"), &mut |topic, data| {
+        if topic == TEMPERATURE && !dropped {
+            dropped = true;
+            return None;
+        }
+        Some(data)
+    });
+    let reports = replay(&lacking);
+    let DecisionVerdict::NotReproducible(why) = &reports[0].verdict else {
+        panic!("{:?}", reports[0]);
+    };
+    assert!(why.contains("not in the recording"), "{why}");
+    assert!(reports
+        .iter()
+        .all(|r| matches!(r.verdict, DecisionVerdict::NotReproducible(_))));
 }
 
 #[test]

@@ -5,6 +5,8 @@
 //! The comparison is independent of the planner: [`replay`] takes the re-planning as a
 //! function, so the same code serves the CLI and tests.
 
+pub mod decisions;
+
 use std::fmt;
 
 use waam_part::Block;

@@ -10,6 +10,7 @@
 //! current plan.
 
 use waam_cell::{CellError, ClosedLoop, Decision, LoopOptions, MeasureError, Measured};
+use waam_messages::replay::decisions::{BoundaryRecord, ReadingRef, ToldDeposit};
 use waam_messages::status::JobStatus;
 use waam_part::{Block, Part};
 use waam_pipeline::{Cell, ChosenPlan, Interrupt, PipelineError, Planned};
@@ -19,12 +20,15 @@ use super::execute::{plan_steps, Step};
 
 /// What the closed loop re-plans with: the cell the plans are made in and the planner's
 /// options (its time limit bounds each re-plan; its cancel flag is the execution's), and
-/// the wire feed the height rule may set, relative to nominal (the process limits).
+/// the wire feed the height rule may set, relative to nominal (the process limits). The
+/// scan margin the sensors check scans with is recorded with each decision (a replay
+/// places the recorded scans with it).
 #[derive(Clone)]
 pub struct ReplanSetup {
     pub cell: Cell,
     pub planner: waam_planner::Options,
     pub wire_feed: (f64, f64),
+    pub scan_margin_mm: f64,
 }
 
 /// How a boundary ended.
@@ -73,6 +77,8 @@ pub struct Replan {
     pub broken: Vec<Block>,
     /// Wall-clock time of the whole boundary (estimate, re-plan, check and motion), s.
     pub latency_s: f64,
+    /// What `waam replay` needs to make the decision again (recorded in the status).
+    pub record: BoundaryRecord,
 }
 
 impl Replan {
@@ -127,7 +133,10 @@ impl Replan {
                 KeyValue::new("readings_used", self.used),
                 KeyValue::new("readings_ignored", self.ignored.len()),
                 KeyValue::new("windows_broken_before", self.broken.len()),
-            ],
+            ]
+            .into_iter()
+            .chain(self.record.values())
+            .collect(),
         }
     }
 }
@@ -137,6 +146,9 @@ pub struct Replanner {
     setup: ReplanSetup,
     closed: ClosedLoop,
     welded: usize,
+    /// Boundaries decided so far, and the deposits told since the last one (recorded).
+    boundaries: usize,
+    told: Vec<ToldDeposit>,
 }
 
 impl Replanner {
@@ -151,6 +163,8 @@ impl Replanner {
             setup,
             closed,
             welded: 0,
+            boundaries: 0,
+            told: Vec::new(),
         })
     }
 
@@ -188,8 +202,14 @@ impl Replanner {
         let clock = |t: f64| goal_start_s + (t - on) / time_scale;
         for (j, (&b, &t)) in blocks.iter().zip(starts).enumerate() {
             let end = starts.get(j + 1).copied().unwrap_or(off);
-            self.closed
-                .deposited(b, j == 0, clock(t), (end - t) / time_scale)?;
+            let (start_s, duration_s) = (clock(t), (end - t) / time_scale);
+            self.closed.deposited(b, j == 0, start_s, duration_s)?;
+            self.told.push(ToldDeposit {
+                block: planned.part.block(b),
+                arc_start: j == 0,
+                start_s,
+                duration_s,
+            });
         }
         self.welded = fragment + 1;
         Ok(())
@@ -209,9 +229,12 @@ impl Replanner {
     ) -> Result<Option<Replan>, CellError> {
         let started = std::time::Instant::now();
         let mut used = 0;
+        // Which readings had come by now is a matter of wall-clock timing: recorded.
+        let mut fed = Vec::new();
         let ignored: Vec<MeasureError> = readings
             .into_iter()
             .filter_map(|m| {
+                fed.push(ReadingRef::of(&m));
                 let placed = self.closed.measured(&m);
                 used += usize::from(placed.is_ok());
                 placed.err()
@@ -220,7 +243,24 @@ impl Replanner {
         if self.closed.next().is_none() {
             return Ok(None);
         }
+        self.boundaries += 1;
+        let plan = (self.boundaries == 1).then(|| blocks(&planned.part, &self.closed.fragments()));
         let decision = self.closed.at_boundary(true, now_s)?;
+        let e = &decision.estimate;
+        let record = BoundaryRecord {
+            boundary: self.boundaries,
+            now_s,
+            deposits: std::mem::take(&mut self.told),
+            readings: fed,
+            plan,
+            scan_margin_mm: self.setup.scan_margin_mm,
+            timeout_s: self.setup.planner.timeout.map(|t| t.as_secs_f64()),
+            decision: decision.reason.into(),
+            changed: decision.changed,
+            estimate: [e.loss, e.conduction, e.rmse_before_c, e.rmse_after_c],
+            fragments: blocks(&planned.part, &decision.fragments()),
+            proven: decision.proven,
+        };
         let mut broken = Vec::new();
         let outcome = if decision.reason == "kept" {
             Outcome::Kept(NotTaken::NoCompletion)
@@ -248,6 +288,7 @@ impl Replanner {
             welded: self.welded,
             broken,
             latency_s: started.elapsed().as_secs_f64(),
+            record,
         }))
     }
 
@@ -277,6 +318,14 @@ impl Replanner {
         let steps = steps_after(planned, &new, self.welded, standing, max_points)?;
         Ok((new, steps))
     }
+}
+
+/// Fragments of block indices as blocks of `part`.
+fn blocks(part: &Part, fragments: &[Vec<usize>]) -> Vec<Vec<Block>> {
+    fragments
+        .iter()
+        .map(|f| f.iter().map(|&i| part.block(i)).collect())
+        .collect()
 }
 
 /// The steps of `new` after its weld path `welded` (1-based count) went out, when the robot

@@ -517,6 +517,7 @@ fn replan_setup(
                 params.closed_loop.wire_feed_min,
                 params.closed_loop.wire_feed_max,
             ),
+            scan_margin_mm: params.closed_loop.scan_margin_mm,
         })
 }
 

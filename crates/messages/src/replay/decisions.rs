@@ -1,0 +1,867 @@
+//! The closed loop's decisions, recorded and re-run (#31): what the node writes into each
+//! `replanned` status so that a boundary's decision can be made again offline
+//! ([`BoundaryRecord`]), and the re-run of every recorded closed-loop execution from the
+//! recorded sensor messages ([`recorded_executions`], [`replay_execution`]).
+//!
+//! The loop is deterministic given its inputs: the part, the plan executed, each deposit's
+//! times on the controller's clock, the readings fed at each boundary in the order fed, and
+//! the boundary's time. Which readings had arrived by a boundary depends on wall-clock
+//! timing, so the node records it (by stamp and value); the readings themselves are taken
+//! from the recorded sensor messages. The node's robot-motion check of a new plan
+//! (`Cell::motion_until` and where the robot stands) needs the cell's robot and is not
+//! re-run: the replay follows what the node recorded it did (taken or kept).
+
+use std::fmt;
+
+use nalgebra::Isometry3;
+use serde_json::{json, Value};
+use waam_cell::closed_loop::{sequence, split};
+use waam_cell::{ClosedLoop, Decision, LoopOptions, Measured};
+use waam_part::{Block, Part};
+use waam_rosbag::{Bag, BagError};
+use waam_rosmsg::builtin_interfaces::Time;
+use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, KeyValue};
+use waam_rosmsg::sensor_msgs::{PointCloud2, Temperature};
+use waam_rosmsg::tf2_msgs::TFMessage;
+use waam_rosmsg::{from_cdr, RosMessage};
+
+use super::{diff_fragments, Difference};
+use crate::planning::PART_FRAME;
+use crate::sensor::{self, ScanTarget};
+use crate::tf_buffer::TfBuffer;
+
+/// The prefix of the status values a boundary's record is kept in.
+pub const PREFIX: &str = "loop.";
+
+/// One deposit as the node told the loop: block, whether it began a weld path, its start
+/// and duration on the controller's clock, s.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ToldDeposit {
+    pub block: Block,
+    pub arc_start: bool,
+    pub start_s: f64,
+    pub duration_s: f64,
+}
+
+/// A reading the loop was fed, named by what identifies its recorded message.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ReadingRef {
+    /// A `sensor_msgs/Temperature`: its stamp (s, as the loop took it) and value.
+    Temperature { stamp_s: f64, celsius: f64 },
+    /// A `sensor_msgs/PointCloud2` scan: its stamp and the points on the part the loop got.
+    Scan { stamp_s: f64, points: usize },
+}
+
+impl ReadingRef {
+    pub fn of(m: &Measured) -> ReadingRef {
+        match m {
+            &Measured::Temperature { stamp_s, celsius } => {
+                ReadingRef::Temperature { stamp_s, celsius }
+            }
+            Measured::Scan { stamp_s, points } => ReadingRef::Scan {
+                stamp_s: *stamp_s,
+                points: points.len(),
+            },
+        }
+    }
+}
+
+impl fmt::Display for ReadingRef {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ReadingRef::Temperature { stamp_s, celsius } => {
+                write!(f, "temperature {celsius} °C stamped {stamp_s} s")
+            }
+            ReadingRef::Scan { stamp_s, points } => {
+                write!(f, "scan stamped {stamp_s} s ({points} points on the part)")
+            }
+        }
+    }
+}
+
+/// What a boundary's decision needs to be made again, and what it decided.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BoundaryRecord {
+    /// 1 at an execution's first boundary, then counting.
+    pub boundary: usize,
+    /// The boundary's time on the controller's clock (`at_boundary`'s `now_s`), s.
+    pub now_s: f64,
+    /// The deposits told since the previous boundary.
+    pub deposits: Vec<ToldDeposit>,
+    /// Every reading fed at this boundary, in the order fed (those the loop could not place
+    /// included).
+    pub readings: Vec<ReadingRef>,
+    /// At the first boundary: the plan being executed (fragments of blocks).
+    pub plan: Option<Vec<Vec<Block>>>,
+    /// The scan margin the node checked scans with (`closed_loop.scan_margin_mm`).
+    pub scan_margin_mm: f64,
+    /// The re-plan's time limit, s, if any: a re-plan it cut short is not reproducible.
+    pub timeout_s: Option<f64>,
+    /// The loop's decision: `replan`, `fault` or `kept` (no completion found).
+    pub decision: String,
+    /// Whether its remainder differs from the current one.
+    pub changed: bool,
+    /// Loss and conduction factors, rms errors before and after (°C).
+    pub estimate: [f64; 4],
+    /// The decision's whole plan (the executed prefix first).
+    pub fragments: Vec<Vec<Block>>,
+    /// Whether the re-plan's answer was proven.
+    pub proven: bool,
+}
+
+/// A status value that is not a boundary record's.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("status value {key} = {value:?}: {why}")]
+pub struct RecordError {
+    pub key: String,
+    pub value: String,
+    pub why: String,
+}
+
+fn blocks_json(fragments: &[Vec<Block>]) -> String {
+    json!(fragments).to_string()
+}
+
+impl BoundaryRecord {
+    /// The record as status values (floats written so that they read back exactly).
+    pub fn values(&self) -> Vec<KeyValue> {
+        let kv = |k: &str, v: String| KeyValue::new(format!("{PREFIX}{k}"), v);
+        let deposits: Vec<Value> = self
+            .deposits
+            .iter()
+            .map(|d| json!([d.block, d.arc_start, d.start_s, d.duration_s]))
+            .collect();
+        let readings: Vec<Value> = self
+            .readings
+            .iter()
+            .map(|r| match r {
+                ReadingRef::Temperature { stamp_s, celsius } => {
+                    json!(["temperature", stamp_s, celsius])
+                }
+                ReadingRef::Scan { stamp_s, points } => json!(["scan", stamp_s, points]),
+            })
+            .collect();
+        let mut out = vec![
+            kv("boundary", self.boundary.to_string()),
+            kv("now_s", self.now_s.to_string()),
+            kv("deposits", Value::from(deposits).to_string()),
+            kv("readings", Value::from(readings).to_string()),
+            kv("scan_margin_mm", self.scan_margin_mm.to_string()),
+            kv(
+                "timeout_s",
+                self.timeout_s.map_or("none".into(), |t| t.to_string()),
+            ),
+            kv("decision", self.decision.clone()),
+            kv("changed", self.changed.to_string()),
+            kv("estimate", self.estimate.map(|v| v.to_string()).join(" ")),
+            kv("fragments", blocks_json(&self.fragments)),
+            kv("proven", self.proven.to_string()),
+        ];
+        if let Some(plan) = &self.plan {
+            out.push(kv("plan", blocks_json(plan)));
+        }
+        out
+    }
+
+    /// The record in `values` (a status's), or `None` when it holds none.
+    pub fn from_values(values: &[(String, String)]) -> Result<Option<BoundaryRecord>, RecordError> {
+        let get = |k: &str| {
+            values
+                .iter()
+                .find(|(key, _)| key.strip_prefix(PREFIX) == Some(k))
+                .map(|(_, v)| v.as_str())
+        };
+        if get("boundary").is_none() {
+            return Ok(None);
+        }
+        let bad = |k: &str, why: &str| RecordError {
+            key: format!("{PREFIX}{k}"),
+            value: get(k).unwrap_or("").chars().take(80).collect(),
+            why: why.into(),
+        };
+        let need = |k: &str| get(k).ok_or_else(|| bad(k, "missing"));
+        let num = |k: &str| -> Result<f64, RecordError> {
+            need(k)?.parse().map_err(|_| bad(k, "not a number"))
+        };
+        let flag = |k: &str| -> Result<bool, RecordError> {
+            need(k)?.parse().map_err(|_| bad(k, "not true/false"))
+        };
+        let json_of = |k: &str| -> Result<Value, RecordError> {
+            serde_json::from_str(need(k)?).map_err(|e| bad(k, &e.to_string()))
+        };
+        let fragments_of = |k: &str| -> Result<Vec<Vec<Block>>, RecordError> {
+            serde_json::from_value(json_of(k)?).map_err(|e| bad(k, &e.to_string()))
+        };
+        let deposits = serde_json::from_value::<Vec<(Block, bool, f64, f64)>>(json_of("deposits")?)
+            .map_err(|e| bad("deposits", &e.to_string()))?
+            .into_iter()
+            .map(|(block, arc_start, start_s, duration_s)| ToldDeposit {
+                block,
+                arc_start,
+                start_s,
+                duration_s,
+            })
+            .collect();
+        let readings = serde_json::from_value::<Vec<(String, f64, f64)>>(json_of("readings")?)
+            .map_err(|e| bad("readings", &e.to_string()))?
+            .into_iter()
+            .map(|(kind, stamp_s, v)| match kind.as_str() {
+                "temperature" => Ok(ReadingRef::Temperature {
+                    stamp_s,
+                    celsius: v,
+                }),
+                "scan" => Ok(ReadingRef::Scan {
+                    stamp_s,
+                    points: v as usize,
+                }),
+                _ => Err(bad("readings", "a reading is neither temperature nor scan")),
+            })
+            .collect::<Result<_, _>>()?;
+        let estimate: Vec<f64> = need("estimate")?
+            .split(' ')
+            .map(|v| v.parse().map_err(|_| bad("estimate", "not four numbers")))
+            .collect::<Result<_, _>>()?;
+        let estimate: [f64; 4] = estimate
+            .try_into()
+            .map_err(|_| bad("estimate", "not four numbers"))?;
+        Ok(Some(BoundaryRecord {
+            boundary: need("boundary")?
+                .parse()
+                .map_err(|_| bad("boundary", "not a count"))?,
+            now_s: num("now_s")?,
+            deposits,
+            readings,
+            plan: get("plan").map(|_| fragments_of("plan")).transpose()?,
+            scan_margin_mm: num("scan_margin_mm")?,
+            timeout_s: match need("timeout_s")? {
+                "none" => None,
+                _ => Some(num("timeout_s")?),
+            },
+            decision: need("decision")?.to_string(),
+            changed: flag("changed")?,
+            estimate,
+            fragments: fragments_of("fragments")?,
+            proven: flag("proven")?,
+        }))
+    }
+}
+
+/// One boundary of a recorded execution: its record and what the node did (the status's
+/// `reason`: replan, fault, unchanged or kept) and why (the status's message).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordedBoundary {
+    pub log_time: u64,
+    pub reason: String,
+    pub message: String,
+    pub weld_paths_welded: Option<usize>,
+    pub record: BoundaryRecord,
+}
+
+/// One execution that ran closed loop: its job and boundaries in order, and the `replanned`
+/// statuses of its job whose boundary record is missing (an older node) or does not read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordedExecution {
+    pub job: u64,
+    pub boundaries: Vec<RecordedBoundary>,
+    pub unreadable: Vec<String>,
+}
+
+/// A sensor message as recorded.
+#[derive(Debug, Clone)]
+enum Raw {
+    Temperature(Temperature),
+    Scan(PointCloud2),
+}
+
+/// The recorded sensor messages and frames, from which the readings are taken again.
+pub struct Sensors {
+    raw: Vec<Raw>,
+    used: Vec<bool>,
+    /// Every message before this one is taken: the node fed them in the order it recorded
+    /// them, so a search starts here (hours of 200 Hz readings stay linear).
+    first_unused: usize,
+    frames: TfBuffer,
+    /// The robot's base link: the parent of the part frame on `/tf_static`, if recorded.
+    base_link: Option<String>,
+}
+
+/// Every execution in `bag` whose `replanned` statuses carry boundary records, in order
+/// (an execution begins at its boundary 1), and the recorded sensor messages.
+pub fn recorded_executions(bag: &Bag) -> Result<(Vec<RecordedExecution>, Sensors), BagError> {
+    let mut order: Vec<usize> = (0..bag.messages.len()).collect();
+    order.sort_by_key(|&i| bag.messages[i].log_time);
+    let mut executions: Vec<RecordedExecution> = Vec::new();
+    let mut sensors = Sensors {
+        raw: Vec::new(),
+        used: Vec::new(),
+        first_unused: 0,
+        frames: TfBuffer::default(),
+        base_link: None,
+    };
+    for i in order {
+        let m = &bag.messages[i];
+        let topic = bag.topic_of(m);
+        let decode_error = |source| BagError::Decode {
+            topic: topic.name.clone(),
+            log_time: m.log_time,
+            source,
+        };
+        match topic.type_name.as_str() {
+            t if t == Temperature::TYPE_NAME => sensors
+                .raw
+                .push(Raw::Temperature(from_cdr(&m.data).map_err(decode_error)?)),
+            // The planner's heat clouds are its simulation, not a scan.
+            t if t == PointCloud2::TYPE_NAME && topic.name != crate::topics::HEAT => sensors
+                .raw
+                .push(Raw::Scan(from_cdr(&m.data).map_err(decode_error)?)),
+            t if t == TFMessage::TYPE_NAME => {
+                let msg: TFMessage = from_cdr(&m.data).map_err(decode_error)?;
+                let fixed = topic.name.ends_with("tf_static");
+                if fixed {
+                    if let Some(t) = msg
+                        .transforms
+                        .iter()
+                        .find(|t| t.child_frame_id.trim_start_matches('/') == PART_FRAME)
+                    {
+                        sensors.base_link = Some(t.header.frame_id.clone());
+                    }
+                }
+                // Faults were the node's to report; a frame that does not read is simply
+                // not there offline either.
+                let _ = sensors.frames.add(&msg, fixed);
+            }
+            t if t == DiagnosticArray::TYPE_NAME => {
+                let status: DiagnosticArray = from_cdr(&m.data).map_err(decode_error)?;
+                for s in &status.status {
+                    let values: Vec<(String, String)> = s
+                        .values
+                        .iter()
+                        .map(|kv| (kv.key.clone(), kv.value.clone()))
+                        .collect();
+                    let value = |k: &str| {
+                        values
+                            .iter()
+                            .find(|(key, _)| key == k)
+                            .map(|(_, v)| v.clone())
+                    };
+                    if value("state").as_deref() != Some("replanned") {
+                        continue;
+                    }
+                    let Some(job) = value("job").and_then(|j| j.parse().ok()) else {
+                        continue;
+                    };
+                    let record = match BoundaryRecord::from_values(&values) {
+                        Ok(Some(r)) => Ok(r),
+                        Ok(None) => Err(format!(
+                            "the replanned status at {} ns holds no boundary record (loop.*): \
+                             recorded by a node that did not record its decisions",
+                            m.log_time
+                        )),
+                        Err(e) => Err(format!(
+                            "the replanned status at {} ns: its boundary record does not read: {e}",
+                            m.log_time
+                        )),
+                    };
+                    let record = match record {
+                        Ok(r) => r,
+                        Err(why) => {
+                            let first = value("loop.boundary").as_deref() == Some("1");
+                            match executions.iter_mut().rev().find(|e| e.job == job) {
+                                Some(e) if !first => e.unreadable.push(why),
+                                _ => executions.push(RecordedExecution {
+                                    job,
+                                    boundaries: Vec::new(),
+                                    unreadable: vec![why],
+                                }),
+                            }
+                            continue;
+                        }
+                    };
+                    let boundary = RecordedBoundary {
+                        log_time: m.log_time,
+                        reason: value("reason").unwrap_or_default(),
+                        message: s.message.clone(),
+                        weld_paths_welded: value("weld_paths_welded").and_then(|v| v.parse().ok()),
+                        record,
+                    };
+                    match executions.iter_mut().rev().find(|e| e.job == job) {
+                        Some(e) if boundary.record.boundary > 1 || e.boundaries.is_empty() => {
+                            e.boundaries.push(boundary)
+                        }
+                        _ => executions.push(RecordedExecution {
+                            job,
+                            boundaries: vec![boundary],
+                            unreadable: Vec::new(),
+                        }),
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    sensors.used = vec![false; sensors.raw.len()];
+    Ok((executions, sensors))
+}
+
+fn stamp_s(t: Time) -> f64 {
+    // As `sensor::check_stamp` turns a stamp into seconds.
+    t.to_nanos() as f64 * 1e-9
+}
+
+impl Sensors {
+    /// The recorded message `r` names (the first not taken yet), as the loop took it.
+    fn take(&mut self, r: &ReadingRef, part: &Part, margin_mm: f64) -> Result<Measured, String> {
+        let found = (self.first_unused..self.raw.len()).find(|&i| {
+            !self.used[i]
+                && match (&self.raw[i], r) {
+                    (
+                        Raw::Temperature(t),
+                        &ReadingRef::Temperature {
+                            stamp_s: s,
+                            celsius,
+                        },
+                    ) => stamp_s(t.header.stamp) == s && t.temperature == celsius,
+                    (Raw::Scan(c), &ReadingRef::Scan { stamp_s: s, .. }) => {
+                        stamp_s(c.header.stamp) == s
+                    }
+                    _ => false,
+                }
+        });
+        let i = found.ok_or_else(|| format!("the {r} is not in the recording"))?;
+        self.used[i] = true;
+        while self.used.get(self.first_unused) == Some(&true) {
+            self.first_unused += 1;
+        }
+        match &self.raw[i] {
+            Raw::Temperature(t) => Ok(Measured::Temperature {
+                stamp_s: stamp_s(t.header.stamp),
+                celsius: t.temperature,
+            }),
+            Raw::Scan(cloud) => {
+                let stamp = cloud.header.stamp;
+                let base = self.base_link.clone().unwrap_or_default();
+                let plate = self
+                    .base_link
+                    .as_ref()
+                    .and_then(|b| self.frames.lookup(b, PART_FRAME, stamp).ok())
+                    .unwrap_or_else(Isometry3::identity);
+                let target = ScanTarget::of_part(part, &base, plate);
+                // The node judged its age when it came; offline it is as old as its stamp.
+                let good = sensor::scan(cloud, Some(&target), &self.frames, margin_mm, stamp, 1.0)
+                    .map_err(|e| format!("the {r} cannot be placed offline: {e}"))?;
+                match r {
+                    ReadingRef::Scan { points, .. } if *points != good.points.len() => {
+                        Err(format!(
+                            "the {r} gives {} points on the part offline",
+                            good.points.len()
+                        ))
+                    }
+                    _ => Ok(good.measured()),
+                }
+            }
+        }
+    }
+}
+
+/// One way a re-run decision differs from the recorded one.
+#[derive(Debug, Clone, PartialEq)]
+pub enum DecisionDifference {
+    /// The loop's decision (replan, fault, kept).
+    Decision {
+        recorded: String,
+        new: String,
+    },
+    Changed {
+        recorded: bool,
+        new: bool,
+    },
+    /// A factor or rms error of the estimate.
+    Estimate {
+        name: &'static str,
+        recorded: f64,
+        new: f64,
+    },
+    /// The decision's whole plan.
+    Plan(Difference),
+    /// The recording does not fit the plan being executed (deposits off it, a boundary
+    /// after the last deposit).
+    Inputs(String),
+}
+
+impl fmt::Display for DecisionDifference {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            DecisionDifference::Decision { recorded, new } => {
+                write!(f, "decision: recorded {recorded}, new {new}")
+            }
+            DecisionDifference::Changed { recorded, new } => {
+                write!(f, "remainder changed: recorded {recorded}, new {new}")
+            }
+            DecisionDifference::Estimate {
+                name,
+                recorded,
+                new,
+            } => write!(f, "estimate: {name} recorded {recorded}, new {new}"),
+            DecisionDifference::Plan(d) => write!(f, "plan: {d}"),
+            DecisionDifference::Inputs(why) => write!(f, "inputs: {why}"),
+        }
+    }
+}
+
+/// The verdict on one recorded decision.
+#[derive(Debug, Clone, PartialEq)]
+pub enum DecisionVerdict {
+    Identical,
+    Different(Vec<DecisionDifference>),
+    /// Not re-run, or its difference not held against it, and why.
+    NotReproducible(String),
+}
+
+/// The re-run of one boundary.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DecisionReport {
+    pub boundary: RecordedBoundary,
+    pub verdict: DecisionVerdict,
+    /// The re-run's estimate (loss, conduction) and plan's weld path count, when it ran.
+    pub new: Option<(f64, f64, usize)>,
+}
+
+fn indices(part: &Part, fragments: &[Vec<Block>]) -> Result<Vec<Vec<usize>>, String> {
+    fragments
+        .iter()
+        .map(|f| {
+            f.iter()
+                .map(|&b| {
+                    part.index_of(b)
+                        .ok_or(format!("block {b:?} is not in the part"))
+                })
+                .collect()
+        })
+        .collect()
+}
+
+fn blocks(part: &Part, fragments: &[Vec<usize>]) -> Vec<Vec<Block>> {
+    fragments
+        .iter()
+        .map(|f| f.iter().map(|&i| part.block(i)).collect())
+        .collect()
+}
+
+/// Compares a re-run decision with the recorded one: exactly (the estimate and the re-plan
+/// are deterministic).
+pub fn compare(part: &Part, recorded: &BoundaryRecord, new: &Decision) -> Vec<DecisionDifference> {
+    let mut out = Vec::new();
+    if recorded.decision != new.reason {
+        out.push(DecisionDifference::Decision {
+            recorded: recorded.decision.clone(),
+            new: new.reason.into(),
+        });
+    }
+    if recorded.changed != new.changed {
+        out.push(DecisionDifference::Changed {
+            recorded: recorded.changed,
+            new: new.changed,
+        });
+    }
+    let e = &new.estimate;
+    let names = [
+        "loss factor",
+        "conduction factor",
+        "rms before (°C)",
+        "rms after (°C)",
+    ];
+    let values = [e.loss, e.conduction, e.rmse_before_c, e.rmse_after_c];
+    for ((name, a), b) in names.into_iter().zip(recorded.estimate).zip(values) {
+        // Bit for bit (NaN as NaN): the same inputs give the same fit.
+        if a.to_bits() != b.to_bits() && !(a.is_nan() && b.is_nan()) {
+            out.push(DecisionDifference::Estimate {
+                name,
+                recorded: a,
+                new: b,
+            });
+        }
+    }
+    out.extend(
+        diff_fragments(&recorded.fragments, &blocks(part, &new.fragments()))
+            .into_iter()
+            .map(DecisionDifference::Plan),
+    );
+    out
+}
+
+/// Re-runs every decision of `execution` on `part` (the part the node received for its
+/// job) from the recorded readings in `sensors`, with the node's re-plan options but no
+/// time limit (`planner`; its timeout is ignored). After each decision the loop follows
+/// what the node did (the recorded plan taken, or the current one kept), so each boundary
+/// is judged on the node's own path.
+pub fn replay_execution(
+    execution: &RecordedExecution,
+    part: &Part,
+    planner: &waam_planner::Options,
+    sensors: &mut Sensors,
+) -> Vec<DecisionReport> {
+    let mut reports = Vec::new();
+    let opts = LoopOptions {
+        planner: waam_planner::Options {
+            timeout: None,
+            ..planner.clone()
+        },
+        // The wire feed does not enter a decision.
+        wire_feed: (1.0, 1.0),
+    };
+    let not_run = |b: &RecordedBoundary, why: String| DecisionReport {
+        boundary: b.clone(),
+        verdict: DecisionVerdict::NotReproducible(why),
+        new: None,
+    };
+    let Some(first) = execution.boundaries.first() else {
+        return reports;
+    };
+    let start = first
+        .record
+        .plan
+        .as_ref()
+        .ok_or_else(|| "its first boundary does not record the plan executed".to_string())
+        .and_then(|plan| indices(part, plan))
+        .and_then(|plan| ClosedLoop::new(part, &plan, opts, 0.0).map_err(|e| e.to_string()));
+    let mut closed = match start {
+        Ok(c) => c,
+        Err(why) => {
+            let why = format!("the execution cannot be re-run: {why}");
+            return execution
+                .boundaries
+                .iter()
+                .map(|b| not_run(b, why.clone()))
+                .collect();
+        }
+    };
+    let mut stop: Option<String> = None;
+    for b in &execution.boundaries {
+        if let Some(why) = &stop {
+            reports.push(not_run(b, why.clone()));
+            continue;
+        }
+        let r = &b.record;
+        let different = |why: String| DecisionReport {
+            boundary: b.clone(),
+            verdict: DecisionVerdict::Different(vec![DecisionDifference::Inputs(why)]),
+            new: None,
+        };
+        let told = r.deposits.iter().try_for_each(|d| {
+            let i = part
+                .index_of(d.block)
+                .ok_or(format!("deposit {:?} is not in the part", d.block))?;
+            closed
+                .deposited(i, d.arc_start, d.start_s, d.duration_s)
+                .map(drop)
+                .map_err(|e| e.to_string())
+        });
+        if let Err(why) = told {
+            reports.push(different(why));
+            stop = Some("an earlier boundary could not be re-run".into());
+            continue;
+        }
+        let mut missing = None;
+        for reading in &r.readings {
+            match sensors.take(reading, part, r.scan_margin_mm) {
+                // Readings the loop cannot place are ignored, as the node ignored them.
+                Ok(m) => {
+                    let _ = closed.measured(&m);
+                }
+                Err(why) => {
+                    missing = Some(why);
+                    break;
+                }
+            }
+        }
+        if let Some(why) = missing {
+            reports.push(not_run(b, why));
+            stop = Some("an earlier boundary could not be re-run".into());
+            continue;
+        }
+        if closed.next().is_none() {
+            reports.push(different(
+                "a decision was recorded after the plan's last deposit".into(),
+            ));
+            stop = Some("an earlier boundary could not be re-run".into());
+            continue;
+        }
+        let new = match closed.at_boundary(true, r.now_s) {
+            Ok(d) => d,
+            Err(e) => {
+                reports.push(different(format!("the re-run fails: {e}")));
+                stop = Some("an earlier boundary could not be re-run".into());
+                continue;
+            }
+        };
+        let diffs = compare(part, r, &new);
+        let verdict = if diffs.is_empty() {
+            DecisionVerdict::Identical
+        } else if let (false, Some(t)) = (r.proven, r.timeout_s) {
+            DecisionVerdict::NotReproducible(format!(
+                "the recorded re-plan was not proven within its time limit of {t} s (wall \
+                 clock), so what it found depended on the machine's speed; re-run without a \
+                 limit: {}",
+                diffs
+                    .iter()
+                    .map(|d| d.to_string())
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            ))
+        } else {
+            DecisionVerdict::Different(diffs)
+        };
+        reports.push(DecisionReport {
+            boundary: b.clone(),
+            verdict,
+            new: Some((
+                new.estimate.loss,
+                new.estimate.conduction,
+                new.fragments().len(),
+            )),
+        });
+        // Follow the node: its plan from here is the recorded one.
+        let followed = indices(part, &r.fragments).map(|f| Decision {
+            whole: sequence(&f),
+            ..new.clone()
+        });
+        match followed {
+            Ok(d) if split(&d.whole).len() == r.fragments.len() => {
+                if b.reason == "kept" {
+                    closed.reject(&d, r.now_s);
+                } else {
+                    closed.adopt(&d, r.now_s);
+                }
+            }
+            _ => stop = Some("the recorded plan is not the part's".into()),
+        }
+    }
+    reports
+}
+
+/// The job a recorded "received" status names, from its values.
+pub fn received_job(values: &[(String, String)]) -> Vec<u64> {
+    let mut jobs = Vec::new();
+    let mut received = false;
+    for (k, v) in values {
+        if k == "state" {
+            received = v == "received";
+        } else if k == "job" && received {
+            jobs.extend(v.parse::<u64>().ok());
+            received = false;
+        }
+    }
+    jobs
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use waam_rosmsg::std_msgs::Header;
+
+    /// A scan is taken again from its recorded cloud as the node took it (part frame,
+    /// points off the part dropped); one the recording lacks, or that gives other points,
+    /// is said to be so.
+    #[test]
+    fn a_recorded_scan_is_placed_again_as_the_node_placed_it() {
+        let part =
+            Part::parse("name: w\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nlayers:\n  - \"###\"\n")
+                .unwrap();
+        let stamp = Time::from_nanos(1_800_000_000_123_456_789);
+        let mut cloud = crate::scan::cloud(
+            &[
+                [0.003, 0.003, 0.00225],
+                [0.009, 0.003, 0.0023],
+                [0.5, 0.5, 0.0],
+            ],
+            PART_FRAME,
+        );
+        cloud.header = Header::new(stamp, PART_FRAME);
+        let target = ScanTarget::of_part(&part, "base_link", Isometry3::identity());
+        let node = sensor::scan(
+            &cloud,
+            Some(&target),
+            &TfBuffer::default(),
+            10.0,
+            stamp,
+            1.0,
+        )
+        .unwrap()
+        .measured();
+        let mut sensors = Sensors {
+            raw: vec![Raw::Scan(cloud)],
+            used: vec![false],
+            first_unused: 0,
+            frames: TfBuffer::default(),
+            base_link: None,
+        };
+        let r = ReadingRef::of(&node);
+        assert_eq!(
+            r,
+            ReadingRef::Scan {
+                stamp_s: stamp_s(stamp),
+                points: 2
+            }
+        );
+        assert_eq!(sensors.take(&r, &part, 10.0).unwrap(), node);
+        // Each recorded message is taken once.
+        let e = sensors.take(&r, &part, 10.0).unwrap_err();
+        assert!(e.contains("not in the recording"), "{e}");
+        (sensors.used[0], sensors.first_unused) = (false, 0);
+        let other = ReadingRef::Scan {
+            stamp_s: stamp_s(stamp),
+            points: 3,
+        };
+        let e = sensors.take(&other, &part, 10.0).unwrap_err();
+        assert!(e.contains("gives 2 points"), "{e}");
+    }
+
+    #[test]
+    fn a_boundary_record_reads_back_exactly() {
+        let r = BoundaryRecord {
+            boundary: 2,
+            now_s: 1_765_000_000.123_456_7,
+            deposits: vec![ToldDeposit {
+                block: [1, 0, 2],
+                arc_start: true,
+                start_s: 0.1 + 0.2,
+                duration_s: 1.0 / 3.0,
+            }],
+            readings: vec![
+                ReadingRef::Temperature {
+                    stamp_s: 1_765_000_000.5,
+                    celsius: 612.25,
+                },
+                ReadingRef::Scan {
+                    stamp_s: 1_765_000_001.0,
+                    points: 6,
+                },
+            ],
+            plan: Some(vec![vec![[0, 0, 0], [1, 0, 0]]]),
+            scan_margin_mm: 5.0,
+            timeout_s: None,
+            decision: "replan".into(),
+            changed: true,
+            estimate: [0.75, 1.0, 124.5, f64::NAN],
+            fragments: vec![vec![[0, 0, 0]], vec![[1, 0, 0]]],
+            proven: true,
+        };
+        let values: Vec<(String, String)> = r
+            .values()
+            .into_iter()
+            .map(|kv| (kv.key, kv.value))
+            .collect();
+        let back = BoundaryRecord::from_values(&values).unwrap().unwrap();
+        assert!(back.estimate[3].is_nan());
+        let same = |mut x: BoundaryRecord| {
+            x.estimate[3] = 0.0;
+            x
+        };
+        assert_eq!(same(back), same(r));
+        assert_eq!(BoundaryRecord::from_values(&[]).unwrap(), None);
+        let mut bad = values.clone();
+        bad.retain(|(k, _)| k != "loop.now_s");
+        let e = BoundaryRecord::from_values(&bad).unwrap_err();
+        assert_eq!(e.key, "loop.now_s");
+    }
+}
