@@ -207,8 +207,11 @@ fn search_rest(
     let mut violations = vec![0usize; part.len()];
     let mut best: Option<Found> = None;
     let (mut proven, mut any_valid, mut interrupted) = (true, false, false);
+    // A closed prefix with blocks left needs another weld path: said here, as the solver
+    // may take long to prove that fewer leave blocks uncovered (a Hamiltonian refutation).
+    let fewest = done.len() + usize::from(!built.open && built_len < part.len());
     let levels: Vec<usize> = if optimize {
-        (done.len().max(1)..=k).collect()
+        (fewest.max(1)..=k).collect()
     } else {
         vec![k]
     };

@@ -223,3 +223,32 @@ fn a_prefix_that_breaks_the_rules_is_refused_with_its_deposit() {
     let e = planner::plan_rest(&part, &b, &Options::default(), &mut |_| {}).unwrap_err();
     assert!(e.to_string().contains("0 temperatures for 1"), "{e}");
 }
+
+/// A graph part's first layer welded as one closed weld path: the rest (three layers of two
+/// rings) is planned at once with one more arc start. Asking the solver first whether no
+/// further arc start could do kept CaDiCaL refuting Hamiltonian paths for minutes.
+#[test]
+fn a_closed_layer_of_a_ring_of_beads_is_completed_with_one_more_weld_path_at_once() {
+    let text = include_str!("../../../tests/data/ring-beads.yaml");
+    let beads = waam_part::BeadPart::parse(text.split("\nt85:").next().unwrap()).unwrap();
+    let mut part = Part::of_beads(beads).unwrap();
+    part.set_max_fragments(4);
+    let graph = WeldGraph::new(&part);
+    let model = ThermalModel::new(&part, &graph);
+    let whole = planner::plan(&part, &Options::default(), &mut |_| {})
+        .unwrap()
+        .best
+        .unwrap()
+        .fragments
+        .concat();
+    let layer0 = whole.iter().take_while(|&&b| part.block(b)[2] == 0).count();
+    let state = state_after(&model, &[whole.clone()], layer0).unwrap();
+    let built = Built { state, open: false };
+    let opts = Options {
+        timeout: Some(std::time::Duration::from_secs(20)),
+        ..Options::default()
+    };
+    let report = planner::plan_rest(&part, &built, &opts, &mut |_| {}).unwrap();
+    assert!(report.proven, "the best completion is proven");
+    assert_eq!(report.best.unwrap().fragments.len(), 2);
+}

@@ -536,6 +536,19 @@ fn build_low_wall(limits: (f64, f64)) -> Vec<f64> {
             }
         })
         .collect();
+    build_low(part, fragments, limits)
+}
+
+/// `part` welded by `fragments` (the first one layer 0, all of it) on the low cell of
+/// [`build_low_wall`]; the scan's points are the first layer's deposits' centres.
+fn build_low(part: Part, fragments: Vec<Vec<usize>>, limits: (f64, f64)) -> Vec<f64> {
+    let layer0: Vec<[f64; 2]> = fragments[0]
+        .iter()
+        .map(|&i| {
+            let c = part.centre_mm(part.block(i));
+            [c[0], c[1]]
+        })
+        .collect();
     let chosen = ChosenPlan {
         fragments,
         stats: Default::default(),
@@ -547,6 +560,7 @@ fn build_low_wall(limits: (f64, f64)) -> Vec<f64> {
 
     /// The cell's wire feed and deposit, and its scanner.
     struct LowCell {
+        layer0: Vec<[f64; 2]>,
         clock: Arc<Mutex<f64>>,
         readings: Sender<Measured>,
         feed: RefCell<f64>,
@@ -569,7 +583,7 @@ fn build_low_wall(limits: (f64, f64)) -> Vec<f64> {
                 return;
             }
             *top += 0.9 * 2.5 * *self.feed.borrow();
-            let points = (0..6).map(|i| [3.0 + 6.0 * i as f64, 3.0, *top]).collect();
+            let points = self.layer0.iter().map(|p| [p[0], p[1], *top]).collect();
             let _ = self.readings.send(Measured::Scan {
                 stamp_s: *self.clock.lock().unwrap(),
                 points,
@@ -582,6 +596,7 @@ fn build_low_wall(limits: (f64, f64)) -> Vec<f64> {
     let clock = Arc::new(Mutex::new(1000.0));
     let (tx, rx) = channel();
     let outputs = LowCell {
+        layer0,
         clock: Arc::clone(&clock),
         readings: tx,
         feed: RefCell::new(1.0),
@@ -612,4 +627,27 @@ fn a_layer_scanned_low_raises_the_next_weld_paths_wire_feed_within_the_limits() 
     // Within the process limits.
     let feeds = build_low_wall((0.9, 1.1));
     assert_eq!(feeds[1], 1.1, "{feeds:?}");
+}
+
+/// The same on a graph part, the ring sliced into beads (4 layers of two rings), one weld
+/// path a layer: its first layer scanned 2.25 mm high gives the next weld path 2.75 / 2.25.
+#[test]
+fn a_graph_part_scanned_low_raises_the_next_weld_paths_wire_feed() {
+    let text = include_str!("../../../tests/data/ring-beads.yaml");
+    let beads = waam_part::BeadPart::parse(text.split("\nt85:").next().unwrap()).unwrap();
+    let mut part = Part::of_beads(beads).unwrap();
+    part.set_max_fragments(4);
+    // The planner's one weld path, cut where it climbs to the next layer.
+    let outcome = waam_pipeline::plan(&part, None, &Default::default(), &mut |_| {}).unwrap();
+    let mut fragments: Vec<Vec<usize>> = Vec::new();
+    for i in outcome.report.best.unwrap().fragments.concat() {
+        match fragments.last_mut() {
+            Some(f) if part.block(f[0])[2] == part.block(i)[2] => f.push(i),
+            _ => fragments.push(vec![i]),
+        }
+    }
+    assert_eq!(fragments.len(), 4, "one weld path a layer");
+    let feeds = build_low(part, fragments, (0.7, 1.3));
+    assert_eq!(feeds[0], 1.0);
+    assert!((feeds[1] - 2.75 / 2.25).abs() < 1e-9, "{feeds:?}");
 }
