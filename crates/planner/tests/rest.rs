@@ -242,7 +242,7 @@ fn a_closed_layer_of_a_ring_of_beads_is_completed_with_one_more_weld_path_at_onc
         .fragments
         .concat();
     let layer0 = whole.iter().take_while(|&&b| part.block(b)[2] == 0).count();
-    let state = state_after(&model, &[whole.clone()], layer0).unwrap();
+    let state = state_after(&model, std::slice::from_ref(&whole), layer0).unwrap();
     let built = Built { state, open: false };
     let opts = Options {
         timeout: Some(std::time::Duration::from_secs(20)),
