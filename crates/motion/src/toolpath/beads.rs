@@ -2,11 +2,15 @@
 //!
 //! Each fragment (node ids in weld order) becomes one weld pass. A node's piece of its bead
 //! is the centre line from `from_mm` to `to_mm`, walked forwards or backwards so that
-//! consecutive nodes of one bead join end to start (across the seam of a closed bead too);
-//! between nodes that do not join (a step beside or up) the torch welds a straight
-//! connection. The torch target is the top of the bead's layer, `base_z_mm + (layer + 1)·H`,
-//! as a block plan's is the top centre of the block. Transit, approach, arc on/off and
-//! retract are the block plan's ([`super::build_routes`]).
+//! consecutive nodes of one bead join end to start (across the seam of a closed bead too).
+//! Between nodes that do not join (a step beside or up) the torch welds a connection: along
+//! the previous bead's centre line where the next piece starts on it (within W/2) at most a
+//! node ahead, or along the next bead's where the previous piece ended on it at most a node
+//! before its start, z rising with the length welded (a spiral tube climbs on a helix, not
+//! a chord inside its circle); else straight. The torch target is the top of the bead's
+//! layer, `base_z_mm + (layer + 1)·H`, as a block plan's is the top centre of the block.
+//! Transit, approach, arc on/off and retract are the block plan's
+//! ([`super::build_routes`]).
 //!
 //! Timing: with the process settings' `weld_speed_mm_s`, that speed throughout. Without it,
 //! node i takes the graph thermal model's deposit time `block_time_s · V_i / V0`
@@ -90,10 +94,10 @@ pub(crate) fn routes_of_graph_plan(
         let mut marks: Vec<(usize, bool)> = Vec::new();
         // The node whose time each step (into a station) counts against.
         let mut span_of: Vec<usize> = Vec::new();
-        // Where the previous piece ended: (bead, arc length).
-        let mut end: Option<(usize, f64)> = None;
+        // Where the previous piece ended.
+        let mut end: Option<End> = None;
         for (k, d) in nodes.iter().enumerate() {
-            let forward = direction(&beads, &nodes, k, end, &points);
+            let forward = direction(&beads, &nodes, k, end.map(|e| (e.bead, e.at_mm)), &points);
             let line = &beads[d.bead];
             let (from, to) = (line.clamp(d.from_mm), line.clamp(d.to_mm));
             let mut piece = line.piece(from, to);
@@ -109,8 +113,22 @@ pub(crate) fn routes_of_graph_plan(
                 Some(last) if (piece[0] - last).norm() < JOIN_MM => {
                     *marks.last_mut().expect("marks follow points") = (k, true);
                 }
-                // A step beside or up: a straight weld, on the previous node's time.
+                // A step beside or up: along a centre line where one leads there (see
+                // `connection`), else straight; on the previous node's time.
                 _ => {
+                    if let (Some(&last), Some(prev)) = (points.last(), end) {
+                        let next = End {
+                            bead: d.bead,
+                            at_mm: if forward { from } else { to },
+                            forward,
+                            piece_mm: to - from,
+                        };
+                        for p in connection(&beads, w, (prev, last), (next, piece[0])) {
+                            points.push(p);
+                            marks.push((k - 1, false));
+                            span_of.push(k - 1);
+                        }
+                    }
                     points.push(piece[0]);
                     marks.push((k, true));
                     span_of.push(k.saturating_sub(1));
@@ -121,7 +139,12 @@ pub(crate) fn routes_of_graph_plan(
                 marks.push((k, false));
                 span_of.push(k);
             }
-            end = Some((d.bead, if forward { to } else { from }));
+            end = Some(End {
+                bead: d.bead,
+                at_mm: if forward { to } else { from },
+                forward,
+                piece_mm: to - from,
+            });
         }
         let step_mm: Vec<f64> = (0..points.len())
             .map(|i| match i {
@@ -207,6 +230,61 @@ fn direction(
     true
 }
 
+/// A piece's end (of the previous node) or start (of the next), where a connection meets it.
+#[derive(Debug, Clone, Copy)]
+struct End {
+    bead: usize,
+    /// Its arc length on the bead's centre line.
+    at_mm: f64,
+    /// Whether the piece is walked from `from_mm` to `to_mm`.
+    forward: bool,
+    /// The piece's length.
+    piece_mm: f64,
+}
+
+/// The stations strictly between `a` (where the previous piece ended, at `pa`) and `b`
+/// (where the next starts, at `pb`) of the weld from one to the other; none for a straight
+/// weld. Where `pb` lies near the previous bead's centre line ahead of `a` (in its walking
+/// direction), or `pa` near the next bead's behind `b`, the torch follows that line in xy
+/// (the nearer fit), z rising linearly with the path's length: a helix on a ring, where a
+/// straight climb would cut a chord inside it. Near: within W/2 of the line, i.e. on that
+/// bead's deposit (beads beside each other are W apart, so a step between them finds no
+/// line); and no farther along than the longer piece, as the node above or beside the
+/// next one is. A step down stays straight, so the climb never dips below `pa`.
+fn connection(
+    beads: &[Line],
+    w: f64,
+    (a, pa): (End, Point3<f64>),
+    (b, pb): (End, Point3<f64>),
+) -> Vec<Point3<f64>> {
+    if pb.z < pa.z {
+        return Vec::new();
+    }
+    let reach = a.piece_mm.max(b.piece_mm);
+    let ahead = beads[a.bead].fit(a.at_mm, a.forward, reach, [pb.x, pb.y], 0.5 * w);
+    let behind = beads[b.bead].fit(b.at_mm, !b.forward, reach, [pa.x, pa.y], 0.5 * w);
+    let xy = match (ahead, behind) {
+        (Some(f), Some(g)) if g.0 < f.0 => g.1.into_iter().rev().collect(),
+        (Some(f), _) => f.1,
+        (None, Some(g)) => g.1.into_iter().rev().collect(),
+        (None, None) => return Vec::new(),
+    };
+    // z by the share of the path's length in xy walked.
+    let mut at = Vec::with_capacity(xy.len());
+    let mut s = 0.0;
+    let mut prev = [pa.x, pa.y];
+    for p in &xy {
+        s += (p[0] - prev[0]).hypot(p[1] - prev[1]);
+        at.push(s);
+        prev = *p;
+    }
+    let total = s + (pb.x - prev[0]).hypot(pb.y - prev[1]);
+    xy.iter()
+        .zip(at)
+        .map(|(p, s)| Point3::new(p[0], p[1], pa.z + (pb.z - pa.z) * s / total))
+        .collect()
+}
+
 /// A bead's centre line with the arc length at each vertex; a closed bead repeats its
 /// first point at the end.
 struct Line {
@@ -282,6 +360,86 @@ impl Line {
         out.push(self.at(to));
         out
     }
+
+    /// The centre line from arc length `s` on, forwards or backwards, for `len` mm or to
+    /// its end (a closed bead: around its seam, at most one lap): (distance walked, point)
+    /// at `s`, at the vertices between (none within [`JOIN_MM`] of either end) and at the
+    /// end.
+    fn walk(&self, s: f64, forward: bool, len: f64) -> Vec<(f64, [f64; 2])> {
+        let total = self.length();
+        let room = match (self.closed, forward) {
+            (true, _) => total,
+            (false, true) => total - s,
+            (false, false) => s,
+        };
+        let len = len.min(room).max(0.0);
+        let at = |d: f64| {
+            let t = if forward { s + d } else { s - d };
+            self.at(if self.closed { t.rem_euclid(total) } else { t })
+        };
+        let mut ds: Vec<f64> = self
+            .at_mm
+            .iter()
+            .map(|&v| {
+                let d = if forward { v - s } else { s - v };
+                if self.closed {
+                    d.rem_euclid(total)
+                } else {
+                    d
+                }
+            })
+            .filter(|&d| d > JOIN_MM && d < len - JOIN_MM)
+            .collect();
+        ds.sort_by(f64::total_cmp);
+        // A closed bead's first and last points are one vertex.
+        ds.dedup_by(|x, y| (*x - *y).abs() < JOIN_MM);
+        let mut out = vec![(0.0, self.at(s))];
+        out.extend(ds.into_iter().map(|d| (d, at(d))));
+        if len > JOIN_MM {
+            out.push((len, at(len)));
+        }
+        out
+    }
+
+    /// Whether `q` lies within `near` of the line walked from `s` for `len` mm (see
+    /// [`Line::walk`]): the distance, and the points of the walk up to the one nearest `q`
+    /// (without `s`'s own, nor one within [`JOIN_MM`] of `q`).
+    fn fit(
+        &self,
+        s: f64,
+        forward: bool,
+        len: f64,
+        q: [f64; 2],
+        near: f64,
+    ) -> Option<(f64, Vec<[f64; 2]>)> {
+        let walk = self.walk(s, forward, len);
+        let mut best: Option<(f64, usize, f64, [f64; 2])> = None;
+        for (i, seg) in walk.windows(2).enumerate() {
+            let ((d0, a), (d1, b)) = (seg[0], seg[1]);
+            let ab = [b[0] - a[0], b[1] - a[1]];
+            let l2 = ab[0] * ab[0] + ab[1] * ab[1];
+            let t = if l2 > 0.0 {
+                (((q[0] - a[0]) * ab[0] + (q[1] - a[1]) * ab[1]) / l2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let p = [a[0] + ab[0] * t, a[1] + ab[1] * t];
+            let off = (q[0] - p[0]).hypot(q[1] - p[1]);
+            if best.is_none_or(|b| off < b.0) {
+                best = Some((off, i, d0 + (d1 - d0) * t, p));
+            }
+        }
+        let (off, i, d, p) = best.filter(|b| b.0 <= near)?;
+        let mut path: Vec<[f64; 2]> = walk[1..=i]
+            .iter()
+            .filter(|v| v.0 < d - JOIN_MM)
+            .map(|v| v.1)
+            .collect();
+        if d > JOIN_MM && off > JOIN_MM {
+            path.push(p);
+        }
+        Some((off, path))
+    }
 }
 
 #[cfg(test)]
@@ -298,51 +456,56 @@ mod tests {
     /// Rings of radius R (128 vertices: the polygon is within 0.04 mm of the circle), one
     /// per layer, cut into pieces of about W, listed layer by layer.
     fn rings(layers: u32) -> BeadPart {
-        let points: Vec<[f64; 2]> = (0..128)
-            .map(|i| {
-                let a = TAU * i as f64 / 128.0;
-                [R * a.cos(), R * a.sin()]
-            })
-            .collect();
-        let mut beads = Vec::new();
-        let mut nodes = Vec::new();
-        for layer in 0..layers {
-            let bead = Bead {
-                layer,
-                closed: true,
-                points: points.clone(),
-            };
-            let len = bead.length_mm();
-            let n = (len / W).round() as usize;
-            let line = Line::new(&bead);
-            for i in 0..n {
-                let (from_mm, to_mm) = (len * i as f64 / n as f64, len * (i + 1) as f64 / n as f64);
-                let c = line.at(0.5 * (from_mm + to_mm));
-                nodes.push(Deposit {
-                    bead: layer as usize,
-                    from_mm,
-                    to_mm,
-                    layer,
-                    centre_mm: [c[0], c[1], (layer as f64 + 0.5) * H],
-                    volume_mm3: W * H * (to_mm - from_mm),
-                    surface_mm2: 1.0,
-                    substrate_mm2: 0.0,
-                });
-            }
-            beads.push(bead);
-        }
-        BeadPart {
+        let mut part = BeadPart {
             name: "ring".into(),
             max_fragments: 2,
             bead_mm: [W, H],
             base_z_mm: 0.0,
-            beads,
-            nodes,
+            beads: Vec::new(),
+            nodes: Vec::new(),
             contacts: Vec::new(),
             windows: Vec::new(),
             thermal: ThermalParams::default(),
             warnings: Vec::new(),
+        };
+        for layer in 0..layers {
+            add_ring(&mut part, R, layer);
         }
+        part
+    }
+
+    /// A ring of radius `r` on `layer` as the next bead, cut into pieces of about W from
+    /// angle 0 counter-clockwise.
+    fn add_ring(part: &mut BeadPart, r: f64, layer: u32) {
+        let points: Vec<[f64; 2]> = (0..128)
+            .map(|i| {
+                let a = TAU * i as f64 / 128.0;
+                [r * a.cos(), r * a.sin()]
+            })
+            .collect();
+        let bead = Bead {
+            layer,
+            closed: true,
+            points,
+        };
+        let len = bead.length_mm();
+        let n = (len / W).round() as usize;
+        let line = Line::new(&bead);
+        for i in 0..n {
+            let (from_mm, to_mm) = (len * i as f64 / n as f64, len * (i + 1) as f64 / n as f64);
+            let c = line.at(0.5 * (from_mm + to_mm));
+            part.nodes.push(Deposit {
+                bead: part.beads.len(),
+                from_mm,
+                to_mm,
+                layer,
+                centre_mm: [c[0], c[1], (layer as f64 + 0.5) * H],
+                volume_mm3: W * H * (to_mm - from_mm),
+                surface_mm2: 1.0,
+                substrate_mm2: 0.0,
+            });
+        }
+        part.beads.push(bead);
     }
 
     fn part_frame(part: &BeadPart, fragments: &[Vec<usize>]) -> Toolpath {
@@ -487,6 +650,83 @@ mod tests {
         assert_eq!(arcs, 1);
         for p in &on {
             assert!((p.x.hypot(p.y) - R).abs() < 0.1);
+        }
+    }
+
+    #[test]
+    fn a_spiral_climbs_along_its_circle_one_node_ahead() {
+        // Each layer starts one node (6.5 mm) ahead of where the one below ended, both ways
+        // round: a straight climb would cut a chord 6.5^2 / (8 R) = 0.16 mm inside the ring.
+        let part = rings(3);
+        let n = part.nodes.len() / 3;
+        let ccw = |l: usize, i: usize| l * n + (i + l) % n;
+        let cw = |l: usize, i: usize| l * n + (2 * n - 1 - i - l) % n;
+        for order in [&ccw as &dyn Fn(usize, usize) -> usize, &cw] {
+            let frag: Vec<usize> = (0..3)
+                .flat_map(|l| (0..n).map(move |i| (l, i)))
+                .map(|(l, i)| order(l, i))
+                .collect();
+            let frags = [frag];
+            let tp = part_frame(&part, &frags);
+            let on = welded(&tp);
+            for p in &on {
+                let r = p.x.hypot(p.y);
+                assert!((r - R).abs() < 0.1, "{p} is {r} mm from the centre");
+            }
+            // Up only, from the top of layer 0 to the top of layer 2.
+            assert!(on.windows(2).all(|w| w[1].z >= w[0].z));
+            assert!((on[0].z - H).abs() < 1e-9);
+            assert!((on.last().unwrap().z - 3.0 * H).abs() < 1e-9);
+            // A climb is a helix: z rises with the path's length, stations on the way.
+            let route = &routes_of_graph_plan(&part, &frags, None).unwrap()[0];
+            let climb: Vec<&Point3<f64>> = route
+                .points_mm
+                .iter()
+                .filter(|p| p.z > H + 1e-9 && p.z < 2.0 * H - 1e-9)
+                .collect();
+            assert!(climb.len() >= 2, "{climb:?}");
+            // Every node is deposited one deposit time after the one before.
+            let times = tp.executed_times();
+            let d = &times.deposits_s[0];
+            assert_eq!(d.len(), 3 * n);
+            let node_s = part.thermal.block_time_s * part.nodes[0].volume_mm3 / (W * W * H);
+            for w in d[1..].windows(2) {
+                assert!((w[1] - w[0] - node_s).abs() < 1e-9, "{w:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_step_to_another_bead_or_across_is_straight() {
+        // Beside: from a ring to the one W outside it, one node ahead.
+        let mut part = rings(1);
+        add_ring(&mut part, R + W, 0);
+        let (n0, n1) = (part.beads[0].length_mm() / W, part.beads[1].length_mm() / W);
+        let (n0, n1) = (n0.round() as usize, n1.round() as usize);
+        let beside: Vec<usize> = (0..n0).chain((0..n1).map(|i| n0 + (i + 1) % n1)).collect();
+        // Up, across: the layer above starts half a lap away.
+        let up = rings(2);
+        let n = up.nodes.len() / 2;
+        let across: Vec<usize> = (0..n).chain((0..n).map(|i| n + (i + n / 2) % n)).collect();
+        for (part, frag) in [(&part, beside), (&up, across)] {
+            let frags = [frag];
+            let route = &routes_of_graph_plan(part, &frags, None).unwrap()[0];
+            let pts = &route.points_mm;
+            let k = frags[0]
+                .iter()
+                .position(|&i| part.nodes[i].bead == 1)
+                .unwrap();
+            let first = route.marks.iter().position(|&m| m == (k, true)).unwrap();
+            // The station before the next node's first is the previous node's last.
+            let (a, b) = (pts[first - 1], pts[first]);
+            let bead = |p: Point3<f64>, b: usize| {
+                let r = part.beads[b].points[0][0];
+                (p.x.hypot(p.y) - r).abs() < 0.1
+                    && (p.z - (part.beads[b].layer as f64 + 1.0) * H).abs() < 1e-9
+            };
+            // From the end of ring 0's last piece (angle 0) straight to the next bead.
+            assert!((a - Point3::new(R, 0.0, H)).norm() < 1e-6, "{a}");
+            assert!(bead(b, 1), "{a} -> {b}");
         }
     }
 
