@@ -370,16 +370,7 @@ fn rclpy_sensor_readings_reach_the_closed_loop_and_its_decision_is_recorded() {
     assert_ne!(plans[0].fragments, plans.last().unwrap().fragments);
     // `waam replay` makes each decision again from the recorded temperatures: the same
     // readings, estimate and plan.
-    let out = common::run::waam()
-        .args(["replay", "--json", "--decisions-only"])
-        .arg(&bag)
-        .output()
-        .unwrap();
-    let json: serde_json::Value = serde_json::from_slice(&out.stdout)
-        .unwrap_or_else(|_| panic!("no JSON: {}", String::from_utf8_lossy(&out.stderr)));
-    assert_eq!(out.status.code(), Some(0), "{json}");
-    assert_eq!(json["decisions_different"], 0, "{json}");
-    assert_eq!(json["decisions_not_reproducible"], 0, "{json}");
+    let json = decisions_replayed_identically(&bag);
     assert_eq!(json["decisions_identical"], replanned.len(), "{json}");
     assert_eq!(json["decisions"][0]["recorded_reason"], "replan", "{json}");
     assert_eq!(
@@ -410,16 +401,7 @@ fn rclpy_simulated_cell_node_feeds_the_closed_loop() {
         recording.count("/cellZ/waam_planner/scan") > 0,
         "no scan recorded"
     );
-    let out = common::run::waam()
-        .args(["replay", "--json", "--decisions-only"])
-        .arg(&bag)
-        .output()
-        .unwrap();
-    let json: serde_json::Value = serde_json::from_slice(&out.stdout)
-        .unwrap_or_else(|_| panic!("no JSON: {}", String::from_utf8_lossy(&out.stderr)));
-    assert_eq!(out.status.code(), Some(0), "{json}");
-    assert_eq!(json["decisions_different"], 0, "{json}");
-    assert_eq!(json["decisions_not_reproducible"], 0, "{json}");
+    let json = decisions_replayed_identically(&bag);
     assert!(json["decisions_identical"].as_u64().unwrap() >= 1, "{json}");
 }
 
@@ -1548,4 +1530,20 @@ fn closed_loop_dry_run_decides_at_the_weld_path_boundary_and_records_it() {
     assert_eq!(json["decisions_different"], 1, "{json}");
     let details = json["decisions"][0]["details"].to_string();
     assert!(details.contains("first differing block"), "{details}");
+}
+
+/// `waam replay --decisions-only --json BAG`: every recorded closed-loop decision made again
+/// identically (exit 0, none different, none unreproducible); the JSON.
+fn decisions_replayed_identically(bag: &std::path::Path) -> serde_json::Value {
+    let out = common::run::waam()
+        .args(["replay", "--json", "--decisions-only"])
+        .arg(bag)
+        .output()
+        .unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|_| panic!("no JSON: {}", String::from_utf8_lossy(&out.stderr)));
+    assert_eq!(out.status.code(), Some(0), "{json}");
+    assert_eq!(json["decisions_different"], 0, "{json}");
+    assert_eq!(json["decisions_not_reproducible"], 0, "{json}");
+    json
 }
