@@ -27,7 +27,7 @@ use waam_rosmsg::{from_cdr, RosMessage};
 
 use super::{diff_fragments, Difference};
 use crate::planning::PART_FRAME;
-use crate::sensor::{self, ScanTarget};
+use crate::sensor::{self, BadReading, ScanTarget};
 use crate::tf_buffer::TfBuffer;
 
 /// The prefix of the status values a boundary's record is kept in.
@@ -410,7 +410,12 @@ fn stamp_s(t: Time) -> f64 {
 
 impl Sensors {
     /// The recorded message `r` names (the first not taken yet), as the loop took it.
-    fn take(&mut self, r: &ReadingRef, part: &Part, margin_mm: f64) -> Result<Measured, String> {
+    fn take(
+        &mut self,
+        r: &ReadingRef,
+        part: &Part,
+        margin_mm: f64,
+    ) -> Result<Measured, Unreplayable> {
         let found = (self.first_unused..self.raw.len()).find(|&i| {
             !self.used[i]
                 && match (&self.raw[i], r) {
@@ -427,7 +432,7 @@ impl Sensors {
                     _ => false,
                 }
         });
-        let i = found.ok_or_else(|| format!("the {r} is not in the recording"))?;
+        let i = found.ok_or_else(|| Unreplayable::Missing(r.clone()))?;
         self.used[i] = true;
         while self.used.get(self.first_unused) == Some(&true) {
             self.first_unused += 1;
@@ -448,13 +453,16 @@ impl Sensors {
                 let target = ScanTarget::of_part(part, &base, plate);
                 // The node judged its age when it came; offline it is as old as its stamp.
                 let good = sensor::scan(cloud, Some(&target), &self.frames, margin_mm, stamp, 1.0)
-                    .map_err(|e| format!("the {r} cannot be placed offline: {e}"))?;
+                    .map_err(|why| Unreplayable::Unplaced {
+                        reading: r.clone(),
+                        why,
+                    })?;
                 match r {
                     ReadingRef::Scan { points, .. } if *points != good.points.len() => {
-                        Err(format!(
-                            "the {r} gives {} points on the part offline",
-                            good.points.len()
-                        ))
+                        Err(Unreplayable::Points {
+                            reading: r.clone(),
+                            points: good.points.len(),
+                        })
                     }
                     _ => Ok(good.measured()),
                 }
@@ -526,15 +534,28 @@ pub struct DecisionReport {
     pub new: Option<(f64, f64, usize)>,
 }
 
-fn indices(part: &Part, fragments: &[Vec<Block>]) -> Result<Vec<Vec<usize>>, String> {
+/// Why a recorded decision's inputs cannot be given to the loop again offline.
+#[derive(Debug, thiserror::Error)]
+enum Unreplayable {
+    #[error("the {0} is not in the recording")]
+    Missing(ReadingRef),
+    #[error("the {reading} cannot be placed offline: {why}")]
+    Unplaced {
+        reading: ReadingRef,
+        why: BadReading,
+    },
+    #[error("the {reading} gives {points} points on the part offline")]
+    Points { reading: ReadingRef, points: usize },
+    #[error("block {0:?} is not in the part")]
+    NotInPart(Block),
+}
+
+fn indices(part: &Part, fragments: &[Vec<Block>]) -> Result<Vec<Vec<usize>>, Unreplayable> {
     fragments
         .iter()
         .map(|f| {
             f.iter()
-                .map(|&b| {
-                    part.index_of(b)
-                        .ok_or(format!("block {b:?} is not in the part"))
-                })
+                .map(|&b| part.index_of(b).ok_or(Unreplayable::NotInPart(b)))
                 .collect()
         })
         .collect()
@@ -622,7 +643,7 @@ pub fn replay_execution(
         .plan
         .as_ref()
         .ok_or_else(|| "its first boundary does not record the plan executed".to_string())
-        .and_then(|plan| indices(part, plan))
+        .and_then(|plan| indices(part, plan).map_err(|e| e.to_string()))
         .and_then(|plan| ClosedLoop::new(part, &plan, opts, 0.0).map_err(|e| e.to_string()));
     let mut closed = match start {
         Ok(c) => c,
@@ -669,7 +690,7 @@ pub fn replay_execution(
                     let _ = closed.measured(&m);
                 }
                 Err(why) => {
-                    missing = Some(why);
+                    missing = Some(why.to_string());
                     break;
                 }
             }
@@ -806,14 +827,15 @@ mod tests {
         assert_eq!(sensors.take(&r, &part, 10.0).unwrap(), node);
         // Each recorded message is taken once.
         let e = sensors.take(&r, &part, 10.0).unwrap_err();
-        assert!(e.contains("not in the recording"), "{e}");
+        assert!(matches!(e, Unreplayable::Missing(_)), "{e}");
+        assert!(e.to_string().contains("not in the recording"), "{e}");
         (sensors.used[0], sensors.first_unused) = (false, 0);
         let other = ReadingRef::Scan {
             stamp_s: stamp_s(stamp),
             points: 3,
         };
         let e = sensors.take(&other, &part, 10.0).unwrap_err();
-        assert!(e.contains("gives 2 points"), "{e}");
+        assert!(matches!(e, Unreplayable::Points { points: 2, .. }), "{e}");
     }
 
     #[test]
