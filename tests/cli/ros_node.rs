@@ -302,6 +302,15 @@ fn rclpy_sensors_warn_on_bad_data_and_their_measurements_are_recorded() {
     );
     let scans: Vec<waam_rosmsg::sensor_msgs::PointCloud2> = recording.decode().unwrap();
     assert!(scans.iter().any(|s| s.header.frame_id == "scanner_link"));
+    // The transforms the node received are recorded too: the fixture scanner's mount.
+    let frames: Vec<waam_rosmsg::tf2_msgs::TFMessage> = recording.decode().unwrap();
+    assert!(
+        frames
+            .iter()
+            .flat_map(|f| &f.transforms)
+            .any(|t| t.child_frame_id == "fixture_scanner"),
+        "the received /tf_static is recorded"
+    );
     let good = scans
         .iter()
         .filter(|s| s.header.frame_id == "part" && s.width == 5)

@@ -222,7 +222,17 @@ impl Sensors {
                             Ok(Incoming::Frames { msg, fixed }) => {
                                 let on = if fixed { TF_STATIC } else { TF };
                                 let faults = match msg {
-                                    Ok(msg) => frames.add(&msg, fixed),
+                                    Ok(msg) => {
+                                        // Recorded, so that `waam replay` places the scans
+                                        // again as the node did.
+                                        let qos = if fixed {
+                                            Qos::latched()
+                                        } else {
+                                            Qos::reliable(100)
+                                        };
+                                        record(on, &|r, t| r.record(t, &qos, &msg));
+                                        frames.add(&msg, fixed)
+                                    }
                                     Err(e) => vec![e],
                                 };
                                 // Once per pair of frames (or kind of fault): /tf runs at
