@@ -124,6 +124,17 @@ fn run_script_with(python: Vec<PathBuf>, script: &str, args: &[&str]) -> Option<
     Some(output)
 }
 
+/// `tests/ros/SCRIPT BAG` with the built interfaces (as [`run_script_with`]), the node
+/// recording into BAG, a new folder `name` in a temporary directory: the directory (kept
+/// while the caller holds it) and BAG; None without a ROS 2 environment (the test skips).
+fn recorded_script_run(script: &str, name: &str) -> Option<(tempfile::TempDir, PathBuf)> {
+    let python = interfaces_python()?;
+    let dir = tempfile::tempdir().unwrap();
+    let bag = dir.path().join(name);
+    run_script_with(python, script, &[bag.to_str().unwrap()]);
+    Some((dir, bag))
+}
+
 /// One run of `tests/ros/SCRIPT` in a fresh domain: its output and a report of it.
 fn run_once(python: &[PathBuf], script: &str, args: &[&str]) -> (Output, String) {
     let script_path = repo().join("tests/ros").join(script);
@@ -211,12 +222,9 @@ fn rclpy_mesh_box_is_planned_and_the_latest_part_wins() {
 /// same plan.
 #[test]
 fn rclpy_ring_mesh_as_beads_is_welded_on_its_centre_line_and_its_recording_replays() {
-    let Some(python) = interfaces_python() else {
+    let Some((_dir, bag)) = recorded_script_run("mesh_beads.py", "ring") else {
         return;
     };
-    let dir = tempfile::tempdir().unwrap();
-    let bag = dir.path().join("ring");
-    run_script_with(python, "mesh_beads.py", &[bag.to_str().unwrap()]);
 
     assert_bag_lists(
         &bag,
@@ -274,12 +282,9 @@ fn rclpy_ring_mesh_as_beads_is_welded_on_its_centre_line_and_its_recording_repla
 /// measurements.
 #[test]
 fn rclpy_sensors_warn_on_bad_data_and_their_measurements_are_recorded() {
-    let dir = tempfile::tempdir().unwrap();
-    let bag = dir.path().join("sensors");
-    let Some(python) = interfaces_python() else {
+    let Some((_dir, bag)) = recorded_script_run("closed_loop_sensors.py", "sensors") else {
         return;
     };
-    run_script_with(python, "closed_loop_sensors.py", &[bag.to_str().unwrap()]);
     assert_bag_lists(
         &bag,
         &[
@@ -396,12 +401,9 @@ fn rclpy_sensor_readings_reach_the_closed_loop_and_its_decision_is_recorded() {
 /// its decisions identically.
 #[test]
 fn rclpy_simulated_cell_node_feeds_the_closed_loop() {
-    let Some(python) = interfaces_python() else {
+    let Some((_dir, bag)) = recorded_script_run("sim_cell_node.py", "sim-cell") else {
         return;
     };
-    let dir = tempfile::tempdir().unwrap();
-    let bag = dir.path().join("sim-cell");
-    run_script_with(python, "sim_cell_node.py", &[bag.to_str().unwrap()]);
     // `waam replay` makes each decision again from the recorded readings. (The scans come
     // after a boundary — a layer spans both walls, so it is finished late — and so reach
     // no decision here; the estimate and the re-plan do not use them.)
