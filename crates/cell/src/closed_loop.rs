@@ -37,7 +37,7 @@ pub struct LoopOptions {
 /// A sensor reading the loop cannot place.
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum MeasureError {
-    #[error("temperature at {stamp_s:.3} s: no deposit was under the torch then")]
+    #[error("reading at {stamp_s:.3} s: no deposit was under way then")]
     NoDeposit { stamp_s: f64 },
     #[error("temperature at {stamp_s:.3} s: {celsius} °C is not a temperature")]
     BadTemperature { stamp_s: f64, celsius: f64 },
@@ -45,6 +45,8 @@ pub enum MeasureError {
     NoLayer { stamp_s: f64 },
     #[error("scan at {stamp_s:.3} s: none of its {points} points lies over layer {z}")]
     NoPoints { stamp_s: f64, points: usize, z: i64 },
+    #[error("thermal image at {stamp_s:.3} s: none of its {points} points lies on a deposit")]
+    OffDeposits { stamp_s: f64, points: usize },
 }
 
 /// What the loop decided at a boundary.
@@ -124,6 +126,8 @@ pub struct ClosedLoop {
     plans: Vec<PlanUsed>,
     estimates: Vec<EstimateRecord>,
     layers: Vec<LayerRecord>,
+    /// Which blocks lie near a point, made when the first thermal image comes.
+    near: std::sync::OnceLock<Near>,
 }
 
 impl ClosedLoop {
@@ -157,6 +161,7 @@ impl ClosedLoop {
             plans: Vec::new(),
             estimates: Vec::new(),
             layers: Vec::new(),
+            near: Default::default(),
         };
         this.plans.push(PlanUsed {
             at_deposit: 0,
@@ -297,13 +302,21 @@ impl ClosedLoop {
                 if !celsius.is_finite() {
                     return Err(MeasureError::BadTemperature { stamp_s, celsius });
                 }
-                // The last deposit begun by then, if the torch was still on it.
-                let k = self.times.partition_point(|&(start, _)| start <= stamp_s);
-                let k = k
-                    .checked_sub(1)
-                    .filter(|&k| stamp_s <= self.times[k].0 + self.times[k].1 + 1e-9)
-                    .ok_or(MeasureError::NoDeposit { stamp_s })?;
+                let k = self.under_way(stamp_s)?;
                 self.add(k + 1, vec![(self.executed[k].0, celsius)]);
+                Ok(())
+            }
+            Measured::ThermalImage { stamp_s, points } => {
+                let stamp_s = *stamp_s;
+                let k = self.under_way(stamp_s)?;
+                let seen = self.on_deposits(k + 1, points);
+                if seen.is_empty() {
+                    return Err(MeasureError::OffDeposits {
+                        stamp_s,
+                        points: points.len(),
+                    });
+                }
+                self.add(k + 1, seen);
                 Ok(())
             }
             Measured::Scan { stamp_s, points } => {
@@ -331,6 +344,49 @@ impl ClosedLoop {
                 Ok(())
             }
         }
+    }
+
+    /// The deposit under way at `stamp_s`: the last one begun by then, if it had not ended.
+    /// The model knows the temperatures at the end of each deposit, and a reading taken
+    /// during one is taken as its end's (between deposits the model has no state).
+    fn under_way(&self, stamp_s: f64) -> Result<usize, MeasureError> {
+        let k = self.times.partition_point(|&(start, _)| start <= stamp_s);
+        k.checked_sub(1)
+            .filter(|&k| stamp_s <= self.times[k].0 + self.times[k].1 + 1e-9)
+            .ok_or(MeasureError::NoDeposit { stamp_s })
+    }
+
+    /// The temperature of each of the first `deposits` deposits a thermal image shows: the
+    /// mean of its points on that deposit. A point is on the deposit whose volume it lies
+    /// nearest, when within half a layer height of it (a surface point, measured with the
+    /// camera's error); points on the plate, the fixture or what is not welded yet are not.
+    fn on_deposits(&self, deposits: usize, points: &[([f64; 3], f64)]) -> Vec<(usize, f64)> {
+        let near = self.near.get_or_init(|| Near::new(&self.part));
+        let tolerance = self.part.block_mm[2] / 2.0;
+        let mut order = vec![usize::MAX; self.part.len()];
+        for (k, &(b, _)) in self.executed[..deposits].iter().enumerate() {
+            order[b] = k;
+        }
+        let mut sums: std::collections::BTreeMap<usize, (f64, usize)> = Default::default();
+        for &(p, celsius) in points {
+            if !celsius.is_finite() {
+                continue;
+            }
+            let nearest = near
+                .within(p, tolerance)
+                .filter(|&b| order[b] != usize::MAX)
+                .map(|b| (self.part.distance_to_mm(b, p), b))
+                .filter(|&(d, _)| d <= tolerance)
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            if let Some((_, b)) = nearest {
+                let s = sums.entry(b).or_default();
+                s.0 += celsius;
+                s.1 += 1;
+            }
+        }
+        sums.into_iter()
+            .map(|(b, (sum, n))| (b, sum / n as f64))
+            .collect()
     }
 
     /// The median z of the points that lie over a block of layer `z` (a graph part: within
@@ -494,10 +550,61 @@ impl ClosedLoop {
     pub fn plans(&self) -> &[PlanUsed] {
         &self.plans
     }
+    /// The temperatures placed so far, by the deposits done when each was read.
+    pub fn measurements(&self) -> &[Measurement] {
+        &self.measurements
+    }
     pub fn estimates(&self) -> &[EstimateRecord] {
         &self.estimates
     }
     pub fn layers(&self) -> &[LayerRecord] {
         &self.layers
+    }
+}
+
+/// The blocks of a part by where they lie: an R-tree of their centres, and how far from its
+/// centre any point of a block lies at most.
+#[derive(Debug, Clone)]
+struct Near {
+    centres: rstar::RTree<rstar::primitives::GeomWithData<[f64; 3], usize>>,
+    reach_mm: f64,
+}
+
+impl Near {
+    fn new(part: &Part) -> Near {
+        let centres: Vec<_> = (0..part.len())
+            .map(|i| rstar::primitives::GeomWithData::new(part.centre_mm(part.block(i)), i))
+            .collect();
+        let reach_mm = match part.bead_part() {
+            // A deposit's piece of centre line, W wide and H high, around its centre.
+            Some(beads) => {
+                let [w, h] = beads.bead_mm;
+                beads
+                    .nodes
+                    .iter()
+                    .map(|n| {
+                        let along = beads.beads[n.bead]
+                            .piece_mm(n.from_mm, n.to_mm)
+                            .iter()
+                            .map(|q| (q[0] - n.centre_mm[0]).hypot(q[1] - n.centre_mm[1]))
+                            .fold(0.0, f64::max);
+                        (along + w / 2.0).hypot(h / 2.0)
+                    })
+                    .fold(0.0, f64::max)
+            }
+            None => part.block_mm.iter().map(|v| v * v).sum::<f64>().sqrt() / 2.0,
+        };
+        Near {
+            centres: rstar::RTree::bulk_load(centres),
+            reach_mm,
+        }
+    }
+
+    /// The blocks a point within `tolerance_mm` of a block's volume may belong to.
+    fn within(&self, p: [f64; 3], tolerance_mm: f64) -> impl Iterator<Item = usize> + '_ {
+        let r = self.reach_mm + tolerance_mm;
+        self.centres
+            .locate_within_distance(p, r * r)
+            .map(|c| c.data)
     }
 }

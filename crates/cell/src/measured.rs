@@ -10,4 +10,10 @@ pub enum Measured {
     /// A layer height scan (e.g. a laser line scanner after a layer): points on the top
     /// surface in the part frame, mm.
     Scan { stamp_s: f64, points: Vec<[f64; 3]> },
+    /// A thermal camera's image mapped onto the part: points on its surface in the part
+    /// frame, mm, each with its temperature, °C.
+    ThermalImage {
+        stamp_s: f64,
+        points: Vec<([f64; 3], f64)>,
+    },
 }

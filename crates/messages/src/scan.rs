@@ -1,4 +1,5 @@
-//! A layer height scan (`sensor_msgs/PointCloud2` from a laser line scanner) read into
+//! A layer height scan (`sensor_msgs/PointCloud2` from a laser line scanner), or a thermal
+//! camera's image mapped onto the part (the same with a `temperature` field), read into
 //! points, with an error naming what is wrong and where — the node reports it on
 //! `/diagnostics` instead of using the data. Which frame the points are in, and whether they
 //! lie on the part, is [`crate::sensor`]'s to check.
@@ -7,38 +8,63 @@ use nalgebra::Point3;
 use thiserror::Error;
 use waam_rosmsg::sensor_msgs::{PointCloud2, PointField};
 
-/// Why a scan cannot be used.
+/// Why a scan's or a thermal image's cloud cannot be read.
 #[derive(Debug, Error, PartialEq)]
 pub enum ScanError {
-    #[error("scan has no FLOAT32 or FLOAT64 field '{0}'")]
+    #[error("cloud has no FLOAT32 or FLOAT64 field '{0}'")]
     MissingField(&'static str),
-    #[error("scan is big-endian (only little-endian clouds are read)")]
+    #[error("cloud is big-endian (only little-endian clouds are read)")]
     BigEndian,
-    #[error("scan data holds {got} bytes, {need} needed for {points} points of {step} bytes")]
+    #[error("cloud data holds {got} bytes, {need} needed for {points} points of {step} bytes")]
     Truncated {
         got: usize,
         need: usize,
         points: usize,
         step: u32,
     },
-    #[error("scan field '{field}' at byte {offset} does not fit a point of {step} bytes")]
+    #[error("cloud field '{field}' at byte {offset} does not fit a point of {step} bytes")]
     FieldOutsidePoint {
         field: &'static str,
         offset: u32,
         step: u32,
     },
-    #[error("scan point {index} is not finite ({value:?})")]
+    #[error("cloud point {index} is not finite ({value:?})")]
     NotFinite { index: usize, value: [f64; 3] },
-    #[error("scan is empty")]
+    #[error("cloud is empty")]
     Empty,
 }
 
 /// The points of `cloud` in its own frame, which must all have finite x, y, z.
 pub fn scan_points(cloud: &PointCloud2) -> Result<Vec<Point3<f64>>, ScanError> {
+    Ok(points_with(cloud, None)?
+        .into_iter()
+        .map(|(p, _)| p)
+        .collect())
+}
+
+/// The points of a thermal camera's cloud in its own frame, each with its `temperature`
+/// field (°C, as `sensor_msgs/Temperature` has it; NaN where the camera read nothing).
+/// x, y, z must all be finite.
+pub fn thermal_points(cloud: &PointCloud2) -> Result<Vec<(Point3<f64>, f64)>, ScanError> {
+    Ok(points_with(cloud, Some(TEMPERATURE))?
+        .into_iter()
+        .map(|(p, t)| (p, t.unwrap_or(f64::NAN)))
+        .collect())
+}
+
+/// The field a thermal camera's cloud carries its temperatures in.
+pub const TEMPERATURE: &str = "temperature";
+
+/// x, y, z of every point, and the value of field `extra` when asked for.
+fn points_with(
+    cloud: &PointCloud2,
+    extra: Option<&'static str>,
+) -> Result<Vec<(Point3<f64>, Option<f64>)>, ScanError> {
     if cloud.is_bigendian {
         return Err(ScanError::BigEndian);
     }
     let axes = [axis(cloud, "x")?, axis(cloud, "y")?, axis(cloud, "z")?];
+    let extra = extra.map(|name| axis(cloud, name)).transpose()?;
     let points = cloud.width as usize * cloud.height as usize;
     if points == 0 {
         return Err(ScanError::Empty);
@@ -59,7 +85,7 @@ pub fn scan_points(cloud: &PointCloud2) -> Result<Vec<Point3<f64>>, ScanError> {
             let bytes = &cloud.data[index * step..(index + 1) * step];
             let value = axes.map(|a| a.read(bytes));
             if value.iter().all(|v| v.is_finite()) {
-                Ok(Point3::from(value))
+                Ok((Point3::from(value), extra.map(|a| a.read(bytes))))
             } else {
                 Err(ScanError::NotFinite { index, value })
             }
@@ -109,7 +135,19 @@ fn axis(cloud: &PointCloud2, name: &'static str) -> Result<Axis, ScanError> {
 /// A cloud of FLOAT32 x, y, z points (metres) in `frame`, as a laser line scanner's driver
 /// sends them (the simulated cell's scanner, tests).
 pub fn cloud(points: &[[f32; 3]], frame: &str) -> PointCloud2 {
-    let fields = ["x", "y", "z"]
+    float_cloud(&["x", "y", "z"], points, frame)
+}
+
+/// A cloud of FLOAT32 x, y, z (metres) and temperature (°C) points in `frame`, as a thermal
+/// camera mapped onto the part sends them (the simulated cell's camera, tests).
+pub fn thermal_cloud(points: &[[f32; 4]], frame: &str) -> PointCloud2 {
+    float_cloud(&["x", "y", "z", TEMPERATURE], points, frame)
+}
+
+/// A dense cloud of FLOAT32 fields `names`, one row per point.
+fn float_cloud<const N: usize>(names: &[&str; N], points: &[[f32; N]], frame: &str) -> PointCloud2 {
+    let step = 4 * N as u32;
+    let fields = names
         .iter()
         .enumerate()
         .map(|(i, name)| PointField {
@@ -123,8 +161,8 @@ pub fn cloud(points: &[[f32; 3]], frame: &str) -> PointCloud2 {
         height: 1,
         width: points.len() as u32,
         fields,
-        point_step: 12,
-        row_step: 12 * points.len() as u32,
+        point_step: step,
+        row_step: step * points.len() as u32,
         data: points
             .iter()
             .flatten()
@@ -148,6 +186,22 @@ mod tests {
             p,
             vec![Point3::new(1.0, 2.0, 3.5), Point3::new(-1.0, 0.0, 9.0)]
         );
+    }
+
+    #[test]
+    fn reads_a_thermal_cloud_and_names_a_missing_temperature() {
+        let c = thermal_cloud(&[[1.0, 2.0, 3.0, 850.5], [0.0, 0.0, 0.0, f32::NAN]], "part");
+        let p = thermal_points(&c).unwrap();
+        assert_eq!(p[0], (Point3::new(1.0, 2.0, 3.0), 850.5));
+        assert!(p[1].1.is_nan());
+        // A scan is a thermal image without temperatures: not one.
+        let scan = cloud(&[[1.0, 2.0, 3.0]], "part");
+        assert_eq!(
+            thermal_points(&scan),
+            Err(ScanError::MissingField(TEMPERATURE))
+        );
+        // A scan reader ignores the temperatures.
+        assert_eq!(scan_points(&c).unwrap()[0], Point3::new(1.0, 2.0, 3.0));
     }
 
     #[test]

@@ -1,5 +1,5 @@
 //! A sensor message checked before the closed loop may use it: its stamp's age, a
-//! pyrometer's reading, a scan's frame and whether it lies on the part. What fails is a
+//! pyrometer's reading, a scan's or a thermal image's frame and whether it lies on the part. What fails is a
 //! [`BadReading`] that names the reason; the node reports it on `/diagnostics` and drops the
 //! message.
 
@@ -11,7 +11,7 @@ use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::sensor_msgs::{PointCloud2, Temperature};
 
 use crate::planning::PART_FRAME;
-use crate::scan::{scan_points, ScanError};
+use crate::scan::{scan_points, thermal_points, ScanError};
 use crate::tf_buffer::{TfBuffer, TfError};
 
 /// The temperatures a pyrometer on a WAAM cell can read, °C: from a cold cell to above the
@@ -35,12 +35,21 @@ pub enum BadReading {
         hi = PLAUSIBLE_C[1]
     )]
     Implausible(f64),
+    #[error(
+        "image point {index}: temperature {celsius} °C is outside the plausible {lo}..{hi} °C \
+         (the field must be in °C)",
+        lo = PLAUSIBLE_C[0],
+        hi = PLAUSIBLE_C[1]
+    )]
+    ImplausiblePoint { index: usize, celsius: f64 },
+    #[error("the camera read no temperature on the part (all {points} points on it are NaN)")]
+    NothingRead { points: usize },
     #[error("variance {0} is negative or not a number (0 = unknown)")]
     Variance(f64),
     #[error(transparent)]
     Scan(#[from] ScanError),
     #[error(
-        "scan in frame '{got}': neither '{PART_FRAME}' nor the robot's base link '{base}', and \
+        "cloud in frame '{got}': neither '{PART_FRAME}' nor the robot's base link '{base}', and \
          /tf and /tf_static do not connect it to the base link: {why}"
     )]
     NoTransform {
@@ -48,10 +57,10 @@ pub enum BadReading {
         base: String,
         why: Box<TfError>,
     },
-    #[error("no part planned yet: a scan cannot be placed on it")]
+    #[error("no part planned yet: the cloud cannot be placed on it")]
     NoPart,
     #[error(
-        "off the part: no point of the scan ({points} in all) lies within {margin_mm} mm of \
+        "off the part: no point of the cloud ({points} in all) lies within {margin_mm} mm of \
          the part's box ({lo:?}..{hi:?} mm in '{PART_FRAME}'); the first is at {first:?} mm"
     )]
     OffPart {
@@ -168,37 +177,122 @@ pub fn scan(
     let stamp_s = check_stamp(cloud.header.stamp, now, max_age_s)?;
     let points = scan_points(cloud)?;
     let target = target.ok_or(BadReading::NoPart)?;
+    let to_part = to_part_frame(cloud, target, frames)?;
+    let in_part: Vec<[f64; 3]> = points.iter().map(|p| in_mm(&to_part, p)).collect();
+    let on_part = on_part(&in_part, target, margin_mm)?;
+    Ok(GoodScan {
+        stamp_s,
+        dropped: in_part.len() - on_part.len(),
+        points: on_part.into_iter().map(|i| in_part[i]).collect(),
+    })
+}
+
+/// A thermal image that can be used: its points on the part (part frame, mm) with their
+/// temperatures (°C), how many were dropped as off the part, and how many on it the camera
+/// read no temperature for (NaN).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GoodImage {
+    pub stamp_s: f64,
+    pub points: Vec<([f64; 3], f64)>,
+    pub dropped: usize,
+    pub unread: usize,
+}
+
+impl GoodImage {
+    /// The image as the closed loop takes it.
+    pub fn measured(self) -> Measured {
+        Measured::ThermalImage {
+            stamp_s: self.stamp_s,
+            points: self.points,
+        }
+    }
+}
+
+/// A thermal camera's image mapped onto the part (a `PointCloud2` with a `temperature`
+/// field, °C), checked like a [`scan`]: stamp, frame, points within `margin_mm` of the
+/// part's box (the others dropped); every temperature on the part is plausible or NaN (not
+/// read: dropped), and at least one is read.
+pub fn thermal_image(
+    cloud: &PointCloud2,
+    target: Option<&ScanTarget>,
+    frames: &TfBuffer,
+    margin_mm: f64,
+    now: Time,
+    max_age_s: f64,
+) -> Result<GoodImage, BadReading> {
+    let stamp_s = check_stamp(cloud.header.stamp, now, max_age_s)?;
+    let points = thermal_points(cloud)?;
+    let target = target.ok_or(BadReading::NoPart)?;
+    let to_part = to_part_frame(cloud, target, frames)?;
+    let in_part: Vec<[f64; 3]> = points.iter().map(|(p, _)| in_mm(&to_part, p)).collect();
+    let on_part = on_part(&in_part, target, margin_mm)?;
+    let mut good = Vec::with_capacity(on_part.len());
+    for &index in &on_part {
+        let celsius = points[index].1;
+        if celsius.is_nan() {
+            continue;
+        }
+        if !(PLAUSIBLE_C[0]..=PLAUSIBLE_C[1]).contains(&celsius) {
+            return Err(BadReading::ImplausiblePoint { index, celsius });
+        }
+        good.push((in_part[index], celsius));
+    }
+    if good.is_empty() {
+        return Err(BadReading::NothingRead {
+            points: on_part.len(),
+        });
+    }
+    Ok(GoodImage {
+        stamp_s,
+        dropped: in_part.len() - on_part.len(),
+        unread: on_part.len() - good.len(),
+        points: good,
+    })
+}
+
+/// How a cloud's points go into the part frame: it is in the part frame (metres, as REP 103
+/// has it), the robot's base link, or a frame `frames` connects to either at its stamp.
+fn to_part_frame(
+    cloud: &PointCloud2,
+    target: &ScanTarget,
+    frames: &TfBuffer,
+) -> Result<Isometry3<f64>, BadReading> {
     let frame = cloud.header.frame_id.trim_start_matches('/');
-    let to_part =
-        if frame == PART_FRAME {
-            Isometry3::identity()
-        } else if frame == target.base_link {
-            target.plate.inverse()
-        } else {
-            // Through the base link (a scanner on the robot or in the cell), or straight to
-            // the part frame (one mounted on the fixture).
-            let stamp = cloud.header.stamp;
-            match frames.lookup(&target.base_link, frame, stamp) {
-                Ok(in_base) => target.plate.inverse() * in_base,
-                Err(why) => frames.lookup(PART_FRAME, frame, stamp).map_err(|_| {
-                    BadReading::NoTransform {
-                        got: frame.to_string(),
-                        base: target.base_link.clone(),
-                        why: Box::new(why),
-                    }
-                })?,
-            }
-        };
-    let in_part: Vec<[f64; 3]> = points
-        .iter()
-        .map(|p| (to_part * p).coords.map(|v| v * 1000.0).into())
+    if frame == PART_FRAME {
+        return Ok(Isometry3::identity());
+    }
+    if frame == target.base_link {
+        return Ok(target.plate.inverse());
+    }
+    // Through the base link (a sensor on the robot or in the cell), or straight to the part
+    // frame (one mounted on the fixture).
+    let stamp = cloud.header.stamp;
+    match frames.lookup(&target.base_link, frame, stamp) {
+        Ok(in_base) => Ok(target.plate.inverse() * in_base),
+        Err(why) => frames
+            .lookup(PART_FRAME, frame, stamp)
+            .map_err(|_| BadReading::NoTransform {
+                got: frame.to_string(),
+                base: target.base_link.clone(),
+                why: Box::new(why),
+            }),
+    }
+}
+
+fn in_mm(to_part: &Isometry3<f64>, p: &nalgebra::Point3<f64>) -> [f64; 3] {
+    (to_part * p).coords.map(|v| v * 1000.0).into()
+}
+
+/// The indices of the points within `margin_mm` of the part's box; at least one.
+fn on_part(
+    in_part: &[[f64; 3]],
+    target: &ScanTarget,
+    margin_mm: f64,
+) -> Result<Vec<usize>, BadReading> {
+    let on: Vec<usize> = (0..in_part.len())
+        .filter(|&i| target.holds(&in_part[i], margin_mm))
         .collect();
-    let on_part: Vec<[f64; 3]> = in_part
-        .iter()
-        .filter(|p| target.holds(p, margin_mm))
-        .copied()
-        .collect();
-    if on_part.is_empty() {
+    if on.is_empty() {
         return Err(BadReading::OffPart {
             points: in_part.len(),
             margin_mm,
@@ -207,11 +301,7 @@ pub fn scan(
             first: in_part[0],
         });
     }
-    Ok(GoodScan {
-        stamp_s,
-        dropped: in_part.len() - on_part.len(),
-        points: on_part,
-    })
+    Ok(on)
 }
 
 #[cfg(test)]
@@ -332,6 +422,48 @@ mod tests {
                 stamp_s: good.stamp_s,
                 points: good.points
             }
+        );
+    }
+
+    #[test]
+    fn a_thermal_image_keeps_the_temperatures_read_on_the_part() {
+        use crate::scan::thermal_cloud;
+        let target = wall();
+        let image = |points: &[[f32; 4]]| {
+            let mut c = thermal_cloud(points, "part");
+            c.header.stamp = at(0.0);
+            thermal_image(&c, Some(&target), &TfBuffer::default(), 5.0, at(0.0), 2.0)
+        };
+        // On the wall (metres), a pixel the camera did not read, and the cell's far wall.
+        let good = image(&[
+            [0.003, 0.003, 0.005, 850.0],
+            [0.009, 0.003, 0.005, f32::NAN],
+            [2.0, 0.0, 0.0, 25.0],
+        ])
+        .unwrap();
+        assert_eq!((good.dropped, good.unread, good.points.len()), (1, 1, 1));
+        let (p, t) = good.points[0];
+        assert!((p[0] - 3.0).abs() < 1e-3 && (p[2] - 5.0).abs() < 1e-3, "{p:?}");
+        assert_eq!(t, 850.0);
+        assert!(matches!(good.measured(), Measured::ThermalImage { .. }));
+        // Kelvin, or a broken camera: named with the point.
+        assert_eq!(
+            image(&[[0.003, 0.003, 0.005, 850.0], [0.003, 0.003, 0.005, 5000.0]]),
+            Err(BadReading::ImplausiblePoint {
+                index: 1,
+                celsius: 5000.0
+            })
+        );
+        assert_eq!(
+            image(&[[0.003, 0.003, 0.005, f32::NAN]]),
+            Err(BadReading::NothingRead { points: 1 })
+        );
+        // A scan is not a thermal image.
+        let mut scan = cloud(&[[0.003, 0.003, 0.005]], "part");
+        scan.header.stamp = at(0.0);
+        assert_eq!(
+            thermal_image(&scan, Some(&target), &TfBuffer::default(), 5.0, at(0.0), 2.0),
+            Err(BadReading::Scan(ScanError::MissingField("temperature")))
         );
     }
 

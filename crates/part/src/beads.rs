@@ -75,7 +75,23 @@ impl Bead {
     /// The distance from `xy` to the centre line, mm (the closing segment of a closed bead
     /// included): a point within W/2 of it lies on the bead.
     pub fn distance_mm(&self, xy: [f64; 2]) -> f64 {
-        let to_segment = |a: [f64; 2], b: [f64; 2]| {
+        self.project_mm(xy).1
+    }
+
+    /// The point of the centre line nearest `xy`: its arc length from the bead's first
+    /// point and its distance from `xy`, mm (the closing segment of a closed bead included).
+    pub fn project_mm(&self, xy: [f64; 2]) -> (f64, f64) {
+        let n = self.points.len();
+        let closing = (self.closed && n > 1).then(|| [self.points[n - 1], self.points[0]]);
+        let mut s = 0.0;
+        let mut best = (0.0, f64::INFINITY);
+        for [a, b] in self
+            .points
+            .windows(2)
+            .map(|w| [w[0], w[1]])
+            .chain(closing)
+            .chain((n == 1).then(|| [self.points[0], self.points[0]]))
+        {
             let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
             let len2 = dx * dx + dy * dy;
             let t = if len2 > 0.0 {
@@ -83,17 +99,13 @@ impl Bead {
             } else {
                 0.0
             };
-            (xy[0] - (a[0] + t * dx)).hypot(xy[1] - (a[1] + t * dy))
-        };
-        let n = self.points.len();
-        let closing = (self.closed && n > 1).then(|| [self.points[n - 1], self.points[0]]);
-        self.points
-            .windows(2)
-            .map(|w| [w[0], w[1]])
-            .chain(closing)
-            .chain((n == 1).then(|| [self.points[0], self.points[0]]))
-            .map(|[a, b]| to_segment(a, b))
-            .fold(f64::INFINITY, f64::min)
+            let d = (xy[0] - (a[0] + t * dx)).hypot(xy[1] - (a[1] + t * dy));
+            if d < best.1 {
+                best = (s + t * len2.sqrt(), d);
+            }
+            s += len2.sqrt();
+        }
+        best
     }
 
     /// The centre line from arc length `from_mm` to `to_mm` (clamped to the line, from

@@ -382,6 +382,40 @@ impl Part {
         std::array::from_fn(|d| self.origin_mm[d] + (b[d] as f64 + 0.5) * self.block_mm[d])
     }
 
+    /// How far the point `p` (part frame, mm) lies from block `i`'s volume, mm: 0 inside or
+    /// on it. A block is its cell of `block_mm`; a graph part's deposit is, in its bead's
+    /// own coordinates, the box of its arc-length interval along the centre line, W across
+    /// and its layer's height.
+    pub fn distance_to_mm(&self, i: usize, p: [f64; 3]) -> f64 {
+        let outside = |v: f64, lo: f64, hi: f64| (lo - v).max(v - hi).max(0.0);
+        if let Some(beads) = &self.beads {
+            let node = &beads.nodes[i];
+            let bead = &beads.beads[node.bead];
+            let (at, off) = bead.project_mm([p[0], p[1]]);
+            // A closed bead's arc length wraps at its length.
+            let length = bead.length_mm();
+            let along = if bead.closed {
+                [at - length, at, at + length]
+                    .map(|a| outside(a, node.from_mm, node.to_mm))
+                    .into_iter()
+                    .fold(f64::INFINITY, f64::min)
+            } else {
+                outside(at, node.from_mm, node.to_mm)
+            };
+            let [w, h] = beads.bead_mm;
+            let across = (off - w / 2.0).max(0.0);
+            let lo = beads.base_z_mm + node.layer as f64 * h;
+            let up = outside(p[2], lo, lo + h);
+            return (along * along + across * across + up * up).sqrt();
+        }
+        let b = self.blocks[i];
+        let d: [f64; 3] = std::array::from_fn(|d| {
+            let lo = self.origin_mm[d] + b[d] as f64 * self.block_mm[d];
+            outside(p[d], lo, lo + self.block_mm[d])
+        });
+        (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+    }
+
     fn parse_windows(&mut self, t85: &Value) -> Result<(), PartError> {
         let entries = match t85 {
             Value::Sequence(s) => s,

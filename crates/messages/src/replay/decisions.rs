@@ -50,6 +50,9 @@ pub enum ReadingRef {
     Temperature { stamp_s: f64, celsius: f64 },
     /// A `sensor_msgs/PointCloud2` scan: its stamp and the points on the part the loop got.
     Scan { stamp_s: f64, points: usize },
+    /// A thermal camera's `sensor_msgs/PointCloud2` (a `temperature` field): its stamp and
+    /// the points with a temperature on the part the loop got.
+    ThermalImage { stamp_s: f64, points: usize },
 }
 
 impl ReadingRef {
@@ -59,6 +62,10 @@ impl ReadingRef {
                 ReadingRef::Temperature { stamp_s, celsius }
             }
             Measured::Scan { stamp_s, points } => ReadingRef::Scan {
+                stamp_s: *stamp_s,
+                points: points.len(),
+            },
+            Measured::ThermalImage { stamp_s, points } => ReadingRef::ThermalImage {
                 stamp_s: *stamp_s,
                 points: points.len(),
             },
@@ -74,6 +81,12 @@ impl fmt::Display for ReadingRef {
             }
             ReadingRef::Scan { stamp_s, points } => {
                 write!(f, "scan stamped {stamp_s} s ({points} points on the part)")
+            }
+            ReadingRef::ThermalImage { stamp_s, points } => {
+                write!(
+                    f,
+                    "thermal image stamped {stamp_s} s ({points} points read on the part)"
+                )
             }
         }
     }
@@ -139,6 +152,9 @@ impl BoundaryRecord {
                     json!(["temperature", stamp_s, celsius])
                 }
                 ReadingRef::Scan { stamp_s, points } => json!(["scan", stamp_s, points]),
+                ReadingRef::ThermalImage { stamp_s, points } => {
+                    json!(["image", stamp_s, points])
+                }
             })
             .collect();
         let mut out = vec![
@@ -214,7 +230,14 @@ impl BoundaryRecord {
                     stamp_s,
                     points: v as usize,
                 }),
-                _ => Err(bad("readings", "a reading is neither temperature nor scan")),
+                "image" => Ok(ReadingRef::ThermalImage {
+                    stamp_s,
+                    points: v as usize,
+                }),
+                _ => Err(bad(
+                    "readings",
+                    "a reading is neither temperature, scan nor image",
+                )),
             })
             .collect::<Result<_, _>>()?;
         let estimate: Vec<f64> = need("estimate")?
@@ -271,6 +294,8 @@ pub struct RecordedExecution {
 enum Raw {
     Temperature(Temperature),
     Scan(PointCloud2),
+    /// A cloud with a temperature field: a thermal camera's.
+    Image(PointCloud2),
 }
 
 /// The recorded sensor messages and frames, from which the readings are taken again.
@@ -310,10 +335,17 @@ pub fn recorded_executions(bag: &Bag) -> Result<(Vec<RecordedExecution>, Sensors
             t if t == Temperature::TYPE_NAME => sensors
                 .raw
                 .push(Raw::Temperature(from_cdr(&m.data).map_err(decode_error)?)),
-            // The planner's heat clouds are its simulation, not a scan.
-            t if t == PointCloud2::TYPE_NAME && topic.name != crate::topics::HEAT => sensors
-                .raw
-                .push(Raw::Scan(from_cdr(&m.data).map_err(decode_error)?)),
+            // The planner's heat clouds are its simulation, not a sensor's.
+            t if t == PointCloud2::TYPE_NAME && topic.name != crate::topics::HEAT => {
+                let cloud: PointCloud2 = from_cdr(&m.data).map_err(decode_error)?;
+                sensors.raw.push(
+                    if cloud.fields.iter().any(|f| f.name == crate::scan::TEMPERATURE) {
+                        Raw::Image(cloud)
+                    } else {
+                        Raw::Scan(cloud)
+                    },
+                )
+            }
             t if t == TFMessage::TYPE_NAME => {
                 let msg: TFMessage = from_cdr(&m.data).map_err(decode_error)?;
                 let fixed = topic.name.ends_with("tf_static");
@@ -426,7 +458,8 @@ impl Sensors {
                             celsius,
                         },
                     ) => stamp_s(t.header.stamp) == s && t.temperature == celsius,
-                    (Raw::Scan(c), &ReadingRef::Scan { stamp_s: s, .. }) => {
+                    (Raw::Scan(c), &ReadingRef::Scan { stamp_s: s, .. })
+                    | (Raw::Image(c), &ReadingRef::ThermalImage { stamp_s: s, .. }) => {
                         stamp_s(c.header.stamp) == s
                     }
                     _ => false,
@@ -443,31 +476,57 @@ impl Sensors {
                 celsius: t.temperature,
             }),
             Raw::Scan(cloud) => {
-                let stamp = cloud.header.stamp;
-                let base = self.base_link.clone().unwrap_or_default();
-                let plate = self
-                    .base_link
-                    .as_ref()
-                    .and_then(|b| self.frames.lookup(b, PART_FRAME, stamp).ok())
-                    .unwrap_or_else(Isometry3::identity);
-                let target = ScanTarget::of_part(part, &base, plate);
+                let target = self.target(part, cloud);
                 // The node judged its age when it came; offline it is as old as its stamp.
+                let stamp = cloud.header.stamp;
                 let good = sensor::scan(cloud, Some(&target), &self.frames, margin_mm, stamp, 1.0)
                     .map_err(|why| Unreplayable::Unplaced {
                         reading: r.clone(),
                         why,
                     })?;
-                match r {
-                    ReadingRef::Scan { points, .. } if *points != good.points.len() => {
-                        Err(Unreplayable::Points {
+                same_points(r, good.points.len())?;
+                Ok(good.measured())
+            }
+            Raw::Image(cloud) => {
+                let target = self.target(part, cloud);
+                let stamp = cloud.header.stamp;
+                let good =
+                    sensor::thermal_image(cloud, Some(&target), &self.frames, margin_mm, stamp, 1.0)
+                        .map_err(|why| Unreplayable::Unplaced {
                             reading: r.clone(),
-                            points: good.points.len(),
-                        })
-                    }
-                    _ => Ok(good.measured()),
-                }
+                            why,
+                        })?;
+                same_points(r, good.points.len())?;
+                Ok(good.measured())
             }
         }
+    }
+
+    /// The part a cloud is placed on: on its plate as `/tf_static` had it at the cloud's
+    /// stamp (the identity when the recording holds no plate).
+    fn target(&self, part: &Part, cloud: &PointCloud2) -> ScanTarget {
+        let base = self.base_link.clone().unwrap_or_default();
+        let plate = self
+            .base_link
+            .as_ref()
+            .and_then(|b| self.frames.lookup(b, PART_FRAME, cloud.header.stamp).ok())
+            .unwrap_or_else(Isometry3::identity);
+        ScanTarget::of_part(part, &base, plate)
+    }
+}
+
+/// The cloud placed again gives the loop as many points as it got.
+fn same_points(r: &ReadingRef, got: usize) -> Result<(), Unreplayable> {
+    match *r {
+        ReadingRef::Scan { points, .. } | ReadingRef::ThermalImage { points, .. }
+            if points != got =>
+        {
+            Err(Unreplayable::Points {
+                reading: r.clone(),
+                points: got,
+            })
+        }
+        _ => Ok(()),
     }
 }
 
