@@ -55,11 +55,14 @@ pub fn thermal_points(cloud: &PointCloud2) -> Result<Vec<(Point3<f64>, f64)>, Sc
 /// The field a thermal camera's cloud carries its temperatures in.
 pub const TEMPERATURE: &str = "temperature";
 
+/// A point and the value of one more field, when asked for.
+type PointWith = (Point3<f64>, Option<f64>);
+
 /// x, y, z of every point, and the value of field `extra` when asked for.
 fn points_with(
     cloud: &PointCloud2,
     extra: Option<&'static str>,
-) -> Result<Vec<(Point3<f64>, Option<f64>)>, ScanError> {
+) -> Result<Vec<PointWith>, ScanError> {
     if cloud.is_bigendian {
         return Err(ScanError::BigEndian);
     }

@@ -443,7 +443,10 @@ mod tests {
         .unwrap();
         assert_eq!((good.dropped, good.unread, good.points.len()), (1, 1, 1));
         let (p, t) = good.points[0];
-        assert!((p[0] - 3.0).abs() < 1e-3 && (p[2] - 5.0).abs() < 1e-3, "{p:?}");
+        assert!(
+            (p[0] - 3.0).abs() < 1e-3 && (p[2] - 5.0).abs() < 1e-3,
+            "{p:?}"
+        );
         assert_eq!(t, 850.0);
         assert!(matches!(good.measured(), Measured::ThermalImage { .. }));
         // Kelvin, or a broken camera: named with the point.
@@ -462,7 +465,14 @@ mod tests {
         let mut scan = cloud(&[[0.003, 0.003, 0.005]], "part");
         scan.header.stamp = at(0.0);
         assert_eq!(
-            thermal_image(&scan, Some(&target), &TfBuffer::default(), 5.0, at(0.0), 2.0),
+            thermal_image(
+                &scan,
+                Some(&target),
+                &TfBuffer::default(),
+                5.0,
+                at(0.0),
+                2.0
+            ),
             Err(BadReading::Scan(ScanError::MissingField("temperature")))
         );
     }

@@ -339,7 +339,11 @@ pub fn recorded_executions(bag: &Bag) -> Result<(Vec<RecordedExecution>, Sensors
             t if t == PointCloud2::TYPE_NAME && topic.name != crate::topics::HEAT => {
                 let cloud: PointCloud2 = from_cdr(&m.data).map_err(decode_error)?;
                 sensors.raw.push(
-                    if cloud.fields.iter().any(|f| f.name == crate::scan::TEMPERATURE) {
+                    if cloud
+                        .fields
+                        .iter()
+                        .any(|f| f.name == crate::scan::TEMPERATURE)
+                    {
                         Raw::Image(cloud)
                     } else {
                         Raw::Scan(cloud)
@@ -490,12 +494,18 @@ impl Sensors {
             Raw::Image(cloud) => {
                 let target = self.target(part, cloud);
                 let stamp = cloud.header.stamp;
-                let good =
-                    sensor::thermal_image(cloud, Some(&target), &self.frames, margin_mm, stamp, 1.0)
-                        .map_err(|why| Unreplayable::Unplaced {
-                            reading: r.clone(),
-                            why,
-                        })?;
+                let good = sensor::thermal_image(
+                    cloud,
+                    Some(&target),
+                    &self.frames,
+                    margin_mm,
+                    stamp,
+                    1.0,
+                )
+                .map_err(|why| Unreplayable::Unplaced {
+                    reading: r.clone(),
+                    why,
+                })?;
                 same_points(r, good.points.len())?;
                 Ok(good.measured())
             }
