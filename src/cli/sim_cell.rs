@@ -28,7 +28,8 @@ use super::{EXIT_INTERRUPTED, EXIT_NO, EXIT_OK};
 /// `waam node` executing PART (e.g. `waam node --dry-run -p closed_loop.enabled:=true`): it
 /// follows the planner's `~/plan/weld_plan`, `~/arc_on` and `~/wire_feed` and publishes on
 /// the planner's `~/temperature` the true temperature of each deposit and on `~/scan` the
-/// true top of each finished layer, until Ctrl-C (docs/closed-loop.md).
+/// true top of each finished layer (with --thermal-camera also images on `~/thermal_image`),
+/// until Ctrl-C (docs/closed-loop.md).
 ///
 /// Exit code 0: every block deposited and every t8/5 window kept on the true model; 1: a
 /// window broke (or no plan); 2: bad input; 130: stopped by Ctrl-C (`--node`: 0).
@@ -72,6 +73,11 @@ pub struct SimCellArgs {
     /// `dry_run.time_scale`; 1 on a real controller).
     #[arg(long, value_name = "X", default_value_t = 1.0, requires = "node")]
     pub time_scale: f64,
+    /// --node: also publish a thermal camera's images on the planner's `~/thermal_image`:
+    /// with each pyrometer reading, every welded block's true temperature at its centre
+    /// (sensor_msgs/PointCloud2 with a `temperature` field, part frame).
+    #[arg(long, requires = "node")]
+    pub thermal_camera: bool,
     /// --node: ROS 2 arguments as rcl reads them (`-r __ns:=/cell1`, `-r __node:=NAME`).
     #[arg(long = "ros-args", num_args = 0.., allow_hyphen_values = true, value_name = "ARG", requires = "node")]
     pub ros_args: Option<Vec<String>>,
@@ -227,6 +233,7 @@ fn run_node(part: &waam_part::Part, truth: &Truth, args: &SimCellArgs) -> anyhow
         names,
         planner: args.planner.clone(),
         time_scale: args.time_scale,
+        thermal_camera: args.thermal_camera,
     };
     waam_ros::sim_cell::run(part, truth, &options, super::node::stop_on_signal()?)?;
     Ok(ExitCode::from(EXIT_OK))

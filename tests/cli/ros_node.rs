@@ -395,10 +395,11 @@ fn rclpy_sensor_readings_reach_the_closed_loop_and_its_decision_is_recorded() {
     );
 }
 
-/// The simulated cell as a node (#31, sim_cell_node.py): `waam sim-cell --node` publishes the
-/// true cell's temperatures and scans for a namespaced dry run with the closed loop on, which
-/// re-plans from them; rclpy only sends the part and the goal. The node's recording replays
-/// its decisions identically.
+/// The simulated cell as a node (#31, sim_cell_node.py): `waam sim-cell --node
+/// --thermal-camera` publishes the true cell's temperatures, thermal images and scans for a
+/// namespaced dry run with the closed loop on, which re-plans from them; rclpy only sends the
+/// part and the goal. The node's recording replays its decisions identically (the images
+/// re-fed from it).
 #[test]
 fn rclpy_simulated_cell_node_feeds_the_closed_loop() {
     let Some((_dir, bag)) = recorded_script_run("sim_cell_node.py", "sim-cell") else {
@@ -411,6 +412,10 @@ fn rclpy_simulated_cell_node_feeds_the_closed_loop() {
     assert!(
         recording.count("/cellZ/waam_planner/scan") > 0,
         "no scan recorded"
+    );
+    assert!(
+        recording.count("/cellZ/waam_planner/thermal_image") > 0,
+        "no thermal image recorded"
     );
     let json = decisions_replayed_identically(&bag);
     assert!(json["decisions_identical"].as_u64().unwrap() >= 1, "{json}");

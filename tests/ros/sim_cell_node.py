@@ -2,14 +2,16 @@
 
 waam node runs as /cellZ/waam_planner, a dry run at 20 times real time with the closed loop
 on (tests/ros/closed_loop_execute.params.yaml); `waam sim-cell tests/data/twin-walls.yaml
---truth docs/examples/closed-loop/truth.yaml --node --time-scale 20` runs beside it in /cellZ
-(a cell with 25 % lower heat losses whose beads come out 10 % low). rclpy only sends the part
-and the ~/execute goal: the temperatures and scans come from the simulated cell.
+--truth docs/examples/closed-loop/truth.yaml --node --thermal-camera --time-scale 20` runs
+beside it in /cellZ (a cell with 25 % lower heat losses whose beads come out 10 % low). rclpy
+only sends the part and the ~/execute goal: the temperatures, thermal images and scans come
+from the simulated cell.
 
 It checks: the execution succeeds; at the first weld-path boundary the `replanned` status
 counts readings used (> 0), fits a loss factor between 0.6 and 0.9 and re-plans the windowed
 wall still to come (`reason: replan`); the scans the node took show the layers' true tops
-(2.25 mm a layer); a wire feed went out before each weld path, within the limits.
+(2.25 mm a layer); the thermal camera's images were used (every welded block read); a wire
+feed went out before each weld path, within the limits.
 """
 
 import sys
@@ -39,6 +41,7 @@ def sensor(peer, name):
 def test(peer, waam):
     cell = WaamProcess("sim-cell", "tests/data/twin-walls.yaml",
                        "--truth", "docs/examples/closed-loop/truth.yaml", "--node",
+                       "--thermal-camera",
                        "--time-scale", "20", "--ros-args", "-r", "__ns:=/cellZ")
     try:
         run(peer, cell)
@@ -88,6 +91,11 @@ def run(peer, cell):
     tops = {float(m.split("top at ")[1].split(" mm")[0]) for m in scans}
     check(tops and all(abs(t / 2.25 - round(t / 2.25)) < 0.01 for t in tops),
           f"scanned tops {sorted(tops)} mm are not those of 2.25 mm layers")
+    # The camera's images were used: each reads every block welded by then.
+    images = [s.message for s in sensor(peer, "thermal camera") if "points read" in s.message]
+    print(f"thermal images: {len(images)}, last: {images[-1] if images else None}")
+    read = [int(m.split(": ")[-1].split(" points read")[0]) for m in images]
+    check(read and max(read) > 1, f"no thermal image used: {images[:3]}")
     check(cell.alive(), "the simulated cell exited")
 
 

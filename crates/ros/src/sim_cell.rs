@@ -5,7 +5,10 @@
 //! `~/temperature` what a pyrometer aimed at the torch reads on the true model — each
 //! deposit's true temperature at its end, stamped in its middle — and on `~/scan`, when a
 //! weld path ends, the true top of each layer it finished (beads `height_factor` × the wire
-//! feed high). The deposits are timed by the weld plan, from the moment the arc strikes,
+//! feed high). With `thermal_camera`, it also publishes on `~/thermal_image`, with each
+//! pyrometer reading, what a thermal camera registered onto the part sees: every welded
+//! block's true temperature at its centre (a `PointCloud2` with a `temperature` field, part
+//! frame). The deposits are timed by the weld plan, from the moment the arc strikes,
 //! `time_scale` times as fast as planned (the planner's `dry_run.time_scale`).
 //!
 //! Not simulated here: weld paths cut short (`cut_short` is `waam sim-cell`'s, without
@@ -44,6 +47,8 @@ pub struct SimCellOptions {
     pub planner: String,
     /// How many times as fast as planned the planner executes (its `dry_run.time_scale`).
     pub time_scale: f64,
+    /// Publish a thermal camera's images too.
+    pub thermal_camera: bool,
 }
 
 /// Why the simulated cell could not run.
@@ -135,6 +140,23 @@ pub fn run(
         sensor_qos(),
         Qos::best_effort(10),
     )?;
+    let camera = options
+        .thermal_camera
+        .then(|| {
+            Output::<PointCloud2>::new(
+                &mut node,
+                names,
+                &topic("thermal_image"),
+                sensor_qos(),
+                Qos::best_effort(10),
+            )
+        })
+        .transpose()?;
+    let sensors = Sensors {
+        pyrometer,
+        camera,
+        time_scale: options.time_scale,
+    };
 
     let true_part = counting_part(part, truth.thermal);
     let graph = WeldGraph::new(&true_part);
@@ -182,7 +204,7 @@ pub fn run(
                 (false, Some((w, _, wall, read))) => {
                     if let Some(path) = paths.get(w) {
                         let all = path.blocks.len();
-                        cell.read(path, read..all, wall, options.time_scale, &pyrometer);
+                        cell.read(path, read..all, wall, &sensors);
                         let before = cell.scanned;
                         cell.scan(&scanner);
                         tracing::info!(
@@ -209,7 +231,7 @@ pub fn run(
                     })
                     .count();
                 if ended > *read {
-                    cell.read(path, *read..ended, *wall, options.time_scale, &pyrometer);
+                    cell.read(path, *read..ended, *wall, &sensors);
                     *read = ended;
                 }
             }
@@ -227,6 +249,13 @@ fn layer_counts(part: &Part) -> Vec<usize> {
         n[part.block(i)[2] as usize] += 1;
     }
     n
+}
+
+/// What reads the true cell's heat, and how fast the plan runs.
+struct Sensors {
+    pyrometer: Output<Temperature>,
+    camera: Option<Output<PointCloud2>>,
+    time_scale: f64,
 }
 
 /// The true cell: its heat, its deposits' heights, and its sensors.
@@ -247,15 +276,16 @@ struct TrueCell<'a> {
 impl TrueCell<'_> {
     /// Deposits `range` of `path` welded on the true model, each read by the pyrometer: its
     /// true temperature at its end, stamped in its middle (on the wall clock: the arc struck
-    /// at `lit`, the plan runs `time_scale` times as fast).
+    /// at `lit`, the plan runs `time_scale` times as fast); the camera's image of every
+    /// welded block with it.
     fn read(
         &mut self,
         path: &WeldPath,
         range: std::ops::Range<usize>,
         lit: std::time::SystemTime,
-        time_scale: f64,
-        pyrometer: &Output<Temperature>,
+        sensors: &Sensors,
     ) {
+        let time_scale = sensors.time_scale;
         for j in range {
             let b = path.blocks[j];
             // Windows are widened on the true part: a deposit is never refused.
@@ -279,7 +309,7 @@ impl TrueCell<'_> {
             let end = path.starts_s.get(j + 1).copied().unwrap_or(path.arc_off_s);
             let mid = (path.starts_s[j] + end) / 2.0 - path.starts_s[0];
             let stamp = lit + Duration::from_secs_f64((mid / time_scale).max(0.0));
-            pyrometer.publish(
+            sensors.pyrometer.publish(
                 &Temperature {
                     header: header(stamp, "pyrometer"),
                     temperature: celsius + self.noise.sample(),
@@ -287,6 +317,25 @@ impl TrueCell<'_> {
                 },
                 None,
             );
+            if let Some(camera) = &sensors.camera {
+                let points: Vec<[f32; 4]> = self
+                    .sim
+                    .temperatures()
+                    .collect::<Vec<_>>()
+                    .into_iter()
+                    .map(|(o, t)| {
+                        let [x, y, z] = self.part.centre_mm(self.part.block(o));
+                        [x / 1000.0, y / 1000.0, z / 1000.0, t + self.noise.sample()]
+                            .map(|v| v as f32)
+                    })
+                    .collect();
+                let mut image = waam_messages::scan::thermal_cloud(
+                    &points,
+                    waam_messages::planning::PART_FRAME,
+                );
+                image.header.stamp = header(stamp, "").stamp;
+                camera.publish(&image, None);
+            }
         }
     }
 

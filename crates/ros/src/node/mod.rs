@@ -410,8 +410,8 @@ impl Services {
         outputs.log(
             Level::Info,
             &format!(
-                "closed loop: layer scans on {}, temperatures on {}",
-                cell_sensors.scan_topic, cell_sensors.temperature_topic
+                "closed loop: layer scans on {}, temperatures on {}, thermal images on {}",
+                cell_sensors.scan_topic, cell_sensors.temperature_topic, cell_sensors.camera_topic
             ),
         );
         cell_sensors.spawn(

@@ -147,9 +147,13 @@ pub struct ClosedLoopParams {
     pub scan_topic: String,
     /// In: sensor_msgs/Temperature, a pyrometer aimed at the torch.
     pub temperature_topic: String,
+    /// In: sensor_msgs/PointCloud2 with a `temperature` field (°C), a thermal camera's
+    /// image mapped onto the part, placed like a scan.
+    pub thermal_camera_topic: String,
     /// Data stamped longer ago than this (or as far ahead) is late, s.
     pub max_age_s: f64,
-    /// Scan points farther than this from the part's box are off the part, mm.
+    /// Scan and thermal image points farther than this from the part's box are off the
+    /// part, mm.
     pub scan_margin_mm: f64,
     /// The wire feed the height rule may set for a weld path, relative to the welder's
     /// nominal schedule: the process limits (1 and 1: the rule is off).
@@ -163,6 +167,7 @@ impl Default for ClosedLoopParams {
             enabled: false,
             scan_topic: "~/scan".into(),
             temperature_topic: "~/temperature".into(),
+            thermal_camera_topic: "~/thermal_image".into(),
             max_age_s: 2.0,
             scan_margin_mm: 10.0,
             wire_feed_min: 0.7,

@@ -1,10 +1,12 @@
 //! The cell's sensors in (#31): a layer height scan (`sensor_msgs/PointCloud2`, e.g. from a
-//! laser line scanner after each layer) on `closed_loop.scan_topic` and a pyrometer
-//! (`sensor_msgs/Temperature`) on `closed_loop.temperature_topic`. Each message is recorded
-//! as it came, checked ([`waam_messages::sensor`]) and, when good, handed to the closed loop
-//! as a [`Measured`]; every verdict goes to the event loop, which reports it on `/diagnostics`.
-//! A scan may come in any frame `/tf` and `/tf_static` connect to the robot's base link: the
-//! sensor thread keeps their frame tree ([`TfBuffer`]) and places each scan at its stamp.
+//! laser line scanner after each layer) on `closed_loop.scan_topic`, a pyrometer
+//! (`sensor_msgs/Temperature`) on `closed_loop.temperature_topic` and a thermal camera's
+//! image mapped onto the part (`sensor_msgs/PointCloud2` with a `temperature` field, °C) on
+//! `closed_loop.thermal_camera_topic`. Each message is recorded as it came, checked
+//! ([`waam_messages::sensor`]) and, when good, handed to the closed loop as a [`Measured`];
+//! every verdict goes to the event loop, which reports it on `/diagnostics`. A cloud may come
+//! in any frame `/tf` and `/tf_static` connect to the robot's base link: the sensor thread
+//! keeps their frame tree ([`TfBuffer`]) and places each cloud at its stamp.
 
 use std::sync::mpsc::Sender;
 use std::sync::{Arc, Mutex};
@@ -35,13 +37,21 @@ pub const TF: &str = "/tf";
 pub enum SensorKind {
     Scan,
     Temperature,
+    ThermalCamera,
 }
 
 impl SensorKind {
+    pub const ALL: [SensorKind; 3] = [
+        SensorKind::Scan,
+        SensorKind::Temperature,
+        SensorKind::ThermalCamera,
+    ];
+
     pub fn name(self) -> &'static str {
         match self {
             SensorKind::Scan => "scan",
             SensorKind::Temperature => "temperature",
+            SensorKind::ThermalCamera => "thermal camera",
         }
     }
 }
@@ -102,13 +112,15 @@ pub struct Wiring {
     pub targets: ScanTargets,
 }
 
-/// The two sensor subscriptions, the frames scans may come in, and how their data is
+/// The three sensor subscriptions, the frames clouds may come in, and how their data is
 /// judged.
 pub struct Sensors {
     pub scan_topic: String,
     scan: Subscription<PointCloud2>,
     pub temperature_topic: String,
     temperature: Subscription<Temperature>,
+    pub camera_topic: String,
+    camera: Subscription<PointCloud2>,
     tf: Subscription<TFMessage>,
     tf_static: Subscription<TFMessage>,
     limits: ClosedLoopParams,
@@ -117,6 +129,7 @@ pub struct Sensors {
 enum Incoming {
     Scan(PointCloud2),
     Temperature(Temperature),
+    Image(PointCloud2),
     /// Transforms (or why a message on the topic could not be read), from `/tf_static`
     /// when `fixed`.
     Frames {
@@ -134,6 +147,8 @@ impl Sensors {
         let (scan_topic, scan) = subscribe(node, names, &params.scan_topic, sensor_qos())?;
         let (temperature_topic, temperature) =
             subscribe(node, names, &params.temperature_topic, sensor_qos())?;
+        let (camera_topic, camera) =
+            subscribe(node, names, &params.thermal_camera_topic, sensor_qos())?;
         let (_, tf) = subscribe(node, names, TF, tf_qos())?;
         let (_, tf_static) = subscribe(node, names, TF_STATIC, tf_static_qos())?;
         Ok(Sensors {
@@ -141,6 +156,8 @@ impl Sensors {
             scan,
             temperature_topic,
             temperature,
+            camera_topic,
+            camera,
             tf,
             tf_static,
             limits: params.clone(),
@@ -161,6 +178,8 @@ impl Sensors {
             scan,
             temperature_topic,
             temperature,
+            camera_topic,
+            camera,
             tf,
             tf_static,
             limits,
@@ -168,6 +187,7 @@ impl Sensors {
         let topic = move |kind| match kind {
             SensorKind::Scan => scan_topic.clone(),
             SensorKind::Temperature => temperature_topic.clone(),
+            SensorKind::ThermalCamera => camera_topic.clone(),
         };
         let record = move |topic: &str, message: &dyn Fn(&Recorder, &str) -> RecordResult| {
             if let Some(r) = &recorder {
@@ -179,7 +199,7 @@ impl Sensors {
         std::thread::Builder::new()
             .name("ros-sensors".into())
             .spawn(move || {
-                for kind in [SensorKind::Scan, SensorKind::Temperature] {
+                for kind in SensorKind::ALL {
                     let verdict = Verdict::Waiting;
                     if !news(SensorNews {
                         topic: topic(kind),
@@ -198,6 +218,12 @@ impl Sensors {
                         r.map(|(m, _)| Incoming::Temperature(m)),
                     )
                 });
+                let images = camera.async_stream().map(|r| {
+                    (
+                        SensorKind::ThermalCamera,
+                        r.map(|(m, _)| Incoming::Image(m)),
+                    )
+                });
                 // Transforms are for the scans; what is wrong with them goes to the log.
                 let frames_of = |fixed| {
                     move |r: ros2_client::ReadResult<(TFMessage, _)>| {
@@ -210,6 +236,7 @@ impl Sensors {
                 let mut merged = futures::stream::select_all([
                     scans.boxed(),
                     temperatures.boxed(),
+                    images.boxed(),
                     tf.async_stream().map(frames_of(false)).boxed(),
                     tf_static.async_stream().map(frames_of(true)).boxed(),
                 ]);
@@ -247,6 +274,10 @@ impl Sensors {
                             Ok(Incoming::Scan(cloud)) => {
                                 record(&topic, &|r, t| r.record(t, &Qos::best_effort(10), &cloud));
                                 unless_panicked(|| judge_scan(&cloud, &targets, &frames, &limits))
+                            }
+                            Ok(Incoming::Image(cloud)) => {
+                                record(&topic, &|r, t| r.record(t, &Qos::best_effort(10), &cloud));
+                                unless_panicked(|| judge_image(&cloud, &targets, &frames, &limits))
                             }
                             Ok(Incoming::Temperature(reading)) => {
                                 record(&topic, &|r, t| {
@@ -286,7 +317,7 @@ type RecordResult = Result<(), waam_rosbag::BagError>;
 
 fn type_of(kind: SensorKind) -> &'static str {
     match kind {
-        SensorKind::Scan => PointCloud2::TYPE_NAME,
+        SensorKind::Scan | SensorKind::ThermalCamera => PointCloud2::TYPE_NAME,
         SensorKind::Temperature => Temperature::TYPE_NAME,
     }
 }
@@ -339,6 +370,36 @@ fn judge_scan(
         "{} points on the part ({} off it dropped), top at {top:.2} mm",
         good.points.len(),
         good.dropped
+    );
+    Ok((good.measured(), summary))
+}
+
+/// A thermal image as the closed loop takes it, with a summary; or why not.
+fn judge_image(
+    cloud: &PointCloud2,
+    targets: &ScanTargets,
+    frames: &TfBuffer,
+    limits: &ClosedLoopParams,
+) -> Judged {
+    let target = targets.current();
+    let good = sensor::thermal_image(
+        cloud,
+        target.as_ref(),
+        frames,
+        limits.scan_margin_mm,
+        Time::now(),
+        limits.max_age_s,
+    )?;
+    let hottest = good
+        .points
+        .iter()
+        .map(|p| p.1)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let summary = format!(
+        "{} points read on the part ({} off it dropped, {} unread), hottest {hottest:.1} °C",
+        good.points.len(),
+        good.dropped,
+        good.unread
     );
     Ok((good.measured(), summary))
 }
