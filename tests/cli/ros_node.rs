@@ -290,6 +290,7 @@ fn rclpy_sensors_warn_on_bad_data_and_their_measurements_are_recorded() {
         &[
             "/cellX/waam_planner/scan",
             "/cellX/waam_planner/temperature",
+            "/cellX/waam_planner/thermal_image",
         ],
     );
 

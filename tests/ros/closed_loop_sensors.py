@@ -1,9 +1,11 @@
-"""The closed loop's sensors (#31): a namespaced node takes a layer scan and a pyrometer.
+"""The closed loop's sensors (#31): a namespaced node takes a layer scan, a pyrometer and a
+thermal camera.
 
 waam node runs as /cellX/waam_planner (`-r __ns:=/cellX`), recording into the directory
 given as the one argument (tests/cli/ros_node.rs checks the recording). rclpy plans s1-wall
 (24 x 6 x 7.5 mm) on ~/part, then publishes on ~/scan (sensor_msgs/PointCloud2, metres, frame
-`part`) and ~/temperature (sensor_msgs/Temperature) with the sensor-data QoS real drivers use
+`part`), ~/temperature (sensor_msgs/Temperature) and ~/thermal_image (sensor_msgs/PointCloud2
+with a `temperature` field, °C) with the sensor-data QoS real drivers use
 (best effort): good data, then each kind of bad data followed by good data again. Each bad
 message must turn its sensor's component on /diagnostics to WARN naming the topic and the
 reason; the next good one must turn it back to OK. A scan in a frame the node only knows
@@ -27,7 +29,7 @@ import waamtest
 from waamtest import REPO, check
 
 NS = "/cellX/waam_planner"
-SCAN, TEMPERATURE = NS + "/scan", NS + "/temperature"
+SCAN, TEMPERATURE, IMAGE = NS + "/scan", NS + "/temperature", NS + "/thermal_image"
 
 
 def stamp(peer, offset_s=0.0):
@@ -37,18 +39,28 @@ def stamp(peer, offset_s=0.0):
     return Time(sec=t // 10**9, nanosec=t % 10**9)
 
 
-def cloud(peer, points, frame="part", offset_s=0.0, fields="xyz"):
-    """FLOAT32 points (metres) as a laser line scanner driver sends them."""
+def cloud(peer, points, frame="part", offset_s=0.0, fields=("x", "y", "z")):
+    """FLOAT32 points (metres) as a laser line scanner driver sends them (with a fourth
+    field, a thermal camera's image mapped onto the part)."""
     msg = PointCloud2()
     msg.header.stamp = stamp(peer, offset_s)
     msg.header.frame_id = frame
     msg.height, msg.width = 1, len(points)
     msg.fields = [PointField(name=n, offset=4 * i, datatype=PointField.FLOAT32, count=1)
                   for i, n in enumerate(fields)]
-    msg.point_step, msg.row_step = 12, 12 * len(points)
-    msg.data = b"".join(struct.pack("<3f", *p) for p in points)
+    n = len(fields)
+    msg.point_step, msg.row_step = 4 * n, 4 * n * len(points)
+    msg.data = b"".join(struct.pack(f"<{n}f", *p) for p in points)
     msg.is_dense = True
     return msg
+
+
+THERMAL = ("x", "y", "z", "temperature")
+
+
+def image(peer, celsius, fields=THERMAL):
+    """A thermal image of the wall's top: three points with their temperatures."""
+    return cloud(peer, [(*p, c) for p, c in zip(TOP[:3], celsius)], fields=fields)
 
 
 def reading(peer, celsius, offset_s=0.0):
@@ -99,13 +111,15 @@ def test(peer, waam):
     part = peer.publisher(NS + "/part", String)
     scan = peer.publisher(SCAN, PointCloud2, qos=qos_profile_sensor_data)
     temperature = peer.publisher(TEMPERATURE, Temperature, qos=qos_profile_sensor_data)
-    for p in (part, scan, temperature):
+    camera = peer.publisher(IMAGE, PointCloud2, qos=qos_profile_sensor_data)
+    for p in (part, scan, temperature, camera):
         peer.wait_for_subscriber(p)
 
-    # Both sensors are listed before any data came.
+    # The three sensors are listed before any data came.
     peer.spin_until(
-        "both sensors on /diagnostics",
+        "the three sensors on /diagnostics",
         lambda: any(sensor_status(a, "scan") and sensor_status(a, "temperature")
+                    and sensor_status(a, "thermal camera")
                     for a in peer.received["/diagnostics"]),
         30,
         discovery=True,
@@ -143,7 +157,8 @@ def test(peer, waam):
     nan_top = [TOP[0], (0.009, math.nan, 0.0075)]
     bad_scans = [
         ("a NaN point", lambda: cloud(peer, nan_top), ["point 1 is not finite"]),
-        ("no z field", lambda: cloud(peer, TOP, fields="xyw"), ["no FLOAT32 or FLOAT64 field 'z'"]),
+        ("no z field", lambda: cloud(peer, TOP, fields=("x", "y", "w")),
+         ["no FLOAT32 or FLOAT64 field 'z'"]),
         ("an unknown frame", lambda: cloud(peer, TOP, frame="scanner_link"),
          ["'scanner_link'", "base link"]),
         ("millimetres as metres", lambda: cloud(peer, [(3.0, 3.0, 7.5)]), ["off the part"]),
@@ -152,6 +167,21 @@ def test(peer, waam):
     for what, msg, words in bad_scans:
         expect(peer, lambda: scan.publish(msg()), "scan", warn, [SCAN, *words], f"scan with {what}")
         expect(peer, good_s, "scan", ok, [SCAN, "4 points on the part"], f"good after {what}")
+
+    # A thermal camera's image: good, then bad ways, each followed by a good one.
+    good_i = lambda: camera.publish(image(peer, [900.0, 850.0, math.nan]))  # noqa: E731
+    good_words = [IMAGE, "2 points read on the part", "1 unread", "900.0 °C"]
+    expect(peer, good_i, "thermal camera", ok, good_words, "good thermal image")
+    bad_images = [
+        ("Kelvin", lambda: image(peer, [1173.0, 1123.0, 3273.0]), ["point 2", "3273", "°C"]),
+        ("no temperature field", lambda: image(peer, [900.0] * 3, fields=("x", "y", "z", "t")),
+         ["no FLOAT32 or FLOAT64 field 'temperature'"]),
+        ("nothing read", lambda: image(peer, [math.nan] * 3), ["no temperature on the part"]),
+    ]
+    for what, msg, words in bad_images:
+        expect(peer, lambda: camera.publish(msg()), "thermal camera", warn, [IMAGE, *words],
+               f"thermal image with {what}")
+        expect(peer, good_i, "thermal camera", ok, good_words, f"good after {what}")
 
     # A scanner on the fixture, known from /tf_static only (transient local, as tf2's static
     # broadcaster publishes): its scan, 0.1 m below it, lands on the wall's top.
