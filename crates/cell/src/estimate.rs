@@ -77,13 +77,13 @@ fn squared_error(
     let model = ThermalModel::new(&p, graph);
     let mut sim = Simulation::new(&model).with_threads(1);
     let (mut sum, mut count, mut done) = (0.0, 0, 0);
+    let mut now = vec![f64::NAN; part.len()];
     for m in measurements {
         for &(b, new) in &executed[done..m.deposits] {
             sim.deposit(b, new).expect("windows widened: no violation");
         }
         done = m.deposits;
-        // By block: a thermal image reads hundreds of blocks at once.
-        let mut now = vec![f64::NAN; part.len()];
+        // By block (a thermal image reads hundreds at once); the welded set only grows.
         for (b, t) in sim.temperatures() {
             now[b] = t;
         }
