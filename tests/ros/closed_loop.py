@@ -17,7 +17,9 @@ crates/ros/tests/closed_loop.rs's `Cell1` does). The script checks that the node
 It checks: the `replanned` status at the boundary counts readings used (> 0) and a loss
 factor between 0.6 and 0.9 (the truth's is 0.75); the ~/execute goal succeeds; a wire feed
 came on ~/wire_feed before each weld path, within the process limits; the temperature sensor
-is OK on /diagnostics.
+is OK on /diagnostics. The node is told the cell has a thermal camera publishing every 0.5 s
+(`closed_loop.thermal_camera_period_s`), which stays silent: /diagnostics must say so (WARN)
+while the execution runs, and no longer once it is over.
 """
 
 import bisect
@@ -169,8 +171,22 @@ def test(peer, waam):
     last = [sensor(a)[0] for a in peer.received["/diagnostics"] if sensor(a)][-1]
     check(waamtest.level(last) == 0, f"temperature sensor: {last.message}")
     print(f"temperature sensor: {last.message}")
+
+    # The camera never published: silent for longer than its cadence while executing.
+    camera = [s for a in peer.received["/diagnostics"] for s in a.status
+              if s.name == "cellY/waam_planner: thermal camera sensor"]
+    silent = [s.message for s in camera if waamtest.level(s) == 1 and "silent: no message" in s.message]
+    print(f"thermal camera: {silent[:1]}")
+    check(silent and "thermal_camera_period_s" in silent[0],
+          f"the silent camera was not reported: {[s.message for s in camera][-3:]}")
+    # Once the execution is over, silence is no news: OK (no data yet) again.
+    peer.spin_for(1.5)
+    camera = [s for a in peer.received["/diagnostics"] for s in a.status
+              if s.name == "cellY/waam_planner: thermal camera sensor"]
+    check(waamtest.level(camera[-1]) == 0, f"after the execution: {camera[-1].message}")
     check(waam.alive(), "waam node exited")
 
 
 waamtest.run(test, "node", "--dry-run", "--params", "tests/ros/closed_loop_execute.params.yaml",
-             "--record", sys.argv[1], "--ros-args", "-r", "__ns:=/cellY")
+             "--record", sys.argv[1], "--ros-args", "-r", "__ns:=/cellY",
+             "-p", "closed_loop.thermal_camera_period_s:=0.5")

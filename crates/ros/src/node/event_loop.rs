@@ -52,6 +52,10 @@ impl EventLoop {
             if self.health_due || last_health.is_none_or(|t| t.elapsed() >= health::PERIOD) {
                 last_health = Some(Instant::now());
                 self.health_due = false;
+                let executing = self.state.execution.as_ref().map(|e| e.started);
+                for (level, line) in self.health.cadence(executing, Instant::now()) {
+                    self.log_sensor(level, &line);
+                }
                 // Not recorded: a recording has the events on ~/status.
                 diagnostics.publish(&self.health.to_msg(Time::now()), None);
             }
@@ -134,13 +138,18 @@ impl EventLoop {
     fn on_sensor(&mut self, news: super::sensors::SensorNews) {
         if let Some((level, line)) = self.health.sensor(news) {
             self.health_due = true;
-            let level = if level == DiagnosticStatus::OK {
-                Level::Info
-            } else {
-                Level::Warn
-            };
-            self.state.outputs.log(level, &line);
+            self.log_sensor(level, &line);
         }
+    }
+
+    /// A sensor's change of health into the log: INFO when OK again, else WARN.
+    fn log_sensor(&self, level: u8, line: &str) {
+        let level = if level == DiagnosticStatus::OK {
+            Level::Info
+        } else {
+            Level::Warn
+        };
+        self.state.outputs.log(level, line);
     }
 
     /// `~/stop`: stops planning and execution; returns what was stopped.

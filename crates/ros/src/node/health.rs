@@ -2,7 +2,8 @@
 //! diagnostic_updater nodes report it: a monitor tells a stale node by the silence, and reads
 //! the state and the last result without having seen the events on `~/status`. Each sensor
 //! of the closed loop is a component of its own: OK while its data is used, WARN naming the
-//! topic and the reason while it is not.
+//! topic and the reason while it is not, or while an execution runs and it has been silent
+//! for longer than its cadence (`closed_loop.*_period_s`).
 
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
@@ -38,6 +39,8 @@ pub struct Health {
     pub failed: u64,
     /// The sensors by topic.
     sensors: BTreeMap<String, SensorHealth>,
+    /// Each kind of sensor's cadence (`SensorKind::ALL` order), s; 0: none expected.
+    periods_s: [f64; 3],
 }
 
 /// What a sensor's messages told so far.
@@ -48,10 +51,16 @@ struct SensorHealth {
     rejected: u64,
     /// Kept after good data clears the WARN, so a passing fault still shows.
     last_rejected: Option<String>,
+    /// When its last message came.
+    last_message: Option<Instant>,
+    /// Silent for longer than its cadence while an execution runs: for how long, s.
+    silent_s: Option<f64>,
 }
 
 impl Health {
-    pub fn new(node: String) -> Health {
+    /// The health of `node`, whose sensors publish at least every `periods_s` (by
+    /// `SensorKind::ALL`; 0: at no set cadence) while an execution runs.
+    pub fn new(node: String, periods_s: [f64; 3]) -> Health {
         Health {
             node,
             started: Instant::now(),
@@ -60,7 +69,46 @@ impl Health {
             planned: 0,
             failed: 0,
             sensors: BTreeMap::new(),
+            periods_s,
         }
+    }
+
+    fn period_s(&self, kind: SensorKind) -> f64 {
+        let i = SensorKind::ALL.iter().position(|&k| k == kind);
+        i.map_or(0.0, |i| self.periods_s[i])
+    }
+
+    /// Checks each sensor's cadence at `now`, an execution running since `executing`:
+    /// returns the sensors that fell silent (WARN) or spoke again (OK) since the last check.
+    pub fn cadence(&mut self, executing: Option<Instant>, now: Instant) -> Vec<(u8, String)> {
+        let periods: Vec<f64> = self
+            .sensors
+            .values()
+            .map(|s| self.period_s(s.kind))
+            .collect();
+        let mut changes = Vec::new();
+        for ((topic, s), period_s) in self.sensors.iter_mut().zip(periods) {
+            let silent_s = executing.filter(|_| period_s > 0.0).and_then(|since| {
+                let from = s.last_message.map_or(since, |m| m.max(since));
+                let silent = now.saturating_duration_since(from).as_secs_f64();
+                (silent > period_s).then_some(silent)
+            });
+            match (s.silent_s.is_some(), silent_s.is_some()) {
+                (false, true) => changes.push((
+                    DiagnosticStatus::WARN,
+                    format!(
+                        "{topic}: {}",
+                        silence(silent_s.unwrap_or(0.0), period_s, s.kind)
+                    ),
+                )),
+                (true, false) if executing.is_some() => {
+                    changes.push((DiagnosticStatus::OK, format!("{topic}: data again")))
+                }
+                _ => {}
+            }
+            s.silent_s = silent_s;
+        }
+        changes
     }
 
     /// Takes a sensor's news. Returns what changed worth saying at once (and logging): the
@@ -75,7 +123,12 @@ impl Health {
                 used: 0,
                 rejected: 0,
                 last_rejected: None,
+                last_message: None,
+                silent_s: None,
             });
+        if news.verdict != Verdict::Waiting {
+            s.last_message = Some(Instant::now());
+        }
         let was_bad = matches!(s.verdict, Verdict::Bad(_));
         let change = match &news.verdict {
             Verdict::Waiting => None,
@@ -131,7 +184,7 @@ impl Health {
         );
         for (topic, s) in &self.sensors {
             msg.status.push(
-                s.status(topic)
+                s.status(topic, self.period_s(s.kind))
                     .diagnostic(&format!("{node}: {} sensor", s.kind.name()), &self.node),
             );
         }
@@ -141,12 +194,16 @@ impl Health {
 
 impl SensorHealth {
     /// OK while the latest message was used (or none came yet), WARN naming the topic and
-    /// the reason while it was not.
-    fn status(&self, topic: &str) -> Status {
-        let (level, message) = match &self.verdict {
-            Verdict::Waiting => (DiagnosticStatus::OK, "no data yet".to_string()),
-            Verdict::Good(summary) => (DiagnosticStatus::OK, summary.clone()),
-            Verdict::Bad(reason) => (DiagnosticStatus::WARN, reason.clone()),
+    /// the reason while it was not, or while it is silent for longer than its cadence.
+    fn status(&self, topic: &str, period_s: f64) -> Status {
+        let (level, message) = match (&self.verdict, self.silent_s) {
+            (_, Some(silent_s)) => (
+                DiagnosticStatus::WARN,
+                silence(silent_s, period_s, self.kind),
+            ),
+            (Verdict::Waiting, None) => (DiagnosticStatus::OK, "no data yet".to_string()),
+            (Verdict::Good(summary), None) => (DiagnosticStatus::OK, summary.clone()),
+            (Verdict::Bad(reason), None) => (DiagnosticStatus::WARN, reason.clone()),
         };
         let mut values = vec![
             KeyValue::new("topic", topic),
@@ -160,13 +217,22 @@ impl SensorHealth {
     }
 }
 
+/// What a silent sensor's status says.
+fn silence(silent_s: f64, period_s: f64, kind: SensorKind) -> String {
+    format!(
+        "silent: no message for {silent_s:.1} s while executing (expected every {period_s} s: \
+         closed_loop.{}_period_s)",
+        kind.parameter()
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn state_and_last_result() {
-        let mut h = Health::new("/cell1/waam_planner".into());
+        let mut h = Health::new("/cell1/waam_planner".into(), [0.0; 3]);
         let msg = h.to_msg(Time::default());
         assert_eq!(msg.status[0].name, "cell1/waam_planner: planner");
         assert_eq!(msg.status[0].level, DiagnosticStatus::OK);
@@ -182,7 +248,7 @@ mod tests {
 
     #[test]
     fn a_sensor_warns_with_its_topic_and_reason_until_good_data_comes() {
-        let mut h = Health::new("/cellX/waam_planner".into());
+        let mut h = Health::new("/cellX/waam_planner".into(), [0.0; 3]);
         let news = |verdict| SensorNews {
             topic: "/cellX/waam_planner/temperature".into(),
             kind: SensorKind::Temperature,
@@ -221,6 +287,53 @@ mod tests {
         assert!(s.values.iter().any(|kv| kv.key == "last_rejected"));
         assert_eq!(
             h.to_msg(Time::default()).status[0].level,
+            DiagnosticStatus::OK
+        );
+    }
+
+    #[test]
+    fn a_sensor_silent_for_longer_than_its_cadence_while_executing_warns() {
+        // The pyrometer every 0.5 s, the scanner at no cadence.
+        let mut h = Health::new("/cellX/waam_planner".into(), [0.0, 0.5, 0.0]);
+        for (topic, kind) in [("t", SensorKind::Temperature), ("s", SensorKind::Scan)] {
+            h.sensor(SensorNews {
+                topic: topic.into(),
+                kind,
+                verdict: Verdict::Waiting,
+            });
+        }
+        let t0 = Instant::now();
+        // Idle: silence is no news.
+        assert!(h.cadence(None, t0 + Duration::from_secs(60)).is_empty());
+        // Executing since t0: silent 0.4 s is within the cadence, 0.7 s not.
+        assert!(h
+            .cadence(Some(t0), t0 + Duration::from_millis(400))
+            .is_empty());
+        let change = h.cadence(Some(t0), t0 + Duration::from_millis(700));
+        assert_eq!(change.len(), 1, "{change:?}");
+        assert_eq!(change[0].0, DiagnosticStatus::WARN);
+        assert!(
+            change[0].1.starts_with("t: silent: no message for 0.7 s")
+                && change[0].1.contains("closed_loop.temperature_period_s"),
+            "{change:?}"
+        );
+        let s = h
+            .to_msg(Time::default())
+            .status
+            .into_iter()
+            .find(|s| s.name.ends_with("temperature sensor"))
+            .unwrap();
+        assert_eq!(s.level, DiagnosticStatus::WARN);
+        // A reading ends the silence.
+        h.sensor(SensorNews {
+            topic: "t".into(),
+            kind: SensorKind::Temperature,
+            verdict: Verdict::Good("650.0 °C".into()),
+        });
+        let change = h.cadence(Some(t0), Instant::now());
+        assert_eq!(change, vec![(DiagnosticStatus::OK, "t: data again".into())]);
+        assert_eq!(
+            h.to_msg(Time::default()).status[2].level,
             DiagnosticStatus::OK
         );
     }

@@ -193,7 +193,14 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     let mut event_loop = EventLoop {
         state,
         worker,
-        health: health::Health::new(names.fully_qualified()),
+        health: health::Health::new(
+            names.fully_qualified(),
+            [
+                params.closed_loop.scan_period_s,
+                params.closed_loop.temperature_period_s,
+                params.closed_loop.thermal_camera_period_s,
+            ],
+        ),
         goals: Default::default(),
         cell,
         mesh_settings,
@@ -595,6 +602,8 @@ const KEEP_PLANS: usize = 8;
 struct Execution {
     /// Tells this execution's end from an older one's.
     serial: u64,
+    /// When it began: the sensors' cadences count from here.
+    started: std::time::Instant,
     job: u64,
     cancel: Cancel,
     /// The `~/execute` goal that asked for it (none: run on planning).
@@ -811,6 +820,7 @@ impl LoopState {
         let serial = self.serial;
         self.execution = Some(Execution {
             serial,
+            started: std::time::Instant::now(),
             job,
             cancel: cancel.clone(),
             goal,

@@ -155,6 +155,12 @@ pub struct ClosedLoopParams {
     /// Scan and thermal image points farther than this from the part's box are off the
     /// part, mm.
     pub scan_margin_mm: f64,
+    /// Each sensor's cadence: it publishes at least this often while an execution runs, s;
+    /// a longer silence is a WARN on /diagnostics. 0: no cadence expected (e.g. a scanner
+    /// that scans when a layer is done).
+    pub scan_period_s: f64,
+    pub temperature_period_s: f64,
+    pub thermal_camera_period_s: f64,
     /// The wire feed the height rule may set for a weld path, relative to the welder's
     /// nominal schedule: the process limits (1 and 1: the rule is off).
     pub wire_feed_min: f64,
@@ -170,6 +176,9 @@ impl Default for ClosedLoopParams {
             thermal_camera_topic: "~/thermal_image".into(),
             max_age_s: 2.0,
             scan_margin_mm: 10.0,
+            scan_period_s: 0.0,
+            temperature_period_s: 0.0,
+            thermal_camera_period_s: 0.0,
             wire_feed_min: 0.7,
             wire_feed_max: 1.3,
         }
@@ -486,6 +495,18 @@ impl NodeParams {
                 cl.scan_margin_mm
             )));
         }
+        for (name, period_s) in [
+            ("scan_period_s", cl.scan_period_s),
+            ("temperature_period_s", cl.temperature_period_s),
+            ("thermal_camera_period_s", cl.thermal_camera_period_s),
+        ] {
+            if !(period_s.is_finite() && (0.0..=MAX_WAIT_S).contains(&period_s)) {
+                return Err(ParamRule(format!(
+                    "closed_loop.{name}: expected seconds in [0, {MAX_WAIT_S}] (0: no \
+                     cadence), got {period_s:?}"
+                )));
+            }
+        }
         if !(finite_pos(cl.wire_feed_min)
             && cl.wire_feed_min <= 1.0
             && cl.wire_feed_max >= 1.0
@@ -706,6 +727,10 @@ mod tests {
         assert!(e.contains("closed_loop.max_age_s"), "{e}");
         let e = err("waam_planner:\n  ros__parameters:\n    closed_loop: {scan_margin_mm: -1}\n");
         assert!(e.contains("closed_loop.scan_margin_mm"), "{e}");
+        let e = err(
+            "waam_planner:\n  ros__parameters:\n    closed_loop: {temperature_period_s: -0.1}\n",
+        );
+        assert!(e.contains("closed_loop.temperature_period_s"), "{e}");
         let e = err("waam_planner:\n  ros__parameters:\n    closed_loop: {enabled: \"yes\"}\n");
         assert!(e.contains("closed_loop.enabled: invalid type"), "{e}");
         let e = err("someone_else:\n  ros__parameters: {}\n");

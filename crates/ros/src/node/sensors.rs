@@ -54,6 +54,15 @@ impl SensorKind {
             SensorKind::ThermalCamera => "thermal camera",
         }
     }
+
+    /// Its name in the `closed_loop.*` parameters.
+    pub fn parameter(self) -> &'static str {
+        match self {
+            SensorKind::Scan => "scan",
+            SensorKind::Temperature => "temperature",
+            SensorKind::ThermalCamera => "thermal_camera",
+        }
+    }
 }
 
 /// What a sensor's latest message told.
