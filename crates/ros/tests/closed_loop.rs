@@ -38,6 +38,7 @@ use waam_thermal::{simulate, Simulation, ThermalModel};
 
 const TWO_WALLS: &str = include_str!("../../../tests/data/two-walls.yaml");
 const TEMPERATURE: &str = "/waam_planner/temperature";
+const WIRE_FEED: &str = "/waam_planner/wire_feed";
 
 /// Follows each goal at once, its clock advancing by the goal's duration.
 struct InstantController {
@@ -83,7 +84,12 @@ struct Seen {
 }
 
 impl ExecOutputs for Cell1 {
-    fn wire_feed(&self, _relative: f64) {}
+    fn wire_feed(&self, relative: f64) {
+        if let Some(r) = &self.recorder {
+            let msg = waam_rosmsg::std_msgs::Float64 { data: relative };
+            r.record(WIRE_FEED, &Qos::reliable(10), &msg).unwrap();
+        }
+    }
     fn arc(&self, on: bool) {
         let now = *self.clock.lock().unwrap();
         let mut s = self.state.borrow_mut();
@@ -474,6 +480,37 @@ fn a_recorded_closed_loop_execution_replays_its_decisions_identically() {
     assert!(reports
         .iter()
         .all(|r| matches!(r.verdict, DecisionVerdict::NotReproducible(_))));
+
+    // The height rule's decisions too: each weld path's wire feed is derived again, and a
+    // recorded one the loop would not have sent (the second weld path's) is a difference
+    // of the boundary before it.
+    let (executions, _) = decisions::recorded_executions(&bag).unwrap();
+    assert_eq!(executions[0].wire_feeds.len(), boundaries + 1);
+    assert!(
+        executions[0].wire_feeds.iter().all(|f| *f == Some(1.0)),
+        "{:?}",
+        executions[0].wire_feeds
+    );
+    let mut feeds = 0;
+    let refed = copy(&tmp.path().join("refed"), &mut |topic, data| {
+        if topic != WIRE_FEED {
+            return Some(data);
+        }
+        feeds += 1;
+        let feed = if feeds == 2 { 1.05 } else { 1.0 };
+        Some(waam_rosmsg::to_cdr(&waam_rosmsg::std_msgs::Float64 { data: feed }).unwrap())
+    });
+    let reports = replay(&refed);
+    let DecisionVerdict::Different(d) = &reports[0].verdict else {
+        panic!("{:?}", reports[0]);
+    };
+    assert_eq!(
+        d.iter().map(|d| d.to_string()).collect::<Vec<_>>(),
+        ["wire feed of weld path 2: recorded 1.05, new 1"]
+    );
+    assert!(reports[1..]
+        .iter()
+        .all(|r| r.verdict == DecisionVerdict::Identical));
 }
 
 #[test]

@@ -22,6 +22,7 @@ use waam_rosbag::{Bag, BagError};
 use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, KeyValue};
 use waam_rosmsg::sensor_msgs::{PointCloud2, Temperature};
+use waam_rosmsg::std_msgs::Float64;
 use waam_rosmsg::tf2_msgs::TFMessage;
 use waam_rosmsg::{from_cdr, RosMessage};
 
@@ -108,6 +109,9 @@ pub struct BoundaryRecord {
     pub plan: Option<Vec<Vec<Block>>>,
     /// The scan margin the node checked scans with (`closed_loop.scan_margin_mm`).
     pub scan_margin_mm: f64,
+    /// The wire feed limits of the height rule (`closed_loop.wire_feed_min`, `_max`); not
+    /// in a recording of an older node (its wire feeds are then not re-derived).
+    pub wire_feed_limits: Option<(f64, f64)>,
     /// The re-plan's time limit, s, if any: a re-plan it cut short is not reproducible.
     pub timeout_s: Option<f64>,
     /// The loop's decision: `replan`, `fault` or `kept` (no completion found).
@@ -175,6 +179,9 @@ impl BoundaryRecord {
         ];
         if let Some(plan) = &self.plan {
             out.push(kv("plan", blocks_json(plan)));
+        }
+        if let Some((lo, hi)) = self.wire_feed_limits {
+            out.push(kv("wire_feed_limits", format!("{lo} {hi}")));
         }
         out
     }
@@ -256,6 +263,21 @@ impl BoundaryRecord {
             readings,
             plan: get("plan").map(|_| fragments_of("plan")).transpose()?,
             scan_margin_mm: num("scan_margin_mm")?,
+            wire_feed_limits: get("wire_feed_limits")
+                .map(|v| {
+                    let limits: Vec<f64> = v
+                        .split(' ')
+                        .map(|x| {
+                            x.parse()
+                                .map_err(|_| bad("wire_feed_limits", "not two numbers"))
+                        })
+                        .collect::<Result<_, _>>()?;
+                    match limits[..] {
+                        [lo, hi] => Ok((lo, hi)),
+                        _ => Err(bad("wire_feed_limits", "not two numbers")),
+                    }
+                })
+                .transpose()?,
             timeout_s: match need("timeout_s")? {
                 "none" => None,
                 _ => Some(num("timeout_s")?),
@@ -287,6 +309,10 @@ pub struct RecordedExecution {
     pub job: u64,
     pub boundaries: Vec<RecordedBoundary>,
     pub unreadable: Vec<String>,
+    /// The wire feed the node sent before each weld path (`~/wire_feed`), as recorded: the
+    /// first weld path's is the last before boundary 1, weld path k + 1's the first after
+    /// boundary k (`None`: none recorded there).
+    pub wire_feeds: Vec<Option<f64>>,
 }
 
 /// A sensor message as recorded.
@@ -316,6 +342,8 @@ pub fn recorded_executions(bag: &Bag) -> Result<(Vec<RecordedExecution>, Sensors
     let mut order: Vec<usize> = (0..bag.messages.len()).collect();
     order.sort_by_key(|&i| bag.messages[i].log_time);
     let mut executions: Vec<RecordedExecution> = Vec::new();
+    // (log time, relative wire feed) of every `~/wire_feed` message.
+    let mut feeds: Vec<(u64, f64)> = Vec::new();
     let mut sensors = Sensors {
         raw: Vec::new(),
         used: Vec::new(),
@@ -349,6 +377,10 @@ pub fn recorded_executions(bag: &Bag) -> Result<(Vec<RecordedExecution>, Sensors
                         Raw::Scan(cloud)
                     },
                 )
+            }
+            t if t == Float64::TYPE_NAME && topic.name.ends_with("/wire_feed") => {
+                let feed: Float64 = from_cdr(&m.data).map_err(decode_error)?;
+                feeds.push((m.log_time, feed.data));
             }
             t if t == TFMessage::TYPE_NAME => {
                 let msg: TFMessage = from_cdr(&m.data).map_err(decode_error)?;
@@ -408,6 +440,7 @@ pub fn recorded_executions(bag: &Bag) -> Result<(Vec<RecordedExecution>, Sensors
                                     job,
                                     boundaries: Vec::new(),
                                     unreadable: vec![why],
+                                    wire_feeds: Vec::new(),
                                 }),
                             }
                             continue;
@@ -428,6 +461,7 @@ pub fn recorded_executions(bag: &Bag) -> Result<(Vec<RecordedExecution>, Sensors
                             job,
                             boundaries: vec![boundary],
                             unreadable: Vec::new(),
+                            wire_feeds: Vec::new(),
                         }),
                     }
                 }
@@ -436,6 +470,24 @@ pub fn recorded_executions(bag: &Bag) -> Result<(Vec<RecordedExecution>, Sensors
         }
     }
     sensors.used = vec![false; sensors.raw.len()];
+    // Each execution's wire feeds, by where they fall among its boundaries (in log time).
+    let starts: Vec<u64> = executions
+        .iter()
+        .map(|e| e.boundaries.first().map_or(u64::MAX, |b| b.log_time))
+        .collect();
+    for (i, e) in executions.iter_mut().enumerate() {
+        let Some(first) = e.boundaries.first() else {
+            continue;
+        };
+        let end = starts.get(i + 1).copied().unwrap_or(u64::MAX);
+        let before = feeds.iter().rev().find(|f| f.0 < first.log_time);
+        e.wire_feeds.push(before.map(|f| f.1));
+        for (k, b) in e.boundaries.iter().enumerate() {
+            let next = e.boundaries.get(k + 1).map_or(end, |n| n.log_time);
+            let after = feeds.iter().find(|f| b.log_time <= f.0 && f.0 < next);
+            e.wire_feeds.push(after.map(|f| f.1));
+        }
+    }
     Ok((executions, sensors))
 }
 
@@ -560,6 +612,13 @@ pub enum DecisionDifference {
     },
     /// The decision's whole plan.
     Plan(Difference),
+    /// The wire feed of a weld path (1-based), relative to nominal: the height rule's
+    /// decision.
+    WireFeed {
+        weld_path: usize,
+        recorded: f64,
+        new: f64,
+    },
     /// The recording does not fit the plan being executed (deposits off it, a boundary
     /// after the last deposit).
     Inputs(String),
@@ -580,6 +639,14 @@ impl fmt::Display for DecisionDifference {
                 new,
             } => write!(f, "estimate: {name} recorded {recorded}, new {new}"),
             DecisionDifference::Plan(d) => write!(f, "plan: {d}"),
+            DecisionDifference::WireFeed {
+                weld_path,
+                recorded,
+                new,
+            } => write!(
+                f,
+                "wire feed of weld path {weld_path}: recorded {recorded}, new {new}"
+            ),
             DecisionDifference::Inputs(why) => write!(f, "inputs: {why}"),
         }
     }
@@ -691,13 +758,17 @@ pub fn replay_execution(
     sensors: &mut Sensors,
 ) -> Vec<DecisionReport> {
     let mut reports = Vec::new();
+    // The height rule's limits, when recorded: its wire feeds are re-derived too.
+    let limits = execution
+        .boundaries
+        .first()
+        .and_then(|b| b.record.wire_feed_limits);
     let opts = LoopOptions {
         planner: waam_planner::Options {
             timeout: None,
             ..planner.clone()
         },
-        // The wire feed does not enter a decision.
-        wire_feed: (1.0, 1.0),
+        wire_feed: limits.unwrap_or((1.0, 1.0)),
     };
     let not_run = |b: &RecordedBoundary, why: String| DecisionReport {
         boundary: b.clone(),
@@ -726,6 +797,12 @@ pub fn replay_execution(
         }
     };
     let mut stop: Option<String> = None;
+    // The first weld path's wire feed, asked before anything was welded (as the node did).
+    let mut feed_diffs = limits
+        .and_then(|_| feed_difference(&mut closed, part, execution, 0))
+        .into_iter()
+        .collect::<Vec<_>>();
+    let mut welded = 0;
     for b in &execution.boundaries {
         if let Some(why) = &stop {
             reports.push(not_run(b, why.clone()));
@@ -784,6 +861,7 @@ pub fn replay_execution(
                 continue;
             }
         };
+        welded += r.deposits.iter().filter(|d| d.arc_start).count();
         let diffs = compare(part, r, &new);
         let verdict = if diffs.is_empty() {
             DecisionVerdict::Identical
@@ -825,8 +903,47 @@ pub fn replay_execution(
             }
             _ => stop = Some("the recorded plan is not the part's".into()),
         }
+        // The next weld path's wire feed (the node asks before its arc strikes; no reading
+        // is fed in between), held against this boundary's decision.
+        if limits.is_some() && stop.is_none() {
+            feed_diffs.extend(feed_difference(&mut closed, part, execution, welded));
+        }
+        if let Some(report) = reports.last_mut() {
+            let feeds = std::mem::take(&mut feed_diffs);
+            if !feeds.is_empty() {
+                report.verdict =
+                    match std::mem::replace(&mut report.verdict, DecisionVerdict::Identical) {
+                        DecisionVerdict::Identical => DecisionVerdict::Different(feeds),
+                        DecisionVerdict::Different(mut d) => {
+                            d.extend(feeds);
+                            DecisionVerdict::Different(d)
+                        }
+                        other => other,
+                    };
+            }
+        }
     }
     reports
+}
+
+/// Weld path `f + 1`'s wire feed as the loop derives it now, against the one recorded
+/// (nothing when it agrees bit for bit, or when none was recorded or the plan has no such
+/// weld path).
+fn feed_difference(
+    closed: &mut ClosedLoop,
+    part: &Part,
+    execution: &RecordedExecution,
+    f: usize,
+) -> Option<DecisionDifference> {
+    let recorded = (*execution.wire_feeds.get(f)?)?;
+    let &first = closed.fragments().get(f)?.first()?;
+    let z = usize::try_from(part.block(first)[2]).ok()?;
+    let new = closed.wire_feed(z);
+    (new.to_bits() != recorded.to_bits()).then_some(DecisionDifference::WireFeed {
+        weld_path: f + 1,
+        recorded,
+        new,
+    })
 }
 
 /// The job a recorded "received" status names, from its values.
@@ -930,6 +1047,7 @@ mod tests {
             ],
             plan: Some(vec![vec![[0, 0, 0], [1, 0, 0]]]),
             scan_margin_mm: 5.0,
+            wire_feed_limits: Some((0.7, 1.3)),
             timeout_s: None,
             decision: "replan".into(),
             changed: true,

@@ -254,6 +254,7 @@ impl Replanner {
             readings: fed,
             plan,
             scan_margin_mm: self.setup.scan_margin_mm,
+            wire_feed_limits: Some(self.setup.wire_feed),
             timeout_s: self.setup.planner.timeout.map(|t| t.as_secs_f64()),
             decision: decision.reason.into(),
             changed: decision.changed,
