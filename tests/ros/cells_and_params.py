@@ -124,7 +124,7 @@ def run(peer, waam, cell2):
         "execution.joint_names", "execution.goal_tolerance_rad", "execution.path_tolerance_rad",
         "execution.goal_time_tolerance_s", "execution.start_service",
         "dry_run.time_scale", "dry_run.rate_hz", "closed_loop.enabled", "closed_loop.scan_topic",
-        "closed_loop.temperature_topic", "closed_loop.max_age_s", "closed_loop.scan_margin_mm",
+        "closed_loop.temperature_topic", "closed_loop.arc_fault_topic", "closed_loop.max_age_s", "closed_loop.scan_margin_mm",
         "closed_loop.wire_feed_min", "closed_loop.wire_feed_max", "use_sim_time",
     }
     check(names == expected, f"parameters listed: {sorted(names)}; missing "

@@ -147,6 +147,9 @@ pub struct ClosedLoopParams {
     pub scan_topic: String,
     /// In: sensor_msgs/Temperature, a pyrometer aimed at the torch.
     pub temperature_topic: String,
+    /// In: std_msgs/Header, the welding power source's arc fault (the arc went out on its
+    /// own: a wire fault, an arc loss), stamped when the arc went out.
+    pub arc_fault_topic: String,
     /// Data stamped longer ago than this (or as far ahead) is late, s.
     pub max_age_s: f64,
     /// Scan points farther than this from the part's box are off the part, mm.
@@ -163,6 +166,7 @@ impl Default for ClosedLoopParams {
             enabled: false,
             scan_topic: "~/scan".into(),
             temperature_topic: "~/temperature".into(),
+            arc_fault_topic: "~/arc_fault".into(),
             max_age_s: 2.0,
             scan_margin_mm: 10.0,
             wire_feed_min: 0.7,

@@ -1,8 +1,11 @@
 //! The cell's sensors in (#31): a layer height scan (`sensor_msgs/PointCloud2`, e.g. from a
 //! laser line scanner after each layer) on `closed_loop.scan_topic` and a pyrometer
-//! (`sensor_msgs/Temperature`) on `closed_loop.temperature_topic`. Each message is recorded
-//! as it came, checked ([`waam_messages::sensor`]) and, when good, handed to the closed loop
-//! as a [`Measured`]; every verdict goes to the event loop, which reports it on `/diagnostics`.
+//! (`sensor_msgs/Temperature`) on `closed_loop.temperature_topic`, and the welding power
+//! source's arc faults (`std_msgs/Header`, stamped when the arc went out) on
+//! `closed_loop.arc_fault_topic`. Each message is recorded as it came, checked
+//! ([`waam_messages::sensor`]) and, when good, handed to the closed loop as a [`Measured`]
+//! (an arc fault to the execution at once, [`ArcFaults`]); every verdict goes to the event
+//! loop, which reports it on `/diagnostics`.
 //! A scan may come in any frame `/tf` and `/tf_static` connect to the robot's base link: the
 //! sensor thread keeps their frame tree ([`TfBuffer`]) and places each scan at its stamp.
 
@@ -12,8 +15,9 @@ use std::sync::{Arc, Mutex};
 use futures::StreamExt;
 use ros2_client::{Node, Subscription};
 
+use super::arc_fault::ArcFaults;
 use super::frames::TF_STATIC;
-use super::io::{sensor_qos, subscribe, tf_qos, tf_static_qos, IoError};
+use super::io::{sensor_qos, stream_qos, subscribe, tf_qos, tf_static_qos, IoError};
 use super::names::NodeNames;
 use super::params::ClosedLoopParams;
 use super::pipeline::Planned;
@@ -24,6 +28,7 @@ use waam_rosbag::qos::Qos;
 use waam_rosbag::Recorder;
 use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::sensor_msgs::{PointCloud2, Temperature};
+use waam_rosmsg::std_msgs::Header;
 use waam_rosmsg::tf2_msgs::TFMessage;
 use waam_rosmsg::RosMessage;
 
@@ -35,6 +40,8 @@ pub const TF: &str = "/tf";
 pub enum SensorKind {
     Scan,
     Temperature,
+    /// The welding power source's arc faults.
+    ArcFault,
 }
 
 impl SensorKind {
@@ -42,6 +49,7 @@ impl SensorKind {
         match self {
             SensorKind::Scan => "scan",
             SensorKind::Temperature => "temperature",
+            SensorKind::ArcFault => "arc fault",
         }
     }
 }
@@ -100,6 +108,7 @@ impl ScanTargets {
 pub struct Wiring {
     pub measured: Sender<Measured>,
     pub targets: ScanTargets,
+    pub faults: ArcFaults,
 }
 
 /// The two sensor subscriptions, the frames scans may come in, and how their data is
@@ -109,6 +118,8 @@ pub struct Sensors {
     scan: Subscription<PointCloud2>,
     pub temperature_topic: String,
     temperature: Subscription<Temperature>,
+    pub arc_fault_topic: String,
+    arc_fault: Subscription<Header>,
     tf: Subscription<TFMessage>,
     tf_static: Subscription<TFMessage>,
     limits: ClosedLoopParams,
@@ -117,6 +128,7 @@ pub struct Sensors {
 enum Incoming {
     Scan(PointCloud2),
     Temperature(Temperature),
+    ArcFault(Header),
     /// Transforms (or why a message on the topic could not be read), from `/tf_static`
     /// when `fixed`.
     Frames {
@@ -134,6 +146,9 @@ impl Sensors {
         let (scan_topic, scan) = subscribe(node, names, &params.scan_topic, sensor_qos())?;
         let (temperature_topic, temperature) =
             subscribe(node, names, &params.temperature_topic, sensor_qos())?;
+        // Reliable: a fault lost is a weld path welded on as if the arc burned.
+        let (arc_fault_topic, arc_fault) =
+            subscribe(node, names, &params.arc_fault_topic, arc_fault_qos())?;
         let (_, tf) = subscribe(node, names, TF, tf_qos())?;
         let (_, tf_static) = subscribe(node, names, TF_STATIC, tf_static_qos())?;
         Ok(Sensors {
@@ -141,6 +156,8 @@ impl Sensors {
             scan,
             temperature_topic,
             temperature,
+            arc_fault_topic,
+            arc_fault,
             tf,
             tf_static,
             limits: params.clone(),
@@ -155,12 +172,18 @@ impl Sensors {
         news: impl Fn(SensorNews) -> bool + Send + 'static,
         recorder: Option<Recorder>,
     ) -> std::io::Result<()> {
-        let Wiring { measured, targets } = wiring;
+        let Wiring {
+            measured,
+            targets,
+            faults,
+        } = wiring;
         let Sensors {
             scan_topic,
             scan,
             temperature_topic,
             temperature,
+            arc_fault_topic,
+            arc_fault,
             tf,
             tf_static,
             limits,
@@ -168,6 +191,7 @@ impl Sensors {
         let topic = move |kind| match kind {
             SensorKind::Scan => scan_topic.clone(),
             SensorKind::Temperature => temperature_topic.clone(),
+            SensorKind::ArcFault => arc_fault_topic.clone(),
         };
         let record = move |topic: &str, message: &dyn Fn(&Recorder, &str) -> RecordResult| {
             if let Some(r) = &recorder {
@@ -179,7 +203,11 @@ impl Sensors {
         std::thread::Builder::new()
             .name("ros-sensors".into())
             .spawn(move || {
-                for kind in [SensorKind::Scan, SensorKind::Temperature] {
+                for kind in [
+                    SensorKind::Scan,
+                    SensorKind::Temperature,
+                    SensorKind::ArcFault,
+                ] {
                     let verdict = Verdict::Waiting;
                     if !news(SensorNews {
                         topic: topic(kind),
@@ -207,9 +235,13 @@ impl Sensors {
                         (SensorKind::Scan, Ok(Incoming::Frames { msg, fixed }))
                     }
                 };
+                let arc_faults = arc_fault
+                    .async_stream()
+                    .map(|r| (SensorKind::ArcFault, r.map(|(m, _)| Incoming::ArcFault(m))));
                 let mut merged = futures::stream::select_all([
                     scans.boxed(),
                     temperatures.boxed(),
+                    arc_faults.boxed(),
                     tf.async_stream().map(frames_of(false)).boxed(),
                     tf_static.async_stream().map(frames_of(true)).boxed(),
                 ]);
@@ -254,6 +286,35 @@ impl Sensors {
                                 });
                                 unless_panicked(|| judge_temperature(&reading, &limits))
                             }
+                            Ok(Incoming::ArcFault(header)) => {
+                                record(&topic, &|r, t| {
+                                    r.record(t, &arc_fault_qos_recorded(), &header)
+                                });
+                                let verdict =
+                                    match sensor::arc_fault(&header, Time::now(), limits.max_age_s)
+                                    {
+                                        Ok(stamp_s) => {
+                                            let stopped = faults.report(stamp_s);
+                                            Verdict::Good(format!(
+                                                "the arc went out at {stamp_s:.3} s: {}",
+                                                if stopped {
+                                                    "the weld path stops, the rest is re-planned"
+                                                } else {
+                                                    "no weld path was running"
+                                                }
+                                            ))
+                                        }
+                                        Err(e) => Verdict::Bad(e.to_string()),
+                                    };
+                                if !news(SensorNews {
+                                    topic,
+                                    kind,
+                                    verdict,
+                                }) {
+                                    return;
+                                }
+                                continue;
+                            }
                             // A message that does not decode (another type on the topic).
                             Err(e) => Err(Rejected::Undecodable {
                                 type_name: type_of(kind),
@@ -282,12 +343,23 @@ impl Sensors {
     }
 }
 
+/// Arc faults are few and each one matters: reliable (a publisher must be too), keep last
+/// 10 ([`stream_qos`]).
+fn arc_fault_qos() -> ros2_client::QosProfile {
+    stream_qos()
+}
+
+fn arc_fault_qos_recorded() -> Qos {
+    Qos::reliable(10)
+}
+
 type RecordResult = Result<(), waam_rosbag::BagError>;
 
 fn type_of(kind: SensorKind) -> &'static str {
     match kind {
         SensorKind::Scan => PointCloud2::TYPE_NAME,
         SensorKind::Temperature => Temperature::TYPE_NAME,
+        SensorKind::ArcFault => Header::TYPE_NAME,
     }
 }
 
