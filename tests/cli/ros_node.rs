@@ -416,6 +416,22 @@ fn rclpy_simulated_cell_node_feeds_the_closed_loop() {
     assert!(json["decisions_identical"].as_u64().unwrap() >= 1, "{json}");
 }
 
+/// An arc fault from the simulated cell's welder (#31, sim_cell_fault.py): `waam sim-cell
+/// --node` with TRUTH.yaml's `cut_short` publishes the fault halfway through the first weld
+/// path; the namespaced dry run stops that weld path, re-plans the rest (`reason: fault`) and
+/// completes the part. The fault is in the node's recording and its decisions replay
+/// identically.
+#[test]
+fn rclpy_simulated_cell_arc_fault_cuts_a_weld_path_short_and_the_rest_is_re_planned() {
+    let Some((_dir, bag)) = recorded_script_run("sim_cell_fault.py", "fault") else {
+        return;
+    };
+    let recording = waam_rosbag::Bag::open(&bag).unwrap();
+    assert_eq!(recording.count("/cellF/waam_planner/arc_fault"), 1);
+    let json = decisions_replayed_identically(&bag);
+    assert!(json["decisions_identical"].as_u64().unwrap() >= 1, "{json}");
+}
+
 /// What the pyrometer of a cell with 25 % lower heat losses than twin-walls' model reads on
 /// the first weld path of the plan `waam plan` makes (the node's, as the script checks): each
 /// deposit's true temperature at its end, in weld order, as `crates/ros/tests/closed_loop.rs`
