@@ -925,3 +925,42 @@ fn an_arc_fault_stops_the_weld_goal_and_the_execution_goes_on_with_the_re_plan()
         assert_eq!(r.verdict, DecisionVerdict::Identical, "{r:?}");
     }
 }
+
+#[test]
+fn an_arc_fault_in_the_last_deposits_second_half_is_an_ordinary_boundary() {
+    use waam_ros::node::closed_loop::Replanner;
+    let part = Part::parse(TWO_WALLS).unwrap();
+    let cell = Cell::bundled();
+    let chosen = ChosenPlan {
+        fragments: short_then_tall(),
+        stats: Default::default(),
+        proven: false,
+        worst_margin_s: f64::NAN,
+    };
+    let planned = cell.motion(part, chosen).unwrap();
+    let setup = ReplanSetup {
+        cell,
+        planner: waam_planner::Options::default(),
+        wire_feed: (1.0, 1.0),
+        scan_margin_mm: 5.0,
+    };
+    let mut replanner = Replanner::new(&planned, setup).unwrap();
+    // Just before the arc-off of weld path 1: every deposit counts, nothing is told yet.
+    let (on, off) = deposit_end(&planned, 0, 11);
+    let fault_s = 100.0 + (off - on) - 1e-3;
+    assert_eq!(
+        replanner
+            .cut_short(&planned, 0, 100.0, 1.0, fault_s)
+            .unwrap(),
+        None
+    );
+    // The boundary that follows tells the weld path whole, as any.
+    replanner.welded(&planned, 0, 100.0, 1.0).unwrap();
+    let replan = replanner
+        .at_boundary(&planned, std::iter::empty(), 0, 200, fault_s)
+        .unwrap()
+        .expect("a decision");
+    assert_ne!(replan.decision.reason, "fault");
+    assert!(!replan.record.cut_short && replan.cut.is_none());
+    assert_eq!(replan.decision.at_deposit, 12);
+}

@@ -271,8 +271,9 @@ impl Replanner {
     /// [`Replanner::welded`]), was cut short: the arc went out at `fault_s` on the
     /// controller's clock. The block model welds whole blocks, so a deposit counts as
     /// welded when the fault came after its middle (the nearest deposit boundary); those
-    /// are told to the loop, which marks the fault. `None` when every deposit of the path
-    /// counts: it ended as planned, an ordinary boundary follows. With no deposit welded
+    /// are told to the loop, which marks the fault. `None` (nothing told) when every deposit
+    /// of the path counts: it ended as planned, an ordinary boundary follows
+    /// ([`Replanner::welded`]). With no deposit welded
     /// nothing is told (the path never began).
     pub fn cut_short(
         &mut self,
@@ -295,11 +296,12 @@ impl Replanner {
         let on = starts.first().copied().unwrap_or(off);
         let trajectory_s = on + (fault_s - goal_start_s) * time_scale;
         let welded = |start: f64, end: f64| (start + end) / 2.0 <= trajectory_s;
-        let deposits = self.tell(planned, fragment, goal_start_s, time_scale, welded)?;
-        if deposits == starts.len() {
-            self.welded = fragment + 1;
+        let ends = starts.iter().skip(1).copied().chain([off]);
+        if starts.iter().zip(ends).all(|(&t, end)| welded(t, end)) {
+            // Told by `welded` at the boundary that follows, as any weld path.
             return Ok(None);
         }
+        let deposits = self.tell(planned, fragment, goal_start_s, time_scale, welded)?;
         if deposits > 0 {
             self.welded = fragment + 1;
             self.closed.path_ended();
