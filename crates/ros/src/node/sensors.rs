@@ -300,7 +300,7 @@ impl Sensors {
                                                 if stopped {
                                                     "the weld path stops, the rest is re-planned"
                                                 } else {
-                                                    "no weld path was running"
+                                                    "no closed-loop weld goal was running: nothing stopped"
                                                 }
                                             ))
                                         }
