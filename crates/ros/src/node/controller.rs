@@ -291,9 +291,10 @@ pub fn run_plan(
                         ),
                         DiagnosticStatus::OK,
                     );
-                    // With the closed loop, the welder's arc fault stops a weld goal.
-                    let faults = match (welding, &closed_loop, &replanner) {
-                        (Some(_), Some(run), Some(_)) => Some(&run.faults),
+                    // With the closed loop, the welder's arc fault stops a weld goal (even
+                    // when an error turned the loop off: then the execution stops).
+                    let faults = match (welding, &closed_loop) {
+                        (Some(_), Some(run)) => Some(&run.faults),
                         _ => None,
                     };
                     let goal_cancel = cancel.child();
@@ -303,6 +304,15 @@ pub fn run_plan(
                     let started = controller.now_s();
                     let done = controller.execute(goal, &goal_cancel);
                     let fault = faults.and_then(ArcFaults::disarm);
+                    if let (Some(_), Some(f), None, false) =
+                        (fault, welding, &replanner, cancel.is_cancelled())
+                    {
+                        return Err(ExecError(format!(
+                            "weld path {} cut short by an arc fault; the closed loop is off \
+                             (an earlier error): execution stopped, the part is not finished",
+                            f + 1
+                        )));
+                    }
                     let (Some(fault_s), Some(f), Some(cl), Some(run), false) = (
                         fault,
                         welding,
