@@ -712,6 +712,10 @@ fn a_weld_path_cut_short_halfway_is_re_planned_and_completed() {
         .at_boundary(&planned, std::iter::empty(), 0, 200, fault_s)
         .unwrap()
         .expect("a decision");
+    eprintln!(
+        "fault boundary: {:.3} s (planner {:.3} s)",
+        replan.latency_s, replan.decision.latency_s
+    );
     assert_eq!(replan.decision.reason, "fault", "{:?}", replan.outcome);
     assert!(replan.record.cut_short);
     let status = format!("{:?}", replan.status(1));
