@@ -277,9 +277,9 @@ fn rclpy_ring_mesh_as_beads_is_welded_on_its_centre_line_and_its_recording_repla
 /// temperatures are used, each kind of bad one is a WARN on /diagnostics naming the topic and
 /// the reason until good data comes again; a scan in a frame known from /tf_static (the
 /// tests' tf2_msgs, hence the built interfaces) is placed on the part. The node's recording
-/// holds every message the sensors sent (the bad ones too), `waam bag info` lists their
-/// topics and `waam replay` re-plans the recorded part identically, passing over the
-/// measurements.
+/// holds every message the sensors sent (the bad ones too, the welder's arc faults
+/// included), `waam bag info` lists their topics and `waam replay` re-plans the recorded part
+/// identically, passing over the measurements.
 #[test]
 fn rclpy_sensors_warn_on_bad_data_and_their_measurements_are_recorded() {
     let Some((_dir, bag)) = recorded_script_run("closed_loop_sensors.py", "sensors") else {
@@ -291,10 +291,14 @@ fn rclpy_sensors_warn_on_bad_data_and_their_measurements_are_recorded() {
             "/cellX/waam_planner/scan",
             "/cellX/waam_planner/temperature",
             "/cellX/waam_planner/thermal_image",
+            "/cellX/waam_planner/arc_fault",
         ],
     );
 
     let recording = waam_rosbag::Bag::open(&bag).unwrap();
+    // The arc faults, the late one too.
+    let faults: Vec<waam_rosmsg::std_msgs::Header> = recording.decode().unwrap();
+    assert!(faults.len() >= 2 && faults.iter().all(|h| h.frame_id == "welder"));
     let temperatures: Vec<waam_rosmsg::sensor_msgs::Temperature> = recording.decode().unwrap();
     let celsius: Vec<f64> = temperatures.iter().map(|t| t.temperature).collect();
     assert!(celsius.contains(&650.0), "{celsius:?}");
@@ -418,6 +422,22 @@ fn rclpy_simulated_cell_node_feeds_the_closed_loop() {
         recording.count("/cellZ/waam_planner/thermal_image") > 0,
         "no thermal image recorded"
     );
+    let json = decisions_replayed_identically(&bag);
+    assert!(json["decisions_identical"].as_u64().unwrap() >= 1, "{json}");
+}
+
+/// An arc fault from the simulated cell's welder (#31, sim_cell_fault.py): `waam sim-cell
+/// --node` with TRUTH.yaml's `cut_short` publishes the fault halfway through the first weld
+/// path; the namespaced dry run stops that weld path, re-plans the rest (`reason: fault`) and
+/// completes the part. The fault is in the node's recording and its decisions replay
+/// identically.
+#[test]
+fn rclpy_simulated_cell_arc_fault_cuts_a_weld_path_short_and_the_rest_is_re_planned() {
+    let Some((_dir, bag)) = recorded_script_run("sim_cell_fault.py", "fault") else {
+        return;
+    };
+    let recording = waam_rosbag::Bag::open(&bag).unwrap();
+    assert_eq!(recording.count("/cellF/waam_planner/arc_fault"), 1);
     let json = decisions_replayed_identically(&bag);
     assert!(json["decisions_identical"].as_u64().unwrap() >= 1, "{json}");
 }

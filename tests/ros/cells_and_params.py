@@ -125,8 +125,9 @@ def run(peer, waam, cell2):
         "execution.goal_time_tolerance_s", "execution.start_service",
         "dry_run.time_scale", "dry_run.rate_hz", "closed_loop.enabled", "closed_loop.scan_topic",
         "closed_loop.temperature_topic", "closed_loop.thermal_camera_topic",
-        "closed_loop.max_age_s", "closed_loop.scan_margin_mm", "closed_loop.scan_period_s",
-        "closed_loop.temperature_period_s", "closed_loop.thermal_camera_period_s",
+        "closed_loop.arc_fault_topic", "closed_loop.max_age_s", "closed_loop.scan_margin_mm",
+        "closed_loop.scan_period_s", "closed_loop.temperature_period_s",
+        "closed_loop.thermal_camera_period_s",
         "closed_loop.wire_feed_min", "closed_loop.wire_feed_max", "use_sim_time",
     }
     check(names == expected, f"parameters listed: {sorted(names)}; missing "

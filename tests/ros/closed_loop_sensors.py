@@ -10,7 +10,8 @@ with a `temperature` field, °C) with the sensor-data QoS real drivers use
 message must turn its sensor's component on /diagnostics to WARN naming the topic and the
 reason; the next good one must turn it back to OK. A scan in a frame the node only knows
 from /tf_static (a scanner on the fixture, 0.1 m above the part frame) is placed on the part.
-The node must never stop.
+The welder's arc faults on ~/arc_fault (std_msgs/Header, reliable): a late one is a WARN, a
+good one with no weld path running is OK and stops nothing. The node must never stop.
 """
 
 import math
@@ -22,14 +23,15 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TransformStamped
 from rclpy.qos import DurabilityPolicy, QoSProfile, qos_profile_sensor_data
 from sensor_msgs.msg import PointCloud2, PointField, Temperature
-from std_msgs.msg import String
+from std_msgs.msg import Header, String
 from tf2_msgs.msg import TFMessage  # the tests' copy (tests/ros/interfaces)
 
 import waamtest
 from waamtest import REPO, check
 
 NS = "/cellX/waam_planner"
-SCAN, TEMPERATURE, IMAGE = NS + "/scan", NS + "/temperature", NS + "/thermal_image"
+SCAN, TEMPERATURE = NS + "/scan", NS + "/temperature"
+IMAGE, ARC_FAULT = NS + "/thermal_image", NS + "/arc_fault"
 
 
 def stamp(peer, offset_s=0.0):
@@ -112,14 +114,15 @@ def test(peer, waam):
     scan = peer.publisher(SCAN, PointCloud2, qos=qos_profile_sensor_data)
     temperature = peer.publisher(TEMPERATURE, Temperature, qos=qos_profile_sensor_data)
     camera = peer.publisher(IMAGE, PointCloud2, qos=qos_profile_sensor_data)
-    for p in (part, scan, temperature, camera):
+    arc_fault = peer.publisher(ARC_FAULT, Header)  # reliable, as the node asks
+    for p in (part, scan, temperature, camera, arc_fault):
         peer.wait_for_subscriber(p)
 
-    # The three sensors are listed before any data came.
+    # The sensors are listed before any data came.
     peer.spin_until(
-        "the three sensors on /diagnostics",
+        "the sensors on /diagnostics",
         lambda: any(sensor_status(a, "scan") and sensor_status(a, "temperature")
-                    and sensor_status(a, "thermal camera")
+                    and sensor_status(a, "thermal camera") and sensor_status(a, "arc fault")
                     for a in peer.received["/diagnostics"]),
         30,
         discovery=True,
@@ -199,6 +202,14 @@ def test(peer, waam):
     expect(peer, fixture, "scan", ok,
            [SCAN, "4 points on the part (1 off it dropped)", "7.50 mm"],
            "scan in a frame from /tf_static")
+
+    # Arc faults: a late one is refused; a good one while nothing is welded stops nothing.
+    fault = lambda offset_s: arc_fault.publish(  # noqa: E731
+        Header(stamp=stamp(peer, offset_s), frame_id="welder"))
+    expect(peer, lambda: fault(-10.0), "arc fault", warn, [ARC_FAULT, "late", "max_age_s"],
+           "arc fault 10 s late")
+    expect(peer, lambda: fault(0.0), "arc fault", ok, [ARC_FAULT, "nothing stopped"],
+           "arc fault with no weld path running")
 
     # The planner's component stayed OK throughout, and the node is up.
     last = peer.received["/diagnostics"][-1]

@@ -513,13 +513,15 @@ impl ClosedLoop {
         });
     }
 
-    /// The part a decision's whole plan is checked on: the estimated constants, with the
-    /// windows that the deposits made so far already broke under them widened — the past
-    /// cannot be changed; the check judges what is still to come. Also the blocks whose
-    /// windows were widened, in the order they broke.
+    /// The part a decision's whole plan is checked on: the estimated constants, one more
+    /// weld path allowed per path cut short (as the re-plan had), and the windows that the
+    /// deposits made so far already broke under them widened — the past cannot be changed;
+    /// the check judges what is still to come. Also the blocks whose windows were widened,
+    /// in the order they broke.
     pub fn part_to_check(&self, decision: &Decision) -> (Part, Vec<Block>) {
         let mut part = self.part.clone();
         part.thermal = decision.estimate.params;
+        part.max_fragments += self.faults;
         let mut broken = Vec::new();
         // Each round widens one more window, which then never breaks: at most one round
         // per window.

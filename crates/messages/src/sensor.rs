@@ -9,6 +9,7 @@ use waam_cell::Measured;
 use waam_part::Part;
 use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::sensor_msgs::{PointCloud2, Temperature};
+use waam_rosmsg::std_msgs::Header;
 
 use crate::planning::PART_FRAME;
 use crate::scan::{scan_points, thermal_points, ScanError};
@@ -123,6 +124,13 @@ pub fn check_stamp(stamp: Time, now: Time, max_age_s: f64) -> Result<f64, BadRea
         return Err(BadReading::Future { ahead_s: -age_s });
     }
     Ok(secs(stamp))
+}
+
+/// An arc fault from the welding power source (`std_msgs/Header`, stamped when the arc went
+/// out), checked: stamped within `max_age_s` of `now` — a late fault cannot say which
+/// deposits were welded. Returns its stamp, s.
+pub fn arc_fault(msg: &Header, now: Time, max_age_s: f64) -> Result<f64, BadReading> {
+    check_stamp(msg.stamp, now, max_age_s)
 }
 
 /// A pyrometer's reading, checked: stamped within `max_age_s` of `now`, a plausible
@@ -309,7 +317,6 @@ mod tests {
     use super::*;
     use crate::scan::cloud;
     use nalgebra::{Translation3, UnitQuaternion};
-    use waam_rosmsg::std_msgs::Header;
 
     const NOW: i64 = 1_800_000_000_000_000_000;
 
@@ -375,6 +382,17 @@ mod tests {
         assert_eq!(bad(variance), BadReading::Variance(-1.0));
         let late = bad(reading(500.0, -3.0)).to_string();
         assert!(late.contains("closed_loop.max_age_s = 2"), "{late}");
+    }
+
+    #[test]
+    fn an_arc_fault_is_its_stamp_unless_late_or_unstamped() {
+        let now = at(0.0);
+        let fault = |offset_s: f64| arc_fault(&Header::new(at(offset_s), "welder"), now, 2.0);
+        assert_eq!(fault(-0.25), Ok(at(-0.25).to_nanos() as f64 * 1e-9));
+        assert!(matches!(fault(-3.0), Err(BadReading::Late { .. })));
+        assert!(matches!(fault(5.0), Err(BadReading::Future { .. })));
+        let unset = Header::new(Time::default(), "welder");
+        assert_eq!(arc_fault(&unset, now, 2.0), Err(BadReading::NoStamp));
     }
 
     #[test]

@@ -26,7 +26,7 @@ use std::sync::Arc;
 use waam_access::{Obstacle, TorchAccess};
 use waam_mesh::{voxelize_indexed, Units, VoxelizeOptions, WindowRule};
 use waam_motion::robot::Robot;
-use waam_motion::toolpath::{ProcessSettings, Toolpath};
+use waam_motion::toolpath::{ExecutedTimes, ProcessSettings, Toolpath};
 use waam_motion::trajectory::{JointTrajectory, TrajectoryError};
 use waam_motion::{plan_motion_timed, weld_speed, MotionError};
 use waam_part::graph::WeldGraph;
@@ -292,7 +292,19 @@ pub fn check_executed(
     toolpath: &Toolpath,
     interrupt: &Interrupt,
 ) -> Result<Timeline, PipelineError> {
-    let (timeline, violation) = simulate_executed(part, fragments, toolpath, interrupt)?;
+    check_executed_times(part, fragments, &toolpath.executed_times(), interrupt)
+}
+
+/// [`check_executed`] on given deposit and arc-off times (s): a time line the robot did not
+/// follow exactly as its toolpath says (a weld path cut short by an arc fault, the rest
+/// moved on from when the arc went out).
+pub fn check_executed_times(
+    part: &Part,
+    fragments: &[Vec<usize>],
+    times: &ExecutedTimes,
+    interrupt: &Interrupt,
+) -> Result<Timeline, PipelineError> {
+    let (timeline, violation) = simulate_executed(part, fragments, times, interrupt)?;
     match violation {
         Some(v) => Err(PipelineError::InfeasibleExecuted {
             block: part.deposit_name(v.block),
@@ -313,12 +325,11 @@ pub fn check_executed(
 fn simulate_executed(
     part: &Part,
     fragments: &[Vec<usize>],
-    toolpath: &Toolpath,
+    times: &ExecutedTimes,
     interrupt: &Interrupt,
 ) -> Result<(Timeline, Option<thermal::Violation>), PipelineError> {
     let graph = WeldGraph::new(part);
     let model = ThermalModel::new(part, &graph);
-    let times = toolpath.executed_times();
     let timeline = Timeline::from_seconds(&times.deposits_s, &times.arc_off_s, model.dt)
         .map_err(thermal::SimulateError::from)?;
     let outcome = thermal::simulate_on_until(&model, fragments, &timeline, interrupt)?.ok_or(
@@ -495,7 +506,8 @@ impl Cell {
             }
             Err(_) => return None,
         };
-        let (_, violation) = simulate_executed(part, fragments, &toolpath, interrupt).ok()?;
+        let (_, violation) =
+            simulate_executed(part, fragments, &toolpath.executed_times(), interrupt).ok()?;
         let v = violation?;
         // The weld path of the last block deposited before the violation.
         let mut left = v.prefix_len.max(1);

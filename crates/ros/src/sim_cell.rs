@@ -11,9 +11,11 @@
 //! frame). The deposits are timed by the weld plan, from the moment the arc strikes,
 //! `time_scale` times as fast as planned (the planner's `dry_run.time_scale`).
 //!
-//! Not simulated here: weld paths cut short (`cut_short` is `waam sim-cell`'s, without
-//! `--node`). The true model's temperatures follow the planned transit between weld paths,
-//! as `waam sim-cell` does.
+//! TRUTH.yaml's `cut_short` (weld path `path`, counted as the arc strikes, stops after
+//! `after` deposits) is the welder's arc fault: when that deposit ends the cell publishes on
+//! the planner's `~/arc_fault` a `std_msgs/Header` stamped then, and welds nothing more of
+//! the path (the planner stops it and re-plans the rest). The true model's temperatures
+//! follow the planned transit between weld paths, as `waam sim-cell` does.
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -157,6 +159,13 @@ pub fn run(
         camera,
         time_scale: options.time_scale,
     };
+    let welder = Output::<Header>::new(
+        &mut node,
+        names,
+        &topic("arc_fault"),
+        stream_qos(),
+        Qos::reliable(10),
+    )?;
 
     let true_part = counting_part(part, truth.thermal);
     let graph = WeldGraph::new(&true_part);
@@ -180,6 +189,8 @@ pub fn run(
     let mut paths: Vec<WeldPath> = Vec::new();
     // The weld path being welded: its index, when its arc struck, deposits read so far.
     let mut welding: Option<(usize, Instant, std::time::SystemTime, usize)> = None;
+    // Whether its arc went out by a fault (TRUTH.yaml's cut_short).
+    let mut faulted = false;
     let mut welds = 0;
     while !stop.load(Ordering::Relaxed) {
         while let Ok(Some((plan, _))) = plans.take() {
@@ -200,10 +211,12 @@ pub fn run(
                 (true, None) => {
                     welding = Some((welds, Instant::now(), std::time::SystemTime::now(), 0));
                     welds += 1;
+                    faulted = false;
                 }
                 (false, Some((w, _, wall, read))) => {
                     if let Some(path) = paths.get(w) {
-                        let all = path.blocks.len();
+                        // After a fault nothing more of the path was welded.
+                        let all = if faulted { read } else { path.blocks.len() };
                         cell.read(path, read..all, wall, &sensors);
                         let before = cell.scanned;
                         cell.scan(&scanner);
@@ -225,14 +238,34 @@ pub fn run(
         if let Some((w, lit, wall, read)) = &mut welding {
             if let Some(path) = paths.get(*w) {
                 let t = path.starts_s[0] + lit.elapsed().as_secs_f64() * options.time_scale;
+                // A fault where the path was meant to go on (as `waam sim-cell` cuts).
+                let cut = truth
+                    .cut_after(*w + 1)
+                    .filter(|&after| after < path.blocks.len());
                 let ended = (0..path.blocks.len())
                     .take_while(|&j| {
                         path.starts_s.get(j + 1).copied().unwrap_or(path.arc_off_s) <= t
                     })
-                    .count();
+                    .count()
+                    .min(cut.unwrap_or(usize::MAX));
                 if ended > *read {
                     cell.read(path, *read..ended, *wall, &sensors);
                     *read = ended;
+                }
+                if let (Some(after), false) = (cut, faulted) {
+                    if ended == after {
+                        // Stamped when the deposit ended (the wall clock of the plan's time).
+                        let out = path.starts_s[after] - path.starts_s[0];
+                        let at =
+                            *wall + Duration::from_secs_f64((out / options.time_scale).max(0.0));
+                        welder.publish(&header(at, "welder"), None);
+                        faulted = true;
+                        tracing::info!(
+                            "weld path {}: arc fault after {after} of {} deposits (TRUTH.yaml cut_short)",
+                            *w + 1,
+                            path.blocks.len()
+                        );
+                    }
                 }
             }
         }

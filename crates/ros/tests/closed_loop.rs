@@ -23,6 +23,7 @@ use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
 use waam_part::{Part, ThermalParams};
 use waam_pipeline::{check_executed, Cell, ChosenPlan, Interrupt, Planned};
+use waam_ros::node::arc_fault::ArcFaults;
 use waam_ros::node::closed_loop::{steps_after, ReplanSetup};
 use waam_ros::node::controller::{run_plan, ClosedLoopRun, Controller, ExecError, ExecOutputs};
 use waam_ros::node::execute::{plan_steps, Step};
@@ -161,7 +162,11 @@ fn execute_closed(
         wire_feed,
         scan_margin_mm: 5.0,
     };
-    let run = ClosedLoopRun { setup, readings };
+    let run = ClosedLoopRun {
+        setup,
+        readings,
+        faults: ArcFaults::new(),
+    };
     run_plan(
         1,
         planned,
@@ -687,4 +692,316 @@ fn a_graph_part_scanned_low_raises_the_next_weld_paths_wire_feed() {
     let feeds = build_low(part, fragments, (0.7, 1.3));
     assert_eq!(feeds[0], 1.0);
     assert!((feeds[1] - 2.75 / 2.25).abs() < 1e-9, "{feeds:?}");
+}
+
+/// Trajectory time of the end of deposit `j` of weld path `f` (its arc-off after the last),
+/// and of the path's arc-on: where a fault after `j + 1` deposits comes.
+fn deposit_end(planned: &Planned, f: usize, j: usize) -> (f64, f64) {
+    let times = planned.toolpath.executed_times();
+    let starts = &times.deposits_s[f];
+    let end = starts.get(j + 1).copied().unwrap_or(times.arc_off_s[f]);
+    (starts[0], end)
+}
+
+/// Every block of `part` once, in a valid plan, and the windows kept on the executed time
+/// line under the plan's own model.
+fn welded_once_and_valid(part: &Part, fragments: &[Vec<usize>]) {
+    let mut blocks: Vec<usize> = fragments.concat();
+    blocks.sort_unstable();
+    assert_eq!(blocks, (0..part.len()).collect::<Vec<_>>(), "{fragments:?}");
+    Plan::from_indices(part, fragments)
+        .validate(part, &WeldGraph::new(part))
+        .expect("a valid plan");
+}
+
+#[test]
+fn a_weld_path_cut_short_halfway_is_re_planned_and_completed() {
+    use waam_ros::node::closed_loop::{Outcome, Replanner};
+    // At most the two weld paths of the first plan: the rest needs the one more a fault
+    // allows.
+    let mut part = Part::parse(TWO_WALLS).unwrap();
+    part.max_fragments = 2;
+    let cell = Cell::bundled();
+    let first = short_then_tall();
+    let chosen = ChosenPlan {
+        fragments: first.clone(),
+        stats: Default::default(),
+        proven: false,
+        worst_margin_s: f64::NAN,
+    };
+    let planned = cell.motion(part.clone(), chosen).unwrap();
+    let setup = ReplanSetup {
+        cell: cell.clone(),
+        planner: waam_planner::Options::default(),
+        wire_feed: (1.0, 1.0),
+        scan_margin_mm: 5.0,
+    };
+    let mut replanner = Replanner::new(&planned, setup).unwrap();
+    // The short wall's weld path (12 deposits) goes out after 6: its goal began at 100 s.
+    let (on, end) = deposit_end(&planned, 0, 5);
+    let fault_s = 100.0 + (end - on) + 0.01;
+    let cut = replanner
+        .cut_short(&planned, 0, 100.0, 1.0, fault_s)
+        .unwrap()
+        .expect("cut short");
+    assert_eq!((cut.fragment, cut.deposits, cut.of), (0, 6, 12));
+    let replan = replanner
+        .at_boundary(&planned, std::iter::empty(), 0, 200, fault_s)
+        .unwrap()
+        .expect("a decision");
+    eprintln!(
+        "fault boundary: {:.3} s (planner {:.3} s)",
+        replan.latency_s, replan.decision.latency_s
+    );
+    assert_eq!(replan.decision.reason, "fault", "{:?}", replan.outcome);
+    assert!(replan.record.cut_short);
+    let status = format!("{:?}", replan.status(1));
+    assert!(
+        status.contains("cut short by an arc fault after 6 of 12"),
+        "{status}"
+    );
+    let Outcome::New(mut current, steps) = replan.outcome else {
+        panic!("not taken: {:?}", replan.outcome);
+    };
+    // The cut weld path ends where the arc went out; the rest follows from its retract,
+    // within one more weld path than the part allows.
+    eprintln!("after the fault: {:?}", current.found.fragments);
+    assert_eq!(current.found.fragments[0], first[0][..6]);
+    assert_eq!(current.found.fragments.len(), part.max_fragments + 1);
+    assert!(matches!(
+        steps.first(),
+        Some(Step::Goal { welding: None, .. })
+    ));
+    // The rest welded weld path by weld path, each boundary deciding again.
+    let mut w = 1;
+    let mut clock = fault_s;
+    while w < current.found.fragments.len() {
+        clock += 60.0;
+        replanner.welded(&current, w, clock, 1.0).unwrap();
+        let replan = replanner
+            .at_boundary(&current, std::iter::empty(), 0, 200, clock)
+            .unwrap();
+        if let Some(Outcome::New(new, _)) = replan.map(|r| r.outcome) {
+            current = new;
+        }
+        w += 1;
+    }
+    welded_once_and_valid(&current.part, &current.found.fragments);
+}
+
+/// Follows goals at once, as [`InstantController`]; goal `fault_goal` (counting from 0) the
+/// welder's arc goes out `fault_after_s` into it, reported on `faults` as the sensor thread
+/// does, and the goal stops there when cancelled.
+struct FaultyController {
+    clock: f64,
+    goals: usize,
+    fault_goal: usize,
+    fault_after_s: f64,
+    faults: ArcFaults,
+}
+
+impl Controller for FaultyController {
+    fn execute(&mut self, goal: TrajectoryMsg, cancel: &Cancel) -> Result<(), ExecError> {
+        let n = self.goals;
+        self.goals += 1;
+        if n == self.fault_goal {
+            self.clock += self.fault_after_s;
+            self.faults.report(self.clock);
+            if cancel.is_cancelled() {
+                return Err(ExecError("cancelled".into()));
+            }
+        }
+        self.clock += goal
+            .points
+            .last()
+            .map_or(0.0, |p| p.time_from_start.as_secs_f64());
+        Ok(())
+    }
+
+    fn now_s(&self) -> f64 {
+        self.clock
+    }
+}
+
+/// What the execution told, its statuses recorded as the node records them.
+struct Told {
+    arcs: RefCell<Vec<bool>>,
+    statuses: RefCell<Vec<JobStatus>>,
+    plans: RefCell<Vec<Planned>>,
+    recorder: Recorder,
+}
+
+impl ExecOutputs for Told {
+    fn arc(&self, on: bool) {
+        self.arcs.borrow_mut().push(on);
+    }
+    fn wire_feed(&self, _relative: f64) {}
+    fn status(&self, status: JobStatus) {
+        let msg = status.to_msg(Time::now(), "/waam_planner");
+        self.recorder
+            .record(topics::STATUS, &Qos::latched(), &msg)
+            .unwrap();
+        self.statuses.borrow_mut().push(status);
+    }
+    fn log(&self, _level: Level, _message: &str) {}
+    fn plan(&self, planned: &Planned) {
+        self.plans.borrow_mut().push(planned.clone());
+    }
+}
+
+#[test]
+fn an_arc_fault_stops_the_weld_goal_and_the_execution_goes_on_with_the_re_plan() {
+    let part = Part::parse(TWO_WALLS).unwrap();
+    let cell = Cell::bundled();
+    let first = short_then_tall();
+    let chosen = ChosenPlan {
+        fragments: first.clone(),
+        stats: Default::default(),
+        proven: false,
+        worst_margin_s: f64::NAN,
+    };
+    let planned = cell.motion(part.clone(), chosen).unwrap();
+    let arc: Vec<bool> = planned.trajectory.points.iter().map(|p| p.arc_on).collect();
+    let weld_goal = plan_steps(&arc, 200)
+        .iter()
+        .filter(|s| matches!(s, Step::Goal { .. }))
+        .position(|s| {
+            matches!(
+                s,
+                Step::Goal {
+                    welding: Some(0),
+                    ..
+                }
+            )
+        })
+        .unwrap();
+    // The arc goes out in the 7th deposit, just past its middle: 7 of 12 welded.
+    let (on, end7) = deposit_end(&planned, 0, 6);
+    let (_, end6) = deposit_end(&planned, 0, 5);
+    let faults = ArcFaults::new();
+    let mut controller = FaultyController {
+        clock: 1000.0,
+        goals: 0,
+        fault_goal: weld_goal,
+        fault_after_s: (end6 + end7) / 2.0 - on + 0.01,
+        faults: faults.clone(),
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("bag");
+    let told = Told {
+        arcs: Default::default(),
+        statuses: Default::default(),
+        plans: Default::default(),
+        recorder: Recorder::create(&dir).unwrap(),
+    };
+    // The part as the node receives it, then its "received" status (job 1).
+    told.recorder
+        .record(
+            topics::PART,
+            &Qos::reliable(10),
+            &RosString::from(TWO_WALLS),
+        )
+        .unwrap();
+    told.status(JobStatus::Received {
+        job: 1,
+        source: "part".into(),
+        cancelled: None,
+        settings: vec![],
+    });
+    let (_tx, rx) = channel::<Measured>();
+    let run = ClosedLoopRun {
+        setup: ReplanSetup {
+            cell: cell.clone(),
+            planner: waam_planner::Options::default(),
+            wire_feed: (1.0, 1.0),
+            scan_margin_mm: 5.0,
+        },
+        readings: &rx,
+        faults,
+    };
+    run_plan(
+        1,
+        &planned,
+        &mut controller,
+        &told,
+        200,
+        0.0,
+        &Cancel::new(),
+        None,
+        Some(run),
+    )
+    .expect("the part is completed");
+    let statuses = told.statuses.borrow();
+    let fault = statuses
+        .iter()
+        .find_map(|s| match s {
+            JobStatus::Replanned { reason, values, .. } if reason == "fault" => Some(values),
+            _ => None,
+        })
+        .unwrap_or_else(|| panic!("no fault re-plan: {statuses:?}"));
+    let value = |k: &str| fault.iter().find(|v| v.key == k).map(|v| v.value.as_str());
+    assert_eq!(value("cut_short_weld_path"), Some("1"));
+    assert_eq!(value("cut_short_deposits"), Some("7"));
+    assert_eq!(value("loop.cut_short"), Some("true"));
+    // The arc went on and off around each weld path welded, the cut one included.
+    let plans = told.plans.borrow();
+    let last = plans.last().expect("the re-plan was published");
+    assert_eq!(last.found.fragments[0], first[0][..7]);
+    let arcs = told.arcs.borrow();
+    assert!(arcs.chunks(2).all(|c| c == [true, false]), "{arcs:?}");
+    assert_eq!(arcs.len(), 2 * last.found.fragments.len());
+    welded_once_and_valid(&part, &last.found.fragments);
+    // `waam replay` makes every decision again, the fault's included.
+    told.recorder.finish().unwrap();
+    let bag = Bag::open(&dir).unwrap();
+    let (executions, mut sensors) = decisions::recorded_executions(&bag).unwrap();
+    let reports = decisions::replay_execution(
+        &executions[0],
+        &part,
+        &waam_planner::Options::default(),
+        &mut sensors,
+    );
+    assert_eq!(reports[0].boundary.reason, "fault");
+    for r in &reports {
+        assert_eq!(r.verdict, DecisionVerdict::Identical, "{r:?}");
+    }
+}
+
+#[test]
+fn an_arc_fault_in_the_last_deposits_second_half_is_an_ordinary_boundary() {
+    use waam_ros::node::closed_loop::Replanner;
+    let part = Part::parse(TWO_WALLS).unwrap();
+    let cell = Cell::bundled();
+    let chosen = ChosenPlan {
+        fragments: short_then_tall(),
+        stats: Default::default(),
+        proven: false,
+        worst_margin_s: f64::NAN,
+    };
+    let planned = cell.motion(part, chosen).unwrap();
+    let setup = ReplanSetup {
+        cell,
+        planner: waam_planner::Options::default(),
+        wire_feed: (1.0, 1.0),
+        scan_margin_mm: 5.0,
+    };
+    let mut replanner = Replanner::new(&planned, setup).unwrap();
+    // Just before the arc-off of weld path 1: every deposit counts, nothing is told yet.
+    let (on, off) = deposit_end(&planned, 0, 11);
+    let fault_s = 100.0 + (off - on) - 1e-3;
+    assert_eq!(
+        replanner
+            .cut_short(&planned, 0, 100.0, 1.0, fault_s)
+            .unwrap(),
+        None
+    );
+    // The boundary that follows tells the weld path whole, as any.
+    replanner.welded(&planned, 0, 100.0, 1.0).unwrap();
+    let replan = replanner
+        .at_boundary(&planned, std::iter::empty(), 0, 200, fault_s)
+        .unwrap()
+        .expect("a decision");
+    assert_ne!(replan.decision.reason, "fault");
+    assert!(!replan.record.cut_short && replan.cut.is_none());
+    assert_eq!(replan.decision.at_deposit, 12);
 }

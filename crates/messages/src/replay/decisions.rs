@@ -124,6 +124,10 @@ pub struct BoundaryRecord {
     pub fragments: Vec<Vec<Block>>,
     /// Whether the re-plan's answer was proven.
     pub proven: bool,
+    /// Whether an arc fault cut the last weld path short (the deposits told end where the
+    /// arc went out; the loop marked the fault before deciding). Absent in older records:
+    /// false.
+    pub cut_short: bool,
 }
 
 /// A status value that is not a boundary record's.
@@ -176,6 +180,7 @@ impl BoundaryRecord {
             kv("estimate", self.estimate.map(|v| v.to_string()).join(" ")),
             kv("fragments", blocks_json(&self.fragments)),
             kv("proven", self.proven.to_string()),
+            kv("cut_short", self.cut_short.to_string()),
         ];
         if let Some(plan) = &self.plan {
             out.push(kv("plan", blocks_json(plan)));
@@ -287,6 +292,10 @@ impl BoundaryRecord {
             estimate,
             fragments: fragments_of("fragments")?,
             proven: flag("proven")?,
+            cut_short: get("cut_short")
+                .map(|_| flag("cut_short"))
+                .transpose()?
+                .unwrap_or(false),
         }))
     }
 }
@@ -828,6 +837,14 @@ pub fn replay_execution(
             stop = Some("an earlier boundary could not be re-run".into());
             continue;
         }
+        // As the node did: the arc went out where the plan meant the path to go on.
+        if r.cut_short && !closed.path_ended() {
+            reports.push(different(
+                "an arc fault is recorded where the plan's weld path ended anyway".into(),
+            ));
+            stop = Some("an earlier boundary could not be re-run".into());
+            continue;
+        }
         let mut missing = None;
         for reading in &r.readings {
             match sensors.take(reading, part, r.scan_margin_mm) {
@@ -1054,6 +1071,7 @@ mod tests {
             estimate: [0.75, 1.0, 124.5, f64::NAN],
             fragments: vec![vec![[0, 0, 0]], vec![[1, 0, 0]]],
             proven: true,
+            cut_short: true,
         };
         let values: Vec<(String, String)> = r
             .values()
@@ -1072,5 +1090,10 @@ mod tests {
         bad.retain(|(k, _)| k != "loop.now_s");
         let e = BoundaryRecord::from_values(&bad).unwrap_err();
         assert_eq!(e.key, "loop.now_s");
+        // A record from before arc faults were recorded: no fault.
+        let mut older = values.clone();
+        older.retain(|(k, _)| k != "loop.cut_short");
+        let back = BoundaryRecord::from_values(&older).unwrap().unwrap();
+        assert!(!back.cut_short);
     }
 }

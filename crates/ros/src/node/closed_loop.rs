@@ -8,12 +8,21 @@
 //! included). The execution goes on with its steps from where the robot stands. A re-plan
 //! that finds nothing, fails there, or would not start where the robot stands keeps the
 //! current plan.
+//!
+//! A weld path cut short by an arc fault ([`Replanner::cut_short`]) ends a boundary too: the
+//! deposits welded by then are told, the loop marks the fault (what follows begins a new
+//! weld path; the re-plan may use one more), and the new plan — its cut weld path ending
+//! where the arc went out — is checked the same way and on the time line the robot really
+//! follows: the cut path's arc off when the fault came, everything after moved by as much.
+//! Its steps go on from the cut path's retract, the robot moving there from where it
+//! stopped with the arc off.
 
 use waam_cell::{CellError, ClosedLoop, Decision, LoopOptions, MeasureError, Measured};
 use waam_messages::replay::decisions::{BoundaryRecord, ReadingRef, ToldDeposit};
 use waam_messages::status::JobStatus;
+use waam_motion::toolpath::ExecutedTimes;
 use waam_part::{Block, Part};
-use waam_pipeline::{Cell, ChosenPlan, Interrupt, PipelineError, Planned};
+use waam_pipeline::{check_executed_times, Cell, ChosenPlan, Interrupt, PipelineError, Planned};
 use waam_rosmsg::diagnostic_msgs::KeyValue;
 
 use super::execute::{plan_steps, Step};
@@ -60,6 +69,50 @@ pub enum NotTaken {
     NotWhereItStands(f64),
     #[error("the new plan's time line differs from the executed one by {0:.3} s at the boundary")]
     OffTimeline(f64),
+    #[error(
+        "the new plan fails its check on the time line the robot follows after the arc fault: {0}"
+    )]
+    CheckAfterFault(PipelineError),
+}
+
+/// A weld path cut short by an arc fault.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CutShort {
+    /// The weld path (from 0, of the plan being executed), its deposits, and how many of
+    /// them were welded.
+    pub fragment: usize,
+    pub of: usize,
+    pub deposits: usize,
+    /// When the arc went out, on the controller's clock and on the plan's trajectory time
+    /// line, s.
+    pub fault_s: f64,
+    pub trajectory_s: f64,
+}
+
+/// A fault's shift of the executed time line: weld path `fragment`'s arc went out at
+/// `arc_off_s` (trajectory time) and everything after it runs `shift_s` later than the
+/// plan that ends it there says.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Shift {
+    fragment: usize,
+    arc_off_s: f64,
+    shift_s: f64,
+}
+
+/// A plan's executed times as the robot follows them after the faults so far.
+fn shifted(mut times: ExecutedTimes, shifts: &[Shift]) -> ExecutedTimes {
+    for s in shifts {
+        if let Some(off) = times.arc_off_s.get_mut(s.fragment) {
+            *off = s.arc_off_s;
+        }
+        for g in s.fragment + 1..times.arc_off_s.len() {
+            times.arc_off_s[g] += s.shift_s;
+            if let Some(d) = times.deposits_s.get_mut(g) {
+                d.iter_mut().for_each(|t| *t += s.shift_s);
+            }
+        }
+    }
+    times
 }
 
 /// One boundary: the decision, what came of it, and the readings that could not be placed.
@@ -79,6 +132,8 @@ pub struct Replan {
     pub latency_s: f64,
     /// What `waam replay` needs to make the decision again (recorded in the status).
     pub record: BoundaryRecord,
+    /// The weld path an arc fault cut short, when that ended this boundary.
+    pub cut: Option<CutShort>,
 }
 
 impl Replan {
@@ -106,6 +161,14 @@ impl Replan {
             e.rmse_after_c,
             self.latency_s
         );
+        if let Some(c) = &self.cut {
+            message.push_str(&format!(
+                "; weld path {} cut short by an arc fault after {} of {} deposits",
+                c.fragment + 1,
+                c.deposits,
+                c.of
+            ));
+        }
         if let Outcome::Kept(why) = &self.outcome {
             message.push_str(&format!("; {why}"));
         }
@@ -135,6 +198,13 @@ impl Replan {
                 KeyValue::new("windows_broken_before", self.broken.len()),
             ]
             .into_iter()
+            .chain(self.cut.iter().flat_map(|c| {
+                [
+                    KeyValue::new("cut_short_weld_path", c.fragment + 1),
+                    KeyValue::new("cut_short_deposits", c.deposits),
+                    KeyValue::new("arc_fault_s", format!("{:.3}", c.fault_s)),
+                ]
+            }))
             .chain(self.record.values())
             .collect(),
         }
@@ -149,6 +219,9 @@ pub struct Replanner {
     /// Boundaries decided so far, and the deposits told since the last one (recorded).
     boundaries: usize,
     told: Vec<ToldDeposit>,
+    /// The cut weld path the next boundary follows, and the time line's shifts so far.
+    cut: Option<CutShort>,
+    shifts: Vec<Shift>,
 }
 
 impl Replanner {
@@ -165,6 +238,8 @@ impl Replanner {
             welded: 0,
             boundaries: 0,
             told: Vec::new(),
+            cut: None,
+            shifts: Vec::new(),
         })
     }
 
@@ -187,6 +262,71 @@ impl Replanner {
         goal_start_s: f64,
         time_scale: f64,
     ) -> Result<(), CellError> {
+        self.tell(planned, fragment, goal_start_s, time_scale, |_, _| true)?;
+        self.welded = fragment + 1;
+        Ok(())
+    }
+
+    /// Weld path `fragment` of `planned`, whose goal began at `goal_start_s` (as for
+    /// [`Replanner::welded`]), was cut short: the arc went out at `fault_s` on the
+    /// controller's clock. The block model welds whole blocks, so a deposit counts as
+    /// welded when the fault came after its middle (the nearest deposit boundary); those
+    /// are told to the loop, which marks the fault. `None` (nothing told) when every deposit
+    /// of the path counts: it ended as planned, an ordinary boundary follows
+    /// ([`Replanner::welded`]). With no deposit welded
+    /// nothing is told (the path never began).
+    pub fn cut_short(
+        &mut self,
+        planned: &Planned,
+        fragment: usize,
+        goal_start_s: f64,
+        time_scale: f64,
+        fault_s: f64,
+    ) -> Result<Option<CutShort>, CellError> {
+        let times = planned.toolpath.executed_times();
+        let (Some(starts), Some(&off)) = (
+            times.deposits_s.get(fragment),
+            times.arc_off_s.get(fragment),
+        ) else {
+            return Err(CellError::OffPlan(format!(
+                "weld path {} is not in the plan",
+                fragment + 1
+            )));
+        };
+        let on = starts.first().copied().unwrap_or(off);
+        let trajectory_s = on + (fault_s - goal_start_s) * time_scale;
+        let welded = |start: f64, end: f64| (start + end) / 2.0 <= trajectory_s;
+        let ends = starts.iter().skip(1).copied().chain([off]);
+        if starts.iter().zip(ends).all(|(&t, end)| welded(t, end)) {
+            // Told by `welded` at the boundary that follows, as any weld path.
+            return Ok(None);
+        }
+        let deposits = self.tell(planned, fragment, goal_start_s, time_scale, welded)?;
+        if deposits > 0 {
+            self.welded = fragment + 1;
+            self.closed.path_ended();
+        }
+        let cut = CutShort {
+            fragment,
+            of: starts.len(),
+            deposits,
+            fault_s,
+            trajectory_s,
+        };
+        self.cut = (deposits > 0).then(|| cut.clone());
+        Ok(Some(cut))
+    }
+
+    /// Tells the loop the deposits of weld path `fragment` that `welded(start, end)` (their
+    /// trajectory times) accepts, in order up to the first it does not; returns how many.
+    fn tell(
+        &mut self,
+        planned: &Planned,
+        fragment: usize,
+        goal_start_s: f64,
+        time_scale: f64,
+        welded: impl Fn(f64, f64) -> bool,
+    ) -> Result<usize, CellError> {
         let times = planned.toolpath.executed_times();
         let (Some(blocks), Some(starts), Some(&off)) = (
             planned.found.fragments.get(fragment),
@@ -200,8 +340,13 @@ impl Replanner {
         };
         let on = starts.first().copied().unwrap_or(off);
         let clock = |t: f64| goal_start_s + (t - on) / time_scale;
+        let mut told = 0;
         for (j, (&b, &t)) in blocks.iter().zip(starts).enumerate() {
             let end = starts.get(j + 1).copied().unwrap_or(off);
+            if !welded(t, end) {
+                break;
+            }
+            told += 1;
             let (start_s, duration_s) = (clock(t), (end - t) / time_scale);
             self.closed.deposited(b, j == 0, start_s, duration_s)?;
             self.told.push(ToldDeposit {
@@ -211,8 +356,7 @@ impl Replanner {
                 duration_s,
             });
         }
-        self.welded = fragment + 1;
-        Ok(())
+        Ok(told)
     }
 
     /// At the boundary after the last weld path welded, with the robot standing on point
@@ -244,7 +388,9 @@ impl Replanner {
             return Ok(None);
         }
         self.boundaries += 1;
-        let plan = (self.boundaries == 1).then(|| blocks(&planned.part, &self.closed.fragments()));
+        // The plan executed (not the loop's: a fault has split it already).
+        let plan = (self.boundaries == 1).then(|| blocks(&planned.part, &planned.found.fragments));
+        let cut = self.cut.take();
         let decision = self.closed.at_boundary(true, now_s)?;
         let e = &decision.estimate;
         let record = BoundaryRecord {
@@ -261,19 +407,23 @@ impl Replanner {
             estimate: [e.loss, e.conduction, e.rmse_before_c, e.rmse_after_c],
             fragments: blocks(&planned.part, &decision.fragments()),
             proven: decision.proven,
+            cut_short: cut.is_some(),
         };
         let mut broken = Vec::new();
         let outcome = if decision.reason == "kept" {
             Outcome::Kept(NotTaken::NoCompletion)
-        } else if !decision.changed {
+        } else if !decision.changed && cut.is_none() {
             Outcome::Unchanged
         } else {
             // Windows the welded deposits already broke under the estimate are not judged
             // again: the check judges what is still to come.
             let (part, past) = self.closed.part_to_check(&decision);
             broken = past;
-            match self.motion(planned, part, &decision, standing, max_points) {
-                Ok((new, steps)) => Outcome::New(Box::new(new), steps),
+            match self.motion(planned, part, &decision, standing, max_points, cut.as_ref()) {
+                Ok((new, steps, shift)) => {
+                    self.shifts.extend(shift);
+                    Outcome::New(Box::new(new), steps)
+                }
                 Err(why) => Outcome::Kept(why),
             }
         };
@@ -290,11 +440,14 @@ impl Replanner {
             broken,
             latency_s: started.elapsed().as_secs_f64(),
             record,
+            cut,
         }))
     }
 
     /// The decision's whole plan through the pipeline's stages, under the estimated model,
-    /// and its steps after the weld paths welded.
+    /// and its steps after the weld paths welded. After an arc fault (`cut`) the plan is
+    /// checked again on the time line the robot follows (the faults' shifts), and its steps
+    /// go on from the cut path's retract; the new shift comes back with them.
     fn motion(
         &self,
         planned: &Planned,
@@ -302,7 +455,8 @@ impl Replanner {
         decision: &Decision,
         standing: usize,
         max_points: usize,
-    ) -> Result<(Planned, Vec<Step>), NotTaken> {
+        cut: Option<&CutShort>,
+    ) -> Result<(Planned, Vec<Step>, Option<Shift>), NotTaken> {
         let chosen = ChosenPlan {
             fragments: decision.fragments(),
             stats: decision.stats.clone(),
@@ -314,10 +468,57 @@ impl Replanner {
         let new = self
             .setup
             .cell
-            .motion_until(part, chosen, &interrupt)
+            .motion_until(part.clone(), chosen, &interrupt)
             .map_err(NotTaken::Check)?;
-        let steps = steps_after(planned, &new, self.welded, standing, max_points)?;
-        Ok((new, steps))
+        let times = new.toolpath.executed_times();
+        let shift = match cut {
+            Some(c) => Some(Shift {
+                fragment: c.fragment,
+                arc_off_s: c.trajectory_s,
+                shift_s: c.trajectory_s
+                    - times
+                        .arc_off_s
+                        .get(c.fragment)
+                        .copied()
+                        .ok_or(NotTaken::NoWeldPath(c.fragment + 1))?,
+            }),
+            None => None,
+        };
+        let shifts: Vec<Shift> = self.shifts.iter().copied().chain(shift).collect();
+        if !shifts.is_empty() {
+            check_executed_times(
+                &part,
+                &new.found.fragments,
+                &shifted(times, &shifts),
+                &interrupt,
+            )
+            .map_err(NotTaken::CheckAfterFault)?;
+        }
+        let steps = match cut {
+            Some(c) => steps_after_fault(&new, c.fragment, max_points)?,
+            None => steps_after(planned, &new, self.welded, standing, max_points)?,
+        };
+        Ok((new, steps, shift))
+    }
+}
+
+/// The steps of `new` after its weld path `fragment` (from 0), the one an arc fault cut
+/// short: from its retract on (the arc is out already; the robot moves to the retract from
+/// where it stopped).
+pub fn steps_after_fault(
+    new: &Planned,
+    fragment: usize,
+    max_points: usize,
+) -> Result<Vec<Step>, NotTaken> {
+    let arc: Vec<bool> = new.trajectory.points.iter().map(|p| p.arc_on).collect();
+    let steps = plan_steps(&arc, max_points);
+    let weld = steps
+        .iter()
+        .position(|s| matches!(s, Step::Goal { welding: Some(w), .. } if *w == fragment))
+        .ok_or(NotTaken::NoWeldPath(fragment + 1))?;
+    match steps.get(weld + 1) {
+        Some(Step::Arc(false)) => Ok(steps[weld + 2..].to_vec()),
+        _ => Err(NotTaken::NoArcOff(fragment + 1)),
     }
 }
 

@@ -5,7 +5,8 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use super::closed_loop::{Outcome, ReplanSetup, Replanner};
+use super::arc_fault::ArcFaults;
+use super::closed_loop::{Outcome, Replan, ReplanSetup, Replanner};
 use super::execute::{oversized_welds, plan_steps, Step};
 use super::execute_action::ExecutePlanFeedback;
 use super::io::{Level, Outputs};
@@ -98,11 +99,13 @@ impl ExecOutputs for Outputs {
     }
 }
 
-/// The closed loop of one execution: how it re-plans and where the sensors' readings come
-/// from (drained at each weld-path boundary).
+/// The closed loop of one execution: how it re-plans, where the sensors' readings come
+/// from (drained at each weld-path boundary) and the welder's arc faults (which stop a weld
+/// goal at once).
 pub struct ClosedLoopRun<'a> {
     pub setup: ReplanSetup,
     pub readings: &'a Receiver<Measured>,
+    pub faults: ArcFaults,
 }
 
 /// Runs a planned trajectory on `controller`: goals with the arc switched on `~/arc_on`
@@ -243,13 +246,7 @@ pub fn run_plan(
                             continue;
                         }
                     };
-                    let status = replan.status(job);
-                    if let JobStatus::Replanned { message, .. } = &status {
-                        outputs.log(Level::Info, message);
-                    }
-                    outputs.status(status);
-                    if let Outcome::New(new, rest) = replan.outcome {
-                        outputs.plan(&new);
+                    if let Outcome::New(new, rest) = publish_replan(job, outputs, replan) {
                         current = std::borrow::Cow::Owned(*new);
                         goals = sent + count_goals(&rest);
                         steps = rest;
@@ -294,12 +291,97 @@ pub fn run_plan(
                         ),
                         DiagnosticStatus::OK,
                     );
+                    // With the closed loop, the welder's arc fault stops a weld goal (even
+                    // when an error turned the loop off: then the execution stops).
+                    let faults = match (welding, &closed_loop) {
+                        (Some(_), Some(run)) => Some(&run.faults),
+                        _ => None,
+                    };
+                    let goal_cancel = cancel.child();
+                    if let Some(faults) = faults {
+                        faults.arm(&goal_cancel);
+                    }
                     let started = controller.now_s();
-                    controller
-                        .execute(goal, cancel)
-                        .map_err(|e| format!("goal {sent}/{goals} ({what}) failed: {e}"))?;
-                    if let Some(f) = welding {
+                    let done = controller.execute(goal, &goal_cancel);
+                    let fault = faults.and_then(ArcFaults::disarm);
+                    if let (Some(_), Some(f), None, false) =
+                        (fault, welding, &replanner, cancel.is_cancelled())
+                    {
+                        return Err(ExecError(format!(
+                            "weld path {} cut short by an arc fault; the closed loop is off \
+                             (an earlier error): execution stopped, the part is not finished",
+                            f + 1
+                        )));
+                    }
+                    let (Some(fault_s), Some(f), Some(cl), Some(run), false) = (
+                        fault,
+                        welding,
+                        replanner.as_mut(),
+                        &closed_loop,
+                        cancel.is_cancelled(),
+                    ) else {
+                        done.map_err(|e| format!("goal {sent}/{goals} ({what}) failed: {e}"))?;
+                        if let Some(f) = welding {
+                            last_weld = Some((f, *span.end(), started));
+                        }
+                        continue;
+                    };
+                    // An arc fault: the arc is out, the robot stopped (the goal cancelled).
+                    outputs.arc(false);
+                    arc_is_on = false;
+                    let cut = cl
+                        .cut_short(&current, f, started, controller.time_scale(), fault_s)
+                        .map_err(|e| {
+                            format!("weld path {} cut short by an arc fault: {e}", f + 1)
+                        })?;
+                    let Some(cut) = cut else {
+                        // Every deposit was welded: the path ended as planned (an ordinary
+                        // boundary at the arc-off step that follows).
+                        outputs.log(
+                            Level::Warn,
+                            &format!(
+                                "part {job}: arc fault at the end of weld path {}: every deposit welded",
+                                f + 1
+                            ),
+                        );
                         last_weld = Some((f, *span.end(), started));
+                        continue;
+                    };
+                    let stopped = |why: String| {
+                        ExecError(format!(
+                            "weld path {} cut short by an arc fault after {} of {} deposits; {why}: \
+                             execution stopped, the part is not finished",
+                            f + 1,
+                            cut.deposits,
+                            cut.of
+                        ))
+                    };
+                    if cut.deposits == 0 {
+                        return Err(stopped("nothing of it welded".into()));
+                    }
+                    let replan = cl
+                        .at_boundary(
+                            &current,
+                            run.readings.try_iter(),
+                            *span.end(),
+                            max_points,
+                            controller.now_s(),
+                        )
+                        .map_err(|e| stopped(format!("the closed loop failed: {e}")))?
+                        .ok_or_else(|| stopped("nothing was left to re-plan".into()))?;
+                    match publish_replan(job, outputs, replan) {
+                        Outcome::New(new, rest) => {
+                            current = std::borrow::Cow::Owned(*new);
+                            goals = sent + count_goals(&rest);
+                            steps = rest;
+                            i = 0;
+                        }
+                        Outcome::Kept(why) => {
+                            return Err(stopped(format!("the rest was not re-planned: {why}")))
+                        }
+                        Outcome::Unchanged => {
+                            return Err(stopped("the rest was not re-planned".into()))
+                        }
                     }
                 }
             }
@@ -325,6 +407,20 @@ pub fn run_plan(
     result
 }
 
+/// A boundary's status, logged and published; a new plan published on the plan topics.
+/// Returns what the execution does next.
+fn publish_replan(job: u64, outputs: &dyn ExecOutputs, replan: Replan) -> Outcome {
+    let status = replan.status(job);
+    if let JobStatus::Replanned { message, .. } = &status {
+        outputs.log(Level::Info, message);
+    }
+    outputs.status(status);
+    if let Outcome::New(new, _) = &replan.outcome {
+        outputs.plan(new);
+    }
+    replan.outcome
+}
+
 /// Work for the execution thread.
 pub enum ExecCommand {
     Run {
@@ -348,6 +444,7 @@ pub fn spawn_executor(
     lead_in_s: f64,
     commands: Receiver<ExecCommand>,
     readings: Receiver<Measured>,
+    faults: ArcFaults,
 ) -> std::thread::JoinHandle<()> {
     std::thread::Builder::new()
         .name("execute".into())
@@ -364,6 +461,7 @@ pub fn spawn_executor(
                     let closed_loop = closed_loop.map(|setup| ClosedLoopRun {
                         setup,
                         readings: &readings,
+                        faults: faults.clone(),
                     });
                     let result = run_plan(
                         job,

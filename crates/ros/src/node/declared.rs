@@ -271,6 +271,8 @@ pub static DECLARED: &[Declared] = &[
     declare!("closed_loop.thermal_camera_topic", closed_loop.thermal_camera_topic: String,
         AT_START, Range::None,
         "In: sensor_msgs/PointCloud2 with a temperature field (°C), a thermal camera's image on the part (metres; frames as scans)", ""),
+    declare!("closed_loop.arc_fault_topic", closed_loop.arc_fault_topic: String, AT_START,
+        Range::None, "In: std_msgs/Header, the welding power source's arc fault (wire fault, arc loss), stamped when the arc went out: the weld path stops and the rest is re-planned", ""),
     declare!("closed_loop.max_age_s", closed_loop.max_age_s: f64, AT_START,
         Range::Float(0.0, MAX_WAIT_S),
         "Sensor data stamped longer ago than this (or as far ahead) is late and not used, s", "> 0"),

@@ -39,7 +39,8 @@ pub struct Health {
     pub failed: u64,
     /// The sensors by topic.
     sensors: BTreeMap<String, SensorHealth>,
-    /// Each kind of sensor's cadence (`SensorKind::ALL` order), s; 0: none expected.
+    /// The cadence of the scanner, the pyrometer and the camera (`SensorKind::ALL`'s
+    /// first three), s; 0: none expected.
     periods_s: [f64; 3],
 }
 
@@ -58,8 +59,8 @@ struct SensorHealth {
 }
 
 impl Health {
-    /// The health of `node`, whose sensors publish at least every `periods_s` (by
-    /// `SensorKind::ALL`; 0: at no set cadence) while an execution runs.
+    /// The health of `node`, whose scanner, pyrometer and camera publish at least every
+    /// `periods_s` (0: at no set cadence) while an execution runs.
     pub fn new(node: String, periods_s: [f64; 3]) -> Health {
         Health {
             node,
@@ -73,9 +74,12 @@ impl Health {
         }
     }
 
+    /// A sensor kind's cadence; arc faults are events, never expected at one.
     fn period_s(&self, kind: SensorKind) -> f64 {
         let i = SensorKind::ALL.iter().position(|&k| k == kind);
-        i.map_or(0.0, |i| self.periods_s[i])
+        i.and_then(|i| self.periods_s.get(i))
+            .copied()
+            .unwrap_or(0.0)
     }
 
     /// Checks each sensor's cadence at `now`, an execution running since `executing`:

@@ -7,6 +7,7 @@
 //! stopped node, and only a plan that passed validation and the thermal check is published.
 
 pub mod action;
+pub mod arc_fault;
 pub mod args;
 pub mod closed_loop;
 pub mod controller;
@@ -158,9 +159,12 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     let (events, event_rx) = channel::<Event>();
     // The sensors' good readings; the event loop drains `measured_rx` into the closed loop.
     let (measured_tx, measured_rx) = channel::<waam_cell::Measured>();
+    // Arc faults go from the sensor thread to the execution at once (they stop a weld goal).
+    let arc_faults = arc_fault::ArcFaults::new();
     let wiring = sensors::Wiring {
         measured: measured_tx,
         targets: scan_targets.clone(),
+        faults: arc_faults.clone(),
     };
     let worker_events = events.clone();
     let worker = Worker::new(pipeline, move |e| {
@@ -178,7 +182,8 @@ pub fn run(options: RunOptions, mode: Mode, stop: Arc<AtomicBool>) -> Result<boo
     )?;
     // The node is shared from here on: the FollowJointTrajectory client waits on it.
     let node = Arc::new(std::sync::Mutex::new(node));
-    let (executor, executor_thread, readings) = start_executor(&options, &outputs, &node)?;
+    let (executor, executor_thread, readings) =
+        start_executor(&options, &outputs, &node, arc_faults)?;
     let mut state = LoopState::new(
         &outputs,
         executor,
@@ -417,8 +422,12 @@ impl Services {
         outputs.log(
             Level::Info,
             &format!(
-                "closed loop: layer scans on {}, temperatures on {}, thermal images on {}",
-                cell_sensors.scan_topic, cell_sensors.temperature_topic, cell_sensors.camera_topic
+                "closed loop: layer scans on {}, temperatures on {}, thermal images on {}, arc \
+                 faults on {}",
+                cell_sensors.scan_topic,
+                cell_sensors.temperature_topic,
+                cell_sensors.camera_topic,
+                cell_sensors.arc_fault_topic
             ),
         );
         cell_sensors.spawn(
@@ -536,6 +545,7 @@ fn start_executor(
     options: &RunOptions,
     outputs: &Arc<Outputs>,
     node: &Arc<std::sync::Mutex<ros2_client::Node>>,
+    faults: arc_fault::ArcFaults,
 ) -> Result<
     (
         Option<Sender<ExecCommand>>,
@@ -569,6 +579,7 @@ fn start_executor(
         params.execution.lead_in_s,
         rx,
         readings,
+        faults,
     );
     Ok((Some(tx), Some(thread), Some(readings_tx)))
 }

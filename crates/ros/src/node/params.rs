@@ -150,6 +150,9 @@ pub struct ClosedLoopParams {
     /// In: sensor_msgs/PointCloud2 with a `temperature` field (°C), a thermal camera's
     /// image mapped onto the part, placed like a scan.
     pub thermal_camera_topic: String,
+    /// In: std_msgs/Header, the welding power source's arc fault (the arc went out on its
+    /// own: a wire fault, an arc loss), stamped when the arc went out.
+    pub arc_fault_topic: String,
     /// Data stamped longer ago than this (or as far ahead) is late, s.
     pub max_age_s: f64,
     /// Scan and thermal image points farther than this from the part's box are off the
@@ -174,6 +177,7 @@ impl Default for ClosedLoopParams {
             scan_topic: "~/scan".into(),
             temperature_topic: "~/temperature".into(),
             thermal_camera_topic: "~/thermal_image".into(),
+            arc_fault_topic: "~/arc_fault".into(),
             max_age_s: 2.0,
             scan_margin_mm: 10.0,
             scan_period_s: 0.0,

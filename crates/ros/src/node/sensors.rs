@@ -1,12 +1,15 @@
 //! The cell's sensors in (#31): a layer height scan (`sensor_msgs/PointCloud2`, e.g. from a
+//! The cell's sensors in (#31): a layer height scan (`sensor_msgs/PointCloud2`, e.g. from a
 //! laser line scanner after each layer) on `closed_loop.scan_topic`, a pyrometer
-//! (`sensor_msgs/Temperature`) on `closed_loop.temperature_topic` and a thermal camera's
-//! image mapped onto the part (`sensor_msgs/PointCloud2` with a `temperature` field, °C) on
-//! `closed_loop.thermal_camera_topic`. Each message is recorded as it came, checked
-//! ([`waam_messages::sensor`]) and, when good, handed to the closed loop as a [`Measured`];
-//! every verdict goes to the event loop, which reports it on `/diagnostics`. A cloud may come
-//! in any frame `/tf` and `/tf_static` connect to the robot's base link: the sensor thread
-//! keeps their frame tree ([`TfBuffer`]) and places each cloud at its stamp.
+//! (`sensor_msgs/Temperature`) on `closed_loop.temperature_topic`, a thermal camera's image
+//! mapped onto the part (`sensor_msgs/PointCloud2` with a `temperature` field, °C) on
+//! `closed_loop.thermal_camera_topic`, and the welding power source's arc faults
+//! (`std_msgs/Header`, stamped when the arc went out) on `closed_loop.arc_fault_topic`. Each
+//! message is recorded as it came, checked ([`waam_messages::sensor`]) and, when good, handed
+//! to the closed loop as a [`Measured`] (an arc fault to the execution at once,
+//! [`ArcFaults`]); every verdict goes to the event loop, which reports it on `/diagnostics`.
+//! A cloud may come in any frame `/tf` and `/tf_static` connect to the robot's base link: the
+//! sensor thread keeps their frame tree ([`TfBuffer`]) and places each cloud at its stamp.
 
 use std::sync::mpsc::Sender;
 use std::sync::{Arc, Mutex};
@@ -14,8 +17,9 @@ use std::sync::{Arc, Mutex};
 use futures::StreamExt;
 use ros2_client::{Node, Subscription};
 
+use super::arc_fault::ArcFaults;
 use super::frames::TF_STATIC;
-use super::io::{sensor_qos, subscribe, tf_qos, tf_static_qos, IoError};
+use super::io::{sensor_qos, stream_qos, subscribe, tf_qos, tf_static_qos, IoError};
 use super::names::NodeNames;
 use super::params::ClosedLoopParams;
 use super::pipeline::Planned;
@@ -26,6 +30,7 @@ use waam_rosbag::qos::Qos;
 use waam_rosbag::Recorder;
 use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::sensor_msgs::{PointCloud2, Temperature};
+use waam_rosmsg::std_msgs::Header;
 use waam_rosmsg::tf2_msgs::TFMessage;
 use waam_rosmsg::RosMessage;
 
@@ -38,13 +43,16 @@ pub enum SensorKind {
     Scan,
     Temperature,
     ThermalCamera,
+    /// The welding power source's arc faults.
+    ArcFault,
 }
 
 impl SensorKind {
-    pub const ALL: [SensorKind; 3] = [
+    pub const ALL: [SensorKind; 4] = [
         SensorKind::Scan,
         SensorKind::Temperature,
         SensorKind::ThermalCamera,
+        SensorKind::ArcFault,
     ];
 
     pub fn name(self) -> &'static str {
@@ -52,6 +60,7 @@ impl SensorKind {
             SensorKind::Scan => "scan",
             SensorKind::Temperature => "temperature",
             SensorKind::ThermalCamera => "thermal camera",
+            SensorKind::ArcFault => "arc fault",
         }
     }
 
@@ -61,6 +70,7 @@ impl SensorKind {
             SensorKind::Scan => "scan",
             SensorKind::Temperature => "temperature",
             SensorKind::ThermalCamera => "thermal_camera",
+            SensorKind::ArcFault => "arc_fault",
         }
     }
 }
@@ -119,6 +129,7 @@ impl ScanTargets {
 pub struct Wiring {
     pub measured: Sender<Measured>,
     pub targets: ScanTargets,
+    pub faults: ArcFaults,
 }
 
 /// The three sensor subscriptions, the frames clouds may come in, and how their data is
@@ -130,6 +141,8 @@ pub struct Sensors {
     temperature: Subscription<Temperature>,
     pub camera_topic: String,
     camera: Subscription<PointCloud2>,
+    pub arc_fault_topic: String,
+    arc_fault: Subscription<Header>,
     tf: Subscription<TFMessage>,
     tf_static: Subscription<TFMessage>,
     limits: ClosedLoopParams,
@@ -139,6 +152,7 @@ enum Incoming {
     Scan(PointCloud2),
     Temperature(Temperature),
     Image(PointCloud2),
+    ArcFault(Header),
     /// Transforms (or why a message on the topic could not be read), from `/tf_static`
     /// when `fixed`.
     Frames {
@@ -158,6 +172,9 @@ impl Sensors {
             subscribe(node, names, &params.temperature_topic, sensor_qos())?;
         let (camera_topic, camera) =
             subscribe(node, names, &params.thermal_camera_topic, sensor_qos())?;
+        // Reliable: a fault lost is a weld path welded on as if the arc burned.
+        let (arc_fault_topic, arc_fault) =
+            subscribe(node, names, &params.arc_fault_topic, arc_fault_qos())?;
         let (_, tf) = subscribe(node, names, TF, tf_qos())?;
         let (_, tf_static) = subscribe(node, names, TF_STATIC, tf_static_qos())?;
         Ok(Sensors {
@@ -167,6 +184,8 @@ impl Sensors {
             temperature,
             camera_topic,
             camera,
+            arc_fault_topic,
+            arc_fault,
             tf,
             tf_static,
             limits: params.clone(),
@@ -181,7 +200,11 @@ impl Sensors {
         news: impl Fn(SensorNews) -> bool + Send + 'static,
         recorder: Option<Recorder>,
     ) -> std::io::Result<()> {
-        let Wiring { measured, targets } = wiring;
+        let Wiring {
+            measured,
+            targets,
+            faults,
+        } = wiring;
         let Sensors {
             scan_topic,
             scan,
@@ -189,6 +212,8 @@ impl Sensors {
             temperature,
             camera_topic,
             camera,
+            arc_fault_topic,
+            arc_fault,
             tf,
             tf_static,
             limits,
@@ -197,6 +222,7 @@ impl Sensors {
             SensorKind::Scan => scan_topic.clone(),
             SensorKind::Temperature => temperature_topic.clone(),
             SensorKind::ThermalCamera => camera_topic.clone(),
+            SensorKind::ArcFault => arc_fault_topic.clone(),
         };
         let record = move |topic: &str, message: &dyn Fn(&Recorder, &str) -> RecordResult| {
             if let Some(r) = &recorder {
@@ -242,10 +268,14 @@ impl Sensors {
                         (SensorKind::Scan, Ok(Incoming::Frames { msg, fixed }))
                     }
                 };
+                let arc_faults = arc_fault
+                    .async_stream()
+                    .map(|r| (SensorKind::ArcFault, r.map(|(m, _)| Incoming::ArcFault(m))));
                 let mut merged = futures::stream::select_all([
                     scans.boxed(),
                     temperatures.boxed(),
                     images.boxed(),
+                    arc_faults.boxed(),
                     tf.async_stream().map(frames_of(false)).boxed(),
                     tf_static.async_stream().map(frames_of(true)).boxed(),
                 ]);
@@ -294,6 +324,35 @@ impl Sensors {
                                 });
                                 unless_panicked(|| judge_temperature(&reading, &limits))
                             }
+                            Ok(Incoming::ArcFault(header)) => {
+                                record(&topic, &|r, t| {
+                                    r.record(t, &arc_fault_qos_recorded(), &header)
+                                });
+                                let verdict =
+                                    match sensor::arc_fault(&header, Time::now(), limits.max_age_s)
+                                    {
+                                        Ok(stamp_s) => {
+                                            let stopped = faults.report(stamp_s);
+                                            Verdict::Good(format!(
+                                                "the arc went out at {stamp_s:.3} s: {}",
+                                                if stopped {
+                                                    "the weld path stops, the rest is re-planned"
+                                                } else {
+                                                    "no closed-loop weld goal was running: nothing stopped"
+                                                }
+                                            ))
+                                        }
+                                        Err(e) => Verdict::Bad(e.to_string()),
+                                    };
+                                if !news(SensorNews {
+                                    topic,
+                                    kind,
+                                    verdict,
+                                }) {
+                                    return;
+                                }
+                                continue;
+                            }
                             // A message that does not decode (another type on the topic).
                             Err(e) => Err(Rejected::Undecodable {
                                 type_name: type_of(kind),
@@ -322,12 +381,23 @@ impl Sensors {
     }
 }
 
+/// Arc faults are few and each one matters: reliable (a publisher must be too), keep last
+/// 10 ([`stream_qos`]).
+fn arc_fault_qos() -> ros2_client::QosProfile {
+    stream_qos()
+}
+
+fn arc_fault_qos_recorded() -> Qos {
+    Qos::reliable(10)
+}
+
 type RecordResult = Result<(), waam_rosbag::BagError>;
 
 fn type_of(kind: SensorKind) -> &'static str {
     match kind {
         SensorKind::Scan | SensorKind::ThermalCamera => PointCloud2::TYPE_NAME,
         SensorKind::Temperature => Temperature::TYPE_NAME,
+        SensorKind::ArcFault => Header::TYPE_NAME,
     }
 }
 

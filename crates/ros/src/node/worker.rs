@@ -16,6 +16,8 @@ use std::thread::JoinHandle;
 pub struct Cancel {
     cancelled: Arc<AtomicBool>,
     stop: Arc<AtomicBool>,
+    /// A child's parent's cancel flag ([`Cancel::child`]).
+    parent: Option<Arc<AtomicBool>>,
 }
 
 impl Cancel {
@@ -28,6 +30,18 @@ impl Cancel {
     }
     pub fn is_cancelled(&self) -> bool {
         self.cancelled.load(Ordering::Relaxed)
+            || self
+                .parent
+                .as_ref()
+                .is_some_and(|p| p.load(Ordering::Relaxed))
+    }
+    /// A cancel of its own that this one's cancel raises too (one goal's: an arc fault
+    /// cancels the goal, not the execution).
+    pub fn child(&self) -> Cancel {
+        Cancel {
+            parent: Some(Arc::clone(&self.cancelled)),
+            ..Cancel::default()
+        }
     }
     /// Stops the planner (as its timeout does) without cancelling the job.
     pub fn stop_early(&self) {
