@@ -184,10 +184,7 @@ pub fn scan(
 ) -> Result<GoodScan, BadReading> {
     let stamp_s = check_stamp(cloud.header.stamp, now, max_age_s)?;
     let points = scan_points(cloud)?;
-    let target = target.ok_or(BadReading::NoPart)?;
-    let to_part = to_part_frame(cloud, target, frames)?;
-    let in_part: Vec<[f64; 3]> = points.iter().map(|p| in_mm(&to_part, p)).collect();
-    let on_part = on_part(&in_part, target, margin_mm)?;
+    let (in_part, on_part) = place(cloud, points.iter(), target, frames, margin_mm)?;
     Ok(GoodScan {
         stamp_s,
         dropped: in_part.len() - on_part.len(),
@@ -230,10 +227,8 @@ pub fn thermal_image(
 ) -> Result<GoodImage, BadReading> {
     let stamp_s = check_stamp(cloud.header.stamp, now, max_age_s)?;
     let points = thermal_points(cloud)?;
-    let target = target.ok_or(BadReading::NoPart)?;
-    let to_part = to_part_frame(cloud, target, frames)?;
-    let in_part: Vec<[f64; 3]> = points.iter().map(|(p, _)| in_mm(&to_part, p)).collect();
-    let on_part = on_part(&in_part, target, margin_mm)?;
+    let xyz = points.iter().map(|(p, _)| p);
+    let (in_part, on_part) = place(cloud, xyz, target, frames, margin_mm)?;
     let mut good = Vec::with_capacity(on_part.len());
     for &index in &on_part {
         let celsius = points[index].1;
@@ -287,16 +282,20 @@ fn to_part_frame(
     }
 }
 
-fn in_mm(to_part: &Isometry3<f64>, p: &nalgebra::Point3<f64>) -> [f64; 3] {
-    (to_part * p).coords.map(|v| v * 1000.0).into()
-}
-
-/// The indices of the points within `margin_mm` of the part's box; at least one.
-fn on_part(
-    in_part: &[[f64; 3]],
-    target: &ScanTarget,
+/// A cloud's `points` (its frame, metres) in the part frame in mm, and the indices of those
+/// within `margin_mm` of the part's box (at least one).
+fn place<'a>(
+    cloud: &PointCloud2,
+    points: impl Iterator<Item = &'a nalgebra::Point3<f64>>,
+    target: Option<&ScanTarget>,
+    frames: &TfBuffer,
     margin_mm: f64,
-) -> Result<Vec<usize>, BadReading> {
+) -> Result<(Vec<[f64; 3]>, Vec<usize>), BadReading> {
+    let target = target.ok_or(BadReading::NoPart)?;
+    let to_part = to_part_frame(cloud, target, frames)?;
+    let in_part: Vec<[f64; 3]> = points
+        .map(|p| (to_part * p).coords.map(|v| v * 1000.0).into())
+        .collect();
     let on: Vec<usize> = (0..in_part.len())
         .filter(|&i| target.holds(&in_part[i], margin_mm))
         .collect();
@@ -309,7 +308,7 @@ fn on_part(
             first: in_part[0],
         });
     }
-    Ok(on)
+    Ok((in_part, on))
 }
 
 #[cfg(test)]
