@@ -130,20 +130,21 @@ fn a_deposit_off_the_plan_is_refused() {
     assert_eq!(cl.deposits(), 0);
 }
 
-/// The wall welded on a cell with 25 % lower losses, the pyrometer reading the true
-/// temperature of each deposit at its end: at the first weld-path boundary whose
-/// completion the model would judge wrongly, the loop re-plans, and the executed prefix
-/// with the new remainder keeps every window on the true model.
-#[test]
-fn hotter_readings_than_the_model_re_plan_the_rest_at_a_boundary() {
-    let part = wall();
-    let plan = first_plan(&part);
+/// The wall welded on a cell with 25 % lower losses, each deposit read at its end by
+/// `read(true simulation, block, end)`, a decision at every weld-path and layer boundary
+/// (adopted). Returns the loop, and each decision's reason, whether it changed the rest, and
+/// its loss factor.
+fn weld_on_lower_losses(
+    part: &Part,
+    plan: &[Vec<usize>],
+    read: impl Fn(&Simulation, usize, f64) -> Measured,
+) -> (ClosedLoop, Vec<(&'static str, bool, f64)>) {
     let truth = scaled(part.thermal, 0.75, 1.0);
-    let truth_part = counting_part(&part, truth);
-    let graph = WeldGraph::new(&part);
+    let truth_part = counting_part(part, truth);
+    let graph = WeldGraph::new(part);
     let truth_model = ThermalModel::new(&truth_part, &graph);
     let mut sim = Simulation::new(&truth_model).with_threads(1);
-    let mut cl = ClosedLoop::new(&part, &plan, options(), 0.0).unwrap();
+    let mut cl = ClosedLoop::new(part, plan, options(), 0.0).unwrap();
     let mut decisions = Vec::new();
     while let Some((b, new)) = cl.next() {
         if new {
@@ -157,12 +158,7 @@ fn hotter_readings_than_the_model_re_plan_the_rest_at_a_boundary() {
         }
         let end = sim.time_s();
         let layer_done = cl.deposited(b, new, start, end - start).unwrap();
-        let own = sim.temperatures().find(|&(s, _)| s == b).unwrap().1;
-        cl.measured(&Measured::Temperature {
-            stamp_s: end,
-            celsius: own,
-        })
-        .unwrap();
+        cl.measured(&read(&sim, b, end)).unwrap();
         let Some((_, next_new)) = cl.next() else {
             break;
         };
@@ -178,6 +174,22 @@ fn hotter_readings_than_the_model_re_plan_the_rest_at_a_boundary() {
             cl.adopt(&d, end);
         }
     }
+    (cl, decisions)
+}
+
+/// The pyrometer reading the true temperature of each deposit at its end: at the first
+/// weld-path boundary whose completion the model would judge wrongly, the loop re-plans,
+/// and the executed prefix with the new remainder keeps every window on the true model.
+#[test]
+fn hotter_readings_than_the_model_re_plan_the_rest_at_a_boundary() {
+    let part = wall();
+    let plan = first_plan(&part);
+    let (cl, decisions) = weld_on_lower_losses(&part, &plan, |sim, b, end| Measured::Temperature {
+        stamp_s: end,
+        celsius: sim.temperatures().find(|&(s, _)| s == b).unwrap().1,
+    });
+    let truth = scaled(part.thermal, 0.75, 1.0);
+    let graph = WeldGraph::new(&part);
     assert!(
         decisions
             .iter()
@@ -419,25 +431,7 @@ fn a_thermal_image_of_a_graph_part_reads_the_deposits_under_its_points() {
 fn a_thermal_camera_alone_finds_the_lower_losses() {
     let part = wall();
     let plan = first_plan(&part);
-    let truth = scaled(part.thermal, 0.75, 1.0);
-    let truth_part = counting_part(&part, truth);
-    let graph = WeldGraph::new(&part);
-    let truth_model = ThermalModel::new(&truth_part, &graph);
-    let mut sim = Simulation::new(&truth_model).with_threads(1);
-    let mut cl = ClosedLoop::new(&part, &plan, options(), 0.0).unwrap();
-    let mut last = None;
-    while let Some((b, new)) = cl.next() {
-        if new {
-            sim.transit().unwrap();
-        }
-        let start = sim.time_s();
-        if new {
-            sim.deposit_after_transit(b).unwrap();
-        } else {
-            sim.deposit(b, false).unwrap();
-        }
-        let end = sim.time_s();
-        let layer_done = cl.deposited(b, new, start, end - start).unwrap();
+    let (cl, decisions) = weld_on_lower_losses(&part, &plan, |sim, _, end| {
         // The image at the deposit's end: a point on each welded block's front face, and
         // the plate beside the wall.
         let mut points: Vec<([f64; 3], f64)> = sim
@@ -448,21 +442,13 @@ fn a_thermal_camera_alone_finds_the_lower_losses() {
             })
             .collect();
         points.push(([0.0, -20.0, 0.0], 100.0));
-        cl.measured(&Measured::ThermalImage {
+        Measured::ThermalImage {
             stamp_s: end,
             points,
-        })
-        .unwrap();
-        let Some((_, next_new)) = cl.next() else {
-            break;
-        };
-        if layer_done || next_new {
-            let d = cl.at_boundary(next_new, end).unwrap();
-            last = Some(d.estimate.clone());
-            cl.adopt(&d, end);
         }
-    }
-    let e = last.expect("a boundary");
-    assert!((e.loss - 0.75).abs() < 0.02, "{e:?}");
+    });
+    let loss = decisions.last().expect("a boundary").2;
+    assert!((loss - 0.75).abs() < 0.02, "{decisions:?}");
+    let e = cl.estimates().last().unwrap();
     assert!(e.rmse_after_c < e.rmse_before_c / 10.0, "{e:?}");
 }
