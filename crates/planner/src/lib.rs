@@ -18,6 +18,7 @@ mod options;
 mod portfolio;
 mod prefix_cache;
 mod race;
+mod repair;
 mod report;
 pub mod rest;
 pub mod sat;
@@ -265,6 +266,28 @@ fn search_plans(
                     }),
                     cancel: limits.cancel.clone(),
                 };
+                // The run's threads: a racer's one, or all cores.
+                let workers = match opts.threads {
+                    0 => portfolio::cores(),
+                    n => n,
+                };
+                // First the plan changed around the window the simulator names (half of
+                // that time), then the portfolio's other starts and covers.
+                let quarter_left = constructive::Limits {
+                    deadline: half_left.deadline.map(|d| {
+                        let now = Instant::now();
+                        now + d.saturating_duration_since(now) / 2
+                    }),
+                    cancel: limits.cancel.clone(),
+                };
+                let repair = repair::Repair {
+                    part,
+                    graph: &graph,
+                    k,
+                    model: &base,
+                    limits: &quarter_left,
+                    workers,
+                };
                 let portfolio = portfolio::Portfolio {
                     part,
                     graph: &graph,
@@ -272,13 +295,13 @@ fn search_plans(
                     backend: opts.solver,
                     limits: &half_left,
                     model: &base,
-                    // The run's threads: a racer's one, or all cores.
-                    workers: match opts.threads {
-                        0 => portfolio::cores(),
-                        n => n,
-                    },
+                    workers,
                 };
-                let varied = portfolio.varied_start(&warm);
+                let varied = part
+                    .index_of(block)
+                    .and_then(|b| repair.repaired(&warm, prefix_len, b))
+                    .map(|p| (p, 0.0))
+                    .or_else(|| portfolio.varied_start(&warm));
                 if let Some((varied, _)) = varied {
                     // Every judged candidate is reported (recordings count them), the
                     // warm start's broken one too.

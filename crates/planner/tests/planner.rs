@@ -512,6 +512,71 @@ fn a_warm_start_that_breaks_windows_is_set_off_elsewhere() {
     assert!(simulate(&part, &best.fragments).violation.is_none());
 }
 
+#[test]
+fn a_warm_start_that_breaks_a_window_high_up_is_repaired_from_a_layer_on() {
+    // The generator's walls: one weld path walks each layer back over the one below, and
+    // at some layer a second weld path takes over from the wall's other end. The windows
+    // high up are those of that hidden plan. Only the plan from that layer on differs from
+    // the plain warm start, so no other start or cover of the first layer (the portfolio's
+    // variants) gives it: the repair changes the plan around the broken window, re-simulated
+    // from the unchanged prefix, guided by where each change first breaks a window.
+    let (len, h, take_over) = (40, 14, 7);
+    let blocks = (0..h)
+        .flat_map(|z| (0..len).map(move |x| [x, 0, z]))
+        .collect();
+    let mut part = Part::from_blocks("wall".into(), [6.0, 6.0, 2.5], [0.0; 3], 2, blocks).unwrap();
+    let graph = waam_part::graph::WeldGraph::new(&part);
+    let limits = planner::constructive::Limits {
+        deadline: None,
+        cancel: None,
+    };
+    let base = planner::constructive::layered_plan(&part, &graph, 2, Backend::Cadical, &limits)
+        .expect("a wall has a layer-by-layer plan");
+    assert_eq!(base.len(), 1, "one serpentine");
+    // Whether layer z of the plain warm start goes towards +x.
+    let up_x = |z: i64| (part.block(base[0][0])[0] == 0) == (z % 2 == 0);
+    let layer = |z: i64, forward: bool| -> Vec<usize> {
+        let xs: Vec<i64> = if forward {
+            (0..len).collect()
+        } else {
+            (0..len).rev().collect()
+        };
+        xs.into_iter()
+            .map(|x| part.index_of([x, 0, z]).unwrap())
+            .collect()
+    };
+    // From the take-over on, each layer goes the way the plain warm start's layer below it
+    // went: the second path starts at the end where the first did not stop.
+    let hidden: Vec<Vec<usize>> = vec![
+        (0..take_over).flat_map(|z| layer(z, up_x(z))).collect(),
+        (take_over..h).flat_map(|z| layer(z, up_x(z - 1))).collect(),
+    ];
+    // Every block of the layer the second path begins with, and one near the top.
+    let watched: Vec<usize> = (0..len)
+        .map(|x| [x, 0, take_over])
+        .chain([[len / 2, 0, h - 3]])
+        .map(|b| part.index_of(b).unwrap())
+        .collect();
+    windows_around(&mut part, &graph, &hidden, &watched);
+    assert!(
+        simulated(&part, &graph, &base).violation.is_some(),
+        "the plain warm start breaks a window"
+    );
+
+    // One configuration (no race): the repaired warm start, before any solve of the search.
+    let report = first_alone_twice(&part);
+    let best = report.best.expect("the hidden plan keeps the windows");
+    assert_eq!(
+        (report.stats.candidates, report.stats.sat_solves),
+        (2, 0),
+        "the plain warm start, then the repaired one; no search"
+    );
+    best.plan(&part).validate(&part, &graph).unwrap();
+    assert!(simulated(&part, &graph, &best.fragments)
+        .violation
+        .is_none());
+}
+
 /// A one-block T `h` layers high: a bar of `bar` blocks along x with a stem of `stem`
 /// blocks along y from its block `junction`, k = 2 (a T layer needs two weld paths).
 fn t_tower(bar: i64, junction: i64, stem: i64, h: i64) -> Part {

@@ -1,0 +1,402 @@
+//! A repair of a warm start that breaks a t8/5 window, around the window the simulator
+//! names: the plan is changed from one layer piece on (the layer the broken block stands on,
+//! its own, and each layer welded until the window broke), re-simulated from the unchanged
+//! prefix, and the change that keeps every window longest is kept; again, until a plan
+//! keeps them all or no change gets further.
+//!
+//! Why these changes: a block's t8/5 is decided by when it and its neighbours are welded —
+//! which way its layer goes round (so how soon the block above comes back over it) and
+//! whether a weld path ends before its layer (a transit to cool in). The layer-by-layer
+//! construction fixes both for every layer by its first; a plan that keeps the window may
+//! differ only from some layer on. The changes at a piece: the rest of its weld path
+//! mirrored over the piece's footprint (a ring: the other way round from the same start; an
+//! open path: from its other end), and, while fewer than k weld paths are used, a new weld
+//! path from there on, as it was or mirrored. Which piece and change is kept is the
+//! simulator's verdict (the furthest first broken window, counted in blocks welded): no
+//! threshold, and the candidates of a step are judged all, so the choice does not depend on
+//! the thread count.
+
+use std::collections::{HashMap, HashSet};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+use waam_part::graph::WeldGraph;
+use waam_part::plan::Plan;
+use waam_part::Part;
+use waam_thermal::{Simulation, ThermalModel};
+
+use crate::constructive::Limits;
+
+/// What the repair works with.
+pub struct Repair<'a> {
+    pub part: &'a Part,
+    pub graph: &'a WeldGraph,
+    pub k: usize,
+    pub model: &'a ThermalModel,
+    pub limits: &'a Limits,
+    /// Threads judging one step's candidates.
+    pub workers: usize,
+}
+
+/// A plan simulated: `Ok(())` keeps every window, else where it first breaks one; `None`:
+/// the run stopped the simulation.
+type Verdict = Option<Result<(), Broken>>;
+
+/// Where a plan first breaks a window: after how many blocks welded, whose window, and by
+/// how much (s) the block's t8/5 misses it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Broken {
+    blocks: usize,
+    block: usize,
+    miss_s: f64,
+}
+
+impl Broken {
+    fn of(v: &waam_thermal::Violation, welded: usize) -> Broken {
+        Broken {
+            blocks: v.prefix_len.max(welded),
+            block: v.block,
+            miss_s: (v.window.min_s - v.t85_s).max(v.t85_s - v.window.max_s),
+        }
+    }
+
+    /// Whether `self` gets further than `other`: more blocks welded before a window
+    /// breaks, or as many with the same window missed by less.
+    fn further_than(&self, other: &Broken) -> bool {
+        self.blocks > other.blocks
+            || (self.blocks == other.blocks
+                && self.block == other.block
+                && self.miss_s < other.miss_s)
+    }
+}
+
+/// The blocks `i..j` of weld path `f`, all in one layer; `at`: deposits before it.
+#[derive(Debug, Clone, Copy)]
+struct Piece {
+    f: usize,
+    i: usize,
+    j: usize,
+    at: usize,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+enum Change {
+    Mirror,
+    NewPath,
+    NewPathMirrored,
+}
+
+impl Repair<'_> {
+    /// A plan that keeps every window, changed from `plan` (valid, breaking a window after
+    /// `broken` blocks); `None` when no sequence of changes gets there (or the run stopped).
+    pub fn repaired(
+        &self,
+        plan: &[Vec<usize>],
+        blocks: usize,
+        block: usize,
+    ) -> Option<Vec<Vec<usize>>> {
+        let mut plan = plan.to_vec();
+        // By how much it is missed is measured in the first step.
+        let mut broken = Broken {
+            blocks,
+            block,
+            miss_s: f64::INFINITY,
+        };
+        let mut step = 0;
+        // Pieces before the first one under the broken block also changed: none at first,
+        // twice as many each time no change gets further (the neighbourhood grows until it
+        // is the whole plan), none again after a change that does.
+        let mut back = 0;
+        // The plan now simulated up to some deposits (the prefix every later plan shares up
+        // to where it is changed), and the changes of the plan now judged already.
+        let mut saved: Vec<(usize, Simulation)> = Vec::new();
+        let mut tried: HashSet<(usize, Change)> = HashSet::new();
+        loop {
+            if self.limits.stopped() {
+                return None;
+            }
+            step += 1;
+            let pieces = pieces(self.part, &plan);
+            let seq = sequence(&plan);
+            let anchor = self.first_piece_to_change(&pieces, &seq, broken.block);
+            let from = anchor.saturating_sub(back);
+            let candidates: Vec<(Piece, Change, Vec<Vec<usize>>)> = pieces[from..]
+                .iter()
+                .filter(|p| p.at < broken.blocks)
+                .flat_map(|&p| {
+                    [Change::Mirror, Change::NewPath, Change::NewPathMirrored]
+                        .into_iter()
+                        .map(move |c| (p, c))
+                })
+                .filter(|&(p, c)| tried.insert((p.at, c)))
+                .filter_map(|(p, c)| Some((p, c, self.changed(&plan, p, c)?)))
+                .collect();
+            if candidates.is_empty() {
+                if from == 0 {
+                    tracing::debug!(
+                        "warm-start repair: step {step}: no change left that gets past {} blocks",
+                        broken.blocks
+                    );
+                    return None;
+                }
+                back = (2 * back).max(1);
+                continue;
+            }
+            let (now, verdicts) = self.judge(&seq, &candidates, &mut saved, step == 1);
+            if verdicts.iter().any(Option::is_none) && self.limits.stopped() {
+                return None;
+            }
+            if let Some(Err(now)) = now.filter(|_| step == 1) {
+                broken = now;
+            }
+            // A plan that keeps every window (the first such); else the one that breaks
+            // one latest (ties: the first), if later than now.
+            let feasible = verdicts.iter().position(|v| matches!(v, Some(Ok(()))));
+            if let Some(c) = feasible {
+                tracing::debug!(
+                    "warm-start repair: step {step}: {:?} at {:?} keeps every window",
+                    candidates[c].1,
+                    self.part.block(plan[candidates[c].0.f][candidates[c].0.i])
+                );
+                return candidates.into_iter().nth(c).map(|(_, _, plan)| plan);
+            }
+            let best = verdicts
+                .iter()
+                .enumerate()
+                .filter_map(|(c, v)| match v {
+                    Some(Err(b)) => Some((c, *b)),
+                    _ => None,
+                })
+                // The first of those that get furthest.
+                .fold(None, |best: Option<(usize, Broken)>, (c, b)| match best {
+                    Some((_, kept)) if !b.further_than(&kept) => best,
+                    _ => Some((c, b)),
+                });
+            let Some((c, further)) = best.filter(|(_, b)| b.further_than(&broken)) else {
+                tracing::debug!(
+                    "warm-start repair: step {step}: none of {} changes from {} pieces back gets past {} blocks",
+                    candidates.len(),
+                    anchor - from,
+                    broken.blocks
+                );
+                if from == 0 {
+                    return None;
+                }
+                back = (2 * back).max(1);
+                continue;
+            };
+            tracing::debug!(
+                "warm-start repair: step {step}: {:?} at {:?} of {} changes: a window breaks after {} blocks, missed by {:.2} s (was {}, {:.2} s)",
+                candidates[c].1,
+                self.part.block(plan[candidates[c].0.f][candidates[c].0.i]),
+                candidates.len(),
+                further.blocks,
+                further.miss_s,
+                broken.blocks,
+                broken.miss_s
+            );
+            let changed_at = candidates[c].0.at;
+            plan = candidates.into_iter().nth(c).map(|(_, _, plan)| plan)?;
+            broken = further;
+            back = 0;
+            saved.retain(|&(at, _)| at <= changed_at);
+            tried.clear();
+        }
+    }
+
+    /// The index (in `pieces`) of the first piece a change may start at: the piece of the
+    /// block under the broken one when it has one (the broken block's heat starts there),
+    /// else the broken block's own piece.
+    fn first_piece_to_change(
+        &self,
+        pieces: &[Piece],
+        seq: &[(usize, bool)],
+        block: usize,
+    ) -> usize {
+        let [x, y, z] = self.part.block(block);
+        let under = self.part.index_of([x, y, z - 1]);
+        let position = |b: usize| seq.iter().position(|&(s, _)| s == b);
+        let at = under
+            .and_then(position)
+            .or_else(|| position(block))
+            .unwrap_or(0);
+        pieces.iter().rposition(|p| p.at <= at).unwrap_or(0)
+    }
+
+    /// `plan` with `change` made at `piece`; `None` when that is not a valid plan.
+    fn changed(
+        &self,
+        plan: &[Vec<usize>],
+        piece: Piece,
+        change: Change,
+    ) -> Option<Vec<Vec<usize>>> {
+        let new_path = matches!(change, Change::NewPath | Change::NewPathMirrored);
+        if new_path && (piece.i == 0 || plan.len() >= self.k) {
+            return None;
+        }
+        let mut tail = plan[piece.f][piece.i..].to_vec();
+        if matches!(change, Change::Mirror | Change::NewPathMirrored) {
+            let map = mirror(self.part, self.graph, &plan[piece.f][piece.i..piece.j])?;
+            for b in &mut tail {
+                let [x, y, z] = self.part.block(*b);
+                let &(x, y) = map.get(&(x, y))?;
+                *b = self.part.index_of([x, y, z])?;
+            }
+            if tail == plan[piece.f][piece.i..] {
+                return None;
+            }
+        }
+        let mut out = plan.to_vec();
+        out[piece.f].truncate(piece.i);
+        if new_path {
+            out.insert(piece.f + 1, tail);
+        } else {
+            out[piece.f].extend(tail);
+        }
+        Plan::from_indices(self.part, &out)
+            .validate(self.part, self.graph)
+            .ok()?;
+        Some(out)
+    }
+
+    /// Each candidate simulated from the prefix it shares with `seq` (the plan now), on
+    /// `workers` threads; slot i holds candidate i's verdict whichever thread judged it.
+    fn judge<'s>(
+        &'s self,
+        seq: &[(usize, bool)],
+        candidates: &[(Piece, Change, Vec<Vec<usize>>)],
+        saved: &mut Vec<(usize, Simulation<'s>)>,
+        measure: bool,
+    ) -> (Verdict, Vec<Verdict>) {
+        // The plan now, simulated once up to each candidate's first change (from the
+        // latest state saved before them).
+        let mut starts: Vec<usize> = candidates.iter().map(|(p, _, _)| p.at).collect();
+        starts.sort_unstable();
+        starts.dedup();
+        let (first, last) = (starts[0], starts[starts.len() - 1]);
+        let (from, mut sim) = saved
+            .iter()
+            .rev()
+            .find(|(at, _)| *at <= first)
+            .map_or_else(|| (0, self.simulation()), |(at, s)| (*at, s.clone()));
+        for (d, &(b, new)) in seq.iter().enumerate().take(last + 1).skip(from) {
+            if starts.binary_search(&d).is_ok() && !saved.iter().any(|(at, _)| *at == d) {
+                saved.push((d, sim.clone()));
+            }
+            if d == last {
+                break;
+            }
+            // The plan now keeps every window up to the broken one, after every start.
+            if sim.deposit(b, new).is_err() || sim.cancelled() {
+                return (None, vec![None; candidates.len()]);
+            }
+        }
+        saved.sort_by_key(|(at, _)| *at);
+        // The plan now, on to where it breaks (how much it misses its window by).
+        let now = if measure {
+            run_from(sim, seq, last)
+        } else {
+            None
+        };
+        let saved = &*saved;
+        let next = AtomicUsize::new(0);
+        let results: Mutex<Vec<Verdict>> = Mutex::new(vec![None; candidates.len()]);
+        std::thread::scope(|scope| {
+            for _ in 0..self.workers.clamp(1, candidates.len().max(1)) {
+                scope.spawn(|| loop {
+                    let c = next.fetch_add(1, Ordering::Relaxed);
+                    let Some((piece, _, plan)) = candidates.get(c) else {
+                        break;
+                    };
+                    let Some((_, sim)) = saved.iter().find(|(at, _)| *at == piece.at) else {
+                        continue;
+                    };
+                    let verdict = run_from(sim.clone(), &sequence(plan), piece.at);
+                    results.lock().expect("no worker panics")[c] = verdict;
+                });
+            }
+        });
+        (now, results.into_inner().expect("no worker panics"))
+    }
+
+    fn simulation(&self) -> Simulation<'_> {
+        let sim = Simulation::new(self.model)
+            .with_threads(1)
+            .with_deadline(self.limits.deadline);
+        match &self.limits.cancel {
+            Some(c) => sim.with_cancel(c.clone()),
+            None => sim,
+        }
+    }
+}
+
+/// `seq` simulated on from deposit `from` (the simulation holds its prefix).
+fn run_from(mut sim: Simulation, seq: &[(usize, bool)], from: usize) -> Verdict {
+    for (d, &(b, new)) in seq.iter().enumerate().skip(from) {
+        if let Err(v) = sim.deposit(b, new) {
+            return Some(Err(Broken::of(&v, d + 1)));
+        }
+        if sim.cancelled() {
+            return None;
+        }
+    }
+    let end = sim.finish().ok()?;
+    if sim.cancelled() {
+        return None;
+    }
+    Some(end.map_err(|v| Broken::of(&v, seq.len())))
+}
+
+/// The plan's deposits in weld order, each with whether it begins a weld path.
+fn sequence(plan: &[Vec<usize>]) -> Vec<(usize, bool)> {
+    plan.iter()
+        .flat_map(|f| f.iter().enumerate().map(|(p, &b)| (b, p == 0)))
+        .collect()
+}
+
+/// The plan's pieces (each weld path's runs of blocks in one layer), in weld order.
+fn pieces(part: &Part, plan: &[Vec<usize>]) -> Vec<Piece> {
+    let mut out = Vec::new();
+    let mut at = 0;
+    for (f, blocks) in plan.iter().enumerate() {
+        let mut i = 0;
+        while i < blocks.len() {
+            let z = part.block(blocks[i])[2];
+            let j = (i..blocks.len())
+                .find(|&j| part.block(blocks[j])[2] != z)
+                .unwrap_or(blocks.len());
+            out.push(Piece { f, i, j, at });
+            at += j - i;
+            i = j;
+        }
+    }
+    out
+}
+
+/// The mirror of a piece's footprint that keeps it a weld path: on a ring (its ends weld
+/// to each other) the other way round from the same first block; on an open path from its
+/// other end. `None` on a piece of fewer than two blocks.
+fn mirror(
+    part: &Part,
+    graph: &WeldGraph,
+    piece: &[usize],
+) -> Option<HashMap<(i64, i64), (i64, i64)>> {
+    let n = piece.len();
+    if n < 2 {
+        return None;
+    }
+    let (first, last) = (piece[0], piece[n - 1]);
+    let ring = n >= 3 && (graph.has_edge(last, first) || graph.has_edge(first, last));
+    let xy = |b: usize| {
+        let [x, y, _] = part.block(b);
+        (x, y)
+    };
+    Some(
+        (0..n)
+            .map(|m| {
+                let to = if ring { (n - m) % n } else { n - 1 - m };
+                (xy(piece[m]), xy(piece[to]))
+            })
+            .collect(),
+    )
+}
