@@ -11,11 +11,7 @@ arc-fault sensor on /diagnostics saw the fault.
 
 import sys
 
-from action_msgs.msg import GoalStatus
 from diagnostic_msgs.msg import DiagnosticArray
-from rclpy.action import ActionClient
-from std_msgs.msg import String
-from waam_interfaces.action import ExecutePlan
 from waam_interfaces.msg import WeldPlan
 
 import waamtest
@@ -42,22 +38,7 @@ def run(peer, cell):
     peer.listen("/diagnostics", DiagnosticArray, qos=waamtest.INPUT_QOS)
     peer.listen(NS + "/status", DiagnosticArray, qos=waamtest.INPUT_QOS)
     peer.listen(NS + "/plan/weld_plan", WeldPlan)
-    part = peer.publisher(NS + "/part", String)
-    peer.wait_for_subscriber(part)
-    execute = ActionClient(peer.node, ExecutePlan, NS + "/execute")
-    if not execute.wait_for_server(timeout_sec=30):
-        raise waamtest.DiscoveryTimeout("no ~/execute action server after 30 s")
-    peer.spin_until("the simulated cell's node",
-                    lambda: "waam_sim_cell" in peer.node.get_node_names(), 30, discovery=True)
-    check(cell.alive(), "the simulated cell exited")
-
-    result = waamtest.plan_then_execute(peer, part, execute, NS + "/status",
-                                        "tests/data/twin-walls.yaml", ExecutePlan.Goal)
-    peer.spin_until("~/execute done", result.done, 180)
-    r = result.result()
-    check(r.status == GoalStatus.STATUS_SUCCEEDED
-          and r.result.outcome == ExecutePlan.Result.EXECUTED,
-          f"~/execute: status {r.status}, {r.result}")
+    waamtest.execute_twin_walls_beside_the_simulated_cell(peer, NS, cell)
 
     replanned = waamtest.statuses(peer, NS + "/status", "replanned")
     for s in replanned:

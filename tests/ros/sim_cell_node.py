@@ -15,13 +15,9 @@ feed went out before each weld path, within the limits.
 """
 
 import sys
-import time
 
-from action_msgs.msg import GoalStatus
 from diagnostic_msgs.msg import DiagnosticArray
-from rclpy.action import ActionClient
-from std_msgs.msg import Float64, String
-from waam_interfaces.action import ExecutePlan
+from std_msgs.msg import Float64
 
 import waamtest
 from waamtest import WaamProcess, check
@@ -59,23 +55,7 @@ def run(peer, cell):
     feeds = []
     peer.node.create_subscription(Float64, NS + "/wire_feed", lambda m: feeds.append(m.data),
                                   waamtest.INPUT_QOS)
-    part = peer.publisher(NS + "/part", String)
-    peer.wait_for_subscriber(part)
-    execute = ActionClient(peer.node, ExecutePlan, NS + "/execute")
-    if not execute.wait_for_server(timeout_sec=30):
-        raise waamtest.DiscoveryTimeout("no ~/execute action server after 30 s")
-    # The simulated cell follows the planner's topics: wait until it is discovered.
-    peer.spin_until("the simulated cell's node",
-                    lambda: "waam_sim_cell" in peer.node.get_node_names(), 30, discovery=True)
-    check(cell.alive(), "the simulated cell exited")
-
-    result = waamtest.plan_then_execute(peer, part, execute, NS + "/status",
-                                        "tests/data/twin-walls.yaml", ExecutePlan.Goal)
-    peer.spin_until("~/execute done", result.done, 180)
-    r = result.result()
-    check(r.status == GoalStatus.STATUS_SUCCEEDED
-          and r.result.outcome == ExecutePlan.Result.EXECUTED,
-          f"~/execute: status {r.status}, {r.result}")
+    waamtest.execute_twin_walls_beside_the_simulated_cell(peer, NS, cell)
 
     waamtest.check_replanned_on_lower_losses(peer, NS + "/status")
 

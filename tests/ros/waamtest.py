@@ -154,6 +154,32 @@ def plan_then_execute(peer, part, execute, status_topic, path, goal_type):
     return sent.result().get_result_async()
 
 
+def execute_twin_walls_beside_the_simulated_cell(peer, ns, cell):
+    """Sends tests/data/twin-walls.yaml to node `ns` (its ~/part), once its ~/execute server
+    and the simulated cell's node `cell` (a WaamProcess) are up, runs it through ~/execute
+    and checks the execution succeeded."""
+    from action_msgs.msg import GoalStatus
+    from rclpy.action import ActionClient
+    from waam_interfaces.action import ExecutePlan
+
+    part = peer.publisher(ns + "/part", String)
+    peer.wait_for_subscriber(part)
+    execute = ActionClient(peer.node, ExecutePlan, ns + "/execute")
+    if not execute.wait_for_server(timeout_sec=30):
+        raise DiscoveryTimeout("no ~/execute action server after 30 s")
+    # The simulated cell follows the planner's topics: wait until it is discovered.
+    peer.spin_until("the simulated cell's node",
+                    lambda: "waam_sim_cell" in peer.node.get_node_names(), 30, discovery=True)
+    check(cell.alive(), "the simulated cell exited")
+    result = plan_then_execute(peer, part, execute, ns + "/status",
+                               "tests/data/twin-walls.yaml", ExecutePlan.Goal)
+    peer.spin_until("~/execute done", result.done, 180)
+    r = result.result()
+    check(r.status == GoalStatus.STATUS_SUCCEEDED
+          and r.result.outcome == ExecutePlan.Result.EXECUTED,
+          f"~/execute: status {r.status}, {r.result}")
+
+
 def check_replanned_on_lower_losses(peer, topic):
     """The closed loop's first boundary on a cell with 25 % lower heat losses than the model,
     as `topic` (a node's ~/status) told it: readings used, a loss factor fitted between 0.6
