@@ -61,29 +61,45 @@ pub struct SimCellArgs {
     #[arg(long, conflicts_with = "open_loop")]
     pub node: bool,
     /// --node: the planner node whose topics are followed, as a name in this node's
-    /// namespace.
-    #[arg(
-        long,
-        value_name = "NAME",
-        default_value = "waam_planner",
-        requires = "node"
-    )]
-    pub planner: String,
+    /// namespace [default: waam_planner].
+    #[arg(long, value_name = "NAME")]
+    pub planner: Option<String>,
     /// --node: how many times as fast as planned the planner executes (its
-    /// `dry_run.time_scale`; 1 on a real controller).
-    #[arg(long, value_name = "X", default_value_t = 1.0, requires = "node")]
-    pub time_scale: f64,
+    /// `dry_run.time_scale`; 1 on a real controller) [default: 1].
+    #[arg(long, value_name = "X")]
+    pub time_scale: Option<f64>,
     /// --node: also publish a thermal camera's images on the planner's `~/thermal_image`:
     /// with each pyrometer reading, every welded block's true temperature at its centre
     /// (sensor_msgs/PointCloud2 with a `temperature` field, part frame).
-    #[arg(long, requires = "node")]
+    #[arg(long)]
     pub thermal_camera: bool,
     /// --node: ROS 2 arguments as rcl reads them (`-r __ns:=/cell1`, `-r __node:=NAME`).
-    #[arg(long = "ros-args", num_args = 0.., allow_hyphen_values = true, value_name = "ARG", requires = "node")]
+    #[arg(long = "ros-args", num_args = 0.., allow_hyphen_values = true, value_name = "ARG")]
     pub ros_args: Option<Vec<String>>,
 }
 
+impl SimCellArgs {
+    /// The first option given that only the node takes, when `--node` is not given (clap's
+    /// `requires` counts `--node`'s default, false, as given).
+    fn node_option_without_node(&self) -> Option<&'static str> {
+        if self.node {
+            return None;
+        }
+        [
+            (self.planner.is_some(), "--planner"),
+            (self.time_scale.is_some(), "--time-scale"),
+            (self.thermal_camera, "--thermal-camera"),
+            (self.ros_args.is_some(), "--ros-args"),
+        ]
+        .into_iter()
+        .find_map(|(given, flag)| given.then_some(flag))
+    }
+}
+
 pub fn run(args: SimCellArgs, global: &super::GlobalArgs) -> anyhow::Result<ExitCode> {
+    if let Some(flag) = args.node_option_without_node() {
+        anyhow::bail!("{flag} is for the simulated cell's ROS 2 node: give --node with it");
+    }
     let part = super::read_part(&args.part)?;
     let text = std::fs::read_to_string(&args.truth)
         .with_context(|| format!("reading {}", args.truth.display()))?;
@@ -218,11 +234,9 @@ pub fn run(args: SimCellArgs, global: &super::GlobalArgs) -> anyhow::Result<Exit
 
 /// `--node`: the true cell's sensors over ROS 2 until Ctrl-C.
 fn run_node(part: &waam_part::Part, truth: &Truth, args: &SimCellArgs) -> anyhow::Result<ExitCode> {
-    if !(args.time_scale.is_finite() && args.time_scale > 0.0) {
-        anyhow::bail!(
-            "--time-scale: expected a positive number, got {}",
-            args.time_scale
-        );
+    let time_scale = args.time_scale.unwrap_or(1.0);
+    if !(time_scale.is_finite() && time_scale > 0.0) {
+        anyhow::bail!("--time-scale: expected a positive number, got {time_scale}");
     }
     let ros = waam_ros::node::args::RosArgs::parse(args.ros_args.as_deref().unwrap_or_default())?;
     let mut names = ros.names();
@@ -231,8 +245,11 @@ fn run_node(part: &waam_part::Part, truth: &Truth, args: &SimCellArgs) -> anyhow
     }
     let options = waam_ros::sim_cell::SimCellOptions {
         names,
-        planner: args.planner.clone(),
-        time_scale: args.time_scale,
+        planner: args
+            .planner
+            .clone()
+            .unwrap_or_else(|| "waam_planner".into()),
+        time_scale,
         thermal_camera: args.thermal_camera,
     };
     waam_ros::sim_cell::run(part, truth, &options, super::node::stop_on_signal()?)?;

@@ -54,3 +54,21 @@ fn a_truth_file_with_an_unknown_key_is_bad_input_named_by_file_and_key() {
     );
     assert!(!out.exists(), "nothing written for bad input");
 }
+
+/// The node's options without `--node` are bad input, named, and nothing is run or written
+/// (clap's `requires` took `--node`'s default, false, as given).
+#[test]
+fn a_node_option_without_node_is_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    for (extra, flag) in [
+        (&["--thermal-camera"][..], "--thermal-camera"),
+        (&["--time-scale", "20"][..], "--time-scale"),
+        (&["--ros-args", "-r", "__ns:=/cell1"][..], "--ros-args"),
+    ] {
+        let out = dir.path().join("out");
+        let (code, stdout, err) = sim_cell(extra, &out);
+        assert_eq!(code, Some(2), "{extra:?}: {stdout}{err}");
+        assert!(err.contains(flag) && err.contains("--node"), "{err}");
+        assert!(!out.exists(), "nothing written for bad input");
+    }
+}
