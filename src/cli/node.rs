@@ -24,9 +24,14 @@ use waam_ros::node::{Mode, RunOptions};
 /// `~/plan/*` (Reliable, TransientLocal) and its state on `~/status`. For the closed loop it
 /// takes the cell's sensors on `~/scan` (sensor_msgs/PointCloud2, a layer height scan in
 /// metres, frame `part`, the robot's base link or any frame /tf and /tf_static connect to
-/// them) and `~/temperature` (sensor_msgs/Temperature, a pyrometer), and sends each weld
-/// path's wire feed on `~/wire_feed` (std_msgs/Float64, relative to nominal): bad or late data (`closed_loop.max_age_s`) is a WARN on /diagnostics naming
-/// the topic and the reason, never a stop. Every setting of the
+/// them), `~/temperature` (sensor_msgs/Temperature, a pyrometer), `~/thermal_image`
+/// (sensor_msgs/PointCloud2 with a `temperature` field, a thermal camera's image on the part)
+/// and `~/arc_fault` (std_msgs/Header from the welder, stamped when the arc went out: the
+/// weld goal is cancelled and the rest re-planned), and sends each weld path's wire feed on
+/// `~/wire_feed` (std_msgs/Float64, relative to nominal): bad or late data
+/// (`closed_loop.max_age_s`), or a sensor silent beyond its cadence
+/// (`closed_loop.*_period_s`) while executing, is a WARN on /diagnostics naming the topic
+/// and the reason, never a stop. Every setting of the
 /// parameters file is a ROS parameter (`ros2 param list/get/set/describe/dump`); a change
 /// applies from the next plan. Honours ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE (or
 /// ROS_LOCALHOST_ONLY) and `--ros-args` as `ros2 run` and `ros2 launch` pass them. Stops on
