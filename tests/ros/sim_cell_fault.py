@@ -15,23 +15,15 @@ from diagnostic_msgs.msg import DiagnosticArray
 from waam_interfaces.msg import WeldPlan
 
 import waamtest
-from waamtest import WaamProcess, check
+from waamtest import check
 
 NS = "/cellF/waam_planner"
 
 
 def test(peer, waam):
-    cell = WaamProcess("sim-cell", "tests/data/twin-walls.yaml",
-                       "--truth", "tests/data/truth-cut-short.yaml", "--node",
-                       "--time-scale", "20", "--ros-args", "-r", "__ns:=/cellF")
-    try:
-        run(peer, cell)
-    except waamtest.Failure:
-        print(f"--- log of the simulated cell ---\n{cell.output()}")
-        raise
-    finally:
-        cell.stop()
-    print(f"--- log of the simulated cell ---\n{cell.output()}")
+    waamtest.beside_the_simulated_cell(peer, run, "tests/data/twin-walls.yaml",
+                                       "--truth", "tests/data/truth-cut-short.yaml", "--node",
+                                       "--time-scale", "20", "--ros-args", "-r", "__ns:=/cellF")
 
 
 def run(peer, cell):

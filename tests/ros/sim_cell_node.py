@@ -20,7 +20,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from std_msgs.msg import Float64
 
 import waamtest
-from waamtest import WaamProcess, check
+from waamtest import check
 
 NS = "/cellZ/waam_planner"
 
@@ -35,18 +35,10 @@ def sensor(peer, name):
 
 
 def test(peer, waam):
-    cell = WaamProcess("sim-cell", "tests/data/twin-walls.yaml",
-                       "--truth", "docs/examples/closed-loop/truth.yaml", "--node",
-                       "--thermal-camera",
-                       "--time-scale", "20", "--ros-args", "-r", "__ns:=/cellZ")
-    try:
-        run(peer, cell)
-    except waamtest.Failure:
-        print(f"--- log of the simulated cell ---\n{cell.output()}")
-        raise
-    finally:
-        cell.stop()
-    print(f"--- log of the simulated cell ---\n{cell.output()}")
+    waamtest.beside_the_simulated_cell(peer, run, "tests/data/twin-walls.yaml",
+                                       "--truth", "docs/examples/closed-loop/truth.yaml", "--node",
+                                       "--thermal-camera",
+                                       "--time-scale", "20", "--ros-args", "-r", "__ns:=/cellZ")
 
 
 def run(peer, cell):

@@ -154,6 +154,17 @@ def plan_then_execute(peer, part, execute, status_topic, path, goal_type):
     return sent.result().get_result_async()
 
 
+def beside_the_simulated_cell(peer, check_run, *args):
+    """Starts `waam sim-cell ARGS` (its node), runs `check_run(peer, cell)`, stops the cell
+    and prints its log (also when the check fails)."""
+    cell = WaamProcess("sim-cell", *args)
+    try:
+        check_run(peer, cell)
+    finally:
+        cell.stop()
+        print(f"--- log of the simulated cell ---\n{cell.output()}")
+
+
 def execute_twin_walls_beside_the_simulated_cell(peer, ns, cell):
     """Sends tests/data/twin-walls.yaml to node `ns` (its ~/part), once its ~/execute server
     and the simulated cell's node `cell` (a WaamProcess) are up, runs it through ~/execute
