@@ -27,8 +27,10 @@ use waam_ros::node::{Mode, RunOptions};
 /// them), `~/temperature` (sensor_msgs/Temperature, a pyrometer), `~/thermal_image`
 /// (sensor_msgs/PointCloud2 with a `temperature` field, a thermal camera's image on the part)
 /// and `~/arc_fault` (std_msgs/Header from the welder, stamped when the arc went out: the
-/// weld goal is cancelled and the rest re-planned), and sends each weld path's wire feed on
-/// `~/wire_feed` (std_msgs/Float64, relative to nominal): bad or late data
+/// weld goal is cancelled and the rest re-planned), and sends each weld path's wire feed per
+/// deposit on `~/wire_feed_schedule` (trajectory_msgs/JointTrajectory, joint `wire_feed`,
+/// relative to nominal) and the feed it strikes at on `~/wire_feed` (std_msgs/Float64;
+/// `closed_loop.wire_feed_per_deposit:=false`: one feed per weld path): bad or late data
 /// (`closed_loop.max_age_s`), or a sensor silent beyond its cadence
 /// (`closed_loop.*_period_s`) while executing, is a WARN on /diagnostics naming the topic
 /// and the reason, never a stop. Every setting of the

@@ -15,20 +15,22 @@ use super::{EXIT_INTERRUPTED, EXIT_NO, EXIT_OK};
 /// Execute a part on a simulated cell whose true model differs from the planner's.
 ///
 /// The part is planned, then welded deposit by deposit against TRUTH.yaml: other `thermal:`
-/// constants, a deposit `height_factor`, weld paths `cut_short` (wire faults), sensor
-/// noise. In closed loop (the default) the cell measures the true temperatures after every
-/// weld path and layer, fits the planner model's loss and conduction coefficients to them,
-/// re-plans the rest from the estimated state (exactly, like `waam plan`) and sets each
-/// layer's wire feed so the height returns to nominal. `--open-loop` executes the first
+/// constants, a deposit `height_factor` (or `height_zones` of the part that build low or
+/// high), weld paths `cut_short` (wire faults), sensor noise. In closed loop (the default)
+/// the cell measures the true temperatures after every weld path and layer, fits the
+/// planner model's loss and conduction coefficients to them, re-plans the rest from the
+/// estimated state (exactly, like `waam plan`) and sets each deposit's wire feed so the
+/// height over it returns to nominal. `--open-loop` executes the first
 /// plan as it is. Writes DIR/executed.yaml (every deposit as it happened, the plans used,
 /// the estimates, the layer heights: docs/closed-loop.md) and prints the true model's
 /// verdict on the executed time line.
 ///
 /// With `--node` it is the true cell's sensors as a ROS 2 node (`waam_sim_cell`) for a
 /// `waam node` executing PART (e.g. `waam node --dry-run -p closed_loop.enabled:=true`): it
-/// follows the planner's `~/plan/weld_plan`, `~/arc_on` and `~/wire_feed` and publishes on
-/// the planner's `~/temperature` the true temperature of each deposit and on `~/scan` the
-/// true top of each finished layer (with --thermal-camera also images on `~/thermal_image`),
+/// follows the planner's `~/plan/weld_plan`, `~/arc_on`, `~/wire_feed` and
+/// `~/wire_feed_schedule` and publishes on the planner's `~/temperature` the true
+/// temperature of each deposit and on `~/scan` the true top of each deposit of each
+/// finished layer (with --thermal-camera also images on `~/thermal_image`),
 /// until Ctrl-C (docs/closed-loop.md).
 ///
 /// Exit code 0: every block deposited and every t8/5 window kept on the true model; 1: a

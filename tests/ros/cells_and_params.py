@@ -118,7 +118,7 @@ def run(peer, waam, cell2):
         "mesh.block_mm", "mesh.bead_mm", "mesh.t85_window_s", "topics.part",
         "topics.part_mesh", "topics.joint_trajectory", "topics.poses", "topics.path",
         "topics.markers", "topics.weld_plan", "topics.status", "topics.arc_on",
-        "topics.wire_feed", "topics.joint_states", "execution.enabled", "execution.auto_execute",
+        "topics.wire_feed", "topics.wire_feed_schedule", "topics.joint_states", "execution.enabled", "execution.auto_execute",
         "execution.controller_action",
         "execution.max_points_per_goal", "execution.server_timeout_s", "execution.lead_in_s",
         "execution.joint_names", "execution.goal_tolerance_rad", "execution.path_tolerance_rad",
@@ -128,7 +128,8 @@ def run(peer, waam, cell2):
         "closed_loop.arc_fault_topic", "closed_loop.max_age_s", "closed_loop.scan_margin_mm",
         "closed_loop.scan_period_s", "closed_loop.temperature_period_s",
         "closed_loop.thermal_camera_period_s",
-        "closed_loop.wire_feed_min", "closed_loop.wire_feed_max", "use_sim_time",
+        "closed_loop.wire_feed_min", "closed_loop.wire_feed_max",
+        "closed_loop.wire_feed_per_deposit", "use_sim_time",
     }
     check(names == expected, f"parameters listed: {sorted(names)}; missing "
           f"{sorted(expected - names)}, unexpected {sorted(names - expected)}")

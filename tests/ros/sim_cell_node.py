@@ -10,14 +10,16 @@ from the simulated cell.
 It checks: the execution succeeds; at the first weld-path boundary the `replanned` status
 counts readings used (> 0), fits a loss factor between 0.6 and 0.9 and re-plans the windowed
 wall still to come (`reason: replan`); the scans the node took show the layers' true tops
-(2.25 mm a layer); the thermal camera's images were used (every welded block read); a wire
-feed went out before each weld path, within the limits.
+(2.25 mm a layer, at the nominal feed); the thermal camera's images were used (every welded
+block read); a wire feed went out before each weld path, within the limits, with its
+schedule (one feed per deposit, the first the one struck at) on ~/wire_feed_schedule.
 """
 
 import sys
 
 from diagnostic_msgs.msg import DiagnosticArray
 from std_msgs.msg import Float64
+from trajectory_msgs.msg import JointTrajectory
 
 import waamtest
 from waamtest import check
@@ -47,6 +49,9 @@ def run(peer, cell):
     feeds = []
     peer.node.create_subscription(Float64, NS + "/wire_feed", lambda m: feeds.append(m.data),
                                   waamtest.INPUT_QOS)
+    schedules = []
+    peer.node.create_subscription(JointTrajectory, NS + "/wire_feed_schedule",
+                                  schedules.append, waamtest.INPUT_QOS)
     waamtest.execute_twin_walls_beside_the_simulated_cell(peer, NS, cell)
 
     waamtest.check_replanned_on_lower_losses(peer, NS + "/status")
@@ -57,6 +62,15 @@ def run(peer, cell):
     print(f"wire feeds: {feeds}")
     check(len(feeds) >= 2 and feeds[0] == 1.0 and all(0.7 <= f <= 1.3 for f in feeds),
           f"wire feeds: {feeds}")
+    # Each weld path's schedule: joint "wire_feed", a point per deposit from the arc strike
+    # on, starting with the feed struck at.
+    per_path = [[p.positions[0] for p in s.points] for s in schedules]
+    print(f"wire feed schedules: {[[round(f, 3) for f in s] for s in per_path]}")
+    check(len(schedules) == len(feeds)
+          and all(s.joint_names == ["wire_feed"] and len(s.points) >= 1 for s in schedules)
+          and all(s[0] == f for s, f in zip(per_path, feeds))
+          and all(0.7 <= f <= 1.3 for s in per_path for f in s),
+          f"wire feed schedules {per_path} against the feeds {feeds}")
     # The scanner saw the finished layers 10 % low: tops at multiples of 2.25 mm.
     scans = [s.message for s in sensor(peer, "scan") if "top at" in s.message]
     print(f"scans: {sorted(set(scans))}")

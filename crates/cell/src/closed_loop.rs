@@ -3,8 +3,8 @@
 //!
 //! The caller tells the loop what was deposited and when ([`ClosedLoop::deposited`]), when
 //! the arc went out ([`ClosedLoop::path_ended`]) and what the sensors read
-//! ([`ClosedLoop::measured`], [`ClosedLoop::temperatures`], [`ClosedLoop::layer_height`]);
-//! it asks for each layer's wire feed ([`ClosedLoop::wire_feed`]) and, at a weld-path or
+//! ([`ClosedLoop::measured`], [`ClosedLoop::temperatures`], [`ClosedLoop::layer_tops`]);
+//! it asks for each deposit's wire feed ([`ClosedLoop::wire_feed`]) and, at a weld-path or
 //! layer boundary, for a [`Decision`] ([`ClosedLoop::at_boundary`]): the model fitted to the
 //! measurements so far and the rest re-planned from the estimated state. The caller adopts
 //! the decision ([`ClosedLoop::adopt`]) or, when its own checks refuse the new remainder (the
@@ -32,6 +32,9 @@ pub struct LoopOptions {
     /// The wire feed the height rule may set, relative to nominal (process limits; (1, 1)
     /// keeps the nominal feed).
     pub wire_feed: (f64, f64),
+    /// The welder takes a wire feed per deposit along a weld path (false: one per weld path,
+    /// changed only while the arc is off).
+    pub wire_feed_per_deposit: bool,
 }
 
 /// A sensor reading the loop cannot place.
@@ -116,17 +119,26 @@ pub struct ClosedLoop {
     /// Sorted by `deposits`, one per deposit count.
     measurements: Vec<Measurement>,
     left_in_layer: Vec<usize>,
-    layer_feed: Vec<Option<f64>>,
+    /// Each deposit's wire feed, fixed when first asked for.
+    feed: Vec<Option<f64>>,
+    /// Each deposit's top above the part's origin, mm, and its gain (the height it made per
+    /// height its wire feed asked for): as measured by the scans, else as expected when
+    /// its feed was set (from what it stands on, at the gain there).
+    top_mm: Vec<Option<f64>>,
+    gain_of: Vec<Option<f64>>,
+    expected_top_mm: Vec<Option<f64>>,
+    expected_gain: Vec<Option<f64>>,
+    /// What each deposit stands on (the graph's supports).
+    supports: Vec<Vec<u32>>,
     scanned: Vec<bool>,
-    /// Nominal top so far minus measured top, mm; the last layer's gain.
-    missing_mm: f64,
+    /// The last scanned layer's median gain (1 before the first scan).
     gain: f64,
     faults: usize,
     fault_pending: bool,
     plans: Vec<PlanUsed>,
     estimates: Vec<EstimateRecord>,
     layers: Vec<LayerRecord>,
-    /// Which blocks lie near a point, made when the first thermal image comes.
+    /// Which blocks lie near a point, made when the first scan or thermal image comes.
     near: std::sync::OnceLock<Near>,
 }
 
@@ -152,9 +164,18 @@ impl ClosedLoop {
             times: Vec::new(),
             measurements: Vec::new(),
             left_in_layer,
-            layer_feed: vec![None; layers],
+            feed: vec![None; part.len()],
+            top_mm: vec![None; part.len()],
+            gain_of: vec![None; part.len()],
+            expected_top_mm: vec![None; part.len()],
+            expected_gain: vec![None; part.len()],
+            supports: {
+                let graph = WeldGraph::new(part);
+                (0..part.len())
+                    .map(|i| graph.supports(i).to_vec())
+                    .collect()
+            },
             scanned: vec![false; layers],
-            missing_mm: 0.0,
             gain: 1.0,
             faults: 0,
             fault_pending: false,
@@ -196,16 +217,71 @@ impl ClosedLoop {
         self.executed.len()
     }
 
-    /// The wire feed of layer `z`, relative to nominal: set by the height rule when the
-    /// layer's first deposit asks, then fixed for the layer.
-    pub fn wire_feed(&mut self, z: usize) -> f64 {
-        let (nominal, missing, gain, limits) = (
-            self.part.block_mm[2],
-            self.missing_mm,
-            self.gain,
-            self.opts.wire_feed,
-        );
-        *self.layer_feed[z].get_or_insert_with(|| next_wire_feed(nominal, missing, gain, limits))
+    /// The wire feed of deposit `block`, relative to nominal: the height rule's for the
+    /// height still missing under it (the nominal top of the layers below minus the top of
+    /// what it stands on) at the gain there (the mean of its supports'). Tops and gains are
+    /// the scans' where measured, else those expected when the supports' feeds were set: a
+    /// layer welded before the one below it was scanned counts on that layer's correction
+    /// rather than making up its shortfall again. Set when first asked for, then fixed.
+    pub fn wire_feed(&mut self, block: usize) -> f64 {
+        if let Some(feed) = self.feed[block] {
+            return feed;
+        }
+        let h = self.part.block_mm[2];
+        let z = self.part.block(block)[2] as f64;
+        let gain = self.gain_under(block);
+        let feed = next_wire_feed(h, z * h - self.base_mm(block), gain, self.opts.wire_feed);
+        self.set_feed(block, feed, gain);
+        feed
+    }
+
+    fn set_feed(&mut self, block: usize, feed: f64, gain: f64) {
+        self.feed[block] = Some(feed);
+        self.expected_gain[block] = Some(gain);
+        self.expected_top_mm[block] =
+            Some(self.base_mm(block) + self.part.block_mm[2] * gain * feed);
+    }
+
+    /// The wire feeds of a weld path about to start, one per deposit: the height rule's
+    /// own (`wire_feed_per_deposit`), or, for a welder that holds one feed per weld path,
+    /// their mean for each. Fixed from then on.
+    pub fn path_feeds(&mut self, blocks: &[usize]) -> Vec<f64> {
+        let own: Vec<f64> = blocks.iter().map(|&b| self.wire_feed(b)).collect();
+        if self.opts.wire_feed_per_deposit || own.is_empty() {
+            return own;
+        }
+        let mean = own.iter().sum::<f64>() / own.len() as f64;
+        for &b in blocks {
+            let gain = self.expected_gain[b].unwrap_or(self.gain);
+            self.set_feed(b, mean, gain);
+        }
+        vec![mean; blocks.len()]
+    }
+
+    /// The top of what deposit `block` stands on, above the origin, mm: the plate (0) for
+    /// the first layer, else the mean of its supports' tops (measured, else expected;
+    /// nominal for an overhang standing on nothing).
+    fn base_mm(&self, block: usize) -> f64 {
+        let nominal = self.part.block(block)[2] as f64 * self.part.block_mm[2];
+        self.mean_of_supports(block, |s| self.top_mm[s].or(self.expected_top_mm[s]))
+            .unwrap_or(nominal)
+    }
+
+    /// The gain under deposit `block`: the mean of its supports' (measured, else
+    /// expected), or the last scanned layer's.
+    fn gain_under(&self, block: usize) -> f64 {
+        self.mean_of_supports(block, |s| self.gain_of[s].or(self.expected_gain[s]))
+            .unwrap_or(self.gain)
+    }
+
+    /// The mean of `value` over what `block` stands on, if it stands on something and
+    /// every value is known.
+    fn mean_of_supports(&self, block: usize, value: impl Fn(usize) -> Option<f64>) -> Option<f64> {
+        let supports = &self.supports[block];
+        let known: Option<Vec<f64>> = supports.iter().map(|&s| value(s as usize)).collect();
+        known
+            .filter(|v| !v.is_empty())
+            .map(|v| v.iter().sum::<f64>() / v.len() as f64)
     }
 
     /// Block `block` was deposited from `start_s` for `duration_s` (the caller's clock);
@@ -277,12 +353,47 @@ impl ClosedLoop {
         }
     }
 
-    /// Layer `z` came out `height_mm` high (a scan): the height rule's input.
-    pub fn layer_height(&mut self, z: usize, height_mm: f64) {
+    /// Layer `z` was measured: each of its deposits' top above the origin, mm (a scan, or
+    /// the simulated cell's truth): the height rule's input. A deposit not in `tops` takes
+    /// the layer's median top. The layer's height is its median top over the layers below
+    /// (as measured, nominal where not); the gain, the median over its deposits of height
+    /// made per height asked for.
+    pub fn layer_tops(&mut self, z: usize, tops: &[(usize, f64)]) {
         let nominal = self.part.block_mm[2];
-        let feed = self.layer_feed[z].unwrap_or(1.0);
-        self.missing_mm += nominal - height_mm;
-        self.gain = height_mm / (nominal * feed);
+        let Some(median_top) = median(tops.iter().map(|t| t.1).collect()) else {
+            return;
+        };
+        let layer: Vec<usize> = (0..self.part.len())
+            .filter(|&i| self.part.block(i)[2] as usize == z)
+            .collect();
+        for &b in &layer {
+            self.top_mm[b] = Some(median_top);
+        }
+        for &(b, top) in tops {
+            self.top_mm[b] = Some(top);
+        }
+        for &b in &layer {
+            let made = self.top_mm[b].map(|t| t - self.base_mm(b));
+            self.gain_of[b] = made
+                .map(|m| m / (nominal * self.feed[b].unwrap_or(1.0)))
+                .filter(|g| g.is_finite() && *g > 0.0);
+        }
+        let gains: Vec<f64> = layer.iter().filter_map(|&b| self.gain_of[b]).collect();
+        let feed = layer
+            .iter()
+            .map(|&b| self.feed[b].unwrap_or(1.0))
+            .sum::<f64>()
+            / layer.len().max(1) as f64;
+        let below: f64 = (0..z)
+            .map(|l| {
+                self.layers
+                    .iter()
+                    .find(|r| r.z == l as i64)
+                    .map_or(nominal, |r| r.height_mm)
+            })
+            .sum();
+        let height_mm = median_top - below;
+        self.gain = median(gains).unwrap_or(height_mm / (nominal * feed));
         self.scanned[z] = true;
         self.layers.push(LayerRecord {
             z: z as i64,
@@ -324,23 +435,15 @@ impl ClosedLoop {
                 let z = (0..self.scanned.len())
                     .find(|&z| self.left_in_layer[z] == 0 && !self.scanned[z])
                     .ok_or(MeasureError::NoLayer { stamp_s })?;
-                let top = self.median_top(z, points).ok_or(MeasureError::NoPoints {
-                    stamp_s,
-                    points: points.len(),
-                    z: z as i64,
-                })?;
-                // The layer stands on the measured top of the layers below (nominal where
-                // a layer was not scanned).
-                let [_, _, bz] = self.part.block_mm;
-                let below: f64 = (0..z)
-                    .map(|l| {
-                        self.layers
-                            .iter()
-                            .find(|r| r.z == l as i64)
-                            .map_or(bz, |r| r.height_mm)
-                    })
-                    .sum();
-                self.layer_height(z, top - (self.part.origin_mm[2] + below));
+                let tops = self.tops_over(z, points);
+                if tops.is_empty() {
+                    return Err(MeasureError::NoPoints {
+                        stamp_s,
+                        points: points.len(),
+                        z: z as i64,
+                    });
+                }
+                self.layer_tops(z, &tops);
                 Ok(())
             }
         }
@@ -389,39 +492,36 @@ impl ClosedLoop {
             .collect()
     }
 
-    /// The median z of the points that lie over a block of layer `z` (a graph part: within
-    /// half a bead width of a centre line of that layer).
-    fn median_top(&self, z: usize, points: &[[f64; 3]]) -> Option<f64> {
-        let [bx, by, _] = self.part.block_mm;
-        let [ox, oy, _] = self.part.origin_mm;
-        let over = |p: &[f64; 3]| match self.part.bead_part() {
-            Some(beads) => beads
-                .beads
-                .iter()
-                .filter(|b| b.layer as usize == z)
-                .any(|b| b.distance_mm([p[0], p[1]]) <= beads.bead_mm[0] / 2.0),
-            None => {
-                let (x, y) = (((p[0] - ox) / bx).floor(), ((p[1] - oy) / by).floor());
-                x.is_finite()
-                    && y.is_finite()
-                    && self.part.index_of([x as i64, y as i64, z as i64]).is_some()
-            }
+    /// The top of each deposit of layer `z` a scan shows, above the origin: the median z
+    /// of the points over it (within its footprint: a block's cell, a graph part's piece
+    /// of bead W wide).
+    fn tops_over(&self, z: usize, points: &[[f64; 3]]) -> Vec<(usize, f64)> {
+        let near = self.near.get_or_init(|| Near::new(&self.part));
+        let Some(centre_z) = (0..self.part.len())
+            .find(|&i| self.part.block(i)[2] as usize == z)
+            .map(|i| self.part.centre_mm(self.part.block(i))[2])
+        else {
+            return Vec::new();
         };
-        let mut zs: Vec<f64> = points
-            .iter()
-            .filter(|p| p[2].is_finite() && over(p))
-            .map(|p| p[2])
-            .collect();
-        if zs.is_empty() {
-            return None;
+        let mut over: std::collections::BTreeMap<usize, Vec<f64>> = Default::default();
+        for p in points.iter().filter(|p| p.iter().all(|v| v.is_finite())) {
+            // Its footprint's point at the layer's mid-height: inside the deposit.
+            let at = [p[0], p[1], centre_z];
+            let under = near
+                .within(at, 0.0)
+                .filter(|&b| self.part.block(b)[2] as usize == z)
+                .map(|b| (self.part.distance_to_mm(b, at), b))
+                .filter(|&(d, _)| d <= 1e-9)
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            if let Some((_, b)) = under {
+                over.entry(b)
+                    .or_default()
+                    .push(p[2] - self.part.origin_mm[2]);
+            }
         }
-        zs.sort_by(f64::total_cmp);
-        let n = zs.len();
-        Some(if n % 2 == 1 {
-            zs[n / 2]
-        } else {
-            (zs[n / 2 - 1] + zs[n / 2]) / 2.0
-        })
+        over.into_iter()
+            .filter_map(|(b, zs)| Some((b, median(zs)?)))
+            .collect()
     }
 
     /// At a boundary (`path_ended`: the arc is out; else a layer ended with the arc on),
@@ -562,6 +662,20 @@ impl ClosedLoop {
     pub fn layers(&self) -> &[LayerRecord] {
         &self.layers
     }
+}
+
+/// The median of `values` (none when empty).
+fn median(mut values: Vec<f64>) -> Option<f64> {
+    if values.is_empty() {
+        return None;
+    }
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    Some(if n % 2 == 1 {
+        values[n / 2]
+    } else {
+        (values[n / 2 - 1] + values[n / 2]) / 2.0
+    })
 }
 
 /// The blocks of a part by where they lie: an R-tree of their centres, and how far from its

@@ -2,7 +2,7 @@
 //! *true* model that differs from the planner's ([`Truth`]: other thermal constants, a
 //! deposit height factor, weld paths cut short), measures after every weld path and every
 //! layer, and — in closed loop — estimates the thermal model from the measurements,
-//! re-plans the rest ([`waam_planner::plan_rest`]) and sets each layer's wire feed so the
+//! re-plans the rest ([`waam_planner::plan_rest`]) and sets each deposit's wire feed so the
 //! height returns to nominal. Everything that happened is an [`Executed`] record.
 //!
 //! Modules: `closed_loop.rs` (the loop's decisions, step by step: what this cell and the
@@ -29,7 +29,7 @@ pub use closed_loop::{ClosedLoop, Decision, LoopOptions, MeasureError};
 pub use estimate::{Estimate, Measurement};
 pub use executed::{CheckError, Deposit, EstimateRecord, Executed, LayerRecord, PlanUsed};
 pub use measured::Measured;
-pub use truth::{CutShort, Noise, Truth, TruthError};
+pub use truth::{CutShort, HeightZone, Noise, Truth, TruthError};
 
 /// How the cell runs.
 #[derive(Debug, Clone)]
@@ -99,6 +99,7 @@ pub fn run(
         } else {
             (1.0, 1.0)
         },
+        wire_feed_per_deposit: true,
     };
     let mut cl = ClosedLoop::new(part, plan, loop_opts, planned_in_s)?;
     let nominal_h = part.block_mm[2];
@@ -126,8 +127,9 @@ pub fn run(
     let truth_model = ThermalModel::new(&truth_part, &graph);
     let mut sim = Simulation::new(&truth_model).with_threads(1);
     let mut noise = Noise::new(truth.seed, truth.noise_c);
-    // Per layer: the true heights deposited so far (the scan reads their mean).
-    let mut layer_heights: Vec<Vec<f64>> = vec![Vec::new(); part.layers().max(0) as usize];
+    // Each deposit's true top above the origin, mm: it stands on the mean top of its
+    // supports (the plate, or nominal, where it has none); the scan reads them.
+    let mut true_top: Vec<f64> = vec![0.0; part.len()];
     let (mut path, mut in_path) = (0usize, 0usize);
     while let Some((b, new)) = cl.next() {
         if opts
@@ -144,7 +146,7 @@ pub fn run(
             in_path = 0;
         }
         let z = part.block(b)[2] as usize;
-        let feed = cl.wire_feed(z);
+        let feed = cl.wire_feed(b);
         if new {
             sim.transit().expect("windows widened: no violation");
         }
@@ -155,7 +157,7 @@ pub fn run(
             sim.deposit(b, false)
         }
         .expect("windows widened: no violation");
-        let height_mm = nominal_h * truth.height_factor * feed;
+        let height_mm = nominal_h * truth.height_factor_at(part.centre_mm(part.block(b))) * feed;
         let duration_s = sim.time_s() - start_s;
         deposits.push(Deposit {
             block: part.block(b),
@@ -166,12 +168,21 @@ pub fn run(
             wire_feed: feed,
         });
         let layer_done = cl.deposited(b, new, start_s, duration_s)?;
-        layer_heights[z].push(height_mm);
+        let supports = graph.supports(b);
+        let base = if supports.is_empty() {
+            z as f64 * nominal_h
+        } else {
+            supports.iter().map(|&s| true_top[s as usize]).sum::<f64>() / supports.len() as f64
+        };
+        true_top[b] = base + height_mm;
         in_path += 1;
         if layer_done {
-            // The scan: the layer's mean height.
-            let h = layer_heights[z].iter().sum::<f64>() / layer_heights[z].len() as f64;
-            cl.layer_height(z, h);
+            // The scan: every deposit's top.
+            let tops: Vec<(usize, f64)> = (0..part.len())
+                .filter(|&i| part.block(i)[2] as usize == z)
+                .map(|i| (i, true_top[i]))
+                .collect();
+            cl.layer_tops(z, &tops);
         }
         let Some((_, next_new)) = cl.next() else {
             break;

@@ -18,6 +18,15 @@ pub struct CutShort {
     pub after: usize,
 }
 
+/// A box of the part frame (mm, bounds inclusive) whose deposits come out `factor` times
+/// the height asked for.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeightZone {
+    pub min_mm: [f64; 3],
+    pub max_mm: [f64; 3],
+    pub factor: f64,
+}
+
 /// The true cell.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Truth {
@@ -25,13 +34,22 @@ pub struct Truth {
     pub thermal: ThermalParams,
     /// Deposit height / the height the wire feed asks for (0.9: every deposit 10 % low).
     pub height_factor: f64,
+    /// Regions of the part with their own height factor (a cold fixture, a worn liner): a
+    /// deposit whose centre lies in one takes its factor (the last zone listed wins).
+    pub height_zones: Vec<HeightZone>,
     pub cut_short: Vec<CutShort>,
     /// Standard deviation of the temperature sensor's noise, °C (0: exact), and its seed.
     pub noise_c: f64,
     pub seed: u64,
 }
 
-const KEYS: [&str; 4] = ["thermal", "height_factor", "cut_short", "sensors"];
+const KEYS: [&str; 5] = [
+    "thermal",
+    "height_factor",
+    "height_zones",
+    "cut_short",
+    "sensors",
+];
 
 impl Truth {
     /// Reads TRUTH.yaml for `part`: every key optional (an empty file is the planner's own
@@ -82,10 +100,55 @@ impl Truth {
             None => 1.0,
             Some(v) => number(v, "height_factor")?,
         };
-        if !(0.1..=10.0).contains(&height_factor) {
-            return Err(bad(format!(
-                "height_factor: {height_factor} is outside 0.1 ..= 10"
-            )));
+        let factor_in_range = |f: f64, what: &str| {
+            if (0.1..=10.0).contains(&f) {
+                Ok(f)
+            } else {
+                Err(bad(format!("{what}: {f} is outside 0.1 ..= 10")))
+            }
+        };
+        let height_factor = factor_in_range(height_factor, "height_factor")?;
+        let zones = match map.get("height_zones") {
+            None | Some(Value::Null) => Vec::new(),
+            Some(Value::Sequence(s)) => s.clone(),
+            Some(v) => {
+                return Err(bad(format!(
+                    "height_zones: expected a list of {{min_mm, max_mm, factor}}, got {v:?}"
+                )))
+            }
+        };
+        let mut height_zones = Vec::new();
+        for (i, zone) in zones.iter().enumerate() {
+            let corner = |name: &str| -> Result<[f64; 3], TruthError> {
+                let what = format!("height_zones[{i}].{name}");
+                let list = zone
+                    .get(name)
+                    .and_then(Value::as_sequence)
+                    .filter(|l| l.len() == 3)
+                    .ok_or_else(|| bad(format!("{what}: expected [x, y, z] in mm")))?;
+                let mut out = [0.0; 3];
+                for (o, v) in out.iter_mut().zip(list) {
+                    *o = number(v, &what)?;
+                }
+                Ok(out)
+            };
+            let (min_mm, max_mm) = (corner("min_mm")?, corner("max_mm")?);
+            if (0..3).any(|d| min_mm[d] > max_mm[d]) {
+                return Err(bad(format!(
+                    "height_zones[{i}]: min_mm {min_mm:?} is above max_mm {max_mm:?} on some axis"
+                )));
+            }
+            let what = format!("height_zones[{i}].factor");
+            let factor = zone
+                .get("factor")
+                .ok_or_else(|| bad(format!("{what}: missing")))
+                .and_then(|v| number(v, &what))
+                .and_then(|f| factor_in_range(f, &what))?;
+            height_zones.push(HeightZone {
+                min_mm,
+                max_mm,
+                factor,
+            });
         }
         let mut cut_short = Vec::new();
         let faults = match map.get("cut_short") {
@@ -133,10 +196,20 @@ impl Truth {
         Ok(Truth {
             thermal,
             height_factor,
+            height_zones,
             cut_short,
             noise_c,
             seed,
         })
+    }
+
+    /// The height factor of a deposit centred at `centre_mm` (part frame).
+    pub fn height_factor_at(&self, centre_mm: [f64; 3]) -> f64 {
+        self.height_zones
+            .iter()
+            .rev()
+            .find(|z| (0..3).all(|d| (z.min_mm[d]..=z.max_mm[d]).contains(&centre_mm[d])))
+            .map_or(self.height_factor, |z| z.factor)
     }
 
     /// How many deposits weld path `path` (1-based) makes before its fault, if it has one.
@@ -207,12 +280,43 @@ mod tests {
     }
 
     #[test]
+    fn a_height_zone_gives_the_deposits_in_it_their_own_factor() {
+        let t = Truth::parse(
+            "height_factor: 0.9\nheight_zones:\n  - {min_mm: [0, -10, 0], max_mm: [6, 10, 100], factor: 0.8}\n  - {min_mm: [5, -10, 0], max_mm: [20, 10, 100], factor: 1.1}\n",
+            &part(),
+        )
+        .unwrap();
+        assert_eq!(t.height_factor_at([3.0, 0.0, 1.25]), 0.8);
+        // Bounds are inclusive; the later zone wins where two overlap.
+        assert_eq!(t.height_factor_at([6.0, 0.0, 1.25]), 1.1);
+        assert_eq!(t.height_factor_at([9.0, 0.0, 1.25]), 1.1);
+        assert_eq!(t.height_factor_at([30.0, 0.0, 1.25]), 0.9);
+    }
+
+    #[test]
     fn a_bad_truth_file_names_the_key() {
         for (text, says) in [
             ("thermal: {conduction: 1}", "unknown key"),
             ("thermal: {substrate_per_s: -1}", "thermal.substrate_per_s"),
             ("height_factor: x", "height_factor"),
             ("height_factor: 0", "outside"),
+            ("height_zones: 3", "height_zones: expected a list"),
+            (
+                "height_zones: [{min_mm: [0, 0], max_mm: [1, 1, 1], factor: 0.9}]",
+                "height_zones[0].min_mm",
+            ),
+            (
+                "height_zones: [{min_mm: [2, 0, 0], max_mm: [1, 1, 1], factor: 0.9}]",
+                "height_zones[0]: min_mm",
+            ),
+            (
+                "height_zones: [{min_mm: [0, 0, 0], max_mm: [1, 1, 1]}]",
+                "height_zones[0].factor: missing",
+            ),
+            (
+                "height_zones: [{min_mm: [0, 0, 0], max_mm: [1, 1, 1], factor: 20}]",
+                "outside",
+            ),
             ("cut_short: [{path: 0, after: 2}]", "cut_short[0].path"),
             ("sensors: {noise_c: -2}", "negative"),
             ("fault: 1", "unknown key"),

@@ -116,6 +116,40 @@ fn closed_loop_brings_the_height_back_when_every_layer_comes_out_ten_percent_low
 }
 
 #[test]
+fn closed_loop_brings_each_column_back_when_one_end_of_the_wall_comes_out_low() {
+    let part = wall(1000.0);
+    // The wall's left half (block centres x = 3, 9, 15 mm) deposits 15 % low.
+    let truth = "height_zones: [{min_mm: [0, -10, 0], max_mm: [18, 10, 100], factor: 0.85}]\n";
+    let column_tops = |e: &Executed| {
+        let mut tops = [0.0; 6];
+        for d in &e.deposits {
+            tops[d.block[0] as usize] += d.height_mm;
+        }
+        tops
+    };
+    let nominal = 4.0 * 2.5;
+    let open = column_tops(&execute(&part, truth, false));
+    let closed_run = execute(&part, truth, true);
+    let closed = column_tops(&closed_run);
+    for x in 0..6 {
+        let want_open = if x < 3 { 0.85 * nominal } else { nominal };
+        assert!(
+            (open[x] - want_open).abs() < 1e-9,
+            "open, column {x}: {open:?}"
+        );
+        assert!(
+            (closed[x] - nominal).abs() < 0.5,
+            "closed, column {x}: {closed:?}"
+        );
+    }
+    // The low end was fed more than the rest, within the process limits.
+    for d in closed_run.deposits.iter().filter(|d| d.block[2] > 0) {
+        assert!((0.7..=1.3).contains(&d.wire_feed), "{d:?}");
+        assert_eq!(d.wire_feed > 1.0 + 1e-9, d.block[0] < 3, "{d:?}");
+    }
+}
+
+#[test]
 fn a_weld_path_cut_short_halfway_is_re_planned_and_completed() {
     let part = wall(9.0);
     let truth = format!("{LOWER_LOSSES}cut_short: {{path: 1, after: 12}}\n");

@@ -28,6 +28,7 @@ fn options() -> LoopOptions {
     LoopOptions {
         planner: Options::default(),
         wire_feed: (0.7, 1.3),
+        wire_feed_per_deposit: true,
     }
 }
 
@@ -61,7 +62,7 @@ fn a_pyrometer_reading_is_the_deposit_under_the_torch_and_a_scan_the_layers_heig
     let mut layer_done = false;
     while !layer_done {
         let (b, new) = cl.next().unwrap();
-        let feed = cl.wire_feed(part.block(b)[2] as usize);
+        let feed = cl.wire_feed(b);
         assert_eq!(feed, 1.0, "the first layer gets the nominal feed");
         layer_done = cl.deposited(b, new, t, 1.0).unwrap();
         t += 1.0;
@@ -105,15 +106,69 @@ fn a_pyrometer_reading_is_the_deposit_under_the_torch_and_a_scan_the_layers_heig
     assert_eq!(layer.z, 0);
     assert!((layer.height_mm - 2.25).abs() < 1e-12, "{layer:?}");
     // The next layer gets the feed that makes it 2.5 + 0.25 mm high at a gain of 0.9.
-    let z1 = part.block(cl.next().unwrap().0)[2] as usize;
-    assert_eq!(z1, 1);
-    let feed = cl.wire_feed(1);
+    let (b1, _) = cl.next().unwrap();
+    assert_eq!(part.block(b1)[2], 1);
+    let feed = cl.wire_feed(b1);
     assert!((feed - 2.75 / 2.25).abs() < 1e-12, "{feed}");
     // The layer was scanned once: a second scan has no layer.
     assert!(matches!(
         cl.measured(&scan(2.25)),
         Err(MeasureError::NoLayer { .. })
     ));
+}
+
+/// The wall's first layer welded (every deposit at the feed it asked for) and scanned: its
+/// left half (x < 28 mm: blocks 0..3) came out 2.0 mm high, its right half 2.5 mm; two
+/// points over each block.
+fn first_layer_scanned(part: &Part, wire_feed_per_deposit: bool) -> ClosedLoop {
+    let plan = first_plan(part);
+    let opts = LoopOptions {
+        wire_feed_per_deposit,
+        ..options()
+    };
+    let mut cl = ClosedLoop::new(part, &plan, opts, 0.0).unwrap();
+    let mut t = 0.0;
+    while cl.deposits() < 6 {
+        let (b, new) = cl.next().unwrap();
+        cl.wire_feed(b);
+        cl.deposited(b, new, t, 1.0).unwrap();
+        t += 1.0;
+    }
+    let points: Vec<[f64; 3]> = (0..24)
+        .map(|i| {
+            let x = 10.75 + 1.5 * i as f64;
+            [x, 1.0, if x < 28.0 { 2.0 } else { 2.5 }]
+        })
+        .collect();
+    cl.measured(&Measured::Scan { stamp_s: t, points }).unwrap();
+    cl
+}
+
+#[test]
+fn each_deposit_gets_the_wire_feed_that_makes_up_the_height_missing_under_it() {
+    let part = wall();
+    let second: Vec<usize> = (0..6).map(|x| part.index_of([x, 0, 1]).unwrap()).collect();
+    let mut cl = first_layer_scanned(&part, true);
+    // Each block of the second layer makes up what is missing under it, at the gain
+    // measured under it: 0.5 mm at 0.8 on the left (feed 3/2 = 1.5, held at the process
+    // limit 1.3), nothing at 1.0 on the right.
+    assert_eq!(cl.path_feeds(&second), [1.3, 1.3, 1.3, 1.0, 1.0, 1.0]);
+    // Fixed once asked for.
+    assert_eq!(cl.wire_feed(second[0]), 1.3);
+    // The third layer, asked before the second was scanned, counts on the second's
+    // correction: on the left 2.0 + 2.5 * 0.8 * 1.3 = 4.6 mm expected under it (0.4 mm
+    // missing at 0.8: 1.45, held at 1.3); on the right nothing missing.
+    let third: Vec<usize> = (0..6).map(|x| part.index_of([x, 0, 2]).unwrap()).collect();
+    assert_eq!(cl.path_feeds(&third), [1.3, 1.3, 1.3, 1.0, 1.0, 1.0]);
+    // The layer's record: its median top over the plate, the mean feed it got.
+    let layer = &cl.layers()[0];
+    assert!((layer.height_mm - 2.25).abs() < 1e-12, "{layer:?}");
+    assert_eq!(layer.wire_feed, 1.0);
+    // A welder that holds one feed per weld path gets the mean of its deposits' for each.
+    let mut per_path = first_layer_scanned(&part, false);
+    let feeds = per_path.path_feeds(&second);
+    assert!(feeds.iter().all(|f| (f - 1.15).abs() < 1e-12), "{feeds:?}");
+    assert_eq!(per_path.wire_feed(second[5]), feeds[0]);
 }
 
 #[test]

@@ -17,6 +17,7 @@ pub mod scan;
 pub mod sensor;
 pub mod status;
 pub mod tf_buffer;
+pub mod wire_feed;
 
 /// The topics of node `waam_planner` (`~/name` resolves to `/waam_planner/name`). Recordings
 /// made by `waam plan --record` use the same names, so replay treats both alike.

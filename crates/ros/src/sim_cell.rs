@@ -31,6 +31,7 @@ use waam_rosbag::qos::Qos;
 use waam_rosmsg::builtin_interfaces::Time;
 use waam_rosmsg::sensor_msgs::{PointCloud2, Temperature};
 use waam_rosmsg::std_msgs::{Bool, Float64, Header};
+use waam_rosmsg::trajectory_msgs::JointTrajectory;
 use waam_rosmsg::waam_interfaces::{WeldPlan, WeldPoint};
 use waam_thermal::{Simulation, ThermalModel};
 
@@ -128,6 +129,8 @@ pub fn run(
         subscribe(&mut node, names, &topic("arc_on"), stream_qos())?;
     let (_, feeds): (_, Subscription<Float64>) =
         subscribe(&mut node, names, &topic("wire_feed"), stream_qos())?;
+    let (_, schedules): (_, Subscription<JointTrajectory>) =
+        subscribe(&mut node, names, &topic("wire_feed_schedule"), stream_qos())?;
     let pyrometer = Output::<Temperature>::new(
         &mut node,
         names,
@@ -176,9 +179,11 @@ pub fn run(
         sim: Simulation::new(&model).with_threads(1),
         noise: Noise::new(truth.seed, truth.noise_c),
         left_in_layer: layer_counts(part),
-        layer_mm: vec![None; part.layers().max(0) as usize],
+        top_mm: vec![0.0; part.len()],
+        graph: &graph,
         scanned: 0,
         feed: 1.0,
+        schedule: None,
     };
     tracing::info!(
         "simulated cell for {} ({} blocks) following {}: heat losses and heights of the true cell",
@@ -202,6 +207,9 @@ pub fn run(
         while let Ok(Some((feed, _))) = feeds.take() {
             cell.feed = feed.data;
         }
+        while let Ok(Some((msg, _))) = schedules.take() {
+            cell.schedule = waam_messages::wire_feed::schedule_feeds(&msg);
+        }
         let mut arc_changes = Vec::new();
         while let Ok(Some((arc, _))) = arcs.take() {
             arc_changes.push(arc.data);
@@ -218,10 +226,11 @@ pub fn run(
                         // After a fault nothing more of the path was welded.
                         let all = if faulted { read } else { path.blocks.len() };
                         cell.read(path, read..all, wall, &sensors);
+                        cell.schedule = None;
                         let before = cell.scanned;
                         cell.scan(&scanner);
                         tracing::info!(
-                            "weld path {}: {all} deposits read by the pyrometer at wire feed {:.3}; {} layer(s) scanned",
+                            "weld path {}: {all} deposits read by the pyrometer, struck at wire feed {:.3}; {} layer(s) scanned",
                             w + 1,
                             cell.feed,
                             cell.scanned - before
@@ -298,12 +307,16 @@ struct TrueCell<'a> {
     sim: Simulation<'a>,
     noise: Noise,
     left_in_layer: Vec<usize>,
-    /// Each layer's true height, mm (set by its first deposit's wire feed).
-    layer_mm: Vec<Option<f64>>,
+    /// Each deposit's true top above the origin, mm: the mean top of what it stands on
+    /// (nominal where nothing) plus its height, set by the wire feed it was welded at.
+    top_mm: Vec<f64>,
+    graph: &'a WeldGraph,
     /// Layers scanned so far (from the bottom).
     scanned: usize,
-    /// The wire feed the planner asked for, relative to nominal.
+    /// The wire feed the planner asked for, relative to nominal, and its feed per deposit
+    /// of the weld path under way.
     feed: f64,
+    schedule: Option<Vec<f64>>,
 }
 
 impl TrueCell<'_> {
@@ -334,7 +347,25 @@ impl TrueCell<'_> {
             }
             let z = self.part.block(b)[2] as usize;
             let nominal = self.part.block_mm[2];
-            self.layer_mm[z].get_or_insert(nominal * self.truth.height_factor * self.feed);
+            let supports = self.graph.supports(b);
+            let base = if supports.is_empty() {
+                z as f64 * nominal
+            } else {
+                supports
+                    .iter()
+                    .map(|&s| self.top_mm[s as usize])
+                    .sum::<f64>()
+                    / supports.len() as f64
+            };
+            let factor = self
+                .truth
+                .height_factor_at(self.part.centre_mm(self.part.block(b)));
+            let feed = self
+                .schedule
+                .as_ref()
+                .and_then(|s| s.get(j).copied())
+                .unwrap_or(self.feed);
+            self.top_mm[b] = base + nominal * factor * feed;
             self.left_in_layer[z] = self.left_in_layer[z].saturating_sub(1);
             let Some(celsius) = self.sim.temperatures().find(|&(o, _)| o == b).map(|t| t.1) else {
                 continue;
@@ -373,20 +404,16 @@ impl TrueCell<'_> {
     }
 
     /// A scan of every layer finished and not scanned yet, bottom first: its blocks' centres
-    /// at the layer's true top, in the part frame (metres).
+    /// at their true tops, in the part frame (metres).
     fn scan(&mut self, scanner: &Output<PointCloud2>) {
         while self.scanned < self.left_in_layer.len() && self.left_in_layer[self.scanned] == 0 {
             let z = self.scanned;
-            let top_mm = self.part.origin_mm[2]
-                + self.layer_mm[..=z]
-                    .iter()
-                    .map(|h| h.unwrap_or(self.part.block_mm[2]))
-                    .sum::<f64>();
             let points: Vec<[f32; 3]> = (0..self.part.len())
                 .filter(|&i| self.part.block(i)[2] as usize == z)
                 .map(|i| {
                     let c = self.part.centre_mm(self.part.block(i));
-                    [c[0], c[1], top_mm].map(|v| (v / 1000.0) as f32)
+                    [c[0], c[1], self.part.origin_mm[2] + self.top_mm[i]]
+                        .map(|v| (v / 1000.0) as f32)
                 })
                 .collect();
             let mut cloud =

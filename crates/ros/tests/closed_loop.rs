@@ -18,13 +18,13 @@ use waam_cell::estimate::{counting_part, scaled};
 use waam_cell::Measured;
 use waam_messages::replay::decisions::{self, DecisionVerdict};
 use waam_messages::status::JobStatus;
-use waam_messages::{sensor, topics};
+use waam_messages::{sensor, topics, wire_feed};
 use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
 use waam_part::{Part, ThermalParams};
 use waam_pipeline::{check_executed, Cell, ChosenPlan, Interrupt, Planned};
 use waam_ros::node::arc_fault::ArcFaults;
-use waam_ros::node::closed_loop::{steps_after, ReplanSetup};
+use waam_ros::node::closed_loop::{steps_after, FeedSchedule, ReplanSetup};
 use waam_ros::node::controller::{run_plan, ClosedLoopRun, Controller, ExecError, ExecOutputs};
 use waam_ros::node::execute::{plan_steps, Step};
 use waam_ros::node::io::Level;
@@ -40,6 +40,7 @@ use waam_thermal::{simulate, Simulation, ThermalModel};
 const TWO_WALLS: &str = include_str!("../../../tests/data/two-walls.yaml");
 const TEMPERATURE: &str = "/waam_planner/temperature";
 const WIRE_FEED: &str = "/waam_planner/wire_feed";
+const WIRE_FEED_SCHEDULE: &str = "/waam_planner/wire_feed_schedule";
 
 /// Follows each goal at once, its clock advancing by the goal's duration.
 struct InstantController {
@@ -89,6 +90,13 @@ impl ExecOutputs for Cell1 {
         if let Some(r) = &self.recorder {
             let msg = waam_rosmsg::std_msgs::Float64 { data: relative };
             r.record(WIRE_FEED, &Qos::reliable(10), &msg).unwrap();
+        }
+    }
+    fn wire_feed_schedule(&self, schedule: &FeedSchedule) {
+        if let Some(r) = &self.recorder {
+            let msg = wire_feed::schedule_msg(&schedule.starts_s, &schedule.feeds);
+            r.record(WIRE_FEED_SCHEDULE, &Qos::reliable(10), &msg)
+                .unwrap();
         }
     }
     fn arc(&self, on: bool) {
@@ -160,6 +168,7 @@ fn execute_closed(
         cell: cell.clone(),
         planner: waam_planner::Options::default(),
         wire_feed,
+        wire_feed_per_deposit: true,
         scan_margin_mm: 5.0,
     };
     let run = ClosedLoopRun {
@@ -486,9 +495,9 @@ fn a_recorded_closed_loop_execution_replays_its_decisions_identically() {
         .iter()
         .all(|r| matches!(r.verdict, DecisionVerdict::NotReproducible(_))));
 
-    // The height rule's decisions too: each weld path's wire feed is derived again, and a
-    // recorded one the loop would not have sent (the second weld path's) is a difference
-    // of the boundary before it.
+    // The height rule's decisions too: each weld path's wire feed per deposit is derived
+    // again, and a recorded one the loop would not have sent (the second weld path's third
+    // deposit's) is a difference of the boundary before it.
     let (executions, _) = decisions::recorded_executions(&bag).unwrap();
     assert_eq!(executions[0].wire_feeds.len(), boundaries + 1);
     assert!(
@@ -496,14 +505,25 @@ fn a_recorded_closed_loop_execution_replays_its_decisions_identically() {
         "{:?}",
         executions[0].wire_feeds
     );
-    let mut feeds = 0;
+    assert_eq!(executions[0].wire_feed_schedules.len(), boundaries + 1);
+    assert!(
+        executions[0].wire_feed_schedules.iter().all(|s| s
+            .as_ref()
+            .is_some_and(|s| s.len() >= 3 && s.iter().all(|&f| f == 1.0))),
+        "{:?}",
+        executions[0].wire_feed_schedules
+    );
+    let mut schedules = 0;
     let refed = copy(&tmp.path().join("refed"), &mut |topic, data| {
-        if topic != WIRE_FEED {
+        if topic != WIRE_FEED_SCHEDULE {
             return Some(data);
         }
-        feeds += 1;
-        let feed = if feeds == 2 { 1.05 } else { 1.0 };
-        Some(waam_rosmsg::to_cdr(&waam_rosmsg::std_msgs::Float64 { data: feed }).unwrap())
+        schedules += 1;
+        let mut msg: TrajectoryMsg = waam_rosmsg::from_cdr(&data).unwrap();
+        if schedules == 2 {
+            msg.points[2].positions[0] = 1.05;
+        }
+        Some(waam_rosmsg::to_cdr(&msg).unwrap())
     });
     let reports = replay(&refed);
     let DecisionVerdict::Different(d) = &reports[0].verdict else {
@@ -511,7 +531,7 @@ fn a_recorded_closed_loop_execution_replays_its_decisions_identically() {
     };
     assert_eq!(
         d.iter().map(|d| d.to_string()).collect::<Vec<_>>(),
-        ["wire feed of weld path 2: recorded 1.05, new 1"]
+        ["wire feed of weld path 2, deposit 3: recorded 1.05, new 1"]
     );
     assert!(reports[1..]
         .iter()
@@ -560,12 +580,13 @@ fn the_steps_after_a_weld_path_start_where_the_robot_stands_or_are_refused() {
     assert!(steps_after(&planned, &planned, 5, standing, 200).is_err());
 }
 
-/// A wall of 4 layers, one weld path each, on a cell whose beads come out 10 % low at the
-/// nominal wire feed (height proportional to wire feed); a line scanner measures the top
-/// when a weld path ends. `limits`: the wire feed the node may set. Returns the wire feeds
-/// the node sent, one per weld path as it began. (The first boundary's re-plan may weld the
-/// remaining layers in fewer weld paths: on a wall nothing stops it.)
-fn build_low_wall(limits: (f64, f64)) -> Vec<f64> {
+/// A wall of 4 layers, one weld path each, on a cell whose beads come out `factor(x, y)`
+/// times the height the wire feed asks for (height proportional to wire feed); a line
+/// scanner measures the top when a weld path ends. `limits`: the wire feed the node may
+/// set. Returns the wire feed schedules the node sent, one per weld path as it began, with
+/// the weld path's blocks. (The first boundary's re-plan may weld the remaining layers in
+/// fewer weld paths: on a wall nothing stops it.)
+fn build_low_wall(limits: (f64, f64), factor: fn([f64; 2]) -> f64) -> Vec<(Vec<usize>, Vec<f64>)> {
     const WALL: &str = "name: wall4\nblock_mm: [6, 6, 2.5]\nmax_fragments: 4\nlayers:\n- '######'\n- '######'\n- '######'\n- '######'\n";
     let part = Part::parse(WALL).unwrap();
     let fragments: Vec<Vec<usize>> = (0..4)
@@ -578,12 +599,22 @@ fn build_low_wall(limits: (f64, f64)) -> Vec<f64> {
             }
         })
         .collect();
-    build_low(part, fragments, limits)
+    build_low(part, fragments, limits, factor)
+}
+
+/// Beads 10 % low everywhere.
+fn ten_percent_low(_: [f64; 2]) -> f64 {
+    0.9
 }
 
 /// `part` welded by `fragments` (the first one layer 0, all of it) on the low cell of
 /// [`build_low_wall`]; the scan's points are the first layer's deposits' centres.
-fn build_low(part: Part, fragments: Vec<Vec<usize>>, limits: (f64, f64)) -> Vec<f64> {
+fn build_low(
+    part: Part,
+    fragments: Vec<Vec<usize>>,
+    limits: (f64, f64),
+    factor: fn([f64; 2]) -> f64,
+) -> Vec<(Vec<usize>, Vec<f64>)> {
     let layer0: Vec<[f64; 2]> = fragments[0]
         .iter()
         .map(|&i| {
@@ -600,32 +631,40 @@ fn build_low(part: Part, fragments: Vec<Vec<usize>>, limits: (f64, f64)) -> Vec<
     let cell = Cell::bundled();
     let planned = cell.motion(part.clone(), chosen).unwrap();
 
-    /// The cell's wire feed and deposit, and its scanner.
+    /// The cell's wire feeds and deposits, and its scanner.
     struct LowCell {
         layer0: Vec<[f64; 2]>,
+        factor: fn([f64; 2]) -> f64,
         clock: Arc<Mutex<f64>>,
         readings: Sender<Measured>,
-        feed: RefCell<f64>,
-        feeds: RefCell<Vec<f64>>,
-        top_mm: RefCell<f64>,
+        schedules: RefCell<Vec<Vec<f64>>>,
+        scanned: RefCell<bool>,
+        /// The plan's fragments as executed: re-plans replace what follows.
+        fragments: RefCell<Vec<Vec<usize>>>,
     }
     impl ExecOutputs for LowCell {
         fn wire_feed(&self, relative: f64) {
-            *self.feed.borrow_mut() = relative;
-            self.feeds.borrow_mut().push(relative);
+            // The feed to strike at: the schedule's first.
+            assert_eq!(Some(relative), self.schedules.borrow().last().map(|s| s[0]));
+        }
+        fn wire_feed_schedule(&self, schedule: &FeedSchedule) {
+            assert_eq!(schedule.starts_s.len(), schedule.feeds.len());
+            assert_eq!(schedule.starts_s[0], 0.0);
+            self.schedules.borrow_mut().push(schedule.feeds.clone());
         }
         fn arc(&self, on: bool) {
-            if on {
-                return;
-            }
             // Only the first weld path's layer is scanned: the second weld path's wire
-            // feed is what this test is about.
-            let mut top = self.top_mm.borrow_mut();
-            if *top > 0.0 {
+            // feeds are what this test is about.
+            if on || self.scanned.replace(true) {
                 return;
             }
-            *top += 0.9 * 2.5 * *self.feed.borrow();
-            let points = self.layer0.iter().map(|p| [p[0], p[1], *top]).collect();
+            let feeds = self.schedules.borrow()[0].clone();
+            let points = self
+                .layer0
+                .iter()
+                .zip(feeds)
+                .map(|(&p, feed)| [p[0], p[1], (self.factor)(p) * 2.5 * feed])
+                .collect();
             let _ = self.readings.send(Measured::Scan {
                 stamp_s: *self.clock.lock().unwrap(),
                 points,
@@ -633,42 +672,84 @@ fn build_low(part: Part, fragments: Vec<Vec<usize>>, limits: (f64, f64)) -> Vec<
         }
         fn status(&self, _status: JobStatus) {}
         fn log(&self, _level: Level, _message: &str) {}
-        fn plan(&self, _planned: &Planned) {}
+        fn plan(&self, planned: &Planned) {
+            *self.fragments.borrow_mut() = planned.found.fragments.clone();
+        }
     }
     let clock = Arc::new(Mutex::new(1000.0));
     let (tx, rx) = channel();
     let outputs = LowCell {
         layer0,
+        factor,
         clock: Arc::clone(&clock),
         readings: tx,
-        feed: RefCell::new(1.0),
-        feeds: RefCell::new(Vec::new()),
-        top_mm: RefCell::new(0.0),
+        schedules: RefCell::new(Vec::new()),
+        scanned: RefCell::new(false),
+        fragments: RefCell::new(planned.found.fragments.clone()),
     };
     let mut controller = InstantController {
         clock,
         goals: Arc::default(),
     };
     execute_closed(&planned, &mut controller, &outputs, &cell, limits, &rx);
-    outputs.feeds.into_inner()
+    let fragments = outputs.fragments.into_inner();
+    let schedules = outputs.schedules.into_inner();
+    assert_eq!(fragments.len(), schedules.len());
+    fragments.into_iter().zip(schedules).collect()
+}
+
+/// Each deposit's feed, by the layer of its block (weld paths may span layers).
+fn feeds_by_layer(schedules: &[(Vec<usize>, Vec<f64>)], per_layer: usize) -> Vec<Vec<f64>> {
+    let mut layers = Vec::new();
+    for (blocks, feeds) in schedules {
+        assert_eq!(blocks.len(), feeds.len());
+        for (&b, &f) in blocks.iter().zip(feeds) {
+            let z = b / per_layer;
+            layers.resize(layers.len().max(z + 1), Vec::new());
+            layers[z].push(f);
+        }
+    }
+    layers
 }
 
 #[test]
 fn a_layer_scanned_low_raises_the_next_weld_paths_wire_feed_within_the_limits() {
     // Limits 1 and 1 (the rule off): nominal throughout.
-    let feeds = build_low_wall((1.0, 1.0));
+    let schedules = build_low_wall((1.0, 1.0), ten_percent_low);
     assert!(
-        feeds.len() >= 2 && feeds.iter().all(|&f| f == 1.0),
-        "{feeds:?}"
+        schedules.len() >= 2 && schedules.iter().flat_map(|s| &s.1).all(|&f| f == 1.0),
+        "{schedules:?}"
     );
-    // The first layer at nominal (nothing measured yet) came out 2.25 mm of 2.5: the next
-    // weld path makes up the 0.25 mm missing at the gain measured, 2.75 / 2.25.
-    let feeds = build_low_wall((0.7, 1.3));
-    assert_eq!(feeds[0], 1.0);
-    assert!((feeds[1] - 2.75 / 2.25).abs() < 1e-9, "{feeds:?}");
+    // The first layer at nominal (nothing measured yet) came out 2.25 mm of 2.5: each
+    // deposit of the next layer makes up the 0.25 mm missing under it at the gain measured
+    // there, 2.75 / 2.25; the layers above (welded before the second layer's scan in this
+    // test) count on that correction: 1 / 0.9.
+    let layers = feeds_by_layer(&build_low_wall((0.7, 1.3), ten_percent_low), 6);
+    let want = [1.0, 2.75 / 2.25, 1.0 / 0.9, 1.0 / 0.9];
+    for (z, feeds) in layers.iter().enumerate() {
+        assert_eq!(feeds.len(), 6, "{layers:?}");
+        assert!(
+            feeds.iter().all(|f| (f - want[z]).abs() < 1e-9),
+            "{layers:?}"
+        );
+    }
     // Within the process limits.
-    let feeds = build_low_wall((0.9, 1.1));
-    assert_eq!(feeds[1], 1.1, "{feeds:?}");
+    let layers = feeds_by_layer(&build_low_wall((0.9, 1.1), ten_percent_low), 6);
+    assert!(layers[1].iter().all(|&f| f == 1.1), "{layers:?}");
+}
+
+#[test]
+fn a_layer_scanned_low_at_one_end_raises_the_wire_feed_of_that_end_only() {
+    // Beads over x < 18 mm (blocks x = 0, 1, 2) come out 20 % low: above them 0.5 mm is
+    // missing at a gain of 0.8 (1.5, held at the limit 1.3; the layers above still short:
+    // 1.3 again); nothing is missing at 1.0 on the rest.
+    let schedules = build_low_wall((0.7, 1.3), |p| if p[0] < 18.0 { 0.8 } else { 1.0 });
+    for (blocks, feeds) in &schedules[1..] {
+        for (&b, &f) in blocks.iter().zip(feeds) {
+            let want = if b % 6 < 3 { 1.3 } else { 1.0 };
+            assert_eq!(f, want, "block {b}: {schedules:?}");
+        }
+    }
 }
 
 /// The same on a graph part, the ring sliced into beads (4 layers of two rings), one weld
@@ -689,9 +770,13 @@ fn a_graph_part_scanned_low_raises_the_next_weld_paths_wire_feed() {
         }
     }
     assert_eq!(fragments.len(), 4, "one weld path a layer");
-    let feeds = build_low(part, fragments, (0.7, 1.3));
-    assert_eq!(feeds[0], 1.0);
-    assert!((feeds[1] - 2.75 / 2.25).abs() < 1e-9, "{feeds:?}");
+    let schedules = build_low(part.clone(), fragments, (0.7, 1.3), ten_percent_low);
+    assert!(schedules[0].1.iter().all(|&f| f == 1.0), "{schedules:?}");
+    for (&b, f) in schedules[1].0.iter().zip(&schedules[1].1) {
+        if part.block(b)[2] == 1 {
+            assert!((f - 2.75 / 2.25).abs() < 1e-9, "{schedules:?}");
+        }
+    }
 }
 
 /// Trajectory time of the end of deposit `j` of weld path `f` (its arc-off after the last),
@@ -734,6 +819,7 @@ fn a_weld_path_cut_short_halfway_is_re_planned_and_completed() {
         cell: cell.clone(),
         planner: waam_planner::Options::default(),
         wire_feed: (1.0, 1.0),
+        wire_feed_per_deposit: true,
         scan_margin_mm: 5.0,
     };
     let mut replanner = Replanner::new(&planned, setup).unwrap();
@@ -836,6 +922,7 @@ impl ExecOutputs for Told {
         self.arcs.borrow_mut().push(on);
     }
     fn wire_feed(&self, _relative: f64) {}
+    fn wire_feed_schedule(&self, _schedule: &FeedSchedule) {}
     fn status(&self, status: JobStatus) {
         let msg = status.to_msg(Time::now(), "/waam_planner");
         self.recorder
@@ -914,6 +1001,7 @@ fn an_arc_fault_stops_the_weld_goal_and_the_execution_goes_on_with_the_re_plan()
             cell: cell.clone(),
             planner: waam_planner::Options::default(),
             wire_feed: (1.0, 1.0),
+            wire_feed_per_deposit: true,
             scan_margin_mm: 5.0,
         },
         readings: &rx,
@@ -983,6 +1071,7 @@ fn an_arc_fault_in_the_last_deposits_second_half_is_an_ordinary_boundary() {
         cell,
         planner: waam_planner::Options::default(),
         wire_feed: (1.0, 1.0),
+        wire_feed_per_deposit: true,
         scan_margin_mm: 5.0,
     };
     let mut replanner = Replanner::new(&planned, setup).unwrap();

@@ -24,6 +24,7 @@ use waam_rosmsg::diagnostic_msgs::{DiagnosticArray, KeyValue};
 use waam_rosmsg::sensor_msgs::{PointCloud2, Temperature};
 use waam_rosmsg::std_msgs::Float64;
 use waam_rosmsg::tf2_msgs::TFMessage;
+use waam_rosmsg::trajectory_msgs::JointTrajectory;
 use waam_rosmsg::{from_cdr, RosMessage};
 
 use super::{diff_fragments, Difference};
@@ -112,6 +113,9 @@ pub struct BoundaryRecord {
     /// The wire feed limits of the height rule (`closed_loop.wire_feed_min`, `_max`); not
     /// in a recording of an older node (its wire feeds are then not re-derived).
     pub wire_feed_limits: Option<(f64, f64)>,
+    /// The welder took a feed per deposit (`closed_loop.wire_feed_per_deposit`); not in a
+    /// recording of an older node (whose rule set one feed per layer: not re-derived).
+    pub wire_feed_per_deposit: Option<bool>,
     /// The re-plan's time limit, s, if any: a re-plan it cut short is not reproducible.
     pub timeout_s: Option<f64>,
     /// The loop's decision: `replan`, `fault` or `kept` (no completion found).
@@ -187,6 +191,9 @@ impl BoundaryRecord {
         }
         if let Some((lo, hi)) = self.wire_feed_limits {
             out.push(kv("wire_feed_limits", format!("{lo} {hi}")));
+        }
+        if let Some(per_deposit) = self.wire_feed_per_deposit {
+            out.push(kv("wire_feed_per_deposit", per_deposit.to_string()));
         }
         out
     }
@@ -283,6 +290,9 @@ impl BoundaryRecord {
                     }
                 })
                 .transpose()?,
+            wire_feed_per_deposit: get("wire_feed_per_deposit")
+                .map(|_| flag("wire_feed_per_deposit"))
+                .transpose()?,
             timeout_s: match need("timeout_s")? {
                 "none" => None,
                 _ => Some(num("timeout_s")?),
@@ -322,6 +332,8 @@ pub struct RecordedExecution {
     /// first weld path's is the last before boundary 1, weld path k + 1's the first after
     /// boundary k (`None`: none recorded there).
     pub wire_feeds: Vec<Option<f64>>,
+    /// Each weld path's feed per deposit (`~/wire_feed_schedule`), placed as `wire_feeds`.
+    pub wire_feed_schedules: Vec<Option<Vec<f64>>>,
 }
 
 /// A sensor message as recorded.
@@ -351,8 +363,10 @@ pub fn recorded_executions(bag: &Bag) -> Result<(Vec<RecordedExecution>, Sensors
     let mut order: Vec<usize> = (0..bag.messages.len()).collect();
     order.sort_by_key(|&i| bag.messages[i].log_time);
     let mut executions: Vec<RecordedExecution> = Vec::new();
-    // (log time, relative wire feed) of every `~/wire_feed` message.
+    // (log time, relative wire feed) of every `~/wire_feed` message, and the same of every
+    // `~/wire_feed_schedule`.
     let mut feeds: Vec<(u64, f64)> = Vec::new();
+    let mut schedules: Vec<(u64, Vec<f64>)> = Vec::new();
     let mut sensors = Sensors {
         raw: Vec::new(),
         used: Vec::new(),
@@ -390,6 +404,12 @@ pub fn recorded_executions(bag: &Bag) -> Result<(Vec<RecordedExecution>, Sensors
             t if t == Float64::TYPE_NAME && topic.name.ends_with("/wire_feed") => {
                 let feed: Float64 = from_cdr(&m.data).map_err(decode_error)?;
                 feeds.push((m.log_time, feed.data));
+            }
+            t if t == JointTrajectory::TYPE_NAME && topic.name.ends_with("/wire_feed_schedule") => {
+                let msg: JointTrajectory = from_cdr(&m.data).map_err(decode_error)?;
+                if let Some(s) = crate::wire_feed::schedule_feeds(&msg) {
+                    schedules.push((m.log_time, s));
+                }
             }
             t if t == TFMessage::TYPE_NAME => {
                 let msg: TFMessage = from_cdr(&m.data).map_err(decode_error)?;
@@ -450,6 +470,7 @@ pub fn recorded_executions(bag: &Bag) -> Result<(Vec<RecordedExecution>, Sensors
                                     boundaries: Vec::new(),
                                     unreadable: vec![why],
                                     wire_feeds: Vec::new(),
+                                    wire_feed_schedules: Vec::new(),
                                 }),
                             }
                             continue;
@@ -471,6 +492,7 @@ pub fn recorded_executions(bag: &Bag) -> Result<(Vec<RecordedExecution>, Sensors
                             boundaries: vec![boundary],
                             unreadable: Vec::new(),
                             wire_feeds: Vec::new(),
+                            wire_feed_schedules: Vec::new(),
                         }),
                     }
                 }
@@ -491,10 +513,14 @@ pub fn recorded_executions(bag: &Bag) -> Result<(Vec<RecordedExecution>, Sensors
         let end = starts.get(i + 1).copied().unwrap_or(u64::MAX);
         let before = feeds.iter().rev().find(|f| f.0 < first.log_time);
         e.wire_feeds.push(before.map(|f| f.1));
+        let before = schedules.iter().rev().find(|f| f.0 < first.log_time);
+        e.wire_feed_schedules.push(before.map(|f| f.1.clone()));
         for (k, b) in e.boundaries.iter().enumerate() {
             let next = e.boundaries.get(k + 1).map_or(end, |n| n.log_time);
             let after = feeds.iter().find(|f| b.log_time <= f.0 && f.0 < next);
             e.wire_feeds.push(after.map(|f| f.1));
+            let after = schedules.iter().find(|f| b.log_time <= f.0 && f.0 < next);
+            e.wire_feed_schedules.push(after.map(|f| f.1.clone()));
         }
     }
     Ok((executions, sensors))
@@ -625,6 +651,8 @@ pub enum DecisionDifference {
     /// decision.
     WireFeed {
         weld_path: usize,
+        /// Its deposit (1-based).
+        deposit: usize,
         recorded: f64,
         new: f64,
     },
@@ -650,11 +678,12 @@ impl fmt::Display for DecisionDifference {
             DecisionDifference::Plan(d) => write!(f, "plan: {d}"),
             DecisionDifference::WireFeed {
                 weld_path,
+                deposit,
                 recorded,
                 new,
             } => write!(
                 f,
-                "wire feed of weld path {weld_path}: recorded {recorded}, new {new}"
+                "wire feed of weld path {weld_path}, deposit {deposit}: recorded {recorded}, new {new}"
             ),
             DecisionDifference::Inputs(why) => write!(f, "inputs: {why}"),
         }
@@ -772,12 +801,18 @@ pub fn replay_execution(
         .boundaries
         .first()
         .and_then(|b| b.record.wire_feed_limits);
+    let per_deposit = execution
+        .boundaries
+        .first()
+        .and_then(|b| b.record.wire_feed_per_deposit);
+    let limits = limits.filter(|_| per_deposit.is_some());
     let opts = LoopOptions {
         planner: waam_planner::Options {
             timeout: None,
             ..planner.clone()
         },
         wire_feed: limits.unwrap_or((1.0, 1.0)),
+        wire_feed_per_deposit: per_deposit.unwrap_or(false),
     };
     let not_run = |b: &RecordedBoundary, why: String| DecisionReport {
         boundary: b.clone(),
@@ -808,7 +843,7 @@ pub fn replay_execution(
     let mut stop: Option<String> = None;
     // The first weld path's wire feed, asked before anything was welded (as the node did).
     let mut feed_diffs = limits
-        .and_then(|_| feed_difference(&mut closed, part, execution, 0))
+        .and_then(|_| feed_difference(&mut closed, execution, 0))
         .into_iter()
         .collect::<Vec<_>>();
     let mut welded = 0;
@@ -923,7 +958,7 @@ pub fn replay_execution(
         // The next weld path's wire feed (the node asks before its arc strikes; no reading
         // is fed in between), held against this boundary's decision.
         if limits.is_some() && stop.is_none() {
-            feed_diffs.extend(feed_difference(&mut closed, part, execution, welded));
+            feed_diffs.extend(feed_difference(&mut closed, execution, welded));
         }
         if let Some(report) = reports.last_mut() {
             let feeds = std::mem::take(&mut feed_diffs);
@@ -943,24 +978,34 @@ pub fn replay_execution(
     reports
 }
 
-/// Weld path `f + 1`'s wire feed as the loop derives it now, against the one recorded
-/// (nothing when it agrees bit for bit, or when none was recorded or the plan has no such
-/// weld path).
+/// Weld path `f + 1`'s wire feeds as the loop derives them now, against those recorded:
+/// its schedule deposit by deposit, or without one the feed it struck at (nothing when they
+/// agree bit for bit, or when none was recorded or the plan has no such weld path).
 fn feed_difference(
     closed: &mut ClosedLoop,
-    part: &Part,
     execution: &RecordedExecution,
     f: usize,
 ) -> Option<DecisionDifference> {
-    let recorded = (*execution.wire_feeds.get(f)?)?;
-    let &first = closed.fragments().get(f)?.first()?;
-    let z = usize::try_from(part.block(first)[2]).ok()?;
-    let new = closed.wire_feed(z);
-    (new.to_bits() != recorded.to_bits()).then_some(DecisionDifference::WireFeed {
-        weld_path: f + 1,
-        recorded,
-        new,
-    })
+    let schedule = execution.wire_feed_schedules.get(f).cloned().flatten();
+    let blocks = closed.fragments().get(f)?.clone();
+    let mut new = closed.path_feeds(&blocks);
+    let recorded = match schedule {
+        Some(schedule) => schedule,
+        None => {
+            new.truncate(1);
+            vec![(*execution.wire_feeds.get(f)?)?]
+        }
+    };
+    // A feed only one side has differs (NaN on the other).
+    let at = |v: &[f64], k: usize| v.get(k).copied().unwrap_or(f64::NAN);
+    (0..recorded.len().max(new.len()))
+        .find(|&k| at(&recorded, k).to_bits() != at(&new, k).to_bits())
+        .map(|k| DecisionDifference::WireFeed {
+            weld_path: f + 1,
+            deposit: k + 1,
+            recorded: at(&recorded, k),
+            new: at(&new, k),
+        })
 }
 
 /// The job a recorded "received" status names, from its values.
@@ -1065,6 +1110,7 @@ mod tests {
             plan: Some(vec![vec![[0, 0, 0], [1, 0, 0]]]),
             scan_margin_mm: 5.0,
             wire_feed_limits: Some((0.7, 1.3)),
+            wire_feed_per_deposit: Some(true),
             timeout_s: None,
             decision: "replan".into(),
             changed: true,

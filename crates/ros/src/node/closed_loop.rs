@@ -29,7 +29,8 @@ use super::execute::{plan_steps, Step};
 
 /// What the closed loop re-plans with: the cell the plans are made in and the planner's
 /// options (its time limit bounds each re-plan; its cancel flag is the execution's), and
-/// the wire feed the height rule may set, relative to nominal (the process limits). The
+/// the wire feed the height rule may set, relative to nominal (the process limits), per
+/// deposit or per weld path (what the welder takes). The
 /// scan margin the sensors check scans with is recorded with each decision (a replay
 /// places the recorded scans with it).
 #[derive(Clone)]
@@ -37,7 +38,17 @@ pub struct ReplanSetup {
     pub cell: Cell,
     pub planner: waam_planner::Options,
     pub wire_feed: (f64, f64),
+    pub wire_feed_per_deposit: bool,
     pub scan_margin_mm: f64,
+}
+
+/// A weld path's wire feeds: each deposit's start, s after the arc strikes (on the
+/// trajectory's time line), and its feed relative to nominal; the layer it begins in.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FeedSchedule {
+    pub layer: i64,
+    pub starts_s: Vec<f64>,
+    pub feeds: Vec<f64>,
 }
 
 /// How a boundary ended.
@@ -230,6 +241,7 @@ impl Replanner {
         let opts = LoopOptions {
             planner: setup.planner.clone(),
             wire_feed: setup.wire_feed,
+            wire_feed_per_deposit: setup.wire_feed_per_deposit,
         };
         let closed = ClosedLoop::new(&planned.part, &planned.found.fragments, opts, 0.0)?;
         Ok(Replanner {
@@ -243,14 +255,23 @@ impl Replanner {
         })
     }
 
-    /// The wire feed (relative to nominal) for weld path `fragment` of `planned`, about to
-    /// start, and the layer it is set for: the height rule's for the layer of the weld
-    /// path's first deposit (what the scans of the layers below asked for). The welder
-    /// keeps it for the whole weld path: it changes only while the arc is off.
-    pub fn wire_feed(&mut self, planned: &Planned, fragment: usize) -> Option<(i64, f64)> {
-        let &first = planned.found.fragments.get(fragment)?.first()?;
-        let z = planned.part.block(first)[2];
-        Some((z, self.closed.wire_feed(usize::try_from(z).ok()?)))
+    /// The wire feeds (relative to nominal) of weld path `fragment` of `planned`, about to
+    /// start: the height rule's for each deposit (what the scans of the deposits under them
+    /// asked for; their mean for each with a welder that holds one feed per weld path).
+    pub fn wire_feeds(&mut self, planned: &Planned, fragment: usize) -> Option<FeedSchedule> {
+        let blocks = planned.found.fragments.get(fragment)?;
+        let starts = planned
+            .toolpath
+            .executed_times()
+            .deposits_s
+            .get(fragment)?
+            .clone();
+        let (&first, &on) = (blocks.first()?, starts.first()?);
+        Some(FeedSchedule {
+            layer: planned.part.block(first)[2],
+            starts_s: starts.iter().map(|t| t - on).collect(),
+            feeds: self.closed.path_feeds(blocks),
+        })
     }
 
     /// Weld path `fragment` of `planned` was welded by a goal that began at `goal_start_s`
@@ -401,6 +422,7 @@ impl Replanner {
             plan,
             scan_margin_mm: self.setup.scan_margin_mm,
             wire_feed_limits: Some(self.setup.wire_feed),
+            wire_feed_per_deposit: Some(self.setup.wire_feed_per_deposit),
             timeout_s: self.setup.planner.timeout.map(|t| t.as_secs_f64()),
             decision: decision.reason.into(),
             changed: decision.changed,

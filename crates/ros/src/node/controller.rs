@@ -6,7 +6,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use super::arc_fault::ArcFaults;
-use super::closed_loop::{Outcome, Replan, ReplanSetup, Replanner};
+use super::closed_loop::{FeedSchedule, Outcome, Replan, ReplanSetup, Replanner};
 use super::execute::{oversized_welds, plan_steps, Step};
 use super::execute_action::ExecutePlanFeedback;
 use super::io::{Level, Outputs};
@@ -70,8 +70,11 @@ pub type OnChunk = Box<dyn Fn(ExecutePlanFeedback) + Send>;
 pub trait ExecOutputs {
     /// `~/arc_on`.
     fn arc(&self, on: bool);
-    /// `~/wire_feed` (closed loop): the next weld path's wire feed, relative to nominal.
+    /// `~/wire_feed` (closed loop): the wire feed the next weld path strikes at, relative
+    /// to nominal.
     fn wire_feed(&self, relative: f64);
+    /// `~/wire_feed_schedule` (closed loop): the next weld path's feed per deposit.
+    fn wire_feed_schedule(&self, schedule: &FeedSchedule);
     /// `~/status`.
     fn status(&self, status: JobStatus);
     fn log(&self, level: Level, message: &str);
@@ -87,6 +90,11 @@ impl ExecOutputs for Outputs {
     fn wire_feed(&self, relative: f64) {
         self.wire_feed
             .publish(&Float64 { data: relative }, self.recorder.as_ref());
+    }
+    fn wire_feed_schedule(&self, schedule: &FeedSchedule) {
+        let msg = waam_messages::wire_feed::schedule_msg(&schedule.starts_s, &schedule.feeds);
+        self.wire_feed_schedule
+            .publish(&msg, self.recorder.as_ref());
     }
     fn status(&self, status: JobStatus) {
         self.publish_status(&status);
@@ -193,8 +201,8 @@ pub fn run_plan(
             i += 1;
             match step {
                 Step::Arc(on) => {
-                    // The wire feed goes out before the arc strikes: the welder takes it
-                    // for the whole weld path.
+                    // The wire feeds go out before the arc strikes: the schedule, and the
+                    // feed to strike at.
                     let next_weld = steps[i..]
                         .iter()
                         .find_map(|s| match s {
@@ -203,13 +211,22 @@ pub fn run_plan(
                         })
                         .flatten();
                     if let (true, Some(cl), Some(f)) = (on, replanner.as_mut(), next_weld) {
-                        if let Some((z, feed)) = cl.wire_feed(&current, f) {
-                            outputs.wire_feed(feed);
+                        if let Some(schedule) = cl.wire_feeds(&current, f) {
+                            outputs.wire_feed_schedule(&schedule);
+                            outputs.wire_feed(schedule.feeds[0]);
+                            let (lo, hi) = schedule
+                                .feeds
+                                .iter()
+                                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+                                    (lo.min(v), hi.max(v))
+                                });
                             outputs.log(
                                 Level::Info,
                                 &format!(
-                                    "part {job}: weld path {} (layer {z}) at wire feed {feed:.3} x nominal",
-                                    f + 1
+                                    "part {job}: weld path {} (from layer {}) at wire feed {lo:.3}..{hi:.3} x nominal over {} deposits",
+                                    f + 1,
+                                    schedule.layer,
+                                    schedule.feeds.len()
                                 ),
                             );
                         }

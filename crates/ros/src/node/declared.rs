@@ -232,6 +232,8 @@ pub static DECLARED: &[Declared] = &[
         "Out: std_msgs/Bool, the arc state during execution", ""),
     declare!("topics.wire_feed", topics.wire_feed: String, AT_START, Range::None,
         "Out: std_msgs/Float64, with the closed loop: the wire feed of the weld path about to start, relative to nominal", ""),
+    declare!("topics.wire_feed_schedule", topics.wire_feed_schedule: String, AT_START, Range::None,
+        "Out: trajectory_msgs/JointTrajectory, with the closed loop, before each weld path's arc strikes: one point per deposit, joint \"wire_feed\", its feed relative to nominal at its start (time from the arc strike)", ""),
     declare!("topics.joint_states", topics.joint_states: String, AT_START, Range::None,
         "Out (dry run): sensor_msgs/JointState of the simulated robot", ""),
     declare!("execution.enabled", execution.enabled: bool, AT_START, Range::None,
@@ -294,6 +296,9 @@ pub static DECLARED: &[Declared] = &[
     declare!("closed_loop.wire_feed_max", closed_loop.wire_feed_max: f64, AT_START,
         Range::Float(1.0, 10.0),
         "The most wire feed the height rule may set, relative to nominal (process limit)", ""),
+    declare!("closed_loop.wire_feed_per_deposit", closed_loop.wire_feed_per_deposit: bool,
+        AT_START, Range::None,
+        "The welder follows ~/wire_feed_schedule, a feed per deposit; false: it holds ~/wire_feed for the whole weld path (the mean of its deposits' feeds)", ""),
 ];
 
 /// The declared parameter `name`.

@@ -128,8 +128,10 @@ pub struct Outputs {
     pub weld_plan: Output<WeldPlan>,
     pub status: Output<DiagnosticArray>,
     pub arc_on: Output<Bool>,
-    /// With the closed loop: each weld path's wire feed, relative to nominal.
+    /// With the closed loop: the wire feed each weld path strikes at, relative to nominal,
+    /// and its feed per deposit.
     pub wire_feed: Output<Float64>,
+    pub wire_feed_schedule: Output<JointTrajectory>,
     /// Dry run only.
     pub joint_states: Option<Output<JointState>>,
     logger: NodeLoggingHandle,
@@ -177,6 +179,13 @@ impl Outputs {
                 node,
                 names,
                 &topics.wire_feed,
+                stream_qos(),
+                Qos::reliable(10),
+            )?,
+            wire_feed_schedule: Output::new(
+                node,
+                names,
+                &topics.wire_feed_schedule,
                 stream_qos(),
                 Qos::reliable(10),
             )?,

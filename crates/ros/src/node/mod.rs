@@ -533,6 +533,7 @@ fn replan_setup(
                 params.closed_loop.wire_feed_min,
                 params.closed_loop.wire_feed_max,
             ),
+            wire_feed_per_deposit: params.closed_loop.wire_feed_per_deposit,
             scan_margin_mm: params.closed_loop.scan_margin_mm,
         })
 }

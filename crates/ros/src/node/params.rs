@@ -93,6 +93,7 @@ pub struct TopicParams {
     pub status: String,
     pub arc_on: String,
     pub wire_feed: String,
+    pub wire_feed_schedule: String,
     pub joint_states: String,
 }
 
@@ -168,6 +169,9 @@ pub struct ClosedLoopParams {
     /// nominal schedule: the process limits (1 and 1: the rule is off).
     pub wire_feed_min: f64,
     pub wire_feed_max: f64,
+    /// The welder takes a wire feed per deposit along a weld path (`~/wire_feed_schedule`);
+    /// false: one per weld path (`~/wire_feed`), the mean of its deposits'.
+    pub wire_feed_per_deposit: bool,
 }
 
 impl Default for ClosedLoopParams {
@@ -185,6 +189,7 @@ impl Default for ClosedLoopParams {
             thermal_camera_period_s: 0.0,
             wire_feed_min: 0.7,
             wire_feed_max: 1.3,
+            wire_feed_per_deposit: true,
         }
     }
 }
@@ -222,6 +227,7 @@ impl Default for TopicParams {
             status: "~/status".into(),
             arc_on: "~/arc_on".into(),
             wire_feed: "~/wire_feed".into(),
+            wire_feed_schedule: "~/wire_feed_schedule".into(),
             joint_states: "/joint_states".into(),
         }
     }
