@@ -212,6 +212,12 @@ pub fn run(args: SimCellArgs, global: &super::GlobalArgs) -> anyhow::Result<Exit
             )
         }
     );
+    if let Some(last) = executed.layers.last() {
+        println!(
+            "height: the top layer's deposits from {:.2} to {:.2} mm",
+            last.tops_mm[0], last.tops_mm[1]
+        );
+    }
     let code = match &on_truth.violation {
         None => {
             println!("TRUE MODEL: every t8/5 window kept");

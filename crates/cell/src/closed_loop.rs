@@ -395,11 +395,17 @@ impl ClosedLoop {
         let height_mm = median_top - below;
         self.gain = median(gains).unwrap_or(height_mm / (nominal * feed));
         self.scanned[z] = true;
+        let tops = layer.iter().filter_map(|&b| self.top_mm[b]);
+        let tops_mm = [
+            tops.clone().fold(f64::INFINITY, f64::min),
+            tops.fold(f64::NEG_INFINITY, f64::max),
+        ];
         self.layers.push(LayerRecord {
             z: z as i64,
             nominal_mm: nominal,
             height_mm,
             wire_feed: feed,
+            tops_mm,
         });
     }
 

@@ -49,13 +49,16 @@ pub struct EstimateRecord {
     pub latency_s: f64,
 }
 
-/// One layer's measured height.
+/// One layer's measured height (its median top over the layers below), the mean wire feed
+/// its deposits got, and the lowest and highest top of its deposits above the origin (mm;
+/// the spread a single height hides).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LayerRecord {
     pub z: i64,
     pub nominal_mm: f64,
     pub height_mm: f64,
     pub wire_feed: f64,
+    pub tops_mm: [f64; 2],
 }
 
 /// The whole execution.
