@@ -271,21 +271,15 @@ fn search_plans(
                     0 => portfolio::cores(),
                     n => n,
                 };
-                // First the plan changed around the window the simulator names (half of
-                // that time), then the portfolio's other starts and covers.
-                let quarter_left = constructive::Limits {
-                    deadline: half_left.deadline.map(|d| {
-                        let now = Instant::now();
-                        now + d.saturating_duration_since(now) / 2
-                    }),
-                    cancel: limits.cancel.clone(),
-                };
+                // First the plan changed around the window the simulator names (it stops
+                // by itself when no change gets further), then the portfolio's other
+                // starts and covers in what is left of that time.
                 let repair = repair::Repair {
                     part,
                     graph: &graph,
                     k,
                     model: &base,
-                    limits: &quarter_left,
+                    limits: &half_left,
                     workers,
                 };
                 let portfolio = portfolio::Portfolio {

@@ -11,10 +11,15 @@
 //! differ only from some layer on. The changes at a piece: the rest of its weld path
 //! mirrored over the piece's footprint (a ring: the other way round from the same start; an
 //! open path: from its other end), and, while fewer than k weld paths are used, a new weld
-//! path from there on, as it was or mirrored. Which piece and change is kept is the
-//! simulator's verdict (the furthest first broken window, counted in blocks welded): no
-//! threshold, and the candidates of a step are judged all, so the choice does not depend on
-//! the thread count.
+//! path from there on, as it was or mirrored. A ring piece where a weld path starts (or may
+//! start: the broken block's piece and the one under it) may also start further round: a path
+//! climbing a tube keeps its seam near where it started, and a block's t8/5 depends on how
+//! far it lies from the seam (just before it, the block above comes soon, while the block
+//! is still hot; across the tube, a lap later), so the rotations tried put the start at
+//! the broken block's column and 1, 2, 4, ... blocks either side. Which piece and change is
+//! kept is the simulator's verdict (the furthest first broken window, counted in blocks
+//! welded): no threshold, and the candidates of a step are judged all, so the choice does
+//! not depend on the thread count.
 
 use std::collections::{HashMap, HashSet};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -84,6 +89,10 @@ enum Change {
     Mirror,
     NewPath,
     NewPathMirrored,
+    /// A ring piece started `r` blocks further round (same way round), the rest of its
+    /// weld path rotated with it: at a weld path's first piece in place, elsewhere as a
+    /// new weld path.
+    Rotate(usize),
 }
 
 impl Repair<'_> {
@@ -120,12 +129,25 @@ impl Repair<'_> {
             let seq = sequence(&plan);
             let anchor = self.first_piece_to_change(&pieces, &seq, broken.block);
             let from = anchor.saturating_sub(back);
+            // The broken block's own piece (the anchor's or a later one).
+            let own = seq
+                .iter()
+                .position(|&(b, _)| b == broken.block)
+                .and_then(|at| pieces.iter().rposition(|p| p.at <= at))
+                .unwrap_or(anchor);
+            let around = pieces[anchor].at..=pieces[own.max(anchor)].at;
             let candidates: Vec<(Piece, Change, Vec<Vec<usize>>)> = pieces[from..]
                 .iter()
                 .filter(|p| p.at < broken.blocks)
                 .flat_map(|&p| {
+                    let rotations = if p.i == 0 || around.contains(&p.at) {
+                        self.rotations(&plan, p, broken.block)
+                    } else {
+                        Vec::new()
+                    };
                     [Change::Mirror, Change::NewPath, Change::NewPathMirrored]
                         .into_iter()
+                        .chain(rotations.into_iter().map(Change::Rotate))
                         .map(move |c| (p, c))
                 })
                 .filter(|&(p, c)| tried.insert((p.at, c)))
@@ -142,12 +164,37 @@ impl Repair<'_> {
                 back = (2 * back).max(1);
                 continue;
             }
-            let (now, verdicts) = self.judge(&seq, &candidates, &mut saved, step == 1);
-            if verdicts.iter().any(Option::is_none) && self.limits.stopped() {
-                return None;
+            // The rotations (many, each re-simulating a weld path from its start) are
+            // judged only when no mirror or new weld path keeps every window.
+            let (plain, rotated): (Vec<_>, Vec<_>) = candidates
+                .into_iter()
+                .partition(|(_, c, _)| !matches!(c, Change::Rotate(_)));
+            let mut candidates = Vec::new();
+            let mut verdicts = Vec::new();
+            for batch in [plain, rotated] {
+                if batch.is_empty() {
+                    continue;
+                }
+                let measure = step == 1 && candidates.is_empty();
+                let (now, judged) = self.judge(&seq, &batch, &mut saved, measure);
+                if judged.iter().any(Option::is_none) && self.limits.stopped() {
+                    return None;
+                }
+                if let Some(Err(now)) = now.filter(|_| measure) {
+                    broken = now;
+                }
+                candidates.extend(batch);
+                verdicts.extend(judged);
+                if verdicts.iter().any(|v| matches!(v, Some(Ok(())))) {
+                    break;
+                }
             }
-            if let Some(Err(now)) = now.filter(|_| step == 1) {
-                broken = now;
+            for ((p, c, _), v) in candidates.iter().zip(&verdicts) {
+                tracing::trace!(
+                    "warm-start repair: step {step}: {c:?} at piece {} ({} blocks in): {v:?}",
+                    p.at,
+                    p.i
+                );
             }
             // A plan that keeps every window (the first such); else the one that breaks
             // one latest (ties: the first), if later than now.
@@ -223,6 +270,37 @@ impl Repair<'_> {
         pieces.iter().rposition(|p| p.at <= at).unwrap_or(0)
     }
 
+    /// The rotations worth trying of a ring piece (a weld path's first, or where a new
+    /// weld path may start, next to the broken block): those that start it at the ring block nearest to the broken
+    /// block's column, and 1, 2, 4, ... blocks either side of it. Where a ring starts is
+    /// where its seam lies, and a weld path climbing a tube keeps its seam near there: a
+    /// block just before the seam gets the block above it soon after, hot (long t8/5),
+    /// one far from it only after a lap (short). None on a piece that is no ring.
+    fn rotations(&self, plan: &[Vec<usize>], piece: Piece, broken: usize) -> Vec<usize> {
+        let blocks = &plan[piece.f][piece.i..piece.j];
+        let n = blocks.len();
+        if !is_ring(self.graph, blocks) {
+            return Vec::new();
+        }
+        let [bx, by, _] = self.part.block(broken);
+        let nearest = (0..n)
+            .min_by_key(|&m| {
+                let [x, y, _] = self.part.block(blocks[m]);
+                ((x - bx).abs() + (y - by).abs(), m)
+            })
+            .expect("a ring has blocks");
+        let mut out: Vec<usize> = std::iter::once(0)
+            .chain(
+                std::iter::successors(Some(1usize), |d| Some(2 * d)).take_while(|&d| d < n / 2 + 1),
+            )
+            .flat_map(|d| [(nearest + d) % n, (nearest + n - d % n) % n])
+            .filter(|&r| r != 0)
+            .collect();
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
     /// `plan` with `change` made at `piece`; `None` when that is not a valid plan.
     fn changed(
         &self,
@@ -230,21 +308,33 @@ impl Repair<'_> {
         piece: Piece,
         change: Change,
     ) -> Option<Vec<Vec<usize>>> {
-        let new_path = matches!(change, Change::NewPath | Change::NewPathMirrored);
+        let new_path = match change {
+            Change::NewPath | Change::NewPathMirrored => true,
+            Change::Rotate(_) => piece.i > 0,
+            Change::Mirror => false,
+        };
         if new_path && (piece.i == 0 || plan.len() >= self.k) {
             return None;
         }
         let mut tail = plan[piece.f][piece.i..].to_vec();
-        if matches!(change, Change::Mirror | Change::NewPathMirrored) {
-            let map = mirror(self.part, self.graph, &plan[piece.f][piece.i..piece.j])?;
+        let blocks = &plan[piece.f][piece.i..piece.j];
+        let map = match change {
+            Change::Mirror | Change::NewPathMirrored => {
+                Some(mirror(self.part, self.graph, blocks)?)
+            }
+            Change::Rotate(r) => Some(rotation(self.part, self.graph, blocks, r)?),
+            Change::NewPath => None,
+        };
+        if let Some(map) = map {
             for b in &mut tail {
                 let [x, y, z] = self.part.block(*b);
                 let &(x, y) = map.get(&(x, y))?;
                 *b = self.part.index_of([x, y, z])?;
             }
-            if tail == plan[piece.f][piece.i..] {
-                return None;
-            }
+        }
+        // A change that changes nothing (a new weld path changes where one starts).
+        if !new_path && tail == plan[piece.f][piece.i..] {
+            return None;
         }
         let mut out = plan.to_vec();
         out[piece.f].truncate(piece.i);
@@ -373,6 +463,35 @@ fn pieces(part: &Part, plan: &[Vec<usize>]) -> Vec<Piece> {
     out
 }
 
+/// Whether a piece is a ring: at least three blocks, its ends weld to each other.
+fn is_ring(graph: &WeldGraph, piece: &[usize]) -> bool {
+    let n = piece.len();
+    n >= 3 && (graph.has_edge(piece[n - 1], piece[0]) || graph.has_edge(piece[0], piece[n - 1]))
+}
+
+/// The rotation of a ring piece's footprint by `r` blocks: block m goes where block m + r
+/// was. `None` on a piece that is no ring.
+fn rotation(
+    part: &Part,
+    graph: &WeldGraph,
+    piece: &[usize],
+    r: usize,
+) -> Option<HashMap<(i64, i64), (i64, i64)>> {
+    if !is_ring(graph, piece) {
+        return None;
+    }
+    let n = piece.len();
+    let xy = |b: usize| {
+        let [x, y, _] = part.block(b);
+        (x, y)
+    };
+    Some(
+        (0..n)
+            .map(|m| (xy(piece[m]), xy(piece[(m + r) % n])))
+            .collect(),
+    )
+}
+
 /// The mirror of a piece's footprint that keeps it a weld path: on a ring (its ends weld
 /// to each other) the other way round from the same first block; on an open path from its
 /// other end. `None` on a piece of fewer than two blocks.
@@ -385,8 +504,7 @@ fn mirror(
     if n < 2 {
         return None;
     }
-    let (first, last) = (piece[0], piece[n - 1]);
-    let ring = n >= 3 && (graph.has_edge(last, first) || graph.has_edge(first, last));
+    let ring = is_ring(graph, piece);
     let xy = |b: usize| {
         let [x, y, _] = part.block(b);
         (x, y)

@@ -577,6 +577,83 @@ fn a_warm_start_that_breaks_a_window_high_up_is_repaired_from_a_layer_on() {
         .is_none());
 }
 
+#[test]
+fn a_tube_whose_windows_want_a_seam_elsewhere_from_some_layer_on_gets_a_weld_path_started_there() {
+    // A square tube climbed by one weld path keeps its seam (where each layer turns back)
+    // above where its first layer starts: a block just before the seam gets the block
+    // above it soon, still hot; one across the tube a lap later. The windows are those of
+    // a plan whose second weld path takes over at some layer half way round the tube, so
+    // only the seam's place from there on differs from the plain warm start: no start of
+    // the first layer (the portfolio's variants), mirror or new weld path from the same
+    // place gives it; the repair's rotation of a new weld path does.
+    let (side, h, take_over) = (10, 12, 5);
+    let ring: Vec<[i64; 2]> = (0..side)
+        .map(|x| [x, 0])
+        .chain((1..side).map(|y| [side - 1, y]))
+        .chain((0..side - 1).rev().map(|x| [x, side - 1]))
+        .chain((1..side - 1).rev().map(|y| [0, y]))
+        .collect();
+    let blocks = (0..h)
+        .flat_map(|z| ring.iter().map(move |&[x, y]| [x, y, z]))
+        .collect();
+    let mut part = Part::from_blocks("tube".into(), [6.0, 6.0, 2.5], [0.0; 3], 2, blocks).unwrap();
+    let graph = waam_part::graph::WeldGraph::new(&part);
+    let limits = planner::constructive::Limits {
+        deadline: None,
+        cancel: None,
+    };
+    let base = planner::constructive::layered_plan(&part, &graph, 2, Backend::Cadical, &limits)
+        .expect("a tube has a layer-by-layer plan");
+    assert_eq!(base.len(), 1, "one weld path climbs the tube");
+    // The plain warm start, from the take-over on a second weld path with every layer's
+    // ring turned half way round.
+    let n = ring.len();
+    let split = take_over as usize * n;
+    let layer_below: Vec<[i64; 3]> = base[0][split - n..split]
+        .iter()
+        .map(|&b| part.block(b))
+        .collect();
+    let turned = |b: usize| {
+        let [x, y, z] = part.block(b);
+        let m = layer_below
+            .iter()
+            .position(|&[fx, fy, _]| (fx, fy) == (x, y))
+            .expect("every layer has the same footprint");
+        let [tx, ty, _] = layer_below[(m + n / 2) % n];
+        part.index_of([tx, ty, z]).unwrap()
+    };
+    let hidden = vec![
+        base[0][..split].to_vec(),
+        base[0][split..].iter().map(|&b| turned(b)).collect(),
+    ];
+    // The blocks beside the hidden plan's seam, from the take-over up.
+    let watched: Vec<usize> = (take_over..h - 1)
+        .step_by(2)
+        .flat_map(|z| {
+            let at = (z - take_over) as usize * n;
+            let layer = &hidden[1][at..at + n];
+            [layer[0], layer[1], layer[n - 2], layer[n - 1]]
+        })
+        .collect();
+    windows_around(&mut part, &graph, &hidden, &watched);
+    assert!(
+        simulated(&part, &graph, &base).violation.is_some(),
+        "the plain warm start breaks a window"
+    );
+
+    let report = first_alone_twice(&part);
+    let best = report.best.expect("the hidden plan keeps the windows");
+    assert_eq!(
+        (report.stats.candidates, report.stats.sat_solves),
+        (2, 0),
+        "the plain warm start, then the repaired one; no search"
+    );
+    best.plan(&part).validate(&part, &graph).unwrap();
+    assert!(simulated(&part, &graph, &best.fragments)
+        .violation
+        .is_none());
+}
+
 /// A one-block T `h` layers high: a bar of `bar` blocks along x with a stem of `stem`
 /// blocks along y from its block `junction`, k = 2 (a T layer needs two weld paths).
 fn t_tower(bar: i64, junction: i64, stem: i64, h: i64) -> Part {
