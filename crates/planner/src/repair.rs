@@ -271,11 +271,12 @@ impl Repair<'_> {
     }
 
     /// The rotations worth trying of a ring piece (a weld path's first, or where a new
-    /// weld path may start, next to the broken block): those that start it at the ring block nearest to the broken
-    /// block's column, and 1, 2, 4, ... blocks either side of it. Where a ring starts is
-    /// where its seam lies, and a weld path climbing a tube keeps its seam near there: a
-    /// block just before the seam gets the block above it soon after, hot (long t8/5),
-    /// one far from it only after a lap (short). None on a piece that is no ring.
+    /// weld path may start, next to the broken block): those that start it at the ring
+    /// block nearest to the broken block's column, and 1, 2, 4, ... blocks either side of
+    /// it. Where a ring starts is where its seam lies, and a weld path climbing a tube keeps
+    /// its seam near there: a block just before the seam gets the block above it soon
+    /// after, hot (long t8/5), one far from it only after a lap (short). None on a piece
+    /// that is no ring.
     fn rotations(&self, plan: &[Vec<usize>], piece: Piece, broken: usize) -> Vec<usize> {
         let blocks = &plan[piece.f][piece.i..piece.j];
         let n = blocks.len();
