@@ -558,23 +558,7 @@ fn a_warm_start_that_breaks_a_window_high_up_is_repaired_from_a_layer_on() {
         .map(|b| part.index_of(b).unwrap())
         .collect();
     windows_around(&mut part, &graph, &hidden, &watched);
-    assert!(
-        simulated(&part, &graph, &base).violation.is_some(),
-        "the plain warm start breaks a window"
-    );
-
-    // One configuration (no race): the repaired warm start, before any solve of the search.
-    let report = first_alone_twice(&part);
-    let best = report.best.expect("the hidden plan keeps the windows");
-    assert_eq!(
-        (report.stats.candidates, report.stats.sat_solves),
-        (2, 0),
-        "the plain warm start, then the repaired one; no search"
-    );
-    best.plan(&part).validate(&part, &graph).unwrap();
-    assert!(simulated(&part, &graph, &best.fragments)
-        .violation
-        .is_none());
+    the_repaired_warm_start_is_the_first_plan(&part, &graph, &base);
 }
 
 #[test]
@@ -636,22 +620,7 @@ fn a_tube_whose_windows_want_a_seam_elsewhere_from_some_layer_on_gets_a_weld_pat
         })
         .collect();
     windows_around(&mut part, &graph, &hidden, &watched);
-    assert!(
-        simulated(&part, &graph, &base).violation.is_some(),
-        "the plain warm start breaks a window"
-    );
-
-    let report = first_alone_twice(&part);
-    let best = report.best.expect("the hidden plan keeps the windows");
-    assert_eq!(
-        (report.stats.candidates, report.stats.sat_solves),
-        (2, 0),
-        "the plain warm start, then the repaired one; no search"
-    );
-    best.plan(&part).validate(&part, &graph).unwrap();
-    assert!(simulated(&part, &graph, &best.fragments)
-        .violation
-        .is_none());
+    the_repaired_warm_start_is_the_first_plan(&part, &graph, &base);
 }
 
 /// A one-block T `h` layers high: a bar of `bar` blocks along x with a stem of `stem`
@@ -1017,6 +986,28 @@ fn simulated(
 ) -> waam_thermal::Outcome {
     let model = waam_thermal::ThermalModel::new(part, graph);
     waam_thermal::simulate(&model, plan).unwrap()
+}
+
+/// `base` (the plain warm start) breaks a window of `part`, and one configuration (no race)
+/// finds its first plan in the repaired warm start, before any solve of the search.
+fn the_repaired_warm_start_is_the_first_plan(
+    part: &Part,
+    graph: &waam_part::graph::WeldGraph,
+    base: &[Vec<usize>],
+) {
+    assert!(
+        simulated(part, graph, base).violation.is_some(),
+        "the plain warm start breaks a window"
+    );
+    let report = first_alone_twice(part);
+    let best = report.best.expect("the hidden plan keeps the windows");
+    assert_eq!(
+        (report.stats.candidates, report.stats.sat_solves),
+        (2, 0),
+        "the plain warm start, then the repaired one; no search"
+    );
+    best.plan(part).validate(part, graph).unwrap();
+    assert!(simulated(part, graph, &best.fragments).violation.is_none());
 }
 
 /// Windows on the `watched` blocks just around the t8/5 the `hidden` plan gives them (so
