@@ -236,19 +236,7 @@ pub fn first_layer_covers(
             .collect()
     };
     let mut seen = vec![pairs(&local)];
-    let run_limits = thermal::Interrupt {
-        deadline: limits.deadline,
-        cancel: limits.cancel.clone(),
-    };
-    let Some(mut search) = Search::new(
-        &layer.part,
-        &graph,
-        local.len().max(1),
-        Acyclicity::Lazy,
-        0,
-        backend,
-        run_limits,
-    ) else {
+    let Some(mut search) = layer.search(&graph, local.len().max(1), backend, limits) else {
         return out;
     };
     for piece in &local {
@@ -290,6 +278,106 @@ pub fn first_layer_covers(
                         );
                     }
                 }
+            }
+        }
+    }
+    out
+}
+
+/// Raster covers of the first layer by `paths` paths, when it has area (a block with all
+/// four sideways neighbours; a ring has none): rows along x, then along y, each set off
+/// from each of the layer's four corners along its rows. As in a raster, a path crosses to
+/// another row only from a row's end to a row's end (a block without a neighbour on one
+/// side along the rows) and then welds along that row to its other end; a layer whose rows
+/// do not allow that from some corner or in some direction gets no cover there. Each cover
+/// once, global blocks in weld order; fewer when the run stops.
+///
+/// Why: on a plate a raster's direction and corner decide how soon each block's
+/// neighbours in the next row are welded (a row's length later, or at once at a turn),
+/// and so the block's t8/5; the layer solve picks one direction for every plan it builds.
+pub fn raster_covers(
+    part: &Part,
+    backend: Backend,
+    limits: &Limits,
+    paths: usize,
+) -> Vec<Vec<Vec<usize>>> {
+    let mut out: Vec<Vec<Vec<usize>>> = Vec::new();
+    let Some(range) = layer_ranges(part).into_iter().next() else {
+        return out;
+    };
+    let layer = Layer::new(part, range.clone());
+    let graph = WeldGraph::new(&layer.part);
+    let at = |b: usize| layer.part.block(b);
+    let has = |x: i64, y: i64| layer.part.index_of([x, y, 0]).is_some();
+    let area = (0..layer.part.len()).any(|b| {
+        let [x, y, _] = at(b);
+        has(x - 1, y) && has(x + 1, y) && has(x, y - 1) && has(x, y + 1)
+    });
+    if !area || paths == 0 {
+        return out;
+    }
+    // The corners: the blocks furthest along each diagonal (the first on a tie).
+    let corners: Vec<usize> = [(1, 1), (-1, 1), (1, -1), (-1, -1)]
+        .iter()
+        .filter_map(|&(sx, sy)| {
+            (0..layer.part.len()).min_by_key(|&b| {
+                let [x, y, _] = at(b);
+                sx * x + sy * y
+            })
+        })
+        .collect();
+    for axis in [0, 1] {
+        let Some(mut search) = layer.search(&graph, paths, backend, limits) else {
+            return out;
+        };
+        // Along the rows: +1 / -1 in `axis`; a row's end lacks a neighbour on one side.
+        let step = |b: usize, d: i64| {
+            let mut p = at(b);
+            p[axis] += d;
+            layer.part.index_of(p)
+        };
+        let row_end = |b: usize| step(b, -1).is_none() || step(b, 1).is_none();
+        // A move across the rows only between two row ends, and never two in a row: each
+        // row entered is welded to its other end.
+        let turns: Vec<(usize, usize, crate::sat::Lit)> = search
+            .enc
+            .edges()
+            .filter(|&(u, v, _)| at(u)[axis] == at(v)[axis])
+            .collect();
+        let mut clauses: Vec<Vec<crate::sat::Lit>> = turns
+            .iter()
+            .filter(|&&(u, v, _)| !(row_end(u) && row_end(v)))
+            .map(|&(_, _, e)| vec![!e])
+            .collect();
+        for &(u, v, e) in &turns {
+            for &(_, _, f) in turns.iter().filter(|t| t.0 == v && t.1 != u) {
+                clauses.push(vec![!e, !f]);
+            }
+        }
+        search.add_clauses(&clauses);
+        for &corner in &corners {
+            if limits.stopped() {
+                return out;
+            }
+            // Off along the row, into the layer.
+            let Some(next) = step(corner, 1).or_else(|| step(corner, -1)) else {
+                continue;
+            };
+            let Some(first) = search.enc.edge(corner, next) else {
+                continue;
+            };
+            let deadline = limits.attempt(layer.part.len());
+            search.set_interrupt(Some(deadline), limits.cancel.clone());
+            let start = search.enc.starts_fragment(corner, 0);
+            let Some(pieces) = search.next_candidate(&[start, first]) else {
+                continue;
+            };
+            let cover: Vec<Vec<usize>> = pieces
+                .into_iter()
+                .map(|p| p.into_iter().map(|b| range.start + b).collect())
+                .collect();
+            if !out.contains(&cover) {
+                out.push(cover);
             }
         }
     }
@@ -395,6 +483,30 @@ impl Layer {
         self.may_start[b]
     }
 
+    /// A search of the layer's covers by at most `paths` paths (`graph`: the layer's); the
+    /// encoding of a big layer takes seconds, so it is built within the run's limits.
+    fn search<'a>(
+        &'a self,
+        graph: &'a WeldGraph,
+        paths: usize,
+        backend: Backend,
+        limits: &Limits,
+    ) -> Option<Search<'a>> {
+        let run_limits = thermal::Interrupt {
+            deadline: limits.deadline,
+            cancel: limits.cancel.clone(),
+        };
+        Search::new(
+            &self.part,
+            graph,
+            paths,
+            Acyclicity::Lazy,
+            0,
+            backend,
+            run_limits,
+        )
+    }
+
     /// The layer's paths (global indices, in order) and how many of them start at the
     /// first of `arriving` (in that order: path i starts at `arriving[i]`), as many as
     /// the solve allows; steered where `steer` allows when they can. Paths beyond those each
@@ -430,20 +542,7 @@ impl Layer {
                 {
                     continue;
                 }
-                // The encoding of a big layer takes seconds: within the run's limits.
-                let run_limits = thermal::Interrupt {
-                    deadline: limits.deadline,
-                    cancel: limits.cancel.clone(),
-                };
-                let mut search = Search::new(
-                    &self.part,
-                    &graph,
-                    paths,
-                    Acyclicity::Lazy,
-                    0,
-                    backend,
-                    run_limits,
-                )?;
+                let mut search = self.search(&graph, paths, backend, limits)?;
                 for steer in &steerings {
                     let enc = &search.enc;
                     let mut assume: Vec<Lit> = starts
@@ -567,6 +666,34 @@ mod tests {
             assert_eq!(plan.len(), 1);
             assert_eq!(plan[0].len(), part.len());
         }
+    }
+
+    #[test]
+    fn a_plate_has_a_raster_each_way_from_each_corner_and_a_ring_has_none() {
+        let part = plate_tower(5, 4, 2, 1);
+        let covers = raster_covers(&part, Backend::Cadical, &unlimited(), 1);
+        assert_eq!(covers.len(), 8, "two directions from four corners");
+        for cover in &covers {
+            let path = &cover[0];
+            assert_eq!(path.len(), 20, "one path covers the first layer");
+            // Moves along y: only the 3 turns between the 4 rows along x, or all but the 4
+            // turns between the 5 columns along y.
+            let along_y: Vec<bool> = path
+                .windows(2)
+                .map(|p| part.block(p[0])[0] == part.block(p[1])[0])
+                .collect();
+            let turns = match along_y[0] {
+                false => along_y.iter().filter(|&&a| a).count(),
+                true => along_y.iter().filter(|&&a| !a).count(),
+            };
+            assert_eq!(turns, if along_y[0] { 4 } else { 3 }, "{path:?}");
+        }
+        let ring: Vec<_> = (0..4)
+            .flat_map(|y| (0..4).map(move |x| [x, y, 0]))
+            .filter(|&[x, y, _]| x % 3 == 0 || y % 3 == 0)
+            .collect();
+        let ring = Part::from_blocks("ring".into(), [6.0, 6.0, 2.5], [0.0; 3], 1, ring).unwrap();
+        assert!(raster_covers(&ring, Backend::Cadical, &unlimited(), 1).is_empty());
     }
 
     #[test]

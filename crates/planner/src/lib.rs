@@ -272,8 +272,9 @@ fn search_plans(
                     n => n,
                 };
                 // First the plan changed around the window the simulator names (it stops
-                // by itself when no change gets further), then the portfolio's other
-                // starts and covers in what is left of that time.
+                // by itself when no change gets further); on a first layer with area, then
+                // its rasters (the one that gets furthest repaired in turn); then the
+                // portfolio's other starts and covers in what is left of that time.
                 let repair = repair::Repair {
                     part,
                     graph: &graph,
@@ -295,6 +296,13 @@ fn search_plans(
                     .index_of(block)
                     .and_then(|b| repair.repaired(&warm, prefix_len, b))
                     .map(|p| (p, 0.0))
+                    .or_else(|| match portfolio.rasters(&warm)? {
+                        Ok(found) => Some(found),
+                        Err((plan, blocks, b)) if blocks > prefix_len => {
+                            repair.repaired(&plan, blocks, b).map(|p| (p, 0.0))
+                        }
+                        Err(_) => None,
+                    })
                     .or_else(|| portfolio.varied_start(&warm));
                 if let Some((varied, _)) = varied {
                     // Every judged candidate is reported (recordings count them), the

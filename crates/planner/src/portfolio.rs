@@ -54,9 +54,15 @@ pub struct Portfolio<'a> {
 /// first two; a cover: every path whole), as [`constructive::layered_plan_from`] takes them.
 type Variant = Vec<Vec<usize>>;
 
-/// A variant built and simulated: `(plan, margin)` with the margin `None` when it breaks a
-/// window; `None` when it could not be built or the run stopped its simulation.
-type Judged = Option<(Vec<Vec<usize>>, Option<f64>)>;
+/// A variant built and simulated: `(plan, margin)`, or `(plan, Err((blocks welded before a
+/// window breaks, the broken block)))`; `None` when it could not be built or the run
+/// stopped its simulation.
+type Judged = Option<(Vec<Vec<usize>>, Result<f64, (usize, usize)>)>;
+
+/// The best raster variant: `Ok((plan, margin))` when one keeps every window, else the one
+/// that keeps them longest, as `Err((plan, blocks welded before a window breaks, the
+/// broken block))`.
+pub type Rastered = Result<(Vec<Vec<usize>>, f64), (Vec<Vec<usize>>, usize, usize)>;
 
 impl Portfolio<'_> {
     /// A feasible variant of `base` (a layer-by-layer plan that breaks a window), the best
@@ -82,6 +88,48 @@ impl Portfolio<'_> {
         self.first_feasible(&covers, rounds)
     }
 
+    /// The first layer welded as a raster ([`constructive::raster_covers`], as many paths
+    /// as `base` starts there), each way and from each corner, judged in one round: the
+    /// best feasible variant, else the one that keeps every window longest; `None` when the
+    /// first layer has no area (or no raster is built, or the run stopped).
+    pub fn rasters(&self, base: &[Vec<usize>]) -> Option<Rastered> {
+        let own = first_layer_pieces(self.part, base);
+        let covers = constructive::raster_covers(self.part, self.backend, self.limits, own.len());
+        let variants: Vec<Variant> = covers.into_iter().filter(|c| *c != own).collect();
+        if variants.is_empty() {
+            return None;
+        }
+        let judged = self.judge_round(&variants, self.workers);
+        let built = judged.iter().filter(|j| j.is_some()).count();
+        // Largest margin, else furthest before a window breaks; on a tie the earlier
+        // variant (max_by keeps the last maximum: the judged ones are walked back).
+        let rank = |m: &Result<f64, (usize, usize)>| match m {
+            Ok(margin) => (1, *margin),
+            Err((blocks, _)) => (0, *blocks as f64),
+        };
+        let best = judged
+            .into_iter()
+            .flatten()
+            .rev()
+            .max_by(|(_, a), (_, b)| {
+                let (a, b) = (rank(a), rank(b));
+                a.0.cmp(&b.0).then(a.1.total_cmp(&b.1))
+            })?;
+        tracing::debug!(
+            "warm-start portfolio: {} of {} rasters of the first layer built; the best {}",
+            built,
+            variants.len(),
+            match &best.1 {
+                Ok(m) => format!("keeps every window, margin {m:.2} s"),
+                Err((blocks, _)) => format!("breaks a window after {blocks} blocks"),
+            }
+        );
+        Some(match best {
+            (plan, Ok(margin)) => Ok((plan, margin)),
+            (plan, Err((blocks, block))) => Err((plan, blocks, block)),
+        })
+    }
+
     /// The best feasible variant of the first round (of [`ROUND`]) that has one; rounds are
     /// numbered from `first_round` in the log.
     fn first_feasible(
@@ -98,7 +146,7 @@ impl Portfolio<'_> {
             let best = judged
                 .into_iter()
                 .enumerate()
-                .filter_map(|(i, j)| j.and_then(|(plan, margin)| Some((i, plan, margin?))))
+                .filter_map(|(i, j)| j.and_then(|(plan, margin)| Some((i, plan, margin.ok()?))))
                 // Largest margin; on a tie the earlier variant (max_by keeps the last maximum).
                 .max_by(|a, b| a.2.total_cmp(&b.2).then(b.0.cmp(&a.0)));
             tracing::debug!(
@@ -172,12 +220,12 @@ impl Portfolio<'_> {
                     v.time_s,
                     v.t85_s
                 );
-                None
+                Err((v.prefix_len, v.block))
             }
             None => {
                 let m = model.margin(&outcome.crossings);
                 tracing::debug!("warm-start variant {name}: feasible, margin {m:.2} s");
-                Some(m)
+                Ok(m)
             }
         };
         Some((plan, margin))
@@ -371,7 +419,7 @@ mod tests {
             waam_part::plan::Plan::from_indices(&part, plan)
                 .validate(&part, &graph)
                 .expect("a valid plan");
-            assert!(margin.is_none(), "no plan keeps a 1 s window");
+            assert!(margin.is_err(), "no plan keeps a 1 s window");
         }
         assert!(portfolio.varied_start(&base).is_none());
     }
@@ -390,7 +438,7 @@ mod tests {
         let one = judge(1);
         assert!(one
             .iter()
-            .all(|j| j.as_ref().is_some_and(|(_, m)| m.is_some())));
+            .all(|j| j.as_ref().is_some_and(|(_, m)| m.is_ok())));
         for workers in [2, 3, 8] {
             assert_eq!(judge(workers), one, "{workers} threads");
         }

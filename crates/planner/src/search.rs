@@ -310,6 +310,11 @@ impl<'p> Search<'p> {
 
     /// Adds clauses another search of the same part and windows learned.
     pub fn add_learned(&mut self, clauses: &[Vec<Lit>]) {
+        self.add_clauses(clauses);
+    }
+
+    /// Narrows the search to the plans that keep `clauses` (e.g. a raster's moves).
+    pub fn add_clauses(&mut self, clauses: &[Vec<Lit>]) {
         for c in clauses {
             self.solver.add_clause(c);
         }

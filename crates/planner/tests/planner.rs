@@ -623,6 +623,52 @@ fn a_tube_whose_windows_want_a_seam_elsewhere_from_some_layer_on_gets_a_weld_pat
     the_repaired_warm_start_is_the_first_plan(&part, &graph, &base);
 }
 
+#[test]
+fn a_plate_whose_windows_want_its_rows_the_other_way_is_rastered_that_way() {
+    // A raster's direction decides when each block's neighbour in the next row is welded:
+    // a row's length later, or at once at a turn. The windows are those of a raster along
+    // y; the layer solve rasters a plate one way for every start, and a mirror only
+    // reverses it, so only a raster the other way keeps them.
+    let (w, d) = (9, 6);
+    let blocks = (0..d)
+        .flat_map(|y| (0..w).map(move |x| [x, y, 0]))
+        .collect();
+    let mut part = Part::from_blocks("plate".into(), [6.0, 6.0, 2.5], [0.0; 3], 1, blocks).unwrap();
+    let graph = waam_part::graph::WeldGraph::new(&part);
+    let limits = planner::constructive::Limits {
+        deadline: None,
+        cancel: None,
+    };
+    let base = planner::constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &limits)
+        .expect("a plate has a layer-by-layer plan");
+    let along_y = |part: &Part, plan: &[Vec<usize>]| {
+        plan[0]
+            .windows(2)
+            .filter(|p| part.block(p[0])[0] == part.block(p[1])[0])
+            .count()
+            > plan[0].len() / 2
+    };
+    assert!(!along_y(&part, &base), "the layer solve rasters along x");
+    let hidden = vec![(0..w)
+        .flat_map(|x| {
+            let column: Vec<i64> = match x % 2 {
+                0 => (0..d).collect(),
+                _ => (0..d).rev().collect(),
+            };
+            column.into_iter().map(move |y| [x, y, 0])
+        })
+        .map(|b| part.index_of(b).unwrap())
+        .collect::<Vec<usize>>()];
+    let watched: Vec<usize> = [[2, 1, 0], [4, 3, 0], [6, 4, 0], [1, 5, 0]]
+        .iter()
+        .map(|&b| part.index_of(b).unwrap())
+        .collect();
+    windows_around(&mut part, &graph, &hidden, &watched);
+    the_repaired_warm_start_is_the_first_plan(&part, &graph, &base);
+    let best = first_alone_twice(&part).best.unwrap();
+    assert!(along_y(&part, &best.fragments), "rastered along y");
+}
+
 /// A one-block T `h` layers high: a bar of `bar` blocks along x with a stem of `stem`
 /// blocks along y from its block `junction`, k = 2 (a T layer needs two weld paths).
 fn t_tower(bar: i64, junction: i64, stem: i64, h: i64) -> Part {
