@@ -349,8 +349,12 @@ pub fn raster_covers(
             .filter(|&&(u, v, _)| !(row_end(u) && row_end(v)))
             .map(|&(_, _, e)| vec![!e])
             .collect();
+        let mut turns_from: Vec<Vec<(usize, crate::sat::Lit)>> = vec![Vec::new(); layer.part.len()];
         for &(u, v, e) in &turns {
-            for &(_, _, f) in turns.iter().filter(|t| t.0 == v && t.1 != u) {
+            turns_from[u].push((v, e));
+        }
+        for &(u, v, e) in &turns {
+            for &(_, f) in turns_from[v].iter().filter(|&&(w, _)| w != u) {
                 clauses.push(vec![!e, !f]);
             }
         }
