@@ -12,7 +12,8 @@ counts readings used (> 0), fits a loss factor between 0.6 and 0.9 and re-plans 
 wall still to come (`reason: replan`); the scans the node took show the layers' true tops
 (2.25 mm a layer, at the nominal feed); the thermal camera's images were used (every welded
 block read); a wire feed went out before each weld path, within the limits, with its
-schedule (one feed per deposit, the first the one struck at) on ~/wire_feed_schedule.
+schedule (one feed per deposit, the first the one struck at) on ~/wire_feed_schedule, and
+any revision of it while the arc was on within the limits too.
 """
 
 import sys
@@ -63,13 +64,19 @@ def run(peer, cell):
     check(len(feeds) >= 2 and feeds[0] == 1.0 and all(0.7 <= f <= 1.3 for f in feeds),
           f"wire feeds: {feeds}")
     # Each weld path's schedule: joint "wire_feed", a point per deposit from the arc strike
-    # on, starting with the feed struck at.
-    per_path = [[p.positions[0] for p in s.points] for s in schedules]
-    print(f"wire feed schedules: {[[round(f, 3) for f in s] for s in per_path]}")
-    check(len(schedules) == len(feeds)
-          and all(s.joint_names == ["wire_feed"] and len(s.points) >= 1 for s in schedules)
+    # on, starting with the feed struck at; a revision while the arc is on (a layer scanned
+    # mid-path) starts at a later deposit.
+    check(all(s.joint_names == ["wire_feed"] and len(s.points) >= 1 for s in schedules),
+          f"wire feed schedules: {schedules}")
+    struck = [s for s in schedules if s.points[0].time_from_start.sec == 0
+              and s.points[0].time_from_start.nanosec == 0]
+    per_path = [[p.positions[0] for p in s.points] for s in struck]
+    revised = len(schedules) - len(struck)
+    print(f"wire feed schedules: {[[round(f, 3) for f in s] for s in per_path]}, "
+          f"{revised} revised while the arc was on")
+    check(len(struck) == len(feeds)
           and all(s[0] == f for s, f in zip(per_path, feeds))
-          and all(0.7 <= f <= 1.3 for s in per_path for f in s),
+          and all(0.7 <= p.positions[0] <= 1.3 for s in schedules for p in s.points),
           f"wire feed schedules {per_path} against the feeds {feeds}")
     # The scanner saw the finished layers 10 % low: tops at multiples of 2.25 mm.
     scans = [s.message for s in sensor(peer, "scan") if "top at" in s.message]

@@ -258,6 +258,29 @@ impl ClosedLoop {
         vec![mean; blocks.len()]
     }
 
+    /// The wire feeds of `rest` — the deposits of the weld path under way still to begin —
+    /// set again from what is measured now (a scan that came while the arc was on), in
+    /// order, so each counts on the new feeds of those under it. The path's deposits before
+    /// them (`begun`: their feeds stand) first get what is expected of them again, where not
+    /// scanned yet: their feeds at the gain now known under them. For a welder that takes a
+    /// feed per deposit; one that holds a feed per weld path keeps the feeds it struck at.
+    pub fn revise_feeds(&mut self, begun: &[usize], rest: &[usize]) -> Vec<f64> {
+        if self.opts.wire_feed_per_deposit {
+            for &b in begun {
+                if let (Some(feed), None) = (self.feed[b], self.top_mm[b]) {
+                    let gain = self.gain_under(b);
+                    self.set_feed(b, feed, gain);
+                }
+            }
+            for &b in rest {
+                self.feed[b] = None;
+                self.expected_gain[b] = None;
+                self.expected_top_mm[b] = None;
+            }
+        }
+        rest.iter().map(|&b| self.wire_feed(b)).collect()
+    }
+
     /// The top of what deposit `block` stands on, above the origin, mm: the plate (0) for
     /// the first layer, else the mean of its supports' tops (measured, else expected;
     /// nominal for an overhang standing on nothing).

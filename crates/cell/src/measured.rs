@@ -17,3 +17,14 @@ pub enum Measured {
         points: Vec<([f64; 3], f64)>,
     },
 }
+
+impl Measured {
+    /// When it was read, s on the ROS clock.
+    pub fn stamp_s(&self) -> f64 {
+        match *self {
+            Measured::Temperature { stamp_s, .. }
+            | Measured::Scan { stamp_s, .. }
+            | Measured::ThermalImage { stamp_s, .. } => stamp_s,
+        }
+    }
+}

@@ -171,6 +171,74 @@ fn each_deposit_gets_the_wire_feed_that_makes_up_the_height_missing_under_it() {
     assert_eq!(per_path.wire_feed(second[5]), feeds[0]);
 }
 
+/// A weld path that climbs through the layers got its feeds at the arc strike, before any
+/// layer was scanned (nominal); a scan that comes while its arc is on sets the feeds of the
+/// deposits still to come again, as if asked for after the scan.
+#[test]
+fn a_scan_while_the_arc_is_on_revises_the_feeds_of_the_deposits_to_come() {
+    let part = wall();
+    let layer =
+        |z: i64| -> Vec<usize> { (0..6).map(|x| part.index_of([x, 0, z]).unwrap()).collect() };
+    let rest = [layer(1), layer(2)].concat();
+    for per_deposit in [true, false] {
+        let opts = LoopOptions {
+            wire_feed_per_deposit: per_deposit,
+            ..options()
+        };
+        let mut cl = ClosedLoop::new(&part, &first_plan(&part), opts, 0.0).unwrap();
+        let mut t = 0.0;
+        for b in layer(0) {
+            assert_eq!(cl.wire_feed(b), 1.0);
+            cl.deposited(b, cl.deposits() == 0, t, 1.0).unwrap();
+            t += 1.0;
+        }
+        // Asked at the strike of a path that goes on over the layer: nothing measured.
+        assert!(cl.path_feeds(&rest).iter().all(|&f| f == 1.0));
+        let points: Vec<[f64; 3]> = (0..24)
+            .map(|i| {
+                let x = 10.75 + 1.5 * i as f64;
+                [x, 1.0, if x < 28.0 { 2.0 } else { 2.5 }]
+            })
+            .collect();
+        cl.measured(&Measured::Scan { stamp_s: t, points }).unwrap();
+        let revised = cl.revise_feeds(&[], &rest);
+        if per_deposit {
+            // As `each_deposit_gets_...`: the left end makes up 0.5 mm at 0.8 (held at
+            // 1.3), the third layer counts on the second's new feeds.
+            let side = [1.3, 1.3, 1.3, 1.0, 1.0, 1.0];
+            assert_eq!(revised, [side, side].concat());
+            assert_eq!(cl.wire_feed(rest[0]), 1.3, "fixed again once revised");
+        } else {
+            assert!(revised.iter().all(|&f| f == 1.0), "held: {revised:?}");
+        }
+    }
+    // The same scan when the second layer's first two deposits (left end) have begun at
+    // the nominal feed: they stand, but are now expected 2.0 + 2.5 * 0.8 = 4.0 mm high, so
+    // the third layer makes up 1.0 mm over them (at 0.8: 1.75, held at 1.3) — not the
+    // nothing it would count on from their expectation at the strike.
+    let mut cl = ClosedLoop::new(&part, &first_plan(&part), options(), 0.0).unwrap();
+    let mut t = 0.0;
+    for b in layer(0) {
+        cl.wire_feed(b);
+        cl.deposited(b, cl.deposits() == 0, t, 1.0).unwrap();
+        t += 1.0;
+    }
+    assert!(cl.path_feeds(&rest).iter().all(|&f| f == 1.0));
+    let points: Vec<[f64; 3]> = (0..24)
+        .map(|i| {
+            let x = 10.75 + 1.5 * i as f64;
+            [x, 1.0, if x < 28.0 { 2.0 } else { 2.5 }]
+        })
+        .collect();
+    cl.measured(&Measured::Scan { stamp_s: t, points }).unwrap();
+    let revised = cl.revise_feeds(&rest[..2], &rest[2..]);
+    assert_eq!(
+        revised,
+        [1.3, 1.0, 1.0, 1.0, 1.3, 1.3, 1.3, 1.0, 1.0, 1.0],
+        "the second layer's x = 2..5, then the third's"
+    );
+}
+
 #[test]
 fn a_deposit_off_the_plan_is_refused() {
     let part = wall();

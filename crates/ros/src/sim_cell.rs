@@ -183,7 +183,8 @@ pub fn run(
         graph: &graph,
         scanned: 0,
         feed: 1.0,
-        schedule: None,
+        schedule: Vec::new(),
+        struck: Vec::new(),
     };
     tracing::info!(
         "simulated cell for {} ({} blocks) following {}: heat losses and heights of the true cell",
@@ -208,7 +209,7 @@ pub fn run(
             cell.feed = feed.data;
         }
         while let Ok(Some((msg, _))) = schedules.take() {
-            cell.schedule = waam_messages::wire_feed::schedule_feeds(&msg);
+            cell.follow(&msg);
         }
         let mut arc_changes = Vec::new();
         while let Ok(Some((arc, _))) = arcs.take() {
@@ -217,6 +218,7 @@ pub fn run(
         for on in arc_changes {
             match (on, welding) {
                 (true, None) => {
+                    cell.struck.clear();
                     welding = Some((welds, Instant::now(), std::time::SystemTime::now(), 0));
                     welds += 1;
                     faulted = false;
@@ -225,8 +227,9 @@ pub fn run(
                     if let Some(path) = paths.get(w) {
                         // After a fault nothing more of the path was welded.
                         let all = if faulted { read } else { path.blocks.len() };
+                        cell.strike(path, all);
                         cell.read(path, read..all, wall, &sensors);
-                        cell.schedule = None;
+                        cell.schedule.clear();
                         let before = cell.scanned;
                         cell.scan(&scanner);
                         tracing::info!(
@@ -257,9 +260,14 @@ pub fn run(
                     })
                     .count()
                     .min(cut.unwrap_or(usize::MAX));
+                // The welder sets each deposit's feed as it begins.
+                let begun = path.starts_s.iter().take_while(|&&s| s <= t).count();
+                cell.strike(path, begun.min(cut.map_or(usize::MAX, |c| c + 1)));
                 if ended > *read {
                     cell.read(path, *read..ended, *wall, &sensors);
                     *read = ended;
+                    // The scanner follows the torch: a layer finished is scanned at once.
+                    cell.scan(&scanner);
                 }
                 if let (Some(after), false) = (cut, faulted) {
                     if ended == after {
@@ -313,13 +321,47 @@ struct TrueCell<'a> {
     graph: &'a WeldGraph,
     /// Layers scanned so far (from the bottom).
     scanned: usize,
-    /// The wire feed the planner asked for, relative to nominal, and its feed per deposit
-    /// of the weld path under way.
+    /// The wire feed the planner asked for, relative to nominal; the schedule of the weld
+    /// path under way (time from the arc strike, feed), revisions merged; and the feed each
+    /// of its deposits began at.
     feed: f64,
-    schedule: Option<Vec<f64>>,
+    schedule: Vec<(f64, f64)>,
+    struck: Vec<f64>,
 }
 
 impl TrueCell<'_> {
+    /// A `~/wire_feed_schedule`: a weld path's (its first point at the arc strike), or a
+    /// revision of the feeds from its first point on.
+    fn follow(&mut self, msg: &JointTrajectory) {
+        let Some(feeds) = waam_messages::wire_feed::schedule_feeds(msg) else {
+            return;
+        };
+        let times: Vec<f64> = msg
+            .points
+            .iter()
+            .map(|p| p.time_from_start.as_secs_f64())
+            .collect();
+        let from = times.first().copied().unwrap_or(0.0);
+        self.schedule.retain(|&(t, _)| t < from - 1e-9);
+        self.schedule.extend(times.into_iter().zip(feeds));
+    }
+
+    /// The deposits of `path` up to `begun` have begun: each takes the feed the schedule
+    /// (else `~/wire_feed`) has for it now.
+    fn strike(&mut self, path: &WeldPath, begun: usize) {
+        let begun = begun.min(path.blocks.len());
+        while self.struck.len() < begun {
+            let at = path.starts_s[self.struck.len()] - path.starts_s[0];
+            let feed = self
+                .schedule
+                .iter()
+                .rev()
+                .find(|&&(t, _)| t <= at + 1e-6)
+                .map_or(self.feed, |&(_, f)| f);
+            self.struck.push(feed);
+        }
+    }
+
     /// Deposits `range` of `path` welded on the true model, each read by the pyrometer: its
     /// true temperature at its end, stamped in its middle (on the wall clock: the arc struck
     /// at `lit`, the plan runs `time_scale` times as fast); the camera's image of every
@@ -360,11 +402,7 @@ impl TrueCell<'_> {
             let factor = self
                 .truth
                 .height_factor_at(self.part.centre_mm(self.part.block(b)));
-            let feed = self
-                .schedule
-                .as_ref()
-                .and_then(|s| s.get(j).copied())
-                .unwrap_or(self.feed);
+            let feed = self.struck.get(j).copied().unwrap_or(self.feed);
             self.top_mm[b] = base + nominal * factor * feed;
             self.left_in_layer[z] = self.left_in_layer[z].saturating_sub(1);
             let Some(celsius) = self.sim.temperatures().find(|&(o, _)| o == b).map(|t| t.1) else {

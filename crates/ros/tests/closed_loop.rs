@@ -41,6 +41,7 @@ const TWO_WALLS: &str = include_str!("../../../tests/data/two-walls.yaml");
 const TEMPERATURE: &str = "/waam_planner/temperature";
 const WIRE_FEED: &str = "/waam_planner/wire_feed";
 const WIRE_FEED_SCHEDULE: &str = "/waam_planner/wire_feed_schedule";
+const SCAN: &str = "/waam_planner/scan";
 
 /// Follows each goal at once, its clock advancing by the goal's duration.
 struct InstantController {
@@ -49,7 +50,12 @@ struct InstantController {
 }
 
 impl Controller for InstantController {
-    fn execute(&mut self, goal: TrajectoryMsg, _cancel: &Cancel) -> Result<(), ExecError> {
+    fn execute(
+        &mut self,
+        goal: TrajectoryMsg,
+        _cancel: &Cancel,
+        _during: &mut dyn FnMut(f64),
+    ) -> Result<(), ExecError> {
         let duration = goal
             .points
             .last()
@@ -887,7 +893,12 @@ struct FaultyController {
 }
 
 impl Controller for FaultyController {
-    fn execute(&mut self, goal: TrajectoryMsg, cancel: &Cancel) -> Result<(), ExecError> {
+    fn execute(
+        &mut self,
+        goal: TrajectoryMsg,
+        cancel: &Cancel,
+        _during: &mut dyn FnMut(f64),
+    ) -> Result<(), ExecError> {
         let n = self.goals;
         self.goals += 1;
         if n == self.fault_goal {
@@ -1093,4 +1104,291 @@ fn an_arc_fault_in_the_last_deposits_second_half_is_an_ordinary_boundary() {
     assert_ne!(replan.decision.reason, "fault");
     assert!(!replan.record.cut_short && replan.cut.is_none());
     assert_eq!(replan.decision.at_deposit, 12);
+}
+
+/// Steps through each goal point by point, its clock at the point's time; at each point it
+/// lets the test's cell see the time (`tick(goal time, clock)`), then the execution
+/// (`during`, unless `deaf`: a node that reads nothing while the arc is on).
+struct SteppingController {
+    clock: Arc<Mutex<f64>>,
+    tick: Box<dyn FnMut(f64, f64) + Send>,
+    deaf: bool,
+}
+
+impl Controller for SteppingController {
+    fn execute(
+        &mut self,
+        goal: TrajectoryMsg,
+        _cancel: &Cancel,
+        during: &mut dyn FnMut(f64),
+    ) -> Result<(), ExecError> {
+        let start = *self.clock.lock().unwrap();
+        for p in &goal.points {
+            let t = p.time_from_start.as_secs_f64();
+            let now = start + t;
+            *self.clock.lock().unwrap() = now;
+            (self.tick)(t, now);
+            if !self.deaf {
+                during(now);
+            }
+        }
+        Ok(())
+    }
+
+    fn now_s(&self) -> f64 {
+        *self.clock.lock().unwrap()
+    }
+}
+
+/// The welder's side of the node's schedules: each weld path's, revisions merged (a
+/// revision's first point is after the arc strike), and every message as sent.
+#[derive(Default)]
+struct Welder {
+    arc_on: bool,
+    schedule: Vec<(f64, f64)>,
+    sent: Vec<FeedSchedule>,
+}
+
+impl Welder {
+    /// The feed of a deposit beginning `t` s after the arc strike.
+    fn feed_at(&self, t: f64) -> f64 {
+        self.schedule
+            .iter()
+            .rev()
+            .find(|&&(s, _)| s <= t + 1e-9)
+            .map_or(1.0, |&(_, f)| f)
+    }
+}
+
+/// The welder, and the recorder the node's statuses and schedules go to.
+struct WelderOutputs(Arc<Mutex<Welder>>, Option<Arc<Recorder>>);
+
+impl ExecOutputs for WelderOutputs {
+    fn arc(&self, on: bool) {
+        self.0.lock().unwrap().arc_on = on;
+    }
+    fn wire_feed(&self, _relative: f64) {}
+    fn wire_feed_schedule(&self, schedule: &FeedSchedule) {
+        let mut w = self.0.lock().unwrap();
+        let from = schedule.starts_s[0];
+        w.schedule.retain(|&(t, _)| t < from - 1e-9);
+        w.schedule.extend(
+            schedule
+                .starts_s
+                .iter()
+                .copied()
+                .zip(schedule.feeds.clone()),
+        );
+        w.sent.push(schedule.clone());
+        if let Some(r) = &self.1 {
+            let msg = wire_feed::schedule_msg(&schedule.starts_s, &schedule.feeds);
+            r.record(WIRE_FEED_SCHEDULE, &Qos::reliable(10), &msg)
+                .unwrap();
+        }
+    }
+    fn status(&self, status: JobStatus) {
+        if let Some(r) = &self.1 {
+            let msg = status.to_msg(Time::now(), "/waam_planner");
+            r.record(topics::STATUS, &Qos::latched(), &msg).unwrap();
+        }
+    }
+    fn log(&self, _level: Level, _message: &str) {}
+    fn plan(&self, _planned: &Planned) {}
+}
+
+/// The wall of [`build_low_wall`] welded as one weld path climbing through its four layers
+/// (a spiral's way) on a cell whose beads come out 10 % low; a scanner behind the torch scans
+/// each layer as it is finished (its clouds recorded to `record`, with the node's statuses
+/// and schedules). Returns each block's true top, mm, and the schedules sent.
+fn build_low_spiral(
+    deaf: bool,
+    record: Option<&std::path::Path>,
+) -> (Part, Vec<f64>, Vec<FeedSchedule>) {
+    const WALL: &str = "name: spiral\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nlayers:\n- '######'\n- '######'\n- '######'\n- '######'\n";
+    let part = Part::parse(WALL).unwrap();
+    let path: Vec<usize> = (0..4)
+        .flat_map(|z| {
+            let row: Vec<usize> = (6 * z..6 * z + 6).collect();
+            if z % 2 == 0 {
+                row
+            } else {
+                row.into_iter().rev().collect()
+            }
+        })
+        .collect();
+    let chosen = ChosenPlan {
+        fragments: vec![path.clone()],
+        stats: Default::default(),
+        proven: false,
+        worst_margin_s: f64::NAN,
+    };
+    let cell = Cell::bundled();
+    let planned = cell.motion(part.clone(), chosen).unwrap();
+    let times = planned.toolpath.executed_times();
+    let (starts, off) = (times.deposits_s[0].clone(), times.arc_off_s[0]);
+    let on = starts[0];
+
+    let welder = Arc::new(Mutex::new(Welder::default()));
+    let tops = Arc::new(Mutex::new(vec![0.0; part.len()]));
+    let (tx, rx) = channel();
+    let recorder = record.map(|dir| Arc::new(Recorder::create(dir).unwrap()));
+    let target = sensor::ScanTarget::of_part(&part, "", Default::default());
+    let mut welded = 0;
+    let tick = {
+        let (welder, tops, part) = (Arc::clone(&welder), Arc::clone(&tops), part.clone());
+        let recorder = recorder.clone();
+        move |t: f64, now: f64| {
+            let w = welder.lock().unwrap();
+            if !w.arc_on {
+                return;
+            }
+            let mut tops = tops.lock().unwrap();
+            // Deposits ended by goal time t: each at the feed it began at, 10 % low.
+            while welded < path.len() {
+                let end = starts.get(welded + 1).copied().unwrap_or(off) - on;
+                if end > t + 1e-9 {
+                    break;
+                }
+                let b = path[welded];
+                let below = if b >= 6 { tops[b - 6] } else { 0.0 };
+                tops[b] = below + 2.5 * 0.9 * w.feed_at(starts[welded] - on);
+                welded += 1;
+                if welded % 6 == 0 {
+                    // The layer's cloud, as the node takes it (checked as it arrives).
+                    let z = welded / 6 - 1;
+                    let points: Vec<[f32; 3]> = (6 * z..6 * z + 6)
+                        .map(|i| {
+                            let c = part.centre_mm(part.block(i));
+                            [c[0], c[1], tops[i]].map(|v| (v / 1000.0) as f32)
+                        })
+                        .collect();
+                    let mut cloud =
+                        waam_messages::scan::cloud(&points, waam_messages::planning::PART_FRAME);
+                    cloud.header.stamp = Time::from_nanos((now * 1e9).round() as i64);
+                    if let Some(r) = &recorder {
+                        r.record(SCAN, &Qos::best_effort(10), &cloud).unwrap();
+                    }
+                    let frames = Default::default();
+                    let stamp = cloud.header.stamp;
+                    let scan = sensor::scan(&cloud, Some(&target), &frames, 5.0, stamp, 1.0);
+                    tx.send(scan.unwrap().measured()).unwrap();
+                }
+            }
+        }
+    };
+    let mut controller = SteppingController {
+        clock: Arc::new(Mutex::new(1000.0)),
+        tick: Box::new(tick),
+        deaf,
+    };
+    let outputs = WelderOutputs(Arc::clone(&welder), recorder);
+    execute_closed(&planned, &mut controller, &outputs, &cell, (0.7, 1.3), &rx);
+    drop(controller);
+    if let Some(r) = outputs.1 {
+        Arc::into_inner(r).unwrap().finish().unwrap();
+    }
+    let tops = tops.lock().unwrap().clone();
+    let sent = welder.lock().unwrap().sent.clone();
+    (part, tops, sent)
+}
+
+/// A weld path that climbs through the layers gets its wire feeds at the arc strike, before
+/// any layer is scanned: nominal. The scans that come while its arc is on revise the feeds
+/// still to come, so its top ends within 0.5 mm of nominal; a node that reads nothing while
+/// the arc is on ends it a tenth low.
+#[test]
+fn scans_while_the_arc_is_on_revise_the_wire_feeds_of_a_path_that_climbs_the_layers() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("bag");
+    let (part, tops, sent) = build_low_spiral(false, Some(&dir));
+    let top_layer: Vec<f64> = (18..24).map(|i| tops[i]).collect();
+    assert!(
+        top_layer.iter().all(|&h| (h - 10.0).abs() <= 0.05),
+        "top layer {top_layer:?}"
+    );
+    // The strike's schedule (nominal), then a revision after the scans of layers 0, 1 (and
+    // 2, where the scan's float32 points differ from what was expected by a hair), each
+    // from a deposit after the strike, within the process limits.
+    assert!((3..=4).contains(&sent.len()), "{sent:?}");
+    assert!(sent[0].feeds.iter().all(|&f| f == 1.0), "{sent:?}");
+    for s in &sent[1..] {
+        assert!(s.starts_s[0] > 0.0, "{s:?}");
+        assert!(s.feeds.iter().all(|&f| (0.7..=1.3).contains(&f)), "{s:?}");
+    }
+    assert!(
+        sent[1]
+            .feeds
+            .iter()
+            .any(|&f| (f - 2.75 / 2.25).abs() < 1e-6),
+        "layer 1 makes up layer 0's 0.25 mm: {sent:?}"
+    );
+
+    // The revisions are recorded in the status after the path (reason `finished`: the plan
+    // is done, nothing to decide) and made again offline from the recorded scans.
+    let replay = |bag: &Bag| {
+        let (executions, mut sensors) = decisions::recorded_executions(bag).unwrap();
+        assert_eq!(executions.len(), 1);
+        let opts = waam_planner::Options::default();
+        decisions::replay_execution(&executions[0], &part, &opts, &mut sensors)
+    };
+    let bag = Bag::open(&dir).unwrap();
+    let reports = replay(&bag);
+    assert_eq!(reports.len(), 1, "{reports:?}");
+    assert_eq!(reports[0].boundary.reason, "finished");
+    assert_eq!(
+        reports[0].boundary.record.feed_revisions.len(),
+        sent.len() - 1
+    );
+    assert_eq!(
+        reports[0].verdict,
+        DecisionVerdict::Identical,
+        "{reports:?}"
+    );
+    // A revised feed altered in the record: found.
+    let doctored = tmp.path().join("doctored");
+    let recorder = Recorder::create(&doctored).unwrap();
+    for m in &bag.messages {
+        let t = bag.topic_of(m);
+        let mut data = m.data.clone();
+        if t.name == topics::STATUS {
+            let mut msg: waam_rosmsg::diagnostic_msgs::DiagnosticArray =
+                waam_rosmsg::from_cdr(&data).unwrap();
+            for kv in msg.status.iter_mut().flat_map(|s| s.values.iter_mut()) {
+                if kv.key == "loop.feed_revisions" {
+                    kv.value = kv.value.replacen("1.3", "1.25", 1);
+                }
+            }
+            data = waam_rosmsg::to_cdr(&msg).unwrap();
+        }
+        let (name, ty, def, hash, qos) = (
+            &t.name,
+            &t.type_name,
+            &t.definition,
+            &t.type_hash,
+            &t.offered_qos,
+        );
+        recorder
+            .record_raw(name, ty, def, hash, qos, m.log_time, &data)
+            .unwrap();
+    }
+    recorder.finish().unwrap();
+    let reports = replay(&Bag::open(&doctored).unwrap());
+    let DecisionVerdict::Different(d) = &reports[0].verdict else {
+        panic!("{reports:?}");
+    };
+    assert!(
+        d[0].to_string()
+            .starts_with("wire feed of weld path 1, deposit ")
+            && d[0].to_string().contains("recorded 1.25, new 1.3"),
+        "{d:?}"
+    );
+    assert_eq!(part.len(), 24);
+
+    let (_, deaf, sent) = build_low_spiral(true, None);
+    assert_eq!(sent.len(), 1);
+    let top_layer: Vec<f64> = (18..24).map(|i| deaf[i]).collect();
+    assert!(
+        top_layer.iter().all(|&h| (h - 9.0).abs() < 1e-9),
+        "{top_layer:?}"
+    );
 }

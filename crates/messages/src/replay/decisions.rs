@@ -32,6 +32,10 @@ use crate::planning::PART_FRAME;
 use crate::sensor::{self, BadReading, ScanTarget};
 use crate::tf_buffer::TfBuffer;
 
+/// The decision of the record made when the plan is done: nothing was decided; the feeds
+/// revised while the last weld path's arc was on are recorded.
+pub const FINISHED: &str = "finished";
+
 /// The prefix of the status values a boundary's record is kept in.
 pub const PREFIX: &str = "loop.";
 
@@ -94,6 +98,19 @@ impl fmt::Display for ReadingRef {
     }
 }
 
+/// A weld path's wire feeds set again while its arc was on, after a scan came
+/// ([`ClosedLoop::revise_feeds`]): once `told` of the boundary's deposits were told and `fed`
+/// of its readings fed, deposits `from..` (from 0) of weld path `weld_path` (from 1) got
+/// `feeds`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FeedRevision {
+    pub told: usize,
+    pub fed: usize,
+    pub weld_path: usize,
+    pub from: usize,
+    pub feeds: Vec<f64>,
+}
+
 /// What a boundary's decision needs to be made again, and what it decided.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BoundaryRecord {
@@ -103,9 +120,11 @@ pub struct BoundaryRecord {
     pub now_s: f64,
     /// The deposits told since the previous boundary.
     pub deposits: Vec<ToldDeposit>,
-    /// Every reading fed at this boundary, in the order fed (those the loop could not place
-    /// included).
+    /// Every reading fed since the previous boundary (while the arc was on, then at this
+    /// boundary), in the order fed (those the loop could not place included).
     pub readings: Vec<ReadingRef>,
+    /// The wire feeds revised while the arc was on, in order (none in older records).
+    pub feed_revisions: Vec<FeedRevision>,
     /// At the first boundary: the plan being executed (fragments of blocks).
     pub plan: Option<Vec<Vec<Block>>>,
     /// The scan margin the node checked scans with (`closed_loop.scan_margin_mm`).
@@ -118,7 +137,8 @@ pub struct BoundaryRecord {
     pub wire_feed_per_deposit: Option<bool>,
     /// The re-plan's time limit, s, if any: a re-plan it cut short is not reproducible.
     pub timeout_s: Option<f64>,
-    /// The loop's decision: `replan`, `fault` or `kept` (no completion found).
+    /// The loop's decision: `replan`, `fault` or `kept` (no completion found); [`FINISHED`]
+    /// after the last weld path (nothing decided: its estimate NaN, `fragments` the plan).
     pub decision: String,
     /// Whether its remainder differs from the current one.
     pub changed: bool,
@@ -188,6 +208,14 @@ impl BoundaryRecord {
         ];
         if let Some(plan) = &self.plan {
             out.push(kv("plan", blocks_json(plan)));
+        }
+        if !self.feed_revisions.is_empty() {
+            let revisions: Vec<Value> = self
+                .feed_revisions
+                .iter()
+                .map(|r| json!([r.told, r.fed, r.weld_path, r.from, r.feeds]))
+                .collect();
+            out.push(kv("feed_revisions", Value::from(revisions).to_string()));
         }
         if let Some((lo, hi)) = self.wire_feed_limits {
             out.push(kv("wire_feed_limits", format!("{lo} {hi}")));
@@ -274,6 +302,22 @@ impl BoundaryRecord {
             deposits,
             readings,
             plan: get("plan").map(|_| fragments_of("plan")).transpose()?,
+            feed_revisions: match get("feed_revisions") {
+                None => Vec::new(),
+                Some(_) => serde_json::from_value::<Vec<(usize, usize, usize, usize, Vec<f64>)>>(
+                    json_of("feed_revisions")?,
+                )
+                .map_err(|e| bad("feed_revisions", &e.to_string()))?
+                .into_iter()
+                .map(|(told, fed, weld_path, from, feeds)| FeedRevision {
+                    told,
+                    fed,
+                    weld_path,
+                    from,
+                    feeds,
+                })
+                .collect(),
+            },
             scan_margin_mm: num("scan_margin_mm")?,
             wire_feed_limits: get("wire_feed_limits")
                 .map(|v| {
@@ -407,8 +451,15 @@ pub fn recorded_executions(bag: &Bag) -> Result<(Vec<RecordedExecution>, Sensors
             }
             t if t == JointTrajectory::TYPE_NAME && topic.name.ends_with("/wire_feed_schedule") => {
                 let msg: JointTrajectory = from_cdr(&m.data).map_err(decode_error)?;
-                if let Some(s) = crate::wire_feed::schedule_feeds(&msg) {
-                    schedules.push((m.log_time, s));
+                // A revision while the arc was on (its first point after the strike) is
+                // in the boundary record that follows it.
+                let revision = msg
+                    .points
+                    .first()
+                    .is_some_and(|p| p.time_from_start.as_secs_f64() > 0.0);
+                match crate::wire_feed::schedule_feeds(&msg) {
+                    Some(s) if !revision => schedules.push((m.log_time, s)),
+                    _ => {}
                 }
             }
             t if t == TFMessage::TYPE_NAME => {
@@ -858,44 +909,66 @@ pub fn replay_execution(
             verdict: DecisionVerdict::Different(vec![DecisionDifference::Inputs(why)]),
             new: None,
         };
-        let told = r.deposits.iter().try_for_each(|d| {
-            let i = part
-                .index_of(d.block)
-                .ok_or(format!("deposit {:?} is not in the part", d.block))?;
-            closed
-                .deposited(i, d.arc_start, d.start_s, d.duration_s)
-                .map(drop)
-                .map_err(|e| e.to_string())
-        });
-        if let Err(why) = told {
-            reports.push(different(why));
-            stop = Some("an earlier boundary could not be re-run".into());
-            continue;
-        }
-        // As the node did: the arc went out where the plan meant the path to go on.
-        if r.cut_short && !closed.path_ended() {
-            reports.push(different(
-                "an arc fault is recorded where the plan's weld path ended anyway".into(),
-            ));
-            stop = Some("an earlier boundary could not be re-run".into());
-            continue;
-        }
-        let mut missing = None;
-        for reading in &r.readings {
-            match sensors.take(reading, part, r.scan_margin_mm) {
-                // Readings the loop cannot place are ignored, as the node ignored them.
-                Ok(m) => {
-                    let _ = closed.measured(&m);
-                }
-                Err(why) => {
-                    missing = Some(why.to_string());
-                    break;
+        // As the node fed the loop: up to each wire-feed revision made while the arc was
+        // on (the revision re-derived there), then the rest.
+        let mut done = (0, 0);
+        let mut failed = None;
+        for revision in r.feed_revisions.iter().map(Some).chain([None]) {
+            let (told, fed) = revision.map_or((r.deposits.len(), r.readings.len()), |v| {
+                (v.told.min(r.deposits.len()), v.fed.min(r.readings.len()))
+            });
+            if let Err(why) = tell(&mut closed, part, &r.deposits[done.0.min(told)..told]) {
+                failed = Some(different(why));
+                break;
+            }
+            // As the node did: the arc went out where the plan meant the path to go on.
+            if revision.is_none() && r.cut_short && !closed.path_ended() {
+                failed = Some(different(
+                    "an arc fault is recorded where the plan's weld path ended anyway".into(),
+                ));
+                break;
+            }
+            for reading in &r.readings[done.1.min(fed)..fed] {
+                match sensors.take(reading, part, r.scan_margin_mm) {
+                    // Readings the loop cannot place are ignored, as the node ignored them.
+                    Ok(m) => {
+                        let _ = closed.measured(&m);
+                    }
+                    Err(why) => {
+                        failed = Some(not_run(b, why.to_string()));
+                        break;
+                    }
                 }
             }
+            if failed.is_some() {
+                break;
+            }
+            done = (told, fed);
+            if let Some(v) = revision {
+                feed_diffs.extend(revision_difference(&mut closed, v));
+            }
         }
-        if let Some(why) = missing {
-            reports.push(not_run(b, why));
+        if let Some(report) = failed {
+            reports.push(report);
             stop = Some("an earlier boundary could not be re-run".into());
+            continue;
+        }
+        if r.decision == FINISHED {
+            // The plan's end: no decision, only the feeds revised on its last weld path.
+            let verdict = match std::mem::take(&mut feed_diffs) {
+                _ if closed.next().is_some() => {
+                    DecisionVerdict::Different(vec![DecisionDifference::Inputs(
+                        "the plan's end is recorded where deposits remain".into(),
+                    )])
+                }
+                d if d.is_empty() => DecisionVerdict::Identical,
+                d => DecisionVerdict::Different(d),
+            };
+            reports.push(DecisionReport {
+                boundary: b.clone(),
+                verdict,
+                new: None,
+            });
             continue;
         }
         if closed.next().is_none() {
@@ -978,6 +1051,46 @@ pub fn replay_execution(
     reports
 }
 
+/// The deposits told since the last step, told again.
+fn tell(closed: &mut ClosedLoop, part: &Part, deposits: &[ToldDeposit]) -> Result<(), String> {
+    deposits.iter().try_for_each(|d| {
+        let i = part
+            .index_of(d.block)
+            .ok_or(format!("deposit {:?} is not in the part", d.block))?;
+        closed
+            .deposited(i, d.arc_start, d.start_s, d.duration_s)
+            .map(drop)
+            .map_err(|e| e.to_string())
+    })
+}
+
+/// A revision of a weld path's wire feeds made again, against the recorded one.
+fn revision_difference(
+    closed: &mut ClosedLoop,
+    revision: &FeedRevision,
+) -> Option<DecisionDifference> {
+    let recorded = &revision.feeds;
+    let path = closed
+        .fragments()
+        .get(revision.weld_path.wrapping_sub(1))
+        .cloned()
+        .unwrap_or_default();
+    let from = revision.from.min(path.len());
+    let new = closed.revise_feeds(&path[..from], &path[from..]);
+    first_feed_difference(recorded, &new).map(|k| DecisionDifference::WireFeed {
+        weld_path: revision.weld_path,
+        deposit: revision.from + k + 1,
+        recorded: recorded.get(k).copied().unwrap_or(f64::NAN),
+        new: new.get(k).copied().unwrap_or(f64::NAN),
+    })
+}
+
+/// Where two lists of feeds first differ, bit for bit (a feed only one has differs).
+fn first_feed_difference(recorded: &[f64], new: &[f64]) -> Option<usize> {
+    let at = |v: &[f64], k: usize| v.get(k).copied().unwrap_or(f64::NAN);
+    (0..recorded.len().max(new.len())).find(|&k| at(recorded, k).to_bits() != at(new, k).to_bits())
+}
+
 /// Weld path `f + 1`'s wire feeds as the loop derives them now, against those recorded:
 /// its schedule deposit by deposit, or without one the feed it struck at (nothing when they
 /// agree bit for bit, or when none was recorded or the plan has no such weld path).
@@ -996,16 +1109,13 @@ fn feed_difference(
             vec![(*execution.wire_feeds.get(f)?)?]
         }
     };
-    // A feed only one side has differs (NaN on the other).
     let at = |v: &[f64], k: usize| v.get(k).copied().unwrap_or(f64::NAN);
-    (0..recorded.len().max(new.len()))
-        .find(|&k| at(&recorded, k).to_bits() != at(&new, k).to_bits())
-        .map(|k| DecisionDifference::WireFeed {
-            weld_path: f + 1,
-            deposit: k + 1,
-            recorded: at(&recorded, k),
-            new: at(&new, k),
-        })
+    first_feed_difference(&recorded, &new).map(|k| DecisionDifference::WireFeed {
+        weld_path: f + 1,
+        deposit: k + 1,
+        recorded: at(&recorded, k),
+        new: at(&new, k),
+    })
 }
 
 /// The job a recorded "received" status names, from its values.
@@ -1108,6 +1218,13 @@ mod tests {
                 },
             ],
             plan: Some(vec![vec![[0, 0, 0], [1, 0, 0]]]),
+            feed_revisions: vec![FeedRevision {
+                told: 1,
+                fed: 2,
+                weld_path: 2,
+                from: 3,
+                feeds: vec![1.0 / 0.9, 1.3],
+            }],
             scan_margin_mm: 5.0,
             wire_feed_limits: Some((0.7, 1.3)),
             wire_feed_per_deposit: Some(true),

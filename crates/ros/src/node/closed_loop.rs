@@ -18,7 +18,9 @@
 //! stopped with the arc off.
 
 use waam_cell::{CellError, ClosedLoop, Decision, LoopOptions, MeasureError, Measured};
-use waam_messages::replay::decisions::{BoundaryRecord, ReadingRef, ToldDeposit};
+use waam_messages::replay::decisions::{
+    BoundaryRecord, FeedRevision, ReadingRef, ToldDeposit, FINISHED,
+};
 use waam_messages::status::JobStatus;
 use waam_motion::toolpath::ExecutedTimes;
 use waam_part::{Block, Part};
@@ -233,6 +235,28 @@ pub struct Replanner {
     /// The cut weld path the next boundary follows, and the time line's shifts so far.
     cut: Option<CutShort>,
     shifts: Vec<Shift>,
+    /// What came while the current weld path's arc was on.
+    arc_on: ArcOn,
+    /// After the plan's last weld path: its record, if feeds were revised while its arc was
+    /// on, with the readings used and ignored.
+    finished: Option<(BoundaryRecord, usize, usize)>,
+}
+
+/// How long before a deposit begins its wire feed may still be revised, s of wall time:
+/// the revised schedule's way to the welder.
+pub const REVISION_LEAD_S: f64 = 0.25;
+
+/// The weld path under way: its deposits told so far (those begun by a reading's stamp),
+/// the feeds it was sent, and the readings fed and feed revisions made since the last
+/// boundary (recorded there).
+#[derive(Default)]
+struct ArcOn {
+    told: usize,
+    feeds: Vec<f64>,
+    fed: Vec<ReadingRef>,
+    ignored: Vec<MeasureError>,
+    used: usize,
+    revisions: Vec<FeedRevision>,
 }
 
 impl Replanner {
@@ -252,6 +276,34 @@ impl Replanner {
             told: Vec::new(),
             cut: None,
             shifts: Vec::new(),
+            arc_on: ArcOn::default(),
+            finished: None,
+        })
+    }
+
+    /// After the plan's last weld path (`at_boundary` had nothing left to decide): a
+    /// `replanned` status with reason `finished` that records the feeds revised while its arc
+    /// was on (with the deposits and readings they came from), so that `waam replay` makes
+    /// them again; none when nothing was revised.
+    pub fn finished(&mut self, job: u64) -> Option<JobStatus> {
+        let (record, used, ignored) = self.finished.take()?;
+        Some(JobStatus::Replanned {
+            job,
+            reason: FINISHED.into(),
+            latency_s: 0.0,
+            message: format!(
+                "part {job}: finished; its last weld path's wire feeds revised {} time(s) while \
+                 the arc was on",
+                record.feed_revisions.len()
+            ),
+            values: vec![
+                KeyValue::new("weld_paths_welded", self.welded),
+                KeyValue::new("readings_used", used),
+                KeyValue::new("readings_ignored", ignored),
+            ]
+            .into_iter()
+            .chain(record.values())
+            .collect(),
         })
     }
 
@@ -267,11 +319,91 @@ impl Replanner {
             .get(fragment)?
             .clone();
         let (&first, &on) = (blocks.first()?, starts.first()?);
+        let feeds = self.closed.path_feeds(blocks);
+        self.arc_on.told = 0;
+        self.arc_on.feeds = feeds.clone();
         Some(FeedSchedule {
             layer: planned.part.block(first)[2],
             starts_s: starts.iter().map(|t| t - on).collect(),
-            feeds: self.closed.path_feeds(blocks),
+            feeds,
         })
+    }
+
+    /// While weld path `fragment` of `planned` is welded by a goal that began at
+    /// `goal_start_s` (as for [`Replanner::welded`]), the controller's clock reading `now_s`:
+    /// `readings` are fed to the loop, each after the deposits begun by its stamp are told.
+    /// After a scan, the deposits that begin more than [`REVISION_LEAD_S`] from now get
+    /// their wire feeds again ([`ClosedLoop::revise_feeds`]): a path that climbs through
+    /// the layers (a spiral) is corrected by the scans of the layers it has finished. Returns
+    /// the revised rest of the schedule (timed from the arc strike) when a feed changed.
+    pub fn during_weld(
+        &mut self,
+        planned: &Planned,
+        fragment: usize,
+        goal_start_s: f64,
+        time_scale: f64,
+        now_s: f64,
+        readings: impl IntoIterator<Item = Measured>,
+    ) -> Result<Option<FeedSchedule>, CellError> {
+        let times = planned.toolpath.executed_times();
+        let (Some(blocks), Some(starts)) = (
+            planned.found.fragments.get(fragment),
+            times.deposits_s.get(fragment),
+        ) else {
+            return Ok(None);
+        };
+        let Some(&on) = starts.first() else {
+            return Ok(None);
+        };
+        let trajectory_s = |clock_s: f64| on + (clock_s - goal_start_s) * time_scale;
+        let mut scanned = false;
+        for m in readings {
+            let stamp = trajectory_s(m.stamp_s());
+            self.tell(planned, fragment, goal_start_s, time_scale, |t, _| {
+                t <= stamp
+            })?;
+            self.arc_on.fed.push(ReadingRef::of(&m));
+            match self.closed.measured(&m) {
+                Ok(()) => {
+                    self.arc_on.used += 1;
+                    scanned |= matches!(m, Measured::Scan { .. });
+                }
+                Err(e) => self.arc_on.ignored.push(e),
+            }
+        }
+        let ahead = trajectory_s(now_s + REVISION_LEAD_S);
+        let from = starts
+            .iter()
+            .position(|&t| t > ahead)
+            .map(|j| j.max(self.arc_on.told));
+        let (true, true, Some(from)) = (
+            scanned,
+            self.setup.wire_feed_per_deposit,
+            from.filter(|&j| j < blocks.len() && self.arc_on.feeds.len() == blocks.len()),
+        ) else {
+            return Ok(None);
+        };
+        let feeds = self.closed.revise_feeds(&blocks[..from], &blocks[from..]);
+        let same = feeds
+            .iter()
+            .zip(&self.arc_on.feeds[from..])
+            .all(|(a, b)| a.to_bits() == b.to_bits());
+        if same {
+            return Ok(None);
+        }
+        self.arc_on.feeds[from..].copy_from_slice(&feeds);
+        self.arc_on.revisions.push(FeedRevision {
+            told: self.told.len(),
+            fed: self.arc_on.fed.len(),
+            weld_path: fragment + 1,
+            from,
+            feeds: feeds.clone(),
+        });
+        Ok(Some(FeedSchedule {
+            layer: planned.part.block(blocks[from])[2],
+            starts_s: starts[from..].iter().map(|t| t - on).collect(),
+            feeds,
+        }))
     }
 
     /// Weld path `fragment` of `planned` was welded by a goal that began at `goal_start_s`
@@ -284,6 +416,7 @@ impl Replanner {
         time_scale: f64,
     ) -> Result<(), CellError> {
         self.tell(planned, fragment, goal_start_s, time_scale, |_, _| true)?;
+        self.arc_on.told = 0;
         self.welded = fragment + 1;
         Ok(())
     }
@@ -323,6 +456,7 @@ impl Replanner {
             return Ok(None);
         }
         let deposits = self.tell(planned, fragment, goal_start_s, time_scale, welded)?;
+        self.arc_on.told = 0;
         if deposits > 0 {
             self.welded = fragment + 1;
             self.closed.path_ended();
@@ -338,8 +472,9 @@ impl Replanner {
         Ok(Some(cut))
     }
 
-    /// Tells the loop the deposits of weld path `fragment` that `welded(start, end)` (their
-    /// trajectory times) accepts, in order up to the first it does not; returns how many.
+    /// Tells the loop the deposits of weld path `fragment` not told yet that
+    /// `welded(start, end)` (their trajectory times) accepts, in order up to the first it
+    /// does not; returns how many of the path are told.
     fn tell(
         &mut self,
         planned: &Planned,
@@ -361,13 +496,14 @@ impl Replanner {
         };
         let on = starts.first().copied().unwrap_or(off);
         let clock = |t: f64| goal_start_s + (t - on) / time_scale;
-        let mut told = 0;
-        for (j, (&b, &t)) in blocks.iter().zip(starts).enumerate() {
+        let mut told = self.arc_on.told;
+        for (j, (&b, &t)) in blocks.iter().zip(starts).enumerate().skip(told) {
             let end = starts.get(j + 1).copied().unwrap_or(off);
             if !welded(t, end) {
                 break;
             }
             told += 1;
+            self.arc_on.told = told;
             let (start_s, duration_s) = (clock(t), (end - t) / time_scale);
             self.closed.deposited(b, j == 0, start_s, duration_s)?;
             self.told.push(ToldDeposit {
@@ -393,43 +529,57 @@ impl Replanner {
         now_s: f64,
     ) -> Result<Option<Replan>, CellError> {
         let started = std::time::Instant::now();
-        let mut used = 0;
-        // Which readings had come by now is a matter of wall-clock timing: recorded.
-        let mut fed = Vec::new();
-        let ignored: Vec<MeasureError> = readings
-            .into_iter()
-            .filter_map(|m| {
-                fed.push(ReadingRef::of(&m));
-                let placed = self.closed.measured(&m);
-                used += usize::from(placed.is_ok());
-                placed.err()
-            })
-            .collect();
-        if self.closed.next().is_none() {
-            return Ok(None);
+        // Which readings had come by now (and while the arc was on) is a matter of
+        // wall-clock timing: recorded.
+        let arc_on = std::mem::take(&mut self.arc_on);
+        let (mut used, mut fed, mut ignored) = (arc_on.used, arc_on.fed, arc_on.ignored);
+        for m in readings {
+            fed.push(ReadingRef::of(&m));
+            match self.closed.measured(&m) {
+                Ok(()) => used += 1,
+                Err(e) => ignored.push(e),
+            }
         }
         self.boundaries += 1;
         // The plan executed (not the loop's: a fault has split it already).
         let plan = (self.boundaries == 1).then(|| blocks(&planned.part, &planned.found.fragments));
-        let cut = self.cut.take();
-        let decision = self.closed.at_boundary(true, now_s)?;
-        let e = &decision.estimate;
         let record = BoundaryRecord {
             boundary: self.boundaries,
             now_s,
             deposits: std::mem::take(&mut self.told),
             readings: fed,
+            feed_revisions: arc_on.revisions,
             plan,
             scan_margin_mm: self.setup.scan_margin_mm,
             wire_feed_limits: Some(self.setup.wire_feed),
             wire_feed_per_deposit: Some(self.setup.wire_feed_per_deposit),
             timeout_s: self.setup.planner.timeout.map(|t| t.as_secs_f64()),
+            decision: FINISHED.into(),
+            changed: false,
+            estimate: [f64::NAN; 4],
+            fragments: blocks(&planned.part, &self.closed.fragments()),
+            proven: false,
+            cut_short: false,
+        };
+        if self.closed.next().is_none() {
+            // Nothing is left to decide; the feeds revised while the last weld path's arc
+            // was on are recorded all the same (`Replanner::finished`).
+            if !record.feed_revisions.is_empty() {
+                self.finished = Some((record, used, ignored.len()));
+            }
+            return Ok(None);
+        }
+        let cut = self.cut.take();
+        let decision = self.closed.at_boundary(true, now_s)?;
+        let e = &decision.estimate;
+        let record = BoundaryRecord {
             decision: decision.reason.into(),
             changed: decision.changed,
             estimate: [e.loss, e.conduction, e.rmse_before_c, e.rmse_after_c],
             fragments: blocks(&planned.part, &decision.fragments()),
             proven: decision.proven,
             cut_short: cut.is_some(),
+            ..record
         };
         let mut broken = Vec::new();
         let outcome = if decision.reason == "kept" {

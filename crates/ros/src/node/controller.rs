@@ -41,7 +41,14 @@ impl From<&str> for ExecError {
 /// Something that moves the robot through one goal at a time.
 pub trait Controller: Send {
     /// Runs one goal to its end; `Err` with the reason when it fails or is cancelled.
-    fn execute(&mut self, goal: TrajectoryMsg, cancel: &Cancel) -> Result<(), ExecError>;
+    /// Calls `during` with the time on its clock ([`Controller::now_s`]) now and then while
+    /// the goal runs (the closed loop's readings while the arc is on).
+    fn execute(
+        &mut self,
+        goal: TrajectoryMsg,
+        cancel: &Cancel,
+        during: &mut dyn FnMut(f64),
+    ) -> Result<(), ExecError>;
     /// Called once before a plan's first goal (a controller's trajectory mode).
     fn prepare(&mut self, _cancel: &Cancel) -> Result<(), ExecError> {
         Ok(())
@@ -252,7 +259,12 @@ pub fn run_plan(
                         });
                     let replan = match replan {
                         Ok(Some(replan)) => replan,
-                        Ok(None) => continue,
+                        Ok(None) => {
+                            if let Some(status) = cl.finished(job) {
+                                outputs.status(status);
+                            }
+                            continue;
+                        }
                         Err(e) => {
                             // The execution goes on with its plan.
                             outputs.log(
@@ -319,7 +331,40 @@ pub fn run_plan(
                         faults.arm(&goal_cancel);
                     }
                     let started = controller.now_s();
-                    let done = controller.execute(goal, &goal_cancel);
+                    let time_scale = controller.time_scale();
+                    // With the arc on, the readings go to the loop as they come: a scan of
+                    // a layer the path has finished revises the feeds still to come.
+                    let mut during = |now_s: f64| {
+                        let (Some(f), Some(run), Some(cl)) =
+                            (welding, &closed_loop, replanner.as_mut())
+                        else {
+                            return;
+                        };
+                        let readings = run.readings.try_iter();
+                        match cl.during_weld(&current, f, started, time_scale, now_s, readings) {
+                            Ok(Some(revised)) => {
+                                outputs.wire_feed_schedule(&revised);
+                                outputs.log(
+                                    Level::Info,
+                                    &format!(
+                                        "part {job}: weld path {}, arc on: a scan revised the wire feeds of its last {} deposits (from layer {})",
+                                        f + 1,
+                                        revised.feeds.len(),
+                                        revised.layer
+                                    ),
+                                );
+                            }
+                            Ok(None) => {}
+                            Err(e) => {
+                                outputs.log(
+                                    Level::Warn,
+                                    &format!("part {job}: closed loop off from here: {e}"),
+                                );
+                                replanner = None;
+                            }
+                        }
+                    };
+                    let done = controller.execute(goal, &goal_cancel, &mut during);
                     let fault = faults.and_then(ArcFaults::disarm);
                     if let (Some(_), Some(f), None, false) =
                         (fault, welding, &replanner, cancel.is_cancelled())
@@ -543,7 +588,12 @@ impl SimController {
 }
 
 impl Controller for SimController {
-    fn execute(&mut self, goal: TrajectoryMsg, cancel: &Cancel) -> Result<(), ExecError> {
+    fn execute(
+        &mut self,
+        goal: TrajectoryMsg,
+        cancel: &Cancel,
+        during: &mut dyn FnMut(f64),
+    ) -> Result<(), ExecError> {
         let Some(first) = goal.points.first() else {
             return Ok(());
         };
@@ -588,6 +638,7 @@ impl Controller for SimController {
             if t >= end {
                 return Ok(());
             }
+            during(self.now_s());
             std::thread::sleep(self.period);
         }
     }

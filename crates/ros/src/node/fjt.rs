@@ -248,7 +248,12 @@ impl Controller for FjtController {
         }
     }
 
-    fn execute(&mut self, trajectory: TrajectoryMsg, cancel: &Cancel) -> Result<(), ExecError> {
+    fn execute(
+        &mut self,
+        trajectory: TrajectoryMsg,
+        cancel: &Cancel,
+        during: &mut dyn FnMut(f64),
+    ) -> Result<(), ExecError> {
         self.wait_for_server()?;
         let duration = trajectory
             .points
@@ -294,6 +299,7 @@ impl Controller for FjtController {
         // The goal takes its duration; allow the server timeout on top for the answer.
         let done_by = Instant::now() + Duration::from_secs_f64(duration) + self.server_timeout;
         let result = poll_until(done_by, cancel, || {
+            during(self.now_s());
             self.client
                 .receive_result(result_request)
                 .map_err(|e| ExecError(format!("reading the result: {e:?}")))
