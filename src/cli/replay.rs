@@ -631,6 +631,7 @@ fn decisions_json(decided: &[Decided]) -> Vec<serde_json::Value> {
                     "loss_factor": b.record.estimate[0],
                     "conduction_factor": b.record.estimate[1],
                     "readings": b.record.readings.len(),
+                    "feed_revisions": b.record.feed_revisions.len(),
                     "scans": b
                         .record
                         .readings

@@ -426,6 +426,30 @@ fn rclpy_simulated_cell_node_feeds_the_closed_loop() {
     assert!(json["decisions_identical"].as_u64().unwrap() >= 1, "{json}");
 }
 
+/// Wire feeds revised while the arc is on (#31, sim_cell_spiral.py): a square tube welded in
+/// one weld path that climbs its four layers, beside `waam sim-cell --node` with beads 10 %
+/// low. The scans of the layers it finishes revise the feeds still to come, its top ends
+/// within 0.5 mm of nominal, and `waam replay` makes every revision again from the recording.
+#[test]
+fn rclpy_simulated_cell_scans_revise_the_wire_feeds_of_a_spiral_while_the_arc_is_on() {
+    let Some((_dir, bag)) = recorded_script_run("sim_cell_spiral.py", "spiral") else {
+        return;
+    };
+    let json = decisions_replayed_identically(&bag);
+    let finished: Vec<_> = json["decisions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|d| d["recorded_decision"] == "finished")
+        .collect();
+    assert_eq!(finished.len(), 1, "{json}");
+    assert!(
+        finished[0]["feed_revisions"].as_u64().unwrap() >= 1,
+        "{json}"
+    );
+    assert_eq!(finished[0]["verdict"], "identical", "{json}");
+}
+
 /// An arc fault from the simulated cell's welder (#31, sim_cell_fault.py): `waam sim-cell
 /// --node` with TRUTH.yaml's `cut_short` publishes the fault halfway through the first weld
 /// path; the namespaced dry run stops that weld path, re-plans the rest (`reason: fault`) and

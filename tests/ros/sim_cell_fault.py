@@ -30,7 +30,7 @@ def run(peer, cell):
     peer.listen("/diagnostics", DiagnosticArray, qos=waamtest.INPUT_QOS)
     peer.listen(NS + "/status", DiagnosticArray, qos=waamtest.INPUT_QOS)
     peer.listen(NS + "/plan/weld_plan", WeldPlan)
-    waamtest.execute_twin_walls_beside_the_simulated_cell(peer, NS, cell)
+    waamtest.execute_beside_the_simulated_cell(peer, NS, cell)
 
     replanned = waamtest.statuses(peer, NS + "/status", "replanned")
     for s in replanned:

@@ -53,7 +53,7 @@ def run(peer, cell):
     schedules = []
     peer.node.create_subscription(JointTrajectory, NS + "/wire_feed_schedule",
                                   schedules.append, waamtest.INPUT_QOS)
-    waamtest.execute_twin_walls_beside_the_simulated_cell(peer, NS, cell)
+    waamtest.execute_beside_the_simulated_cell(peer, NS, cell)
 
     waamtest.check_replanned_on_lower_losses(peer, NS + "/status")
 

@@ -165,10 +165,10 @@ def beside_the_simulated_cell(peer, check_run, *args):
         print(f"--- log of the simulated cell ---\n{cell.output()}")
 
 
-def execute_twin_walls_beside_the_simulated_cell(peer, ns, cell):
-    """Sends tests/data/twin-walls.yaml to node `ns` (its ~/part), once its ~/execute server
-    and the simulated cell's node `cell` (a WaamProcess) are up, runs it through ~/execute
-    and checks the execution succeeded."""
+def execute_beside_the_simulated_cell(peer, ns, cell, path="tests/data/twin-walls.yaml"):
+    """Sends the part file `path` to node `ns` (its ~/part), once its ~/execute server and
+    the simulated cell's node `cell` (a WaamProcess) are up, runs it through ~/execute and
+    checks the execution succeeded."""
     from action_msgs.msg import GoalStatus
     from rclpy.action import ActionClient
     from waam_interfaces.action import ExecutePlan
@@ -182,8 +182,7 @@ def execute_twin_walls_beside_the_simulated_cell(peer, ns, cell):
     peer.spin_until("the simulated cell's node",
                     lambda: "waam_sim_cell" in peer.node.get_node_names(), 30, discovery=True)
     check(cell.alive(), "the simulated cell exited")
-    result = plan_then_execute(peer, part, execute, ns + "/status",
-                               "tests/data/twin-walls.yaml", ExecutePlan.Goal)
+    result = plan_then_execute(peer, part, execute, ns + "/status", path, ExecutePlan.Goal)
     peer.spin_until("~/execute done", result.done, 180)
     r = result.result()
     check(r.status == GoalStatus.STATUS_SUCCEEDED

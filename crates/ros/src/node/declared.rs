@@ -233,7 +233,7 @@ pub static DECLARED: &[Declared] = &[
     declare!("topics.wire_feed", topics.wire_feed: String, AT_START, Range::None,
         "Out: std_msgs/Float64, with the closed loop: the wire feed of the weld path about to start, relative to nominal", ""),
     declare!("topics.wire_feed_schedule", topics.wire_feed_schedule: String, AT_START, Range::None,
-        "Out: trajectory_msgs/JointTrajectory, with the closed loop, before each weld path's arc strikes: one point per deposit, joint \"wire_feed\", its feed relative to nominal at its start (time from the arc strike)", ""),
+        "Out: trajectory_msgs/JointTrajectory, with the closed loop, before each weld path's arc strikes: one point per deposit, joint \"wire_feed\", its feed relative to nominal at its start (time from the arc strike); after a scan while the arc is on, the rest of it revised (its first point after the strike)", ""),
     declare!("topics.joint_states", topics.joint_states: String, AT_START, Range::None,
         "Out (dry run): sensor_msgs/JointState of the simulated robot", ""),
     declare!("execution.enabled", execution.enabled: bool, AT_START, Range::None,
