@@ -134,14 +134,20 @@ fn first_layer_scanned(part: &Part, wire_feed_per_deposit: bool) -> ClosedLoop {
         cl.deposited(b, new, t, 1.0).unwrap();
         t += 1.0;
     }
+    cl.measured(&left_end_low(t)).unwrap();
+    cl
+}
+
+/// The wall's first layer scanned at `stamp_s`: its left half (x < 28 mm: blocks 0..3)
+/// 2.0 mm high, its right half 2.5 mm; two points over each block.
+fn left_end_low(stamp_s: f64) -> Measured {
     let points: Vec<[f64; 3]> = (0..24)
         .map(|i| {
             let x = 10.75 + 1.5 * i as f64;
             [x, 1.0, if x < 28.0 { 2.0 } else { 2.5 }]
         })
         .collect();
-    cl.measured(&Measured::Scan { stamp_s: t, points }).unwrap();
-    cl
+    Measured::Scan { stamp_s, points }
 }
 
 #[test]
@@ -171,69 +177,55 @@ fn each_deposit_gets_the_wire_feed_that_makes_up_the_height_missing_under_it() {
     assert_eq!(per_path.wire_feed(second[5]), feeds[0]);
 }
 
+/// The wall's first layer welded at the nominal feed, then the second and third layers'
+/// feeds asked at the strike of a path that goes on over them (nothing measured yet: all
+/// nominal), then the first layer's scan [`left_end_low`], as it comes while that path's arc
+/// is on. Returns the loop and the second and third layers' blocks.
+fn scanned_while_the_arc_is_on(
+    part: &Part,
+    wire_feed_per_deposit: bool,
+) -> (ClosedLoop, Vec<usize>) {
+    let layer =
+        |z: i64| -> Vec<usize> { (0..6).map(|x| part.index_of([x, 0, z]).unwrap()).collect() };
+    let rest = [layer(1), layer(2)].concat();
+    let opts = LoopOptions {
+        wire_feed_per_deposit,
+        ..options()
+    };
+    let mut cl = ClosedLoop::new(part, &first_plan(part), opts, 0.0).unwrap();
+    let mut t = 0.0;
+    for b in layer(0) {
+        assert_eq!(cl.wire_feed(b), 1.0);
+        cl.deposited(b, cl.deposits() == 0, t, 1.0).unwrap();
+        t += 1.0;
+    }
+    assert!(cl.path_feeds(&rest).iter().all(|&f| f == 1.0));
+    cl.measured(&left_end_low(t)).unwrap();
+    (cl, rest)
+}
+
 /// A weld path that climbs through the layers got its feeds at the arc strike, before any
 /// layer was scanned (nominal); a scan that comes while its arc is on sets the feeds of the
 /// deposits still to come again, as if asked for after the scan.
 #[test]
 fn a_scan_while_the_arc_is_on_revises_the_feeds_of_the_deposits_to_come() {
     let part = wall();
-    let layer =
-        |z: i64| -> Vec<usize> { (0..6).map(|x| part.index_of([x, 0, z]).unwrap()).collect() };
-    let rest = [layer(1), layer(2)].concat();
-    for per_deposit in [true, false] {
-        let opts = LoopOptions {
-            wire_feed_per_deposit: per_deposit,
-            ..options()
-        };
-        let mut cl = ClosedLoop::new(&part, &first_plan(&part), opts, 0.0).unwrap();
-        let mut t = 0.0;
-        for b in layer(0) {
-            assert_eq!(cl.wire_feed(b), 1.0);
-            cl.deposited(b, cl.deposits() == 0, t, 1.0).unwrap();
-            t += 1.0;
-        }
-        // Asked at the strike of a path that goes on over the layer: nothing measured.
-        assert!(cl.path_feeds(&rest).iter().all(|&f| f == 1.0));
-        let points: Vec<[f64; 3]> = (0..24)
-            .map(|i| {
-                let x = 10.75 + 1.5 * i as f64;
-                [x, 1.0, if x < 28.0 { 2.0 } else { 2.5 }]
-            })
-            .collect();
-        cl.measured(&Measured::Scan { stamp_s: t, points }).unwrap();
-        let revised = cl.revise_feeds(&[], &rest);
-        if per_deposit {
-            // As `each_deposit_gets_...`: the left end makes up 0.5 mm at 0.8 (held at
-            // 1.3), the third layer counts on the second's new feeds.
-            let side = [1.3, 1.3, 1.3, 1.0, 1.0, 1.0];
-            assert_eq!(revised, [side, side].concat());
-            assert_eq!(cl.wire_feed(rest[0]), 1.3, "fixed again once revised");
-        } else {
-            assert!(revised.iter().all(|&f| f == 1.0), "held: {revised:?}");
-        }
-    }
+    // As `each_deposit_gets_...`: the left end makes up 0.5 mm at 0.8 (held at 1.3), the
+    // third layer counts on the second's new feeds.
+    let (mut cl, rest) = scanned_while_the_arc_is_on(&part, true);
+    let side = [1.3, 1.3, 1.3, 1.0, 1.0, 1.0];
+    assert_eq!(cl.revise_feeds(&[], &rest), [side, side].concat());
+    assert_eq!(cl.wire_feed(rest[0]), 1.3, "fixed again once revised");
+    // A welder that holds one feed per weld path keeps the one it struck at.
+    let (mut cl, rest) = scanned_while_the_arc_is_on(&part, false);
+    assert!(cl.revise_feeds(&[], &rest).iter().all(|&f| f == 1.0));
     // The same scan when the second layer's first two deposits (left end) have begun at
     // the nominal feed: they stand, but are now expected 2.0 + 2.5 * 0.8 = 4.0 mm high, so
     // the third layer makes up 1.0 mm over them (at 0.8: 1.75, held at 1.3) — not the
     // nothing it would count on from their expectation at the strike.
-    let mut cl = ClosedLoop::new(&part, &first_plan(&part), options(), 0.0).unwrap();
-    let mut t = 0.0;
-    for b in layer(0) {
-        cl.wire_feed(b);
-        cl.deposited(b, cl.deposits() == 0, t, 1.0).unwrap();
-        t += 1.0;
-    }
-    assert!(cl.path_feeds(&rest).iter().all(|&f| f == 1.0));
-    let points: Vec<[f64; 3]> = (0..24)
-        .map(|i| {
-            let x = 10.75 + 1.5 * i as f64;
-            [x, 1.0, if x < 28.0 { 2.0 } else { 2.5 }]
-        })
-        .collect();
-    cl.measured(&Measured::Scan { stamp_s: t, points }).unwrap();
-    let revised = cl.revise_feeds(&rest[..2], &rest[2..]);
+    let (mut cl, rest) = scanned_while_the_arc_is_on(&part, true);
     assert_eq!(
-        revised,
+        cl.revise_feeds(&rest[..2], &rest[2..]),
         [1.3, 1.0, 1.0, 1.0, 1.3, 1.3, 1.3, 1.0, 1.0, 1.0],
         "the second layer's x = 2..5, then the third's"
     );

@@ -593,9 +593,20 @@ fn the_steps_after_a_weld_path_start_where_the_robot_stands_or_are_refused() {
 /// the weld path's blocks. (The first boundary's re-plan may weld the remaining layers in
 /// fewer weld paths: on a wall nothing stops it.)
 fn build_low_wall(limits: (f64, f64), factor: fn([f64; 2]) -> f64) -> Vec<(Vec<usize>, Vec<f64>)> {
-    const WALL: &str = "name: wall4\nblock_mm: [6, 6, 2.5]\nmax_fragments: 4\nlayers:\n- '######'\n- '######'\n- '######'\n- '######'\n";
-    let part = Part::parse(WALL).unwrap();
-    let fragments: Vec<Vec<usize>> = (0..4)
+    let part = Part::parse(&wall4(4)).unwrap();
+    build_low(part, serpentine(), limits, factor)
+}
+
+/// A wall of 6 x 1 blocks and 4 layers, at most `k` weld paths.
+fn wall4(k: usize) -> String {
+    format!(
+        "name: wall4\nblock_mm: [6, 6, 2.5]\nmax_fragments: {k}\nlayers:\n- '######'\n- '######'\n- '######'\n- '######'\n"
+    )
+}
+
+/// [`wall4`]'s layers, each a row, the odd ones welded back.
+fn serpentine() -> Vec<Vec<usize>> {
+    (0..4)
         .map(|z| {
             let row: Vec<usize> = (6 * z..6 * z + 6).collect();
             if z % 2 == 0 {
@@ -604,8 +615,7 @@ fn build_low_wall(limits: (f64, f64), factor: fn([f64; 2]) -> f64) -> Vec<(Vec<u
                 row.into_iter().rev().collect()
             }
         })
-        .collect();
-    build_low(part, fragments, limits, factor)
+        .collect()
 }
 
 /// Beads 10 % low everywhere.
@@ -1204,18 +1214,8 @@ fn build_low_spiral(
     deaf: bool,
     record: Option<&std::path::Path>,
 ) -> (Part, Vec<f64>, Vec<FeedSchedule>) {
-    const WALL: &str = "name: spiral\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nlayers:\n- '######'\n- '######'\n- '######'\n- '######'\n";
-    let part = Part::parse(WALL).unwrap();
-    let path: Vec<usize> = (0..4)
-        .flat_map(|z| {
-            let row: Vec<usize> = (6 * z..6 * z + 6).collect();
-            if z % 2 == 0 {
-                row
-            } else {
-                row.into_iter().rev().collect()
-            }
-        })
-        .collect();
+    let part = Part::parse(&wall4(1)).unwrap();
+    let path = serpentine().concat();
     let chosen = ChosenPlan {
         fragments: vec![path.clone()],
         stats: Default::default(),
