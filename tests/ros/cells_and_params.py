@@ -129,7 +129,7 @@ def run(peer, waam, cell2):
         "closed_loop.scan_period_s", "closed_loop.temperature_period_s",
         "closed_loop.thermal_camera_period_s",
         "closed_loop.wire_feed_min", "closed_loop.wire_feed_max",
-        "closed_loop.wire_feed_per_deposit", "use_sim_time",
+        "closed_loop.wire_feed_per_deposit", "closed_loop.wire_feed_lead_s", "use_sim_time",
     }
     check(names == expected, f"parameters listed: {sorted(names)}; missing "
           f"{sorted(expected - names)}, unexpected {sorted(names - expected)}")

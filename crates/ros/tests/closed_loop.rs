@@ -175,6 +175,7 @@ fn execute_closed(
         planner: waam_planner::Options::default(),
         wire_feed,
         wire_feed_per_deposit: true,
+        wire_feed_lead_s: 0.25,
         scan_margin_mm: 5.0,
     };
     let run = ClosedLoopRun {
@@ -836,6 +837,7 @@ fn a_weld_path_cut_short_halfway_is_re_planned_and_completed() {
         planner: waam_planner::Options::default(),
         wire_feed: (1.0, 1.0),
         wire_feed_per_deposit: true,
+        wire_feed_lead_s: 0.25,
         scan_margin_mm: 5.0,
     };
     let mut replanner = Replanner::new(&planned, setup).unwrap();
@@ -1023,6 +1025,7 @@ fn an_arc_fault_stops_the_weld_goal_and_the_execution_goes_on_with_the_re_plan()
             planner: waam_planner::Options::default(),
             wire_feed: (1.0, 1.0),
             wire_feed_per_deposit: true,
+            wire_feed_lead_s: 0.25,
             scan_margin_mm: 5.0,
         },
         readings: &rx,
@@ -1093,6 +1096,7 @@ fn an_arc_fault_in_the_last_deposits_second_half_is_an_ordinary_boundary() {
         planner: waam_planner::Options::default(),
         wire_feed: (1.0, 1.0),
         wire_feed_per_deposit: true,
+        wire_feed_lead_s: 0.25,
         scan_margin_mm: 5.0,
     };
     let mut replanner = Replanner::new(&planned, setup).unwrap();

@@ -41,6 +41,10 @@ pub struct ReplanSetup {
     pub planner: waam_planner::Options,
     pub wire_feed: (f64, f64),
     pub wire_feed_per_deposit: bool,
+    /// How long before a deposit begins its feed may still be revised while the arc is on,
+    /// s of wall time: the revised schedule's way to the welder
+    /// (`closed_loop.wire_feed_lead_s`).
+    pub wire_feed_lead_s: f64,
     pub scan_margin_mm: f64,
 }
 
@@ -242,10 +246,6 @@ pub struct Replanner {
     finished: Option<(BoundaryRecord, usize, usize)>,
 }
 
-/// How long before a deposit begins its wire feed may still be revised, s of wall time:
-/// the revised schedule's way to the welder.
-pub const REVISION_LEAD_S: f64 = 0.25;
-
 /// The weld path under way: its deposits told so far (those begun by a reading's stamp),
 /// the feeds it was sent, and the readings fed and feed revisions made since the last
 /// boundary (recorded there).
@@ -332,7 +332,7 @@ impl Replanner {
     /// While weld path `fragment` of `planned` is welded by a goal that began at
     /// `goal_start_s` (as for [`Replanner::welded`]), the controller's clock reading `now_s`:
     /// `readings` are fed to the loop, each after the deposits begun by its stamp are told.
-    /// After a scan, the deposits that begin more than [`REVISION_LEAD_S`] from now get
+    /// After a scan, the deposits that begin more than the setup's `wire_feed_lead_s` from now get
     /// their wire feeds again ([`ClosedLoop::revise_feeds`]): a path that climbs through
     /// the layers (a spiral) is corrected by the scans of the layers it has finished. Returns
     /// the revised rest of the schedule (timed from the arc strike) when a feed changed.
@@ -371,7 +371,7 @@ impl Replanner {
                 Err(e) => self.arc_on.ignored.push(e),
             }
         }
-        let ahead = trajectory_s(now_s + REVISION_LEAD_S);
+        let ahead = trajectory_s(now_s + self.setup.wire_feed_lead_s);
         let from = starts
             .iter()
             .position(|&t| t > ahead)

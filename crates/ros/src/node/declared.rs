@@ -299,6 +299,9 @@ pub static DECLARED: &[Declared] = &[
     declare!("closed_loop.wire_feed_per_deposit", closed_loop.wire_feed_per_deposit: bool,
         AT_START, Range::None,
         "The welder follows ~/wire_feed_schedule, a feed per deposit; false: it holds ~/wire_feed for the whole weld path (the mean of its deposits' feeds)", ""),
+    declare!("closed_loop.wire_feed_lead_s", closed_loop.wire_feed_lead_s: f64, AT_START,
+        Range::Float(0.0, 10.0),
+        "While the arc is on, a scan revises the feeds of the deposits that begin at least this long after it, s (the schedule's way through the welder's bridge)", ""),
 ];
 
 /// The declared parameter `name`.

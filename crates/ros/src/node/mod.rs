@@ -534,6 +534,7 @@ fn replan_setup(
                 params.closed_loop.wire_feed_max,
             ),
             wire_feed_per_deposit: params.closed_loop.wire_feed_per_deposit,
+            wire_feed_lead_s: params.closed_loop.wire_feed_lead_s,
             scan_margin_mm: params.closed_loop.scan_margin_mm,
         })
 }

@@ -172,6 +172,9 @@ pub struct ClosedLoopParams {
     /// The welder takes a wire feed per deposit along a weld path (`~/wire_feed_schedule`);
     /// false: one per weld path (`~/wire_feed`), the mean of its deposits'.
     pub wire_feed_per_deposit: bool,
+    /// How long before a deposit begins its feed may still be revised while the arc is on, s
+    /// (the way of `~/wire_feed_schedule` through the welder's bridge).
+    pub wire_feed_lead_s: f64,
 }
 
 impl Default for ClosedLoopParams {
@@ -190,6 +193,7 @@ impl Default for ClosedLoopParams {
             wire_feed_min: 0.7,
             wire_feed_max: 1.3,
             wire_feed_per_deposit: true,
+            wire_feed_lead_s: 0.25,
         }
     }
 }
