@@ -492,6 +492,9 @@ impl ClosedLoop {
     /// mean of its points on that deposit. A point is on the deposit whose volume it lies
     /// nearest, when within half a layer height of it (a surface point, measured with the
     /// camera's error); points on the plate, the fixture or what is not welded yet are not.
+    /// A deposit's volume is where it stands: moved up or down from the nominal one by as
+    /// much as its top (scanned, else expected from its feed) lies from the nominal top, so
+    /// that a part built low is read on the deposits the camera sees.
     fn on_deposits(&self, deposits: usize, points: &[([f64; 3], f64)]) -> Vec<(usize, f64)> {
         let near = self.near.get_or_init(|| Near::new(&self.part));
         let tolerance = self.part.block_mm[2] / 2.0;
@@ -499,15 +502,31 @@ impl ClosedLoop {
         for (k, &(b, _)) in self.executed[..deposits].iter().enumerate() {
             order[b] = k;
         }
+        let shift = |b: usize| -> f64 {
+            let nominal_top = self.part.centre_mm(self.part.block(b))[2] - self.part.origin_mm[2]
+                + self.part.block_mm[2] / 2.0;
+            self.top_mm[b]
+                .or(self.expected_top_mm[b])
+                .map_or(0.0, |top| top - nominal_top)
+        };
+        let reach = self.executed[..deposits]
+            .iter()
+            .map(|&(b, _)| shift(b).abs())
+            .fold(0.0, f64::max);
         let mut sums: std::collections::BTreeMap<usize, (f64, usize)> = Default::default();
         for &(p, celsius) in points {
             if !celsius.is_finite() {
                 continue;
             }
             let nearest = near
-                .within(p, tolerance)
+                .within(p, tolerance + reach)
                 .filter(|&b| order[b] != usize::MAX)
-                .map(|b| (self.part.distance_to_mm(b, p), b))
+                .map(|b| {
+                    (
+                        self.part.distance_to_mm(b, [p[0], p[1], p[2] - shift(b)]),
+                        b,
+                    )
+                })
                 .filter(|&(d, _)| d <= tolerance)
                 .min_by(|a, b| a.0.total_cmp(&b.0));
             if let Some((_, b)) = nearest {

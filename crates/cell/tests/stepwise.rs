@@ -503,6 +503,42 @@ fn a_thermal_image_reads_each_deposit_it_shows() {
     );
 }
 
+/// A part built low: the first layer scanned 1.0 mm high (of 2.5), the next deposit at the
+/// feed asked (1.3 at a gain of 0.4: expected 2.3 mm high, 2.7 mm under its nominal top).
+/// The camera sees that deposit's front face at mid-height, 1.05 mm — inside the first
+/// layer's nominal volume; it is read on the deposit where it stands.
+#[test]
+fn a_thermal_image_of_a_part_built_low_reads_the_deposits_where_they_stand() {
+    let part = wall();
+    let plan = first_plan(&part);
+    let mut cl = ClosedLoop::new(&part, &plan, options(), 0.0).unwrap();
+    let mut t = 0.0;
+    while cl.deposits() < 6 {
+        let (b, new) = cl.next().unwrap();
+        cl.wire_feed(b);
+        cl.deposited(b, new, t, 1.0).unwrap();
+        t += 1.0;
+    }
+    let points = (0..24)
+        .map(|i| [10.75 + 1.5 * i as f64, 1.0, 1.0])
+        .collect();
+    cl.measured(&Measured::Scan { stamp_s: t, points }).unwrap();
+    let (b, new) = cl.next().unwrap();
+    assert_eq!(part.block(b)[2], 1);
+    assert_eq!(cl.wire_feed(b), 1.3);
+    cl.deposited(b, new, t, 1.0).unwrap();
+    let c = part.centre_mm(part.block(b));
+    cl.measured(&Measured::ThermalImage {
+        stamp_s: t + 0.5,
+        points: vec![([c[0], -3.0, 1.05], 1234.0)],
+    })
+    .unwrap();
+    assert_eq!(
+        cl.measurements().last().unwrap().temperatures,
+        [(b, 1234.0)]
+    );
+}
+
 /// A graph part's image: a point on a bead's top belongs to the deposit (piece of bead)
 /// under it, not to the next piece of the bead (a piece ends at its cut, it is not rounded);
 /// the ring's hollow is not the part's.

@@ -426,7 +426,11 @@ impl TrueCell<'_> {
                     .collect::<Vec<_>>()
                     .into_iter()
                     .map(|(o, t)| {
+                        // The deposit's centre where it stands: moved as far as its true
+                        // top lies from the nominal one.
                         let [x, y, z] = self.part.centre_mm(self.part.block(o));
+                        let nominal_top = z - self.part.origin_mm[2] + nominal / 2.0;
+                        let z = z + self.top_mm[o] - nominal_top;
                         [x / 1000.0, y / 1000.0, z / 1000.0, t + self.noise.sample()]
                             .map(|v| v as f32)
                     })
