@@ -217,6 +217,10 @@ pub fn run(args: SimCellArgs, global: &super::GlobalArgs) -> anyhow::Result<Exit
             "height: the top layer's deposits from {:.2} to {:.2} mm",
             last.tops_mm[0], last.tops_mm[1]
         );
+        println!(
+            "height error per layer, mm: {}",
+            layer_errors(&executed.layers)
+        );
     }
     let code = match &on_truth.violation {
         None => {
@@ -262,4 +266,21 @@ fn run_node(part: &waam_part::Part, truth: &Truth, args: &SimCellArgs) -> anyhow
     };
     waam_ros::sim_cell::run(part, truth, &options, super::node::stop_on_signal()?)?;
     Ok(ExitCode::from(EXIT_OK))
+}
+
+/// Each layer's height error: its deposits' top furthest from the nominal top (scanned, mm),
+/// bottom first; the first and last eight of a taller part.
+fn layer_errors(layers: &[waam_cell::executed::LayerRecord]) -> String {
+    let error = |l: &waam_cell::executed::LayerRecord| {
+        let nominal = l.nominal_mm * (l.z + 1) as f64;
+        let [lo, hi] = l.tops_mm.map(|t| t - nominal);
+        let e = if lo.abs() > hi.abs() { lo } else { hi };
+        format!("{e:+.2}")
+    };
+    if layers.len() <= 16 {
+        return layers.iter().map(error).collect::<Vec<_>>().join(" ");
+    }
+    let head: Vec<String> = layers[..8].iter().map(error).collect();
+    let tail: Vec<String> = layers[layers.len() - 8..].iter().map(error).collect();
+    format!("{} … {}", head.join(" "), tail.join(" "))
 }

@@ -1,6 +1,6 @@
 //! `waam sim-cell` through the binary (#31): the part planned by the pipeline, then welded
 //! on a true cell with 25 % lower heat losses — open loop breaks a window, closed loop
-//! keeps them all — and a bad TRUTH.yaml named. The loop itself is tested in
+//! keeps them all, and brings the height back — and a bad TRUTH.yaml named. The loop itself is tested in
 //! `crates/cell/tests/`.
 
 use crate::common::run::run_at_root;
@@ -24,9 +24,19 @@ fn open_loop_breaks_a_window_on_the_true_cell_that_closed_loop_keeps() {
     assert_eq!(code, Some(1), "{out}{err}");
     assert!(err.starts_with("planned: 1 weld path(s)"), "{err}");
     assert!(out.contains("TRUE MODEL: window of block"), "{out}");
+    // Every bead 10 % low: open loop falls a quarter millimetre further behind each layer;
+    // closed loop makes up the first layer's shortfall on the second.
+    assert!(
+        out.contains("height error per layer, mm: -0.25 -0.50 -0.75 -1.00\n"),
+        "{out}"
+    );
     let (code, out, err) = sim_cell(&[], &dir.path().join("closed"));
     assert_eq!(code, Some(0), "{out}{err}");
     assert!(out.contains("TRUE MODEL: every t8/5 window kept"), "{out}");
+    assert!(
+        out.contains("height error per layer, mm: -0.25 +0.00 +0.00 +0.00\n"),
+        "{out}"
+    );
     assert!(err.contains("replan after"), "{err}");
     let executed = std::fs::read_to_string(dir.path().join("closed/executed.yaml")).unwrap();
     assert!(executed.contains("loop: closed"), "{executed}");
