@@ -52,7 +52,8 @@ pub struct ToldDeposit {
 /// A reading the loop was fed, named by what identifies its recorded message.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ReadingRef {
-    /// A `sensor_msgs/Temperature`: its stamp (s, as the loop took it) and value.
+    /// A `sensor_msgs/Temperature`: its stamp (s, as the loop took it) and value (NaN when
+    /// the record does not keep it).
     Temperature { stamp_s: f64, celsius: f64 },
     /// A `sensor_msgs/PointCloud2` scan: its stamp and the points on the part the loop got.
     Scan { stamp_s: f64, points: usize },
@@ -82,6 +83,9 @@ impl ReadingRef {
 impl fmt::Display for ReadingRef {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            ReadingRef::Temperature { stamp_s, celsius } if celsius.is_nan() => {
+                write!(f, "temperature stamped {stamp_s:.6} s")
+            }
             ReadingRef::Temperature { stamp_s, celsius } => {
                 write!(f, "temperature {celsius} °C stamped {stamp_s} s")
             }
@@ -167,6 +171,68 @@ fn blocks_json(fragments: &[Vec<Block>]) -> String {
     json!(fragments).to_string()
 }
 
+/// Readings as the record keeps them, a few bytes each (a pyrometer at 100 Hz feeds
+/// thousands a weld path): one token per reading, in the order fed, its kind (`t`
+/// temperature, `s` scan, `i` thermal image), its stamp in µs after the previous reading's
+/// (the first's since the epoch), and a cloud's points on the part (`:N`). A temperature's
+/// value is not kept: the replay takes each recorded message in order, by kind and stamp.
+fn pack_readings(readings: &[ReadingRef]) -> String {
+    let mut last_us = 0i64;
+    let tokens: Vec<String> = readings
+        .iter()
+        .map(|r| {
+            let (kind, stamp_s, points) = match *r {
+                ReadingRef::Temperature { stamp_s, .. } => ('t', stamp_s, None),
+                ReadingRef::Scan { stamp_s, points } => ('s', stamp_s, Some(points)),
+                ReadingRef::ThermalImage { stamp_s, points } => ('i', stamp_s, Some(points)),
+            };
+            let us = (stamp_s * 1e6).round() as i64;
+            let delta = us - std::mem::replace(&mut last_us, us);
+            match points {
+                Some(n) => format!("{kind}{delta}:{n}"),
+                None => format!("{kind}{delta}"),
+            }
+        })
+        .collect();
+    tokens.join(" ")
+}
+
+/// The readings of [`pack_readings`]' form (a temperature's value unknown: NaN).
+fn unpack_readings(packed: &str) -> Result<Vec<ReadingRef>, &'static str> {
+    let mut us = 0i64;
+    packed
+        .split_whitespace()
+        .map(|token| {
+            let mut chars = token.chars();
+            let kind = chars.next().ok_or("an empty reading")?;
+            let (delta, points) = match chars.as_str().split_once(':') {
+                Some((d, n)) => (
+                    d,
+                    Some(n.parse::<usize>().map_err(|_| "a bad point count")?),
+                ),
+                None => (chars.as_str(), None),
+            };
+            us += delta.parse::<i64>().map_err(|_| "a bad stamp")?;
+            let stamp_s = us as f64 * 1e-6;
+            match (kind, points) {
+                ('t', None) => Ok(ReadingRef::Temperature {
+                    stamp_s,
+                    celsius: f64::NAN,
+                }),
+                ('s', Some(points)) => Ok(ReadingRef::Scan { stamp_s, points }),
+                ('i', Some(points)) => Ok(ReadingRef::ThermalImage { stamp_s, points }),
+                _ => Err("a reading is neither t, sN:points nor iN:points"),
+            }
+        })
+        .collect()
+}
+
+/// Whether a recorded message stamped `recorded_s` is the reading stamped `s` (the record
+/// keeps stamps to the µs).
+fn same_stamp(recorded_s: f64, s: f64) -> bool {
+    (recorded_s * 1e6).round() == (s * 1e6).round()
+}
+
 impl BoundaryRecord {
     /// The record as status values (floats written so that they read back exactly).
     pub fn values(&self) -> Vec<KeyValue> {
@@ -176,24 +242,11 @@ impl BoundaryRecord {
             .iter()
             .map(|d| json!([d.block, d.arc_start, d.start_s, d.duration_s]))
             .collect();
-        let readings: Vec<Value> = self
-            .readings
-            .iter()
-            .map(|r| match r {
-                ReadingRef::Temperature { stamp_s, celsius } => {
-                    json!(["temperature", stamp_s, celsius])
-                }
-                ReadingRef::Scan { stamp_s, points } => json!(["scan", stamp_s, points]),
-                ReadingRef::ThermalImage { stamp_s, points } => {
-                    json!(["image", stamp_s, points])
-                }
-            })
-            .collect();
         let mut out = vec![
             kv("boundary", self.boundary.to_string()),
             kv("now_s", self.now_s.to_string()),
             kv("deposits", Value::from(deposits).to_string()),
-            kv("readings", Value::from(readings).to_string()),
+            kv("readings", pack_readings(&self.readings)),
             kv("scan_margin_mm", self.scan_margin_mm.to_string()),
             kv(
                 "timeout_s",
@@ -265,28 +318,34 @@ impl BoundaryRecord {
                 duration_s,
             })
             .collect();
-        let readings = serde_json::from_value::<Vec<(String, f64, f64)>>(json_of("readings")?)
-            .map_err(|e| bad("readings", &e.to_string()))?
-            .into_iter()
-            .map(|(kind, stamp_s, v)| match kind.as_str() {
-                "temperature" => Ok(ReadingRef::Temperature {
-                    stamp_s,
-                    celsius: v,
-                }),
-                "scan" => Ok(ReadingRef::Scan {
-                    stamp_s,
-                    points: v as usize,
-                }),
-                "image" => Ok(ReadingRef::ThermalImage {
-                    stamp_s,
-                    points: v as usize,
-                }),
-                _ => Err(bad(
-                    "readings",
-                    "a reading is neither temperature, scan nor image",
-                )),
-            })
-            .collect::<Result<_, _>>()?;
+        let readings = match need("readings")? {
+            // Recorded by an older node: JSON, each reading's stamp and value in full.
+            v if v.starts_with('[') => {
+                serde_json::from_value::<Vec<(String, f64, f64)>>(json_of("readings")?)
+                    .map_err(|e| bad("readings", &e.to_string()))?
+                    .into_iter()
+                    .map(|(kind, stamp_s, v)| match kind.as_str() {
+                        "temperature" => Ok(ReadingRef::Temperature {
+                            stamp_s,
+                            celsius: v,
+                        }),
+                        "scan" => Ok(ReadingRef::Scan {
+                            stamp_s,
+                            points: v as usize,
+                        }),
+                        "image" => Ok(ReadingRef::ThermalImage {
+                            stamp_s,
+                            points: v as usize,
+                        }),
+                        _ => Err(bad(
+                            "readings",
+                            "a reading is neither temperature, scan nor image",
+                        )),
+                    })
+                    .collect::<Result<_, _>>()?
+            }
+            v => unpack_readings(v).map_err(|why| bad("readings", why))?,
+        };
         let estimate: Vec<f64> = need("estimate")?
             .split(' ')
             .map(|v| v.parse().map_err(|_| bad("estimate", "not four numbers")))
@@ -599,10 +658,13 @@ impl Sensors {
                             stamp_s: s,
                             celsius,
                         },
-                    ) => stamp_s(t.header.stamp) == s && t.temperature == celsius,
+                    ) => {
+                        same_stamp(stamp_s(t.header.stamp), s)
+                            && (celsius.is_nan() || t.temperature == celsius)
+                    }
                     (Raw::Scan(c), &ReadingRef::Scan { stamp_s: s, .. })
                     | (Raw::Image(c), &ReadingRef::ThermalImage { stamp_s: s, .. }) => {
-                        stamp_s(c.header.stamp) == s
+                        same_stamp(stamp_s(c.header.stamp), s)
                     }
                     _ => false,
                 }
@@ -1243,11 +1305,40 @@ mod tests {
             .collect();
         let back = BoundaryRecord::from_values(&values).unwrap().unwrap();
         assert!(back.estimate[3].is_nan());
+        // The readings to the µs, a temperature's value left out (the recorded message
+        // has it): "t1765000000500000 s500000:6".
+        let packed = values.iter().find(|(k, _)| k == "loop.readings").unwrap();
+        assert_eq!(packed.1, "t1765000000500000 s500000:6");
+        let [ReadingRef::Temperature { stamp_s, celsius }, ReadingRef::Scan { points: 6, .. }] =
+            back.readings[..]
+        else {
+            panic!("{:?}", back.readings);
+        };
+        assert!(same_stamp(stamp_s, 1_765_000_000.5) && celsius.is_nan());
         let same = |mut x: BoundaryRecord| {
             x.estimate[3] = 0.0;
+            x.readings.clear();
             x
         };
-        assert_eq!(same(back), same(r));
+        assert_eq!(same(back), same(r.clone()));
+        // A record of an older node: its readings in JSON, values and all.
+        let mut older = values.clone();
+        for (k, v) in older.iter_mut() {
+            if k == "loop.readings" {
+                *v = r#"[["temperature",1765000000.5,612.25],["scan",1765000001.0,6]]"#.into();
+            }
+        }
+        let back = BoundaryRecord::from_values(&older).unwrap().unwrap();
+        assert_eq!(back.readings, r.readings);
+        // A packed reading that does not read: named.
+        let mut garbled = values.clone();
+        for (k, v) in garbled.iter_mut() {
+            if k == "loop.readings" {
+                *v = "t17 x3".into();
+            }
+        }
+        let e = BoundaryRecord::from_values(&garbled).unwrap_err();
+        assert_eq!(e.key, "loop.readings");
         assert_eq!(BoundaryRecord::from_values(&[]).unwrap(), None);
         let mut bad = values.clone();
         bad.retain(|(k, _)| k != "loop.now_s");
