@@ -1,5 +1,5 @@
-//! `waam sim-cell PART --truth TRUTH.yaml [--open-loop] --out DIR`: a simulated cell; with
-//! `--node`, the same cell's sensors as a ROS 2 node beside `waam node`.
+//! `waam sim-cell PART --truth TRUTH.yaml [--open-loop] [--robot URDF] --out DIR`: a
+//! simulated cell; with `--node`, the same cell's sensors as a ROS 2 node beside `waam node`.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -23,7 +23,9 @@ use super::{EXIT_INTERRUPTED, EXIT_NO, EXIT_OK};
 /// height over it returns to nominal. `--open-loop` executes the first
 /// plan as it is. Writes DIR/executed.yaml (every deposit as it happened, the plans used,
 /// the estimates, the layer heights: docs/closed-loop.md) and prints the true model's
-/// verdict on the executed time line.
+/// verdict on the executed time line. With `--robot` each deposit is made when the robot's
+/// trajectory makes it (its dwells and moves included), each new plan is taken only once
+/// its motion is checked as the node checks it, and decisions come at weld-path ends.
 ///
 /// With `--node` it is the true cell's sensors as a ROS 2 node (`waam_sim_cell`) for a
 /// `waam node` executing PART (e.g. `waam node --dry-run -p closed_loop.enabled:=true`): it
@@ -47,6 +49,8 @@ pub struct SimCellArgs {
     /// cut short resumes where it stopped, with a new arc start).
     #[arg(long)]
     pub open_loop: bool,
+    #[command(flatten)]
+    pub robot: super::motion::OptionalRobotArgs,
     /// The folder to write executed.yaml into (new or empty); not with --node.
     #[arg(
         long,
@@ -108,8 +112,16 @@ pub fn run(args: SimCellArgs, global: &super::GlobalArgs) -> anyhow::Result<Exit
     let truth =
         Truth::parse(&text, &part).map_err(|e| anyhow::anyhow!("{}: {e}", args.truth.display()))?;
     if args.node {
+        if args.robot.robot.is_some() {
+            anyhow::bail!(
+                "--robot is for the simulated cell without --node: as a node it follows the \
+                 planner's trajectory, made for the planner's robot"
+            );
+        }
         return run_node(&part, &truth, &args);
     }
+    // The robot before planning: a bad URDF fails at once.
+    let robot = args.robot.robot_args().map(|a| a.load()).transpose()?;
     let dir = super::first_run::output_dir(args.out.as_deref())?;
     let stop = super::node::stop_on_signal()?;
     let opts = CellOptions {
@@ -132,7 +144,7 @@ pub fn run(args: SimCellArgs, global: &super::GlobalArgs) -> anyhow::Result<Exit
         planner: opts.planner.clone(),
         ..Default::default()
     };
-    let first = waam_pipeline::plan(&part, None, &planning, &mut |_| {})?.report;
+    let first = waam_pipeline::plan(&part, robot.as_ref(), &planning, &mut |_| {})?.report;
     let Some(found) = first.best else {
         let why = first.no_plan.map_or_else(
             || "the planner stopped before a plan".to_string(),
@@ -151,14 +163,54 @@ pub fn run(args: SimCellArgs, global: &super::GlobalArgs) -> anyhow::Result<Exit
         found.fragments.len(),
         found.margin_text(),
     ));
-    let executed = waam_cell::run(
-        &part,
-        &found.fragments,
-        planned_in_s,
-        &truth,
-        &opts,
-        &mut progress,
-    )?;
+    let executed = match &robot {
+        None => waam_cell::run(
+            &part,
+            &found.fragments,
+            planned_in_s,
+            &truth,
+            &opts,
+            &mut progress,
+        )?,
+        Some(cell) => {
+            let timeout = opts.planner.timeout;
+            let mut timing = |check: Option<&waam_part::Part>, fragments: &[Vec<usize>]| {
+                let times = match check {
+                    // A new plan: checked as the node checks one (within the re-plan's limit).
+                    Some(checked) => {
+                        let chosen = waam_pipeline::ChosenPlan {
+                            fragments: fragments.to_vec(),
+                            stats: Default::default(),
+                            proven: false,
+                            worst_margin_s: f64::NAN,
+                        };
+                        let interrupt = waam_pipeline::Interrupt::after(timeout)
+                            .with_cancel(Some(Arc::clone(&stop)));
+                        cell.motion_until(checked.clone(), chosen, &interrupt)
+                            .map(|planned| planned.toolpath.executed_times())
+                    }
+                    None => cell
+                        .plan_motion(&part, fragments)
+                        .map(|(toolpath, _)| toolpath.executed_times()),
+                }
+                .map_err(|e| e.to_string())?;
+                Ok(waam_cell::PlanTimes {
+                    deposits_s: times.deposits_s,
+                    arc_off_s: times.arc_off_s,
+                })
+            };
+            progress("robot: each deposit made when its trajectory makes it");
+            waam_cell::run_on_robot(
+                &part,
+                &found.fragments,
+                planned_in_s,
+                &truth,
+                &opts,
+                &mut progress,
+                &mut timing,
+            )?
+        }
+    };
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let path = dir.join("executed.yaml");
     std::fs::write(&path, executed.to_yaml()?)

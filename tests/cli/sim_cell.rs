@@ -82,3 +82,59 @@ fn a_node_option_without_node_is_bad_input() {
         assert!(!out.exists(), "nothing written for bad input");
     }
 }
+
+/// `--robot`: each deposit made when the bundled robot's trajectory makes it (dwells and
+/// moves included). On the twin walls (the windowed wall welded second) closed loop fits
+/// the true losses exactly on that time line, re-plans at the weld-path boundary and keeps
+/// every window; open loop breaks one. With `--node` it is bad input (the node follows the
+/// planner's robot).
+#[test]
+fn on_a_robot_closed_loop_keeps_the_windows_open_loop_breaks() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |extra: &[&str], out: &str| {
+        let out = dir.path().join(out);
+        let mut args = vec![
+            "sim-cell",
+            "tests/data/twin-walls.yaml",
+            "--truth",
+            TRUTH,
+            "--robot",
+            "urdf/waam_robot.urdf",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let run = run_at_root(&args);
+        let text = |b: &[u8]| String::from_utf8_lossy(b).into_owned();
+        (run.status.code(), text(&run.stdout), text(&run.stderr))
+    };
+    let (code, out, err) = run(&[], "closed");
+    assert_eq!(code, Some(0), "{out}{err}");
+    assert!(
+        err.contains("robot: each deposit made when its trajectory makes it"),
+        "{err}"
+    );
+    assert!(
+        err.contains("replan after 24 deposits: loss x0.750, conduction x1.000"),
+        "{err}"
+    );
+    assert!(out.contains("TRUE MODEL: every t8/5 window kept"), "{out}");
+    let (code, out, err) = run(&["--open-loop"], "open");
+    assert_eq!(code, Some(1), "{out}{err}");
+    assert!(out.contains("TRUE MODEL: window of block"), "{out}");
+    let node = run_at_root(&[
+        "sim-cell",
+        "tests/data/twin-walls.yaml",
+        "--truth",
+        TRUTH,
+        "--robot",
+        "urdf/waam_robot.urdf",
+        "--node",
+    ]);
+    let err = String::from_utf8_lossy(&node.stderr);
+    assert_eq!(node.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--robot is for the simulated cell without --node"),
+        "{err}"
+    );
+}

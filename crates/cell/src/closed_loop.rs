@@ -35,6 +35,9 @@ pub struct LoopOptions {
     /// The welder takes a wire feed per deposit along a weld path (false: one per weld path,
     /// changed only while the arc is off).
     pub wire_feed_per_deposit: bool,
+    /// Seconds of the process per second of the caller's clock, on which deposits are told
+    /// (a dry run's time scale; 1 on a real cell): the estimate re-simulates them at it.
+    pub clock_rate: f64,
 }
 
 /// A sensor reading the loop cannot place.
@@ -578,12 +581,12 @@ impl ClosedLoop {
     /// adopts or rejects the decision.
     pub fn at_boundary(&mut self, path_ended: bool, now_s: f64) -> Result<Decision, CellError> {
         let t = Instant::now();
-        let est = estimate::fit(
-            &self.part,
-            self.part.thermal,
-            &self.executed,
-            &self.measurements,
-        );
+        let executed = estimate::Executed {
+            deposits: &self.executed,
+            times: &self.times,
+            clock_rate: self.opts.clock_rate,
+        };
+        let est = estimate::fit(&self.part, self.part.thermal, executed, &self.measurements);
         self.estimates.push(EstimateRecord {
             at_deposit: self.executed.len(),
             at_s: now_s,
@@ -594,7 +597,7 @@ impl ClosedLoop {
             latency_s: t.elapsed().as_secs_f64(),
         });
         let built = Built {
-            state: estimate::state(&self.part, est.params, &self.executed),
+            state: estimate::state(&self.part, est.params, executed),
             open: !path_ended,
         };
         let mut model_part = self.part.clone();
@@ -678,9 +681,12 @@ impl ClosedLoop {
                 let graph = WeldGraph::new(&part);
                 let model = ThermalModel::new(&part, &graph);
                 let mut sim = Simulation::new(&model).with_threads(1);
-                self.executed
-                    .iter()
-                    .find_map(|&(b, new)| sim.deposit(b, new).err())
+                let executed = estimate::Executed {
+                    deposits: &self.executed,
+                    times: &self.times,
+                    clock_rate: self.opts.clock_rate,
+                };
+                executed.make(&mut sim, 0..self.executed.len()).err()
             };
             let Some(v) = violation else {
                 return (part, broken);

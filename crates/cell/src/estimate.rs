@@ -4,7 +4,8 @@
 //! Two factors are fitted: `loss` scales the losses to the outside (`substrate_per_s` and
 //! `radiation_per_s_k3` together) and `conduction` scales `conduction_per_s`. The objective
 //! is the sum of squared differences between every measured block temperature so far and
-//! the model's, re-simulated on the executed deposit sequence. It is minimized by
+//! the model's, re-simulated on the executed deposit sequence at the times the deposits
+//! were made (a robot's dwells and moves are not the model's own time line). It is minimized by
 //! coordinate-wise golden-section search on the logarithm of each factor (0.25x to 4x),
 //! two sweeps: no derivatives (the simulation is a step function of thousands of Euler
 //! steps), a fixed number of simulations (deterministic, about 100 per estimate, each
@@ -12,7 +13,7 @@
 
 use waam_part::graph::WeldGraph;
 use waam_part::{Part, ThermalParams, Window};
-use waam_thermal::{BuildState, Simulation, ThermalModel};
+use waam_thermal::{BuildState, Simulation, ThermalModel, Violation};
 
 /// Temperatures read after the first `deposits` deposits (at the end of the last one's
 /// deposit time), per welded block index, °C.
@@ -64,13 +65,49 @@ pub fn scaled(nominal: ThermalParams, loss: f64, conduction: f64) -> ThermalPara
     }
 }
 
-/// Re-simulates `executed` (deposits as (block, begins a weld path)) under `params` and
-/// returns the sum of squared errors at the measurements, and their count.
+/// What was executed: each deposit as (block, begins a weld path) and when it was made,
+/// (start, duration) in s on the caller's clock, which runs `clock_rate` times slower than
+/// the process (a dry run's time scale).
+#[derive(Debug, Clone, Copy)]
+pub struct Executed<'a> {
+    pub deposits: &'a [(usize, bool)],
+    pub times: &'a [(f64, f64)],
+    pub clock_rate: f64,
+}
+
+impl Executed<'_> {
+    /// Deposits `range` made again on `sim`, each at its time (the first deposit's start at
+    /// step 0; a weld path's first after the previous one's arc went out at its last
+    /// deposit's end, the time between as a transit), run on to the end of the last; the
+    /// first window broken on the way.
+    pub fn make(
+        &self,
+        sim: &mut Simulation,
+        range: std::ops::Range<usize>,
+    ) -> Result<(), Violation> {
+        let dt = sim.dt();
+        let t0 = self.times.first().map_or(0.0, |t| t.0);
+        let step = |t: f64| ((t - t0) * self.clock_rate / dt).round().max(0.0) as u64;
+        for k in range {
+            let (b, new) = self.deposits[k];
+            let (start, duration) = self.times[k];
+            let off = k
+                .checked_sub(1)
+                .map(|j| step(self.times[j].0 + self.times[j].1));
+            sim.deposit_at(b, new, off, step(start))?;
+            sim.run_to(step(start + duration), false)?;
+        }
+        Ok(())
+    }
+}
+
+/// Re-simulates `executed` under `params` and returns the sum of squared errors at the
+/// measurements, and their count.
 fn squared_error(
     part: &Part,
     graph: &WeldGraph,
     params: ThermalParams,
-    executed: &[(usize, bool)],
+    executed: Executed,
     measurements: &[Measurement],
 ) -> (f64, usize) {
     let p = counting_part(part, params);
@@ -79,9 +116,9 @@ fn squared_error(
     let (mut sum, mut count, mut done) = (0.0, 0, 0);
     let mut now = vec![f64::NAN; part.len()];
     for m in measurements {
-        for &(b, new) in &executed[done..m.deposits] {
-            sim.deposit(b, new).expect("windows widened: no violation");
-        }
+        executed
+            .make(&mut sim, done..m.deposits)
+            .expect("windows widened: no violation");
         done = m.deposits;
         // By block (a thermal image reads hundreds at once); the welded set only grows.
         for (b, t) in sim.temperatures() {
@@ -101,7 +138,7 @@ fn squared_error(
 pub fn fit(
     part: &Part,
     nominal: ThermalParams,
-    executed: &[(usize, bool)],
+    executed: Executed,
     measurements: &[Measurement],
 ) -> Estimate {
     let graph = WeldGraph::new(part);
@@ -177,16 +214,16 @@ fn golden(mut f: impl FnMut(f64) -> f64) -> f64 {
     (a + b) / 2.0
 }
 
-/// The estimated state after `executed` under `params`: what [`waam_planner::plan_rest`]
-/// starts from.
-pub fn state(part: &Part, params: ThermalParams, executed: &[(usize, bool)]) -> BuildState {
+/// The estimated state after `executed` under `params`, at the end of its last deposit:
+/// what [`waam_planner::plan_rest`] starts from.
+pub fn state(part: &Part, params: ThermalParams, executed: Executed) -> BuildState {
     let p = counting_part(part, params);
     let graph = WeldGraph::new(&p);
     let model = ThermalModel::new(&p, &graph);
     let mut sim = Simulation::new(&model).with_threads(1);
-    for &(b, new) in executed {
-        sim.deposit(b, new).expect("windows widened: no violation");
-    }
+    executed
+        .make(&mut sim, 0..executed.deposits.len())
+        .expect("windows widened: no violation");
     sim.state()
 }
 
@@ -206,22 +243,30 @@ mod tests {
             .map(|(p, &b)| (b, p == 0))
             .collect();
         let truth = scaled(part.thermal, 0.75, 1.0);
+        // One weld path: a deposit a second (`block_time_s` 1), from 100 s on the caller's
+        // clock.
+        let times: Vec<(f64, f64)> = (0..order.len()).map(|k| (100.0 + k as f64, 1.0)).collect();
+        let executed = |d: usize| Executed {
+            deposits: &order[..d],
+            times: &times[..d],
+            clock_rate: 1.0,
+        };
         let measurements: Vec<Measurement> = [4, 8, 12]
             .iter()
             .map(|&d| {
-                let s = state(&part, truth, &order[..d]);
+                let s = state(&part, truth, executed(d));
                 Measurement {
                     deposits: d,
                     temperatures: s.order.iter().map(|o| o.0).zip(s.temperatures).collect(),
                 }
             })
             .collect();
-        let e = fit(&part, part.thermal, &order, &measurements);
+        let e = fit(&part, part.thermal, executed(12), &measurements);
         assert!((e.loss - 0.75).abs() < 0.01, "{e:?}");
         assert!((e.conduction - 1.0).abs() < 0.05, "{e:?}");
         assert!(e.rmse_before_c > 10.0 && e.rmse_after_c < 1.0, "{e:?}");
         // Nothing measured: the nominal model (a flat objective once drove it to 1/4).
-        let none = fit(&part, part.thermal, &order, &[]);
+        let none = fit(&part, part.thermal, executed(12), &[]);
         assert_eq!((none.loss, none.conduction), (1.0, 1.0));
         assert_eq!(none.params, part.thermal);
     }

@@ -61,7 +61,23 @@ pub enum CellError {
     Rest(#[from] RestError),
     #[error("the execution left the plan: {0}")]
     OffPlan(String),
+    #[error("timing the plan on the robot: {0}")]
+    Robot(String),
 }
+
+/// A robot's executed time line of a whole plan: each weld path's deposit starts and its
+/// arc-off, s (any origin).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanTimes {
+    pub deposits_s: Vec<Vec<f64>>,
+    pub arc_off_s: Vec<f64>,
+}
+
+/// Times a whole plan (fragments of block indices) on the cell's robot. With `Some(part)`
+/// the plan is checked first like any plan the robot receives, under `part`'s model (the
+/// estimate's, after a decision); with `None` it is only timed (a plan executed anyway:
+/// the first, which the planner checked, or one a fault split in open loop).
+pub type Timing<'a> = dyn FnMut(Option<&Part>, &[Vec<usize>]) -> Result<PlanTimes, String> + 'a;
 
 /// What the cell tells its caller as it runs (one line each).
 pub type Progress<'a> = &'a mut dyn FnMut(&str);
@@ -91,6 +107,120 @@ pub fn run(
     opts: &CellOptions,
     progress: Progress,
 ) -> Result<Executed, CellError> {
+    execute(part, plan, planned_in_s, truth, opts, progress, None)
+}
+
+/// [`run`] on a robot: each deposit is made on the true model when the robot's trajectory
+/// makes it (`timing` times each plan the loop takes, and checks a new one as the node
+/// does: one it refuses is not taken), and decisions come at weld-path ends only — a layer
+/// that ends with the arc on is no place to change the path the robot follows.
+pub fn run_on_robot(
+    part: &Part,
+    plan: &[Vec<usize>],
+    planned_in_s: f64,
+    truth: &Truth,
+    opts: &CellOptions,
+    progress: Progress,
+    timing: &mut Timing,
+) -> Result<Executed, CellError> {
+    execute(
+        part,
+        plan,
+        planned_in_s,
+        truth,
+        opts,
+        progress,
+        Some(timing),
+    )
+}
+
+/// Where the robot makes each deposit of the plan now (by its index in weld order), on the
+/// true model's clock (s from the first deposit): its start and end (the next deposit's
+/// start, or the arc-off), and for the first of a weld path after another, the previous
+/// path's arc-off.
+struct Timed {
+    fragments: Vec<Vec<usize>>,
+    starts: Vec<f64>,
+    ends: Vec<f64>,
+    arc_off_before: Vec<Option<f64>>,
+}
+
+impl Timed {
+    /// `times` of `fragments`, moved by `shift_s`.
+    fn new(
+        fragments: Vec<Vec<usize>>,
+        times: &PlanTimes,
+        shift_s: f64,
+    ) -> Result<Timed, CellError> {
+        let shapes: Vec<usize> = times.deposits_s.iter().map(Vec::len).collect();
+        let want: Vec<usize> = fragments.iter().map(Vec::len).collect();
+        if shapes != want || times.arc_off_s.len() != fragments.len() {
+            return Err(CellError::Robot(format!(
+                "its time line has weld paths of {shapes:?} deposits, the plan {want:?}"
+            )));
+        }
+        let mut timed = Timed {
+            fragments,
+            starts: Vec::new(),
+            ends: Vec::new(),
+            arc_off_before: Vec::new(),
+        };
+        for (f, starts) in times.deposits_s.iter().enumerate() {
+            for (p, &t) in starts.iter().enumerate() {
+                let end = starts.get(p + 1).copied().unwrap_or(times.arc_off_s[f]);
+                timed.starts.push(t + shift_s);
+                timed.ends.push(end + shift_s);
+                let first_after_another = p == 0 && f > 0;
+                timed
+                    .arc_off_before
+                    .push(first_after_another.then(|| times.arc_off_s[f - 1] + shift_s));
+            }
+        }
+        Ok(timed)
+    }
+
+    /// The plan now taken over after `done` deposits: timed by `times`, moved so that the
+    /// last deposit made ends when it did.
+    fn after(
+        &self,
+        fragments: Vec<Vec<usize>>,
+        times: &PlanTimes,
+        done: usize,
+    ) -> Result<Timed, CellError> {
+        let new = Timed::new(fragments, times, 0.0)?;
+        let shift = match done.checked_sub(1) {
+            Some(last) => self.ends[last] - new.ends[last],
+            None => self.starts[0] - new.starts[0],
+        };
+        Timed::new(new.fragments, times, shift)
+    }
+}
+/// `fragments` timed on the robot (checked under `check` when given) from where `done`
+/// deposits of `old` left it; `None` when the plan is still `old`'s.
+fn retimed(
+    timing: &mut Timing,
+    old: &Timed,
+    check: Option<&Part>,
+    fragments: Vec<Vec<usize>>,
+    done: usize,
+) -> Result<Option<Timed>, CellError> {
+    if fragments == old.fragments {
+        return Ok(None);
+    }
+    let times = timing(check, &fragments).map_err(CellError::Robot)?;
+    old.after(fragments, &times, done).map(Some)
+}
+
+/// The driver of [`run`] and [`run_on_robot`].
+fn execute(
+    part: &Part,
+    plan: &[Vec<usize>],
+    planned_in_s: f64,
+    truth: &Truth,
+    opts: &CellOptions,
+    progress: Progress,
+    mut timing: Option<&mut Timing>,
+) -> Result<Executed, CellError> {
     let loop_opts = LoopOptions {
         planner: opts.planner.clone(),
         // Open loop keeps the nominal feed.
@@ -100,6 +230,8 @@ pub fn run(
             (1.0, 1.0)
         },
         wire_feed_per_deposit: true,
+        // Deposits are told on the true model's own clock.
+        clock_rate: 1.0,
     };
     let mut cl = ClosedLoop::new(part, plan, loop_opts, planned_in_s)?;
     let nominal_h = part.block_mm[2];
@@ -131,6 +263,16 @@ pub fn run(
     // supports (the plate, or nominal, where it has none); the scan reads them.
     let mut true_top: Vec<f64> = vec![0.0; part.len()];
     let (mut path, mut in_path) = (0usize, 0usize);
+    // On a robot: where it makes each deposit (its first at 0 s), and its time line's step.
+    let step = |t: f64| (t / truth_model.dt).round().max(0.0) as u64;
+    let mut timed = match timing.as_mut() {
+        Some(t) => {
+            let times = t(None, plan).map_err(CellError::Robot)?;
+            let first = times.deposits_s.first().and_then(|f| f.first()).copied();
+            Some(Timed::new(plan.to_vec(), &times, -first.unwrap_or(0.0))?)
+        }
+        None => None,
+    };
     while let Some((b, new)) = cl.next() {
         if opts
             .planner
@@ -147,16 +289,30 @@ pub fn run(
         }
         let z = part.block(b)[2] as usize;
         let feed = cl.wire_feed(b);
-        if new {
-            sim.transit().expect("windows widened: no violation");
-        }
-        let start_s = sim.time_s();
-        if new {
-            sim.deposit_after_transit(b)
-        } else {
-            sim.deposit(b, false)
-        }
-        .expect("windows widened: no violation");
+        let start_s = match &timed {
+            // When the robot's trajectory makes it, to its end.
+            Some(timed) => {
+                let d = cl.deposits();
+                let (at, end) = (step(timed.starts[d]), step(timed.ends[d]));
+                sim.deposit_at(b, new, timed.arc_off_before[d].map(step), at)
+                    .and_then(|()| sim.run_to(end, false))
+                    .expect("windows widened: no violation");
+                at as f64 * truth_model.dt
+            }
+            None => {
+                if new {
+                    sim.transit().expect("windows widened: no violation");
+                }
+                let start_s = sim.time_s();
+                if new {
+                    sim.deposit_after_transit(b)
+                } else {
+                    sim.deposit(b, false)
+                }
+                .expect("windows widened: no violation");
+                start_s
+            }
+        };
         let height_mm = nominal_h * truth.height_factor_at(part.centre_mm(part.block(b))) * feed;
         let duration_s = sim.time_s() - start_s;
         deposits.push(Deposit {
@@ -188,7 +344,8 @@ pub fn run(
             break;
         };
         // A wire fault ends the path here: it goes on (if at all) with a new arc start.
-        if truth.cut_after(path) == Some(in_path) && !next_new {
+        let fault = truth.cut_after(path) == Some(in_path) && !next_new;
+        if fault {
             cl.path_ended();
             progress(&format!(
                 "weld path {path} cut short after {in_path} deposits (t = {:.1} s)",
@@ -196,7 +353,15 @@ pub fn run(
             ));
         }
         let path_end = cl.next().is_some_and(|(_, new)| new);
-        if !(opts.closed_loop && (path_end || layer_done)) {
+        // On a robot a layer that ends with the arc on is not a boundary.
+        let boundary = path_end || (layer_done && timed.is_none());
+        if !(opts.closed_loop && boundary) {
+            // The robot's path split where the fault came.
+            if let (true, Some(t), Some(old)) = (fault, timing.as_mut(), &timed) {
+                if let Some(new) = retimed(&mut **t, old, None, cl.fragments(), cl.deposits())? {
+                    timed = Some(new);
+                }
+            }
             continue;
         }
         // Measure the true temperatures of the welded blocks, then estimate and re-plan.
@@ -215,8 +380,35 @@ pub fn run(
                 decision.latency_s
             ));
         }
-        // The new remainder takes over here, at a weld-path or layer boundary.
-        cl.adopt(&decision, sim.time_s());
+        // The new remainder takes over here, at a weld-path or layer boundary; on a robot
+        // only once its motion is checked (else the plan goes on as it was).
+        let refused = match (timing.as_mut(), &timed) {
+            (Some(t), Some(old)) if decision.changed => {
+                let (check, _) = cl.part_to_check(&decision);
+                let whole = decision.fragments();
+                match retimed(&mut **t, old, Some(&check), whole, cl.deposits()) {
+                    Ok(new) => {
+                        timed = new.or(timed.take());
+                        None
+                    }
+                    Err(why) => Some(why),
+                }
+            }
+            _ => None,
+        };
+        match refused {
+            None => cl.adopt(&decision, sim.time_s()),
+            Some(why) => {
+                progress(&format!("the new plan is not taken: {why}"));
+                cl.reject(&decision, sim.time_s());
+            }
+        }
+        // A plan kept after a fault: the robot's path split where it came.
+        if let (Some(t), Some(old)) = (timing.as_mut(), &timed) {
+            if let Some(new) = retimed(&mut **t, old, None, cl.fragments(), cl.deposits())? {
+                timed = Some(new);
+            }
+        }
     }
     Ok(record(&cl, deposits, true))
 }

@@ -29,6 +29,7 @@ fn options() -> LoopOptions {
         planner: Options::default(),
         wire_feed: (0.7, 1.3),
         wire_feed_per_deposit: true,
+        clock_rate: 1.0,
     }
 }
 

@@ -185,6 +185,9 @@ pub fn run(
         feed: 1.0,
         schedule: Vec::new(),
         struck: Vec::new(),
+        first_strike: None,
+        path_step: 0,
+        end_step: 0,
     };
     tracing::info!(
         "simulated cell for {} ({} blocks) following {}: heat losses and heights of the true cell",
@@ -223,12 +226,12 @@ pub fn run(
                     welds += 1;
                     faulted = false;
                 }
-                (false, Some((w, _, wall, read))) => {
+                (false, Some((w, lit, wall, read))) => {
                     if let Some(path) = paths.get(w) {
                         // After a fault nothing more of the path was welded.
                         let all = if faulted { read } else { path.blocks.len() };
                         cell.strike(path, all);
-                        cell.read(path, read..all, wall, &sensors);
+                        cell.read(path, read..all, (lit, wall), &sensors);
                         cell.schedule.clear();
                         let before = cell.scanned;
                         cell.scan(&scanner);
@@ -264,7 +267,7 @@ pub fn run(
                 let begun = path.starts_s.iter().take_while(|&&s| s <= t).count();
                 cell.strike(path, begun.min(cut.map_or(usize::MAX, |c| c + 1)));
                 if ended > *read {
-                    cell.read(path, *read..ended, *wall, &sensors);
+                    cell.read(path, *read..ended, (*lit, *wall), &sensors);
                     *read = ended;
                     // The scanner follows the torch: a layer finished is scanned at once.
                     cell.scan(&scanner);
@@ -327,6 +330,11 @@ struct TrueCell<'a> {
     feed: f64,
     schedule: Vec<(f64, f64)>,
     struck: Vec<f64>,
+    /// When the first weld path's arc struck (wall clock); the step of the true model the
+    /// weld path under way struck at, and the step the last deposit ended at.
+    first_strike: Option<Instant>,
+    path_step: u64,
+    end_step: u64,
 }
 
 impl TrueCell<'_> {
@@ -370,23 +378,34 @@ impl TrueCell<'_> {
         &mut self,
         path: &WeldPath,
         range: std::ops::Range<usize>,
-        lit: std::time::SystemTime,
+        (strike, lit): (Instant, std::time::SystemTime),
         sensors: &Sensors,
     ) {
         let time_scale = sensors.time_scale;
+        let dt = self.sim.dt();
+        // The true model welds when the robot does: each weld path from when its arc struck
+        // (on the plan's clock: the wall clock times the time scale), its deposits at their
+        // times along the path.
+        if range.start == 0 {
+            let first = *self.first_strike.get_or_insert(strike);
+            let since = strike.duration_since(first).as_secs_f64() * time_scale;
+            self.path_step = ((since / dt).round() as u64).max(self.end_step);
+        }
+        let step = |t: f64| self.path_step + ((t - path.starts_s[0]) / dt).round().max(0.0) as u64;
         for j in range {
             let b = path.blocks[j];
+            let end = path.starts_s.get(j + 1).copied().unwrap_or(path.arc_off_s);
+            let (at, end_step) = (step(path.starts_s[j]), step(end));
+            let arc_off = (j == 0).then_some(self.end_step);
             // Windows are widened on the true part: a deposit is never refused.
-            let deposited = if j == 0 {
-                self.sim
-                    .transit()
-                    .and_then(|()| self.sim.deposit_after_transit(b))
-            } else {
-                self.sim.deposit(b, false)
-            };
+            let deposited = self
+                .sim
+                .deposit_at(b, j == 0, arc_off, at)
+                .and_then(|()| self.sim.run_to(end_step, false));
             if deposited.is_err() {
                 return;
             }
+            self.end_step = end_step;
             let z = self.part.block(b)[2] as usize;
             let nominal = self.part.block_mm[2];
             let supports = self.graph.supports(b);

@@ -118,16 +118,19 @@ impl ExecOutputs for Cell1 {
         let times = s.plan.toolpath.executed_times();
         let (starts, off) = (&times.deposits_s[f], times.arc_off_s[f]);
         let blocks = s.plan.found.fragments[f].clone();
+        // The true cell welds when the robot's trajectory does (its first deposit at step 0),
+        // as the simulated cell on a robot does (`waam_cell::run_on_robot`).
+        let t0 = times.deposits_s[0][0];
+        let dt = s.truth.dt();
+        let step = |t: f64| ((t - t0) / dt).round() as u64;
         for (j, &b) in blocks.iter().enumerate() {
-            if j == 0 {
-                // As the simulated cell does (`waam_cell::run`).
-                s.truth.transit().unwrap();
-                s.truth.deposit_after_transit(b).unwrap();
-            } else {
-                s.truth.deposit(b, false).unwrap();
-            }
-            let celsius = s.truth.temperatures().find(|&(o, _)| o == b).unwrap().1;
             let end = starts.get(j + 1).copied().unwrap_or(off);
+            let arc_off = (j == 0 && f > 0).then(|| step(times.arc_off_s[f - 1]));
+            s.truth
+                .deposit_at(b, j == 0, arc_off, step(starts[j]))
+                .unwrap();
+            s.truth.run_to(step(end), false).unwrap();
+            let celsius = s.truth.temperatures().find(|&(o, _)| o == b).unwrap().1;
             let mid = (starts[j] + end) / 2.0 - starts[0];
             // As the node takes a pyrometer's message (checked as it arrives).
             let msg = Temperature {
@@ -176,6 +179,7 @@ fn execute_closed(
         wire_feed,
         wire_feed_per_deposit: true,
         wire_feed_lead_s: 0.25,
+        time_scale: 1.0,
         scan_margin_mm: 5.0,
     };
     let run = ClosedLoopRun {
@@ -838,6 +842,7 @@ fn a_weld_path_cut_short_halfway_is_re_planned_and_completed() {
         wire_feed: (1.0, 1.0),
         wire_feed_per_deposit: true,
         wire_feed_lead_s: 0.25,
+        time_scale: 1.0,
         scan_margin_mm: 5.0,
     };
     let mut replanner = Replanner::new(&planned, setup).unwrap();
@@ -1026,6 +1031,7 @@ fn an_arc_fault_stops_the_weld_goal_and_the_execution_goes_on_with_the_re_plan()
             wire_feed: (1.0, 1.0),
             wire_feed_per_deposit: true,
             wire_feed_lead_s: 0.25,
+            time_scale: 1.0,
             scan_margin_mm: 5.0,
         },
         readings: &rx,
@@ -1097,6 +1103,7 @@ fn an_arc_fault_in_the_last_deposits_second_half_is_an_ordinary_boundary() {
         wire_feed: (1.0, 1.0),
         wire_feed_per_deposit: true,
         wire_feed_lead_s: 0.25,
+        time_scale: 1.0,
         scan_margin_mm: 5.0,
     };
     let mut replanner = Replanner::new(&planned, setup).unwrap();

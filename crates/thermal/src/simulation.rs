@@ -339,6 +339,11 @@ impl<'m> Simulation<'m> {
         self.steps
     }
 
+    /// The Euler step, s.
+    pub fn dt(&self) -> f64 {
+        self.model.dt
+    }
+
     /// Simulated time so far, s.
     pub fn time_s(&self) -> f64 {
         self.steps as f64 * self.model.dt
@@ -375,6 +380,38 @@ impl<'m> Simulation<'m> {
     pub fn deposit_after_transit(&mut self, block: usize) -> Result<(), Violation> {
         self.place(block, true);
         self.run(self.model.deposit_steps(block), Phase::Deposit, false)
+    }
+
+    /// Runs on to step `at` of a robot's time line ([`crate::Timeline`]), as a transit (the
+    /// arc off between weld paths) when `transit`; steps already run are not run again.
+    pub fn run_to(&mut self, at: u64, transit: bool) -> Result<(), Violation> {
+        let phase = if transit {
+            Phase::Transit
+        } else {
+            Phase::Deposit
+        };
+        self.run(at.saturating_sub(self.steps), phase, false)
+    }
+
+    /// Deposits `block` at step `at` of a robot's time line, as [`crate::simulate_on`]
+    /// does: the steps up to it run first — when it begins a weld path after another, up to
+    /// `arc_off` (the step that path's arc went out) with the arc on, then as a transit.
+    pub fn deposit_at(
+        &mut self,
+        block: usize,
+        new_fragment: bool,
+        arc_off: Option<u64>,
+        at: u64,
+    ) -> Result<(), Violation> {
+        debug_assert!(!self.is_welded[block], "block deposited twice");
+        if let (true, Some(off)) = (new_fragment && self.fragments > 0, arc_off) {
+            self.run_to(off, false)?;
+            self.run_to(at, true)?;
+        } else {
+            self.run_to(at, false)?;
+        }
+        self.place(block, new_fragment);
+        Ok(())
     }
 
     /// Whether `block` is welded.

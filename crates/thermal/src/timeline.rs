@@ -322,6 +322,42 @@ mod tests {
         }
     }
 
+    /// A caller that deposits one block at a time on a robot's time line (the simulated
+    /// cell) gets the temperatures `simulate_on` has there, bit for bit.
+    #[test]
+    fn depositing_on_a_timeline_one_block_at_a_time_is_simulate_on() {
+        let (part, m) = model(&format!(
+            "{WALL}t85: [{{box: {{min: [0,0,0], max: [3,0,1]}}, min_s: 0, max_s: 1000}}]\n"
+        ));
+        let order: Vec<(usize, bool)> = (0..part.len()).map(|b| (b, b == 0 || b == 3)).collect();
+        let fragments = split(&order);
+        // The model's time line stretched: longer deposits, a longer transit.
+        let mut timeline = Timeline::modelled(&m, &fragments);
+        for (f, steps) in timeline.deposits.iter_mut().enumerate() {
+            for (p, at) in steps.iter_mut().enumerate() {
+                *at = *at * 3 / 2 + 7 * f as u64 + p as u64;
+            }
+        }
+        for (f, off) in timeline.arc_off.iter_mut().enumerate() {
+            *off = timeline.deposits[f].last().unwrap() + 40;
+        }
+        let want = simulate_on(&m, &fragments, &timeline).unwrap();
+        let mut sim = Simulation::new(&m).recording();
+        for (f, fragment) in fragments.iter().enumerate() {
+            for (p, &b) in fragment.iter().enumerate() {
+                let off = f.checked_sub(1).map(|g| timeline.arc_off[g]);
+                sim.deposit_at(b, p == 0, off, timeline.deposits[f][p])
+                    .unwrap();
+            }
+        }
+        sim.run_to(*timeline.arc_off.last().unwrap(), false)
+            .unwrap();
+        assert!(sim.finish().unwrap().is_ok());
+        assert_eq!(sim.steps(), want.steps);
+        assert!(!want.crossings.is_empty());
+        assert_eq!(sim.crossings(), &want.crossings[..]);
+    }
+
     #[test]
     fn a_timeline_in_seconds_rounds_to_the_nearest_step_from_the_first_deposit() {
         let t =

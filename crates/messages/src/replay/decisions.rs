@@ -139,6 +139,9 @@ pub struct BoundaryRecord {
     /// The welder took a feed per deposit (`closed_loop.wire_feed_per_deposit`); not in a
     /// recording of an older node (whose rule set one feed per layer: not re-derived).
     pub wire_feed_per_deposit: Option<bool>,
+    /// How many times as fast as its trajectory the robot moved (a dry run's time scale):
+    /// the rate of the clock the deposits were told on (1 in older records).
+    pub time_scale: f64,
     /// The re-plan's time limit, s, if any: a re-plan it cut short is not reproducible.
     pub timeout_s: Option<f64>,
     /// The loop's decision: `replan`, `fault` or `kept` (no completion found); [`FINISHED`]
@@ -248,6 +251,7 @@ impl BoundaryRecord {
             kv("deposits", Value::from(deposits).to_string()),
             kv("readings", pack_readings(&self.readings)),
             kv("scan_margin_mm", self.scan_margin_mm.to_string()),
+            kv("time_scale", self.time_scale.to_string()),
             kv(
                 "timeout_s",
                 self.timeout_s.map_or("none".into(), |t| t.to_string()),
@@ -378,6 +382,10 @@ impl BoundaryRecord {
                 .collect(),
             },
             scan_margin_mm: num("scan_margin_mm")?,
+            time_scale: match get("time_scale") {
+                Some(_) => num("time_scale")?,
+                None => 1.0,
+            },
             wire_feed_limits: get("wire_feed_limits")
                 .map(|v| {
                     let limits: Vec<f64> = v
@@ -926,6 +934,10 @@ pub fn replay_execution(
         },
         wire_feed: limits.unwrap_or((1.0, 1.0)),
         wire_feed_per_deposit: per_deposit.unwrap_or(false),
+        clock_rate: execution
+            .boundaries
+            .first()
+            .map_or(1.0, |b| b.record.time_scale),
     };
     let not_run = |b: &RecordedBoundary, why: String| DecisionReport {
         boundary: b.clone(),
@@ -1290,6 +1302,7 @@ mod tests {
             scan_margin_mm: 5.0,
             wire_feed_limits: Some((0.7, 1.3)),
             wire_feed_per_deposit: Some(true),
+            time_scale: 20.0,
             timeout_s: None,
             decision: "replan".into(),
             changed: true,

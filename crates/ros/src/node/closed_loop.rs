@@ -46,6 +46,9 @@ pub struct ReplanSetup {
     /// (`closed_loop.wire_feed_lead_s`).
     pub wire_feed_lead_s: f64,
     pub scan_margin_mm: f64,
+    /// How many times as fast as its trajectory the robot moves (a dry run's time scale;
+    /// set from the controller when an execution starts): the loop's clock rate.
+    pub time_scale: f64,
 }
 
 /// A weld path's wire feeds: each deposit's start, s after the arc strikes (on the
@@ -266,6 +269,7 @@ impl Replanner {
             planner: setup.planner.clone(),
             wire_feed: setup.wire_feed,
             wire_feed_per_deposit: setup.wire_feed_per_deposit,
+            clock_rate: setup.time_scale,
         };
         let closed = ClosedLoop::new(&planned.part, &planned.found.fragments, opts, 0.0)?;
         Ok(Replanner {
@@ -553,6 +557,7 @@ impl Replanner {
             scan_margin_mm: self.setup.scan_margin_mm,
             wire_feed_limits: Some(self.setup.wire_feed),
             wire_feed_per_deposit: Some(self.setup.wire_feed_per_deposit),
+            time_scale: self.setup.time_scale,
             timeout_s: self.setup.planner.timeout.map(|t| t.as_secs_f64()),
             decision: FINISHED.into(),
             changed: false,

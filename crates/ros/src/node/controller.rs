@@ -182,6 +182,7 @@ pub fn run_plan(
         let mut setup = run.setup.clone();
         // ~/stop and a cancelled goal stop a re-plan too.
         setup.planner.cancel = Some(cancel.cancelled_flag());
+        setup.time_scale = controller.time_scale();
         Replanner::new(planned, setup)
             .map_err(|e| {
                 outputs.log(

@@ -535,6 +535,8 @@ fn replan_setup(
             ),
             wire_feed_per_deposit: params.closed_loop.wire_feed_per_deposit,
             wire_feed_lead_s: params.closed_loop.wire_feed_lead_s,
+            // The controller's, when an execution starts.
+            time_scale: 1.0,
             scan_margin_mm: params.closed_loop.scan_margin_mm,
         })
 }
