@@ -50,9 +50,10 @@ pub struct RobotArgs {
 #[derive(Debug, Clone, clap::Args)]
 pub struct OptionalRobotArgs {
     /// Also plan the robot motion: torch poses and a validated joint trajectory for this
-    /// robot (URDF; meshes need not exist), written to DIR/toolpath.yaml and
-    /// DIR/trajectory.yaml with --out, recorded (trajectory, poses, path, markers, weld
-    /// plan) with --record.
+    /// robot (URDF; meshes need not exist). `plan` and `layer`: written to
+    /// DIR/toolpath.yaml and DIR/trajectory.yaml with --out, recorded (trajectory, poses,
+    /// path, markers, weld plan) with --record; `sim-cell`: the true cell welds each deposit
+    /// when the trajectory makes it.
     #[arg(long, value_name = "URDF")]
     pub robot: Option<PathBuf>,
     /// With --robot: the TCP in the tip link as "x y z roll pitch yaw" (m, rad).
