@@ -468,8 +468,8 @@ fn rclpy_simulated_cell_arc_fault_cuts_a_weld_path_short_and_the_rest_is_re_plan
 
 /// What the pyrometer of a cell with 25 % lower heat losses than twin-walls' model reads on
 /// the first weld path of the plan `waam plan` makes (the node's, as the script checks): each
-/// deposit's true temperature at its end, in weld order, as `crates/ros/tests/closed_loop.rs`
-/// computes it.
+/// deposit's true temperature at its end, in weld order, welded when the dry run's robot (the
+/// bundled cell) makes it, as `crates/ros/tests/closed_loop.rs` computes it.
 fn lower_loss_pyrometer() -> serde_json::Value {
     let path = repo().join("tests/data/twin-walls.yaml");
     let out = crate::common::run::waam()
@@ -478,9 +478,26 @@ fn lower_loss_pyrometer() -> serde_json::Value {
         .output()
         .unwrap();
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let first: Vec<waam_part::Block> =
-        serde_json::from_value(json["plan"]["fragments"][0].clone()).unwrap();
+    let fragments: Vec<Vec<waam_part::Block>> =
+        serde_json::from_value(json["plan"]["fragments"].clone()).unwrap();
+    let first = &fragments[0];
     let part = waam_part::Part::parse(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    // The first weld path's deposit times on the robot's trajectory.
+    let chosen = waam_pipeline::ChosenPlan {
+        fragments: fragments
+            .iter()
+            .map(|f| f.iter().map(|&b| part.index_of(b).unwrap()).collect())
+            .collect(),
+        stats: Default::default(),
+        proven: false,
+        worst_margin_s: f64::NAN,
+    };
+    let times = waam_pipeline::Cell::bundled()
+        .motion(part.clone(), chosen)
+        .unwrap()
+        .toolpath
+        .executed_times();
+    let (starts, off) = (&times.deposits_s[0], times.arc_off_s[0]);
     let truth = waam_cell::estimate::counting_part(
         &part,
         waam_cell::estimate::scaled(part.thermal, 0.75, 1.0),
@@ -493,12 +510,10 @@ fn lower_loss_pyrometer() -> serde_json::Value {
         .enumerate()
         .map(|(j, &block)| {
             let b = truth.index_of(block).unwrap();
-            if j == 0 {
-                sim.transit().unwrap();
-                sim.deposit_after_transit(b).unwrap();
-            } else {
-                sim.deposit(b, false).unwrap();
-            }
+            let step = |t: f64| ((t - starts[0]) / model.dt).round() as u64;
+            let end = starts.get(j + 1).copied().unwrap_or(off);
+            sim.deposit_at(b, j == 0, None, step(starts[j])).unwrap();
+            sim.run_to(step(end), false).unwrap();
             let celsius = sim.temperatures().find(|&(o, _)| o == b).unwrap().1;
             serde_json::json!({"block": block, "celsius": celsius})
         })
