@@ -163,54 +163,48 @@ pub fn run(args: SimCellArgs, global: &super::GlobalArgs) -> anyhow::Result<Exit
         found.fragments.len(),
         found.margin_text(),
     ));
-    let executed = match &robot {
-        None => waam_cell::run(
-            &part,
-            &found.fragments,
-            planned_in_s,
-            &truth,
-            &opts,
-            &mut progress,
-        )?,
-        Some(cell) => {
-            let timeout = opts.planner.timeout;
-            let mut timing = |check: Option<&waam_part::Part>, fragments: &[Vec<usize>]| {
-                let times = match check {
-                    // A new plan: checked as the node checks one (within the re-plan's limit).
-                    Some(checked) => {
-                        let chosen = waam_pipeline::ChosenPlan {
-                            fragments: fragments.to_vec(),
-                            stats: Default::default(),
-                            proven: false,
-                            worst_margin_s: f64::NAN,
-                        };
-                        let interrupt = waam_pipeline::Interrupt::after(timeout)
-                            .with_cancel(Some(Arc::clone(&stop)));
-                        cell.motion_until(checked.clone(), chosen, &interrupt)
-                            .map(|planned| planned.toolpath.executed_times())
-                    }
-                    None => cell
-                        .plan_motion(&part, fragments)
-                        .map(|(toolpath, _)| toolpath.executed_times()),
+    let timeout = opts.planner.timeout;
+    // On a robot: each plan the loop takes timed by its motion (a new one checked first, as
+    // the node checks one, within the re-plan's limit).
+    let mut timing = robot.as_ref().map(|cell| {
+        let (part, stop) = (&part, Arc::clone(&stop));
+        move |check: Option<&waam_part::Part>, fragments: &[Vec<usize>]| {
+            let times = match check {
+                Some(checked) => {
+                    let chosen = waam_pipeline::ChosenPlan {
+                        fragments: fragments.to_vec(),
+                        stats: Default::default(),
+                        proven: false,
+                        worst_margin_s: f64::NAN,
+                    };
+                    let interrupt = waam_pipeline::Interrupt::after(timeout)
+                        .with_cancel(Some(Arc::clone(&stop)));
+                    cell.motion_until(checked.clone(), chosen, &interrupt)
+                        .map(|planned| planned.toolpath.executed_times())
                 }
-                .map_err(|e| e.to_string())?;
-                Ok(waam_cell::PlanTimes {
-                    deposits_s: times.deposits_s,
-                    arc_off_s: times.arc_off_s,
-                })
-            };
-            progress("robot: each deposit made when its trajectory makes it");
-            waam_cell::run_on_robot(
-                &part,
-                &found.fragments,
-                planned_in_s,
-                &truth,
-                &opts,
-                &mut progress,
-                &mut timing,
-            )?
+                None => cell
+                    .plan_motion(part, fragments)
+                    .map(|(toolpath, _)| toolpath.executed_times()),
+            }
+            .map_err(|e| e.to_string())?;
+            Ok(waam_cell::PlanTimes {
+                deposits_s: times.deposits_s,
+                arc_off_s: times.arc_off_s,
+            })
         }
-    };
+    });
+    if timing.is_some() {
+        progress("robot: each deposit made when its trajectory makes it");
+    }
+    let executed = waam_cell::run_on(
+        &part,
+        &found.fragments,
+        planned_in_s,
+        &truth,
+        &opts,
+        &mut progress,
+        timing.as_mut().map(|t| t as &mut waam_cell::Timing),
+    )?;
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     let path = dir.join("executed.yaml");
     std::fs::write(&path, executed.to_yaml()?)

@@ -107,31 +107,7 @@ pub fn run(
     opts: &CellOptions,
     progress: Progress,
 ) -> Result<Executed, CellError> {
-    execute(part, plan, planned_in_s, truth, opts, progress, None)
-}
-
-/// [`run`] on a robot: each deposit is made on the true model when the robot's trajectory
-/// makes it (`timing` times each plan the loop takes, and checks a new one as the node
-/// does: one it refuses is not taken), and decisions come at weld-path ends only — a layer
-/// that ends with the arc on is no place to change the path the robot follows.
-pub fn run_on_robot(
-    part: &Part,
-    plan: &[Vec<usize>],
-    planned_in_s: f64,
-    truth: &Truth,
-    opts: &CellOptions,
-    progress: Progress,
-    timing: &mut Timing,
-) -> Result<Executed, CellError> {
-    execute(
-        part,
-        plan,
-        planned_in_s,
-        truth,
-        opts,
-        progress,
-        Some(timing),
-    )
+    run_on(part, plan, planned_in_s, truth, opts, progress, None)
 }
 
 /// Where the robot makes each deposit of the plan now (by its index in weld order), on the
@@ -211,15 +187,19 @@ fn retimed(
     old.after(fragments, &times, done).map(Some)
 }
 
-/// The driver of [`run`] and [`run_on_robot`].
-fn execute(
+/// [`run`], on a robot when `robot` times its plans: each deposit is made on the true model
+/// when the robot's trajectory makes it (`robot` times each plan the loop takes, and checks
+/// a new one as the node does: one it refuses is not taken), and decisions come at
+/// weld-path ends only — a layer that ends with the arc on is no place to change the path
+/// the robot follows.
+pub fn run_on(
     part: &Part,
     plan: &[Vec<usize>],
     planned_in_s: f64,
     truth: &Truth,
     opts: &CellOptions,
     progress: Progress,
-    mut timing: Option<&mut Timing>,
+    mut robot: Option<&mut Timing>,
 ) -> Result<Executed, CellError> {
     let loop_opts = LoopOptions {
         planner: opts.planner.clone(),
@@ -265,7 +245,7 @@ fn execute(
     let (mut path, mut in_path) = (0usize, 0usize);
     // On a robot: where it makes each deposit (its first at 0 s), and its time line's step.
     let step = |t: f64| (t / truth_model.dt).round().max(0.0) as u64;
-    let mut timed = match timing.as_mut() {
+    let mut timed = match robot.as_mut() {
         Some(t) => {
             let times = t(None, plan).map_err(CellError::Robot)?;
             let first = times.deposits_s.first().and_then(|f| f.first()).copied();
@@ -357,7 +337,7 @@ fn execute(
         let boundary = path_end || (layer_done && timed.is_none());
         if !(opts.closed_loop && boundary) {
             // The robot's path split where the fault came.
-            if let (true, Some(t), Some(old)) = (fault, timing.as_mut(), &timed) {
+            if let (true, Some(t), Some(old)) = (fault, robot.as_mut(), &timed) {
                 if let Some(new) = retimed(&mut **t, old, None, cl.fragments(), cl.deposits())? {
                     timed = Some(new);
                 }
@@ -382,7 +362,7 @@ fn execute(
         }
         // The new remainder takes over here, at a weld-path or layer boundary; on a robot
         // only once its motion is checked (else the plan goes on as it was).
-        let refused = match (timing.as_mut(), &timed) {
+        let refused = match (robot.as_mut(), &timed) {
             (Some(t), Some(old)) if decision.changed => {
                 let (check, _) = cl.part_to_check(&decision);
                 let whole = decision.fragments();
@@ -404,7 +384,7 @@ fn execute(
             }
         }
         // A plan kept after a fault: the robot's path split where it came.
-        if let (Some(t), Some(old)) = (timing.as_mut(), &timed) {
+        if let (Some(t), Some(old)) = (robot.as_mut(), &timed) {
             if let Some(new) = retimed(&mut **t, old, None, cl.fragments(), cl.deposits())? {
                 timed = Some(new);
             }

@@ -128,6 +128,14 @@ fn first_layer_scanned(part: &Part, wire_feed_per_deposit: bool) -> ClosedLoop {
         ..options()
     };
     let mut cl = ClosedLoop::new(part, &plan, opts, 0.0).unwrap();
+    let t = weld_first_layer(&mut cl);
+    cl.measured(&left_end_low(t)).unwrap();
+    cl
+}
+
+/// The wall's first layer (the plan's first 6 deposits) welded at the feeds asked for, a
+/// deposit a second from 0 s; returns the time it ended.
+fn weld_first_layer(cl: &mut ClosedLoop) -> f64 {
     let mut t = 0.0;
     while cl.deposits() < 6 {
         let (b, new) = cl.next().unwrap();
@@ -135,8 +143,7 @@ fn first_layer_scanned(part: &Part, wire_feed_per_deposit: bool) -> ClosedLoop {
         cl.deposited(b, new, t, 1.0).unwrap();
         t += 1.0;
     }
-    cl.measured(&left_end_low(t)).unwrap();
-    cl
+    t
 }
 
 /// The wall's first layer scanned at `stamp_s`: its left half (x < 28 mm: blocks 0..3)
@@ -513,13 +520,7 @@ fn a_thermal_image_of_a_part_built_low_reads_the_deposits_where_they_stand() {
     let part = wall();
     let plan = first_plan(&part);
     let mut cl = ClosedLoop::new(&part, &plan, options(), 0.0).unwrap();
-    let mut t = 0.0;
-    while cl.deposits() < 6 {
-        let (b, new) = cl.next().unwrap();
-        cl.wire_feed(b);
-        cl.deposited(b, new, t, 1.0).unwrap();
-        t += 1.0;
-    }
+    let t = weld_first_layer(&mut cl);
     let points = (0..24)
         .map(|i| [10.75 + 1.5 * i as f64, 1.0, 1.0])
         .collect();
