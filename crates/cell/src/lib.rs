@@ -8,12 +8,14 @@
 //! Modules: `closed_loop.rs` (the loop's decisions, step by step: what this cell and the
 //! ROS node drive), `truth.rs` (TRUTH.yaml, sensor noise), `estimate.rs` (the model fit),
 //! `executed.rs` (executed.yaml and its re-simulation), `measured.rs` (sensor readings as
-//! the node passes them on); the simulated cell's driver and the height rule here.
+//! the node passes them on), `robot.rs` (where a robot makes each deposit, for the cell on
+//! a robot); the simulated cell's driver and the height rule here.
 
 pub mod closed_loop;
 pub mod estimate;
 pub mod executed;
 pub mod measured;
+mod robot;
 pub mod truth;
 
 use std::sync::atomic::Ordering;
@@ -29,6 +31,8 @@ pub use closed_loop::{ClosedLoop, Decision, LoopOptions, MeasureError};
 pub use estimate::{Estimate, Measurement};
 pub use executed::{CheckError, Deposit, EstimateRecord, Executed, LayerRecord, PlanUsed};
 pub use measured::Measured;
+use robot::{retimed, Timed};
+pub use robot::{PlanTimes, Timing};
 pub use truth::{CutShort, HeightZone, Noise, Truth, TruthError};
 
 /// How the cell runs.
@@ -65,20 +69,6 @@ pub enum CellError {
     Robot(String),
 }
 
-/// A robot's executed time line of a whole plan: each weld path's deposit starts and its
-/// arc-off, s (any origin).
-#[derive(Debug, Clone, PartialEq)]
-pub struct PlanTimes {
-    pub deposits_s: Vec<Vec<f64>>,
-    pub arc_off_s: Vec<f64>,
-}
-
-/// Times a whole plan (fragments of block indices) on the cell's robot. With `Some(part)`
-/// the plan is checked first like any plan the robot receives, under `part`'s model (the
-/// estimate's, after a decision); with `None` it is only timed (a plan executed anyway:
-/// the first, which the planner checked, or one a fault split in open loop).
-pub type Timing<'a> = dyn FnMut(Option<&Part>, &[Vec<usize>]) -> Result<PlanTimes, String> + 'a;
-
 /// What the cell tells its caller as it runs (one line each).
 pub type Progress<'a> = &'a mut dyn FnMut(&str);
 
@@ -108,83 +98,6 @@ pub fn run(
     progress: Progress,
 ) -> Result<Executed, CellError> {
     run_on(part, plan, planned_in_s, truth, opts, progress, None)
-}
-
-/// Where the robot makes each deposit of the plan now (by its index in weld order), on the
-/// true model's clock (s from the first deposit): its start and end (the next deposit's
-/// start, or the arc-off), and for the first of a weld path after another, the previous
-/// path's arc-off.
-struct Timed {
-    fragments: Vec<Vec<usize>>,
-    starts: Vec<f64>,
-    ends: Vec<f64>,
-    arc_off_before: Vec<Option<f64>>,
-}
-
-impl Timed {
-    /// `times` of `fragments`, moved by `shift_s`.
-    fn new(
-        fragments: Vec<Vec<usize>>,
-        times: &PlanTimes,
-        shift_s: f64,
-    ) -> Result<Timed, CellError> {
-        let shapes: Vec<usize> = times.deposits_s.iter().map(Vec::len).collect();
-        let want: Vec<usize> = fragments.iter().map(Vec::len).collect();
-        if shapes != want || times.arc_off_s.len() != fragments.len() {
-            return Err(CellError::Robot(format!(
-                "its time line has weld paths of {shapes:?} deposits, the plan {want:?}"
-            )));
-        }
-        let mut timed = Timed {
-            fragments,
-            starts: Vec::new(),
-            ends: Vec::new(),
-            arc_off_before: Vec::new(),
-        };
-        for (f, starts) in times.deposits_s.iter().enumerate() {
-            for (p, &t) in starts.iter().enumerate() {
-                let end = starts.get(p + 1).copied().unwrap_or(times.arc_off_s[f]);
-                timed.starts.push(t + shift_s);
-                timed.ends.push(end + shift_s);
-                let first_after_another = p == 0 && f > 0;
-                timed
-                    .arc_off_before
-                    .push(first_after_another.then(|| times.arc_off_s[f - 1] + shift_s));
-            }
-        }
-        Ok(timed)
-    }
-
-    /// The plan now taken over after `done` deposits: timed by `times`, moved so that the
-    /// last deposit made ends when it did.
-    fn after(
-        &self,
-        fragments: Vec<Vec<usize>>,
-        times: &PlanTimes,
-        done: usize,
-    ) -> Result<Timed, CellError> {
-        let new = Timed::new(fragments, times, 0.0)?;
-        let shift = match done.checked_sub(1) {
-            Some(last) => self.ends[last] - new.ends[last],
-            None => self.starts[0] - new.starts[0],
-        };
-        Timed::new(new.fragments, times, shift)
-    }
-}
-/// `fragments` timed on the robot (checked under `check` when given) from where `done`
-/// deposits of `old` left it; `None` when the plan is still `old`'s.
-fn retimed(
-    timing: &mut Timing,
-    old: &Timed,
-    check: Option<&Part>,
-    fragments: Vec<Vec<usize>>,
-    done: usize,
-) -> Result<Option<Timed>, CellError> {
-    if fragments == old.fragments {
-        return Ok(None);
-    }
-    let times = timing(check, &fragments).map_err(CellError::Robot)?;
-    old.after(fragments, &times, done).map(Some)
 }
 
 /// [`run`], on a robot when `robot` times its plans: each deposit is made on the true model
