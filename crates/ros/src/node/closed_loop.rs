@@ -349,6 +349,11 @@ impl Replanner {
         now_s: f64,
         readings: impl IntoIterator<Item = Measured>,
     ) -> Result<Option<FeedSchedule>, CellError> {
+        // Called every few milliseconds while a weld goal runs: nothing to do most times.
+        let readings: Vec<Measured> = readings.into_iter().collect();
+        if readings.is_empty() {
+            return Ok(None);
+        }
         let times = planned.toolpath.executed_times();
         let (Some(blocks), Some(starts)) = (
             planned.found.fragments.get(fragment),
