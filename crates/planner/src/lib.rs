@@ -275,6 +275,9 @@ fn search_plans(
                 // by itself when no change gets further); on a first layer with area, then
                 // its rasters (the one that gets furthest repaired in turn); then the
                 // portfolio's other starts and covers in what is left of that time.
+                // The warm start as the search simulated it: its snapshots spare the
+                // repair simulating it again from the first deposit (a minute at 10^5).
+                let resume = |prefix: &[(usize, bool)]| search.resume_on(&base, prefix);
                 let repair = repair::Repair {
                     part,
                     graph: &graph,
@@ -282,6 +285,7 @@ fn search_plans(
                     model: &base,
                     limits: &half_left,
                     workers,
+                    resume: Some(&resume),
                 };
                 let portfolio = portfolio::Portfolio {
                     part,

@@ -41,7 +41,14 @@ pub struct Repair<'a> {
     pub limits: &'a Limits,
     /// Threads judging one step's candidates.
     pub workers: usize,
+    /// Where the plan simulated so far may start from: a simulation of the longest prefix
+    /// of the given deposits that is simulated already (the search's snapshots of the plan
+    /// it judged), and its length; none: from the first deposit.
+    pub resume: Option<&'a Resume<'a>>,
 }
+
+/// A simulation at the longest known prefix of a deposit sequence, and its length.
+pub type Resume<'a> = dyn Fn(&[(usize, bool)]) -> (Simulation<'a>, usize) + 'a;
 
 /// A plan simulated: `Ok(())` keeps every window, else where it first breaks one; `None`:
 /// the run stopped the simulation.
@@ -95,7 +102,7 @@ enum Change {
     Rotate(usize),
 }
 
-impl Repair<'_> {
+impl<'a> Repair<'a> {
     /// A plan that keeps every window, changed from `plan` (valid, breaking a window after
     /// `broken` blocks); `None` when no sequence of changes gets there (or the run stopped).
     pub fn repaired(
@@ -365,11 +372,16 @@ impl Repair<'_> {
         starts.sort_unstable();
         starts.dedup();
         let (first, last) = (starts[0], starts[starts.len() - 1]);
-        let (from, mut sim) = saved
-            .iter()
-            .rev()
-            .find(|(at, _)| *at <= first)
-            .map_or_else(|| (0, self.simulation()), |(at, s)| (*at, s.clone()));
+        let (from, mut sim) = match saved.iter().rev().find(|(at, _)| *at <= first) {
+            Some((at, s)) => (*at, s.clone()),
+            None => match self.resume {
+                Some(resume) => {
+                    let (sim, at) = resume(&seq[..first]);
+                    (at, self.limited(sim))
+                }
+                None => (0, self.simulation()),
+            },
+        };
         for (d, &(b, new)) in seq.iter().enumerate().take(last + 1).skip(from) {
             if starts.binary_search(&d).is_ok() && !saved.iter().any(|(at, _)| *at == d) {
                 saved.push((d, sim.clone()));
@@ -410,10 +422,13 @@ impl Repair<'_> {
         (now, results.into_inner().expect("no worker panics"))
     }
 
-    fn simulation(&self) -> Simulation<'_> {
-        let sim = Simulation::new(self.model)
-            .with_threads(1)
-            .with_deadline(self.limits.deadline);
+    fn simulation(&self) -> Simulation<'a> {
+        self.limited(Simulation::new(self.model))
+    }
+
+    /// `sim` on one thread, stopped with the run.
+    fn limited(&self, sim: Simulation<'a>) -> Simulation<'a> {
+        let sim = sim.with_threads(1).with_deadline(self.limits.deadline);
         match &self.limits.cancel {
             Some(c) => sim.with_cancel(c.clone()),
             None => sim,

@@ -539,6 +539,23 @@ impl<'p> Search<'p> {
         clause.len()
     }
 
+    /// A simulation on `model` (the same part's) at the longest prefix of `prefix` whose
+    /// snapshot this search's cache holds, and that prefix's length (0: none): where a
+    /// repair of a plan the search judged starts without simulating it again.
+    pub(crate) fn resume_on<'m>(
+        &self,
+        model: &'m ThermalModel,
+        prefix: &[(usize, bool)],
+    ) -> (Simulation<'m>, usize) {
+        resume(
+            model,
+            &self.cache.borrow(),
+            self.spacing,
+            prefix,
+            &prefix_keys(prefix),
+        )
+    }
+
     /// The simulation state after `prefix` (from the nearest cached snapshot).
     fn state_after(&self, prefix: &[(usize, bool)]) -> Option<Simulation<'_>> {
         let keys = prefix_keys(prefix);
