@@ -196,7 +196,7 @@ pub fn run(args: SimCellArgs, global: &super::GlobalArgs) -> anyhow::Result<Exit
     if timing.is_some() {
         progress("robot: each deposit made when its trajectory makes it");
     }
-    let executed = waam_cell::run_on(
+    let executed = waam_cell::run(
         &part,
         &found.fragments,
         planned_in_s,

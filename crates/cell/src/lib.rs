@@ -88,24 +88,12 @@ pub fn next_wire_feed(nominal_mm: f64, missing_mm: f64, gain: f64, limits: (f64,
 /// Executes `part` on the true cell `truth`, starting with `plan` (fragments of block
 /// indices, found by the pipeline in `planned_in_s`): a driver of [`ClosedLoop`] that
 /// deposits on the true model, reads its sensors and, in closed loop, asks for a decision
-/// after every weld path and layer.
-pub fn run(
-    part: &Part,
-    plan: &[Vec<usize>],
-    planned_in_s: f64,
-    truth: &Truth,
-    opts: &CellOptions,
-    progress: Progress,
-) -> Result<Executed, CellError> {
-    run_on(part, plan, planned_in_s, truth, opts, progress, None)
-}
-
-/// [`run`], on a robot when `robot` times its plans: each deposit is made on the true model
-/// when the robot's trajectory makes it (`robot` times each plan the loop takes, and checks
-/// a new one as the node does: one it refuses is not taken), and decisions come at
+/// after every weld path and layer. On a robot (`robot` times its plans) each deposit is
+/// made when the robot's trajectory makes it (`robot` times each plan the loop takes, and
+/// checks a new one as the node does: one it refuses is not taken), and decisions come at
 /// weld-path ends only — a layer that ends with the arc on is no place to change the path
 /// the robot follows.
-pub fn run_on(
+pub fn run(
     part: &Part,
     plan: &[Vec<usize>],
     planned_in_s: f64,

@@ -40,8 +40,16 @@ fn execute(part: &Part, truth: &str, closed_loop: bool) -> Executed {
         closed_loop,
         ..CellOptions::default()
     };
-    let executed =
-        waam_cell::run(part, &first_plan(part), 0.0, &truth, &opts, &mut |_| {}).unwrap();
+    let executed = waam_cell::run(
+        part,
+        &first_plan(part),
+        0.0,
+        &truth,
+        &opts,
+        &mut |_| {},
+        None,
+    )
+    .unwrap();
     assert!(executed.complete);
     // executed.yaml reads back as written.
     let text = executed.to_yaml().unwrap();
@@ -217,7 +225,7 @@ fn a_stopped_run_reports_the_top_of_the_layers_it_finished() {
         }
     };
     let plan = first_plan(&part);
-    let executed = waam_cell::run(&part, &plan, 0.0, &truth, &opts, &mut { stop }).unwrap();
+    let executed = waam_cell::run(&part, &plan, 0.0, &truth, &opts, &mut { stop }, None).unwrap();
     assert!(!executed.complete);
     assert_eq!(executed.deposits.len(), 15);
     assert_eq!(executed.layers.len(), 2, "{:?}", executed.layers);

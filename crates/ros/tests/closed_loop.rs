@@ -119,7 +119,7 @@ impl ExecOutputs for Cell1 {
         let (starts, off) = (&times.deposits_s[f], times.arc_off_s[f]);
         let blocks = s.plan.found.fragments[f].clone();
         // The true cell welds when the robot's trajectory does (its first deposit at step 0),
-        // as the simulated cell on a robot does (`waam_cell::run_on`).
+        // as the simulated cell on a robot does (`waam_cell::run` with a robot).
         let t0 = times.deposits_s[0][0];
         let dt = s.truth.dt();
         let step = |t: f64| ((t - t0) / dt).round() as u64;
