@@ -85,9 +85,12 @@ def test(peer, waam):
     peer.listen(NS + "/plan/weld_plan", WeldPlan)
     with open(sys.argv[2]) as f:
         truth = json.load(f)
+    # The arc's switches, each with when the node published it (the DDS source timestamp,
+    # on the node's clock): the strike's time, however late it reaches this script.
     arc = []
-    peer.node.create_subscription(Bool, NS + "/arc_on", lambda m: arc.append(m.data),
-                                  waamtest.INPUT_QOS)
+    peer.node.create_subscription(
+        Bool, NS + "/arc_on", lambda m, info: arc.append((m.data, info["source_timestamp"])),
+        waamtest.INPUT_QOS)
     feeds = []
     peer.node.create_subscription(Float64, NS + "/wire_feed", lambda m: feeds.append(m.data),
                                   waamtest.INPUT_QOS)
@@ -114,20 +117,22 @@ def test(peer, waam):
               for j in range(len(blocks))]
 
     # Readings at 200 Hz while the arc is on (a 1 s deposit lasts 0.1 s at time_scale 10),
-    # on the first weld path the true temperature of the deposit under the torch, stamped in
-    # the middle of that deposit: what reaches this script late (the arc's switch on a busy
-    # machine) is still read on the deposit it is of. A scan with every 20th.
+    # on the first weld path the true temperature of the deposit under the torch, timed from
+    # the strike and stamped in the middle of that deposit: on a busy machine a reading sent
+    # late is still read on the deposit it is of. A scan with every 20th.
     ends = starts[1:] + [starts[-1] + (starts[-1] - starts[-2])]
     sent_t = sent_s = 0
     start = time.monotonic()
     arc_on_s = 0.0
     tick = 0
     arcs_on = 0
-    lit = None  # when the arc last turned on: (monotonic, ROS clock in ns)
+    lit = None  # when the arc last struck: (monotonic, ROS clock in ns)
     while not result.done() and time.monotonic() < start + 180:
-        if arc and arc[-1]:
+        if arc and arc[-1][0]:
             if lit is None:
-                lit = (time.monotonic(), peer.node.get_clock().now().nanoseconds)
+                struck = arc[-1][1]
+                ago = (peer.node.get_clock().now().nanoseconds - struck) * 1e-9
+                lit = (time.monotonic() - ago, struck)
                 arcs_on += 1
             if arcs_on == 1:
                 t = starts[0] + (time.monotonic() - lit[0]) * TIME_SCALE
@@ -162,7 +167,8 @@ def test(peer, waam):
     # A wire feed before each weld path, within the process limits (0.7..1.3 x nominal), the
     # first nominal: no layer was scanned yet.
     peer.spin_for(1.0)
-    welds = sum(1 for a, b in zip([False] + arc, arc) if b and not a)
+    switches = [on for on, _ in arc]
+    welds = sum(1 for a, b in zip([False] + switches, switches) if b and not a)
     print(f"wire feeds: {feeds} for {welds} weld paths")
     check(len(feeds) == welds and feeds and feeds[0] == 1.0
           and all(0.7 <= f <= 1.3 for f in feeds), f"wire feeds {feeds} for {welds} weld paths")

@@ -22,7 +22,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use ros2_client::Subscription;
+use ros2_client::{ROSTime, Subscription};
 use waam_cell::estimate::counting_part;
 use waam_cell::{Noise, Truth};
 use waam_part::graph::WeldGraph;
@@ -215,14 +215,15 @@ pub fn run(
             cell.follow(&msg);
         }
         let mut arc_changes = Vec::new();
-        while let Ok(Some((arc, _))) = arcs.take() {
-            arc_changes.push(arc.data);
+        while let Ok(Some((arc, info))) = arcs.take() {
+            arc_changes.push((arc.data, info.source_timestamp()));
         }
-        for on in arc_changes {
+        for (on, published) in arc_changes {
             match (on, welding) {
                 (true, None) => {
                     cell.struck.clear();
-                    welding = Some((welds, Instant::now(), std::time::SystemTime::now(), 0));
+                    let (lit, wall) = struck_at(published);
+                    welding = Some((welds, lit, wall, 0));
                     welds += 1;
                     faulted = false;
                 }
@@ -483,6 +484,24 @@ impl TrueCell<'_> {
             scanner.publish(&cloud, None);
             self.scanned += 1;
         }
+    }
+}
+
+/// When the arc struck, on this process's monotonic clock and on the wall clock: when the
+/// planner published `~/arc_on` (its source timestamp), however late it was taken here on a
+/// busy machine; now when the message has none.
+fn struck_at(published: Option<ROSTime>) -> (Instant, std::time::SystemTime) {
+    let now = (Instant::now(), std::time::SystemTime::now());
+    let ago = published
+        .and_then(|t| {
+            let at =
+                std::time::UNIX_EPOCH + Duration::from_nanos(u64::try_from(t.to_nanos()).ok()?);
+            now.1.duration_since(at).ok()
+        })
+        .unwrap_or_default();
+    match (now.0.checked_sub(ago), now.1.checked_sub(ago)) {
+        (Some(lit), Some(wall)) => (lit, wall),
+        _ => now,
     }
 }
 
