@@ -16,8 +16,11 @@
 //! climbing a tube keeps its seam near where it started, and a block's t8/5 depends on how
 //! far it lies from the seam (just before it, the block above comes soon, while the block
 //! is still hot; across the tube, a lap later), so the rotations tried put the start at
-//! the broken block's column and 1, 2, 4, ... blocks either side. Which piece and change is
-//! kept is the simulator's verdict (the furthest first broken window, counted in blocks
+//! the broken block's column and 1, 2, 4, ... blocks either side. The first piece of the
+//! broken block's weld path (its seam, which every layer's seam above follows) is rotated
+//! as soon as no nearer change gets further, not only once the neighbourhood has grown back
+//! to it: on a double tube that seam is the lever, and growing back to it took most of a
+//! minute's budget. Which piece and change is kept is the simulator's verdict (the furthest first broken window, counted in blocks
 //! welded): no threshold, and the candidates of a step are judged all, so the choice does
 //! not depend on the thread count.
 
@@ -143,6 +146,23 @@ impl<'a> Repair<'a> {
                 .and_then(|at| pieces.iter().rposition(|p| p.at <= at))
                 .unwrap_or(anchor);
             let around = pieces[anchor].at..=pieces[own.max(anchor)].at;
+            // The seam of the broken block's weld path (its first piece), when the
+            // neighbourhood does not reach it yet: where the path starts decides every
+            // layer's seam above it, so it is tried before the neighbourhood grows back to it.
+            let own_path = pieces[own.max(anchor)].f;
+            let seam = pieces
+                .iter()
+                .position(|p| p.f == own_path)
+                .filter(|&s| s < from)
+                .map(|s| pieces[s]);
+            let seam_rotations = seam
+                .into_iter()
+                .flat_map(|p| {
+                    self.rotations(&plan, p, broken.block)
+                        .into_iter()
+                        .map(move |r| (p, Change::Rotate(r)))
+                })
+                .collect::<Vec<_>>();
             let candidates: Vec<(Piece, Change, Vec<Vec<usize>>)> = pieces[from..]
                 .iter()
                 .filter(|p| p.at < broken.blocks)
@@ -157,6 +177,7 @@ impl<'a> Repair<'a> {
                         .chain(rotations.into_iter().map(Change::Rotate))
                         .map(move |c| (p, c))
                 })
+                .chain(seam_rotations)
                 .filter(|&(p, c)| tried.insert((p.at, c)))
                 .filter_map(|(p, c)| Some((p, c, self.changed(&plan, p, c)?)))
                 .collect();
@@ -172,15 +193,25 @@ impl<'a> Repair<'a> {
                 continue;
             }
             // The rotations (many, each re-simulating a weld path from its start) are
-            // judged only when no mirror or new weld path keeps every window.
-            let (plain, rotated): (Vec<_>, Vec<_>) = candidates
+            // judged only when no mirror or new weld path keeps every window; the seam's
+            // (re-simulating the plan from the path's start) only when nothing nearer gets
+            // further either.
+            let seam_at = seam.map(|p| p.at);
+            let (seam_rotated, near): (Vec<_>, Vec<_>) = candidates
+                .into_iter()
+                .partition(|(p, _, _)| Some(p.at) == seam_at);
+            let (plain, rotated): (Vec<_>, Vec<_>) = near
                 .into_iter()
                 .partition(|(_, c, _)| !matches!(c, Change::Rotate(_)));
             let mut candidates = Vec::new();
-            let mut verdicts = Vec::new();
-            for batch in [plain, rotated] {
+            let mut verdicts: Vec<Verdict> = Vec::new();
+            for (n, batch) in [plain, rotated, seam_rotated].into_iter().enumerate() {
                 if batch.is_empty() {
                     continue;
+                }
+                let further = |v: &Verdict| matches!(v, Some(Err(b)) if b.further_than(&broken));
+                if n == 2 && verdicts.iter().any(further) {
+                    break;
                 }
                 let measure = step == 1 && candidates.is_empty();
                 let (now, judged) = self.judge(&seq, &batch, &mut saved, measure);
@@ -403,6 +434,9 @@ impl<'a> Repair<'a> {
         };
         let saved = &*saved;
         let next = AtomicUsize::new(0);
+        // The first candidate found to keep every window: a later one cannot be chosen,
+        // so it is not judged (the choice stays the same on any number of threads).
+        let first_feasible = AtomicUsize::new(usize::MAX);
         let results: Mutex<Vec<Verdict>> = Mutex::new(vec![None; candidates.len()]);
         std::thread::scope(|scope| {
             for _ in 0..self.workers.clamp(1, candidates.len().max(1)) {
@@ -411,10 +445,16 @@ impl<'a> Repair<'a> {
                     let Some((piece, _, plan)) = candidates.get(c) else {
                         break;
                     };
+                    if c > first_feasible.load(Ordering::Relaxed) {
+                        continue;
+                    }
                     let Some((_, sim)) = saved.iter().find(|(at, _)| *at == piece.at) else {
                         continue;
                     };
                     let verdict = run_from(sim.clone(), &sequence(plan), piece.at);
+                    if matches!(verdict, Some(Ok(()))) {
+                        first_feasible.fetch_min(c, Ordering::Relaxed);
+                    }
                     results.lock().expect("no worker panics")[c] = verdict;
                 });
             }
