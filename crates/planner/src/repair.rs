@@ -20,9 +20,10 @@
 //! broken block's weld path (its seam, which every layer's seam above follows) is rotated
 //! as soon as no nearer change gets further, not only once the neighbourhood has grown back
 //! to it: on a double tube that seam is the lever, and growing back to it took most of a
-//! minute's budget. Which piece and change is kept is the simulator's verdict (the furthest first broken window, counted in blocks
-//! welded): no threshold, and the candidates of a step are judged all, so the choice does
-//! not depend on the thread count.
+//! minute's budget. Which piece and change is kept is the simulator's verdict (the furthest
+//! first broken window, counted in blocks welded): no threshold, and the candidates of a
+//! step are judged all up to the first that keeps every window (those after it could not be
+//! chosen), so the choice does not depend on the thread count.
 
 use std::collections::{HashMap, HashSet};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -146,6 +147,31 @@ impl<'a> Repair<'a> {
                 .and_then(|at| pieces.iter().rposition(|p| p.at <= at))
                 .unwrap_or(anchor);
             let around = pieces[anchor].at..=pieces[own.max(anchor)].at;
+            // The changes not judged yet that give a valid plan.
+            let mut fresh = |changes: Vec<(Piece, Change)>| -> Vec<_> {
+                changes
+                    .into_iter()
+                    .filter(|&(p, c)| tried.insert((p.at, c)))
+                    .filter_map(|(p, c)| Some((p, c, self.changed(&plan, p, c)?)))
+                    .collect()
+            };
+            let near = fresh(
+                pieces[from..]
+                    .iter()
+                    .filter(|p| p.at < broken.blocks)
+                    .flat_map(|&p| {
+                        let rotations = if p.i == 0 || around.contains(&p.at) {
+                            self.rotations(&plan, p, broken.block)
+                        } else {
+                            Vec::new()
+                        };
+                        [Change::Mirror, Change::NewPath, Change::NewPathMirrored]
+                            .into_iter()
+                            .chain(rotations.into_iter().map(Change::Rotate))
+                            .map(move |c| (p, c))
+                    })
+                    .collect(),
+            );
             // The seam of the broken block's weld path (its first piece), when the
             // neighbourhood does not reach it yet: where the path starts decides every
             // layer's seam above it, so it is tried before the neighbourhood grows back to it.
@@ -155,33 +181,16 @@ impl<'a> Repair<'a> {
                 .position(|p| p.f == own_path)
                 .filter(|&s| s < from)
                 .map(|s| pieces[s]);
-            let seam_rotations = seam
-                .into_iter()
-                .flat_map(|p| {
-                    self.rotations(&plan, p, broken.block)
-                        .into_iter()
-                        .map(move |r| (p, Change::Rotate(r)))
-                })
-                .collect::<Vec<_>>();
-            let candidates: Vec<(Piece, Change, Vec<Vec<usize>>)> = pieces[from..]
-                .iter()
-                .filter(|p| p.at < broken.blocks)
-                .flat_map(|&p| {
-                    let rotations = if p.i == 0 || around.contains(&p.at) {
+            let seam_rotated = fresh(
+                seam.into_iter()
+                    .flat_map(|p| {
                         self.rotations(&plan, p, broken.block)
-                    } else {
-                        Vec::new()
-                    };
-                    [Change::Mirror, Change::NewPath, Change::NewPathMirrored]
-                        .into_iter()
-                        .chain(rotations.into_iter().map(Change::Rotate))
-                        .map(move |c| (p, c))
-                })
-                .chain(seam_rotations)
-                .filter(|&(p, c)| tried.insert((p.at, c)))
-                .filter_map(|(p, c)| Some((p, c, self.changed(&plan, p, c)?)))
-                .collect();
-            if candidates.is_empty() {
+                            .into_iter()
+                            .map(move |r| (p, Change::Rotate(r)))
+                    })
+                    .collect(),
+            );
+            if near.is_empty() && seam_rotated.is_empty() {
                 if from == 0 {
                     tracing::debug!(
                         "warm-start repair: step {step}: no change left that gets past {} blocks",
@@ -196,10 +205,6 @@ impl<'a> Repair<'a> {
             // judged only when no mirror or new weld path keeps every window; the seam's
             // (re-simulating the plan from the path's start) only when nothing nearer gets
             // further either.
-            let seam_at = seam.map(|p| p.at);
-            let (seam_rotated, near): (Vec<_>, Vec<_>) = candidates
-                .into_iter()
-                .partition(|(p, _, _)| Some(p.at) == seam_at);
             let (plain, rotated): (Vec<_>, Vec<_>) = near
                 .into_iter()
                 .partition(|(_, c, _)| !matches!(c, Change::Rotate(_)));
