@@ -296,14 +296,23 @@ fn search_plans(
                     model: &base,
                     workers,
                 };
+                // A repaired plan leaves its simulation's last state with the search: its
+                // verdict below then simulates the cooldown only (a minute and a half of
+                // deposits at 10^5 blocks).
+                let kept = |r: repair::Repaired| {
+                    if let Some(end) = r.end {
+                        search.remember(&r.plan, end);
+                    }
+                    (r.plan, 0.0)
+                };
                 let varied = part
                     .index_of(block)
                     .and_then(|b| repair.repaired(&warm, prefix_len, b))
-                    .map(|p| (p, 0.0))
+                    .map(kept)
                     .or_else(|| match portfolio.rasters(&warm)? {
                         Ok(found) => Some(found),
                         Err((plan, blocks, b)) if blocks > prefix_len => {
-                            repair.repaired(&plan, blocks, b).map(|p| (p, 0.0))
+                            repair.repaired(&plan, blocks, b).map(kept)
                         }
                         Err(_) => None,
                     })
@@ -493,13 +502,16 @@ fn feasible_margin(
         .stats
         .first_feasible_s
         .get_or_insert(started.elapsed().as_secs_f64());
-    margin_under(model, fragments, opts, started).map(Some)
+    margin_under(search, model, fragments, opts, started).map(Some)
 }
 
 /// The worst t8/5 margin of a feasible plan under the part's own windows; NaN when the
 /// run's deadline or cancel stopped the simulation first (a transit of 10^8 steps takes
-/// seconds, and the search has already simulated this plan once).
+/// seconds). The search has just simulated this plan: its last snapshot of it (a
+/// simulation carries its margin so far) spares simulating the plan again from the first
+/// deposit, a minute and a half at 10^5 blocks.
 fn margin_under(
+    search: &Search<'_>,
     model: &ThermalModel,
     fragments: &[Vec<usize>],
     opts: &Options,
@@ -508,9 +520,32 @@ fn margin_under(
     if !model.has_windows() {
         return Ok(f64::INFINITY);
     }
-    let deadline = opts.timeout.and_then(|t| started.checked_add(t));
-    let outcome = thermal::simulate_until(model, fragments, deadline, opts.cancel.clone())?;
-    Ok(outcome.map_or(f64::NAN, |o| model.margin(&o.crossings)))
+    let seq: Vec<(usize, bool)> = fragments
+        .iter()
+        .flat_map(|f| f.iter().enumerate().map(|(p, &b)| (b, p == 0)))
+        .collect();
+    let (sim, at) = search.resume_on(model, &seq);
+    let mut sim = sim.with_deadline(opts.timeout.and_then(|t| started.checked_add(t)));
+    if let Some(cancel) = &opts.cancel {
+        sim = sim.with_cancel(cancel.clone());
+    }
+    let mut kept = true;
+    for &(b, new) in &seq[at..] {
+        // Feasible under the windows the search judged by, which are these or narrower.
+        if sim.deposit(b, new).is_err() {
+            kept = false;
+            break;
+        }
+    }
+    if kept {
+        // A window broken while cooling down ends the simulation as above.
+        let _ = sim.finish()?;
+    }
+    Ok(if sim.cancelled() {
+        f64::NAN
+    } else {
+        sim.margin_s()
+    })
 }
 
 /// Counts the valid plans (`with_plans`) and the feasible plans, exactly, on `opts.threads`

@@ -16,8 +16,8 @@ pub fn snapshot_spacing(blocks: usize) -> usize {
     (blocks / 1000).max(1)
 }
 
-/// A simulation at the longest cached prefix of `seq` (of a length that is a multiple of
-/// `spacing`), and that prefix's length.
+/// A simulation at the longest cached prefix of `seq` (all of it, or of a length that is
+/// a multiple of `spacing`), and that prefix's length.
 pub fn resume<'m>(
     model: &'m ThermalModel,
     cache: &PrefixCache,
@@ -26,7 +26,10 @@ pub fn resume<'m>(
     keys: &[Key],
 ) -> (Simulation<'m>, usize) {
     let mut sim = Simulation::new(model);
-    for len in (1..=seq.len()).rev().filter(|len| len % spacing == 0) {
+    // The whole sequence too: a plan another simulation judged leaves its last state.
+    let whole = Some(seq.len()).filter(|&len| len > 0 && len % spacing != 0);
+    let spaced = (1..=seq.len()).rev().filter(|len| len % spacing == 0);
+    for len in whole.into_iter().chain(spaced) {
         if let Some(snap) = cache.get(keys[len - 1], len) {
             sim.restore_from_trail(snap, seq);
             return (sim, len);
@@ -150,7 +153,15 @@ impl PrefixCache {
             used.set(self.use_tick());
             return;
         }
-        let snap = sim.snapshot();
+        self.insert_snapshot(key, sim.snapshot());
+    }
+
+    /// [`PrefixCache::insert`] of a snapshot taken already.
+    pub fn insert_snapshot(&mut self, key: Key, snap: Snapshot) {
+        if let Some((_, used)) = self.map.get(&key) {
+            used.set(self.use_tick());
+            return;
+        }
         let cost = Self::cost(&snap);
         if cost > self.budget {
             return;

@@ -160,6 +160,7 @@ pub(crate) fn race(
     let pool = Arc::new(ClausePool::default());
     let shared = Arc::new((part.clone(), opts.clone()));
     let (tx, rx) = mpsc::channel::<Message>();
+    let n = racers.len();
     for (i, racer) in racers.into_iter().enumerate() {
         let sharing = Sharing::new(Arc::clone(&pool), i);
         // The default takes no clauses in: its proofs stay those of a run alone.
@@ -168,7 +169,7 @@ pub(crate) fn race(
             _ => sharing,
         };
         spawn(
-            racer,
+            (racer, share(i, n, threads)),
             &shared,
             started,
             &stop,
@@ -279,13 +280,14 @@ pub(crate) fn race_best(
     let shared = Arc::new((part.clone(), opts.clone()));
     let (tx, rx) = mpsc::channel::<Message>();
     let from_plan_id = racers.len();
+    let n = racers.len();
     for (i, racer) in racers.into_iter().enumerate() {
         let sharing = Sharing::new(Arc::clone(&pool), i);
         if racer == Racer::Default {
             // Takes no clauses in: its "no plan" is that of a run alone.
             let sharing = sharing.publish_only();
             spawn(
-                racer,
+                (racer, share(i, n, threads)),
                 &shared,
                 started,
                 &optimizers,
@@ -294,7 +296,7 @@ pub(crate) fn race_best(
             );
         } else {
             spawn(
-                racer,
+                (racer, share(i, n, threads)),
                 &shared,
                 started,
                 &seekers,
@@ -378,7 +380,7 @@ pub(crate) fn race_best(
                     };
                     let opt = Racer::FromPlan;
                     spawn(
-                        opt,
+                        (opt, 1),
                         &shared,
                         started,
                         &optimizers,
@@ -437,12 +439,25 @@ fn better(kept: Option<Report>, new: Report) -> Report {
     }
 }
 
-/// Runs `search` on a thread of its own as `racer`, stopped by `stop` or the run's
+/// The threads of racer `i` of `racers` on `threads`: one each, and those no racer takes
+/// (memory admitted fewer racers than threads) to the default (the first): only its
+/// repair and varied starts judge candidates on more than one. At 10^5 blocks only the
+/// default fits in memory, and on one thread it left the other cores idle.
+fn share(i: usize, racers: usize, threads: usize) -> usize {
+    if i == 0 {
+        threads.saturating_sub(racers.saturating_sub(1)).max(1)
+    } else {
+        1
+    }
+}
+
+/// Runs `search` on threads of its own (`racer.1`: the first its own, the others its
+/// repair's and varied starts' workers) as `racer.0`, stopped by `stop` or the run's
 /// deadline (counted from `started`), its events and its result sent on `tx`.
 /// Detached, not scoped: the answer does not wait for a loser that stops only between
 /// its solves (varisat); it ends on its own soon after its stop flag is raised.
 fn spawn(
-    racer: Racer,
+    (racer, threads): (Racer, usize),
     shared: &Arc<(Part, Options)>,
     started: Instant,
     stop: &Arc<AtomicBool>,
@@ -453,11 +468,11 @@ fn spawn(
     std::thread::spawn(move || {
         let (part, opts) = &*shared;
         let offset = started.elapsed();
-        // One thread per racer: its varied starts and simulations take no other core.
+        // Its share of the threads: its varied starts take no other racer's core.
         let o = Options {
             timeout: opts.timeout.map(|t| t.saturating_sub(offset)),
             cancel: Some(stop),
-            threads: 1,
+            threads,
             ..opts.clone()
         };
         let mut forward = |event: Event<'_>| {
@@ -519,6 +534,22 @@ fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn threads_no_racer_takes_go_to_the_default() {
+        assert_eq!((0..2).map(|i| share(i, 2, 2)).collect::<Vec<_>>(), [1, 1]);
+        assert_eq!(share(0, 1, 2), 2);
+        assert_eq!(share(0, 1, 16), 16);
+        assert_eq!(
+            (0..3).map(|i| share(i, 3, 8)).collect::<Vec<_>>(),
+            [6, 1, 1]
+        );
+        assert_eq!(share(0, 3, 2), 1);
+        assert_eq!(
+            (0..4).map(|i| share(i, 4, 4)).collect::<Vec<_>>(),
+            [1, 1, 1, 1]
+        );
+    }
 
     #[test]
     fn one_racer_per_thread_the_default_first() {

@@ -32,7 +32,7 @@ use std::sync::Mutex;
 use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
 use waam_part::Part;
-use waam_thermal::{Simulation, ThermalModel};
+use waam_thermal::{Simulation, Snapshot, ThermalModel};
 
 use crate::constructive::Limits;
 
@@ -57,6 +57,13 @@ pub type Resume<'a> = dyn Fn(&[(usize, bool)]) -> (Simulation<'a>, usize) + 'a;
 /// A plan simulated: `Ok(())` keeps every window, else where it first breaks one; `None`:
 /// the run stopped the simulation.
 type Verdict = Option<Result<(), Broken>>;
+
+/// A repaired plan, and its simulation after its last deposit (before cooling down): the
+/// search's own verdict on the plan resumes from there instead of simulating it again.
+pub struct Repaired {
+    pub plan: Vec<Vec<usize>>,
+    pub end: Option<Snapshot>,
+}
 
 /// Where a plan first breaks a window: after how many blocks welded, whose window, and by
 /// how much (s) the block's t8/5 misses it.
@@ -109,12 +116,7 @@ enum Change {
 impl<'a> Repair<'a> {
     /// A plan that keeps every window, changed from `plan` (valid, breaking a window after
     /// `broken` blocks); `None` when no sequence of changes gets there (or the run stopped).
-    pub fn repaired(
-        &self,
-        plan: &[Vec<usize>],
-        blocks: usize,
-        block: usize,
-    ) -> Option<Vec<Vec<usize>>> {
+    pub fn repaired(&self, plan: &[Vec<usize>], blocks: usize, block: usize) -> Option<Repaired> {
         let mut plan = plan.to_vec();
         // By how much it is missed is measured in the first step.
         let mut broken = Broken {
@@ -210,6 +212,8 @@ impl<'a> Repair<'a> {
                 .partition(|(_, c, _)| !matches!(c, Change::Rotate(_)));
             let mut candidates = Vec::new();
             let mut verdicts: Vec<Verdict> = Vec::new();
+            // The first feasible candidate's simulation at its end.
+            let mut end = None;
             for (n, batch) in [plain, rotated, seam_rotated].into_iter().enumerate() {
                 if batch.is_empty() {
                     continue;
@@ -219,7 +223,8 @@ impl<'a> Repair<'a> {
                     break;
                 }
                 let measure = step == 1 && candidates.is_empty();
-                let (now, judged) = self.judge(&seq, &batch, &mut saved, measure);
+                let (now, judged, feasible_end) = self.judge(&seq, &batch, &mut saved, measure);
+                end = end.or(feasible_end.map(|(c, snap)| (candidates.len() + c, snap)));
                 if judged.iter().any(Option::is_none) && self.limits.stopped() {
                     return None;
                 }
@@ -248,7 +253,10 @@ impl<'a> Repair<'a> {
                     candidates[c].1,
                     self.part.block(plan[candidates[c].0.f][candidates[c].0.i])
                 );
-                return candidates.into_iter().nth(c).map(|(_, _, plan)| plan);
+                return candidates.into_iter().nth(c).map(|(_, _, plan)| Repaired {
+                    plan,
+                    end: end.filter(|(e, _)| *e == c).map(|(_, snap)| snap),
+                });
             }
             let best = verdicts
                 .iter()
@@ -401,7 +409,7 @@ impl<'a> Repair<'a> {
         candidates: &[(Piece, Change, Vec<Vec<usize>>)],
         saved: &mut Vec<(usize, Simulation<'s>)>,
         measure: bool,
-    ) -> (Verdict, Vec<Verdict>) {
+    ) -> (Verdict, Vec<Verdict>, Option<(usize, Snapshot)>) {
         // The plan now, simulated once up to each candidate's first change (from the
         // latest state saved before them).
         let mut starts: Vec<usize> = candidates.iter().map(|(p, _, _)| p.at).collect();
@@ -418,6 +426,8 @@ impl<'a> Repair<'a> {
                 None => (0, self.simulation()),
             },
         };
+        // Alone until the candidates are judged: on every thread.
+        sim.set_threads(self.workers);
         for (d, &(b, new)) in seq.iter().enumerate().take(last + 1).skip(from) {
             if starts.binary_search(&d).is_ok() && !saved.iter().any(|(at, _)| *at == d) {
                 saved.push((d, sim.clone()));
@@ -427,22 +437,38 @@ impl<'a> Repair<'a> {
             }
             // The plan now keeps every window up to the broken one, after every start.
             if sim.deposit(b, new).is_err() || sim.cancelled() {
-                return (None, vec![None; candidates.len()]);
+                return (None, vec![None; candidates.len()], None);
             }
         }
         saved.sort_by_key(|(at, _)| *at);
         // The plan now, on to where it breaks (how much it misses its window by).
         let now = if measure {
-            run_from(sim, seq, last)
+            run_from(sim, seq, last, &|| Some(self.workers)).0
         } else {
             None
         };
         let saved = &*saved;
         let next = AtomicUsize::new(0);
         // The first candidate found to keep every window: a later one cannot be chosen,
-        // so it is not judged (the choice stays the same on any number of threads).
+        // so it is not judged, or no further (the choice stays the same on any number of
+        // threads).
         let first_feasible = AtomicUsize::new(usize::MAX);
+        // Candidates being simulated. The last one still running (often the one that gets
+        // furthest, simulated far beyond the others) steps on every thread, not on one
+        // while the others idle; one after a feasible one stops (it cannot be chosen).
+        let running = AtomicUsize::new(0);
+        let workers = self.workers;
+        let threads = |c: usize| {
+            if c > first_feasible.load(Ordering::Relaxed) {
+                return None;
+            }
+            let alone = next.load(Ordering::Relaxed) >= candidates.len()
+                && running.load(Ordering::Relaxed) == 1;
+            Some(if alone { workers } else { 1 })
+        };
         let results: Mutex<Vec<Verdict>> = Mutex::new(vec![None; candidates.len()]);
+        // The end state of the feasible candidate of the lowest index.
+        let end: Mutex<Option<(usize, Snapshot)>> = Mutex::new(None);
         std::thread::scope(|scope| {
             for _ in 0..self.workers.clamp(1, candidates.len().max(1)) {
                 scope.spawn(|| loop {
@@ -456,15 +482,31 @@ impl<'a> Repair<'a> {
                     let Some((_, sim)) = saved.iter().find(|(at, _)| *at == piece.at) else {
                         continue;
                     };
-                    let verdict = run_from(sim.clone(), &sequence(plan), piece.at);
+                    running.fetch_add(1, Ordering::Relaxed);
+                    let t = std::time::Instant::now();
+                    let (verdict, last) =
+                        run_from(sim.clone(), &sequence(plan), piece.at, &|| threads(c));
+                    running.fetch_sub(1, Ordering::Relaxed);
+                    tracing::trace!(
+                        "warm-start repair: candidate {c} judged in {:.2} s",
+                        t.elapsed().as_secs_f64()
+                    );
                     if matches!(verdict, Some(Ok(()))) {
                         first_feasible.fetch_min(c, Ordering::Relaxed);
+                        let mut end = end.lock().expect("no worker panics");
+                        if end.as_ref().is_none_or(|(e, _)| c < *e) {
+                            *end = last.map(|snap| (c, snap));
+                        }
                     }
                     results.lock().expect("no worker panics")[c] = verdict;
                 });
             }
         });
-        (now, results.into_inner().expect("no worker panics"))
+        (
+            now,
+            results.into_inner().expect("no worker panics"),
+            end.into_inner().expect("no worker panics"),
+        )
     }
 
     fn simulation(&self) -> Simulation<'a> {
@@ -481,21 +523,38 @@ impl<'a> Repair<'a> {
     }
 }
 
-/// `seq` simulated on from deposit `from` (the simulation holds its prefix).
-fn run_from(mut sim: Simulation, seq: &[(usize, bool)], from: usize) -> Verdict {
+/// `seq` simulated on from deposit `from` (the simulation holds its prefix), each deposit
+/// on as many threads as `threads` says then (none: no verdict is wanted any more); with
+/// the state after the last deposit when the plan keeps every window.
+fn run_from(
+    mut sim: Simulation,
+    seq: &[(usize, bool)],
+    from: usize,
+    threads: &dyn Fn() -> Option<usize>,
+) -> (Verdict, Option<Snapshot>) {
     for (d, &(b, new)) in seq.iter().enumerate().skip(from) {
+        let Some(threads) = threads() else {
+            return (None, None);
+        };
+        sim.set_threads(threads);
         if let Err(v) = sim.deposit(b, new) {
-            return Some(Err(Broken::of(&v, d + 1)));
+            return (Some(Err(Broken::of(&v, d + 1))), None);
         }
         if sim.cancelled() {
-            return None;
+            return (None, None);
         }
     }
-    let end = sim.finish().ok()?;
+    let last = sim.snapshot();
+    let Ok(end) = sim.finish() else {
+        return (None, None);
+    };
     if sim.cancelled() {
-        return None;
+        return (None, None);
     }
-    Some(end.map_err(|v| Broken::of(&v, seq.len())))
+    match end {
+        Ok(()) => (Some(Ok(())), Some(last)),
+        Err(v) => (Some(Err(Broken::of(&v, seq.len()))), None),
+    }
 }
 
 /// The plan's deposits in weld order, each with whether it begins a weld path.

@@ -19,7 +19,7 @@ use std::time::Instant;
 use waam_access::{Obstacle, TorchAccess};
 use waam_part::graph::WeldGraph;
 use waam_part::Part;
-use waam_thermal::{self as thermal, Phase, Simulation, ThermalModel, Violation};
+use waam_thermal::{self as thermal, Phase, Simulation, Snapshot, ThermalModel, Violation};
 
 use super::encoding::{Acyclicity, Decoded, Encoding};
 use super::prefix_cache::{prefix_keys, resume, snapshot_spacing, Key, PrefixCache, SharedCache};
@@ -554,6 +554,21 @@ impl<'p> Search<'p> {
             prefix,
             &prefix_keys(prefix),
         )
+    }
+
+    /// Keeps `snap`, another simulation's state after depositing all of `fragments` on
+    /// this search's model: judging the plan then simulates its cooldown only.
+    pub(crate) fn remember(&self, fragments: &[Vec<usize>], snap: Snapshot) {
+        let seq: Vec<(usize, bool)> = fragments
+            .iter()
+            .flat_map(|f| f.iter().enumerate().map(|(p, &b)| (b, p == 0)))
+            .collect();
+        if let Some(&key) = prefix_keys(&seq)
+            .last()
+            .filter(|_| snap.welded() == seq.len())
+        {
+            self.cache.borrow_mut().insert_snapshot(key, snap);
+        }
     }
 
     /// The simulation state after `prefix` (from the nearest cached snapshot).

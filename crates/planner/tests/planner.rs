@@ -558,7 +558,8 @@ fn a_warm_start_that_breaks_a_window_high_up_is_repaired_from_a_layer_on() {
         .map(|b| part.index_of(b).unwrap())
         .collect();
     windows_around(&mut part, &graph, &hidden, &watched);
-    the_repaired_warm_start_is_the_first_plan(&part, &graph, &base);
+    let report = the_repaired_warm_start_is_the_first_plan(&part, &graph, &base);
+    judged_from_the_repairs_simulation(&part, &graph, &base, &report);
 }
 
 #[test]
@@ -620,7 +621,8 @@ fn a_tube_whose_windows_want_a_seam_elsewhere_from_some_layer_on_gets_a_weld_pat
         })
         .collect();
     windows_around(&mut part, &graph, &hidden, &watched);
-    the_repaired_warm_start_is_the_first_plan(&part, &graph, &base);
+    let report = the_repaired_warm_start_is_the_first_plan(&part, &graph, &base);
+    judged_from_the_repairs_simulation(&part, &graph, &base, &report);
 }
 
 #[test]
@@ -664,6 +666,7 @@ fn a_plate_whose_windows_want_its_rows_the_other_way_is_rastered_that_way() {
         .map(|&b| part.index_of(b).unwrap())
         .collect();
     windows_around(&mut part, &graph, &hidden, &watched);
+    // Rastered, not repaired: the search simulates the raster it judges.
     the_repaired_warm_start_is_the_first_plan(&part, &graph, &base);
     let best = first_alone_twice(&part).best.unwrap();
     assert!(along_y(&part, &best.fragments), "rastered along y");
@@ -1040,20 +1043,49 @@ fn the_repaired_warm_start_is_the_first_plan(
     part: &Part,
     graph: &waam_part::graph::WeldGraph,
     base: &[Vec<usize>],
-) {
+) -> planner::Report {
     assert!(
         simulated(part, graph, base).violation.is_some(),
         "the plain warm start breaks a window"
     );
     let report = first_alone_twice(part);
-    let best = report.best.expect("the hidden plan keeps the windows");
+    let best = report
+        .best
+        .as_ref()
+        .expect("the hidden plan keeps the windows");
     assert_eq!(
         (report.stats.candidates, report.stats.sat_solves),
         (2, 0),
         "the plain warm start, then the repaired one; no search"
     );
     best.plan(part).validate(part, graph).unwrap();
-    assert!(simulated(part, graph, &best.fragments).violation.is_none());
+    let outcome = simulated(part, graph, &best.fragments);
+    assert!(outcome.violation.is_none());
+    // Its margin (from the search's last snapshot of it) is that of a simulation from
+    // the first deposit.
+    let model = waam_thermal::ThermalModel::new(part, graph);
+    assert_eq!(
+        best.margin.to_bits(),
+        model.margin(&outcome.crossings).to_bits()
+    );
+    report
+}
+
+/// The search judged the repaired plan from the repair's simulation of it: it simulated
+/// only the plain warm start `base`, up to the window it breaks (and the deposit whose
+/// transit broke it, if one did), not the repaired plan again from where it changed.
+fn judged_from_the_repairs_simulation(
+    part: &Part,
+    graph: &waam_part::graph::WeldGraph,
+    base: &[Vec<usize>],
+    report: &planner::Report,
+) {
+    let broken_after = simulated(part, graph, base).violation.unwrap().prefix_len as u64;
+    assert!(
+        report.stats.deposits_simulated <= broken_after + 1,
+        "{} deposits simulated, the plain warm start breaks a window after {broken_after}",
+        report.stats.deposits_simulated
+    );
 }
 
 /// Windows on the `watched` blocks just around the t8/5 the `hidden` plan gives them (so

@@ -16,6 +16,9 @@ use crate::model::{steps_beyond, ThermalModel, HOT_C, TOLERANCE_S, WARM_C};
 use crate::pool;
 use crate::violation::{Crossing, NotCooled, Phase, Violation, ViolationKind};
 
+/// `w_crossed` of a windowed block that has not cooled through 500 °C yet.
+const NOT_CROSSED: (u64, u64) = (u64::MAX, 0);
+
 /// A saved simulation state: resume from it with [`Simulation::restore`].
 #[derive(Debug, Clone, Default)]
 pub struct Snapshot {
@@ -26,6 +29,7 @@ pub struct Snapshot {
     /// Temperatures of the welded blocks in weld order.
     temps: Vec<f64>,
     counts: Vec<u64>,
+    crossed: Vec<(u64, u64)>,
 }
 
 impl Snapshot {
@@ -39,6 +43,7 @@ impl Snapshot {
         std::mem::size_of::<Snapshot>()
             + self.temps.capacity() * std::mem::size_of::<f64>()
             + self.counts.capacity() * std::mem::size_of::<u64>()
+            + self.crossed.capacity() * std::mem::size_of::<(u64, u64)>()
     }
 }
 
@@ -135,6 +140,9 @@ pub struct Simulation<'m> {
     w_over: Vec<u64>,
     w_block: Vec<u32>,
     w_count: Vec<u64>,
+    /// The least and the most t8/5 count at a downward crossing of 500 °C so far
+    /// ([`NOT_CROSSED`] before the first): the plan's margin without recording crossings.
+    w_crossed: Vec<(u64, u64)>,
     pub(crate) crossings: Option<Vec<Crossing>>,
     threads: usize,
     parallel_min: usize,
@@ -178,6 +186,7 @@ impl<'m> Simulation<'m> {
             w_over: Vec::new(),
             w_block: Vec::new(),
             w_count: Vec::new(),
+            w_crossed: Vec::new(),
             crossings: None,
             threads: default_threads(),
             parallel_min: PARALLEL_MIN_SLOTS,
@@ -283,8 +292,13 @@ impl<'m> Simulation<'m> {
     /// Steps on up to `threads` threads once the stepped range has at least
     /// [`PARALLEL_MIN_SLOTS`] slots (1: always single-threaded). Results are the same.
     pub fn with_threads(mut self, threads: usize) -> Self {
-        self.threads = threads.max(1);
+        self.set_threads(threads);
         self
+    }
+
+    /// [`Simulation::with_threads`] on a running simulation: from the next step on.
+    pub fn set_threads(&mut self, threads: usize) {
+        self.threads = threads.max(1);
     }
 
     /// Threads as in [`Simulation::with_threads`], from `min_slots` slots on.
@@ -317,6 +331,20 @@ impl<'m> Simulation<'m> {
     /// Whether the cancel flag stopped a run (the state is then incomplete).
     pub fn cancelled(&self) -> bool {
         self.cancelled
+    }
+
+    /// The worst t8/5 margin of the crossings so far (+inf before the first): the same
+    /// number as [`ThermalModel::margin`] of the crossings a recording simulation of the
+    /// same deposits would hold (a block's worst crossing is its shortest or its longest
+    /// t8/5), without recording them, and carried by snapshots.
+    pub fn margin_s(&self) -> f64 {
+        let dt = self.model.dt;
+        (self.w_crossed.iter().enumerate())
+            .filter(|&(_, &c)| c != NOT_CROSSED)
+            .map(|(a, &(least, most))| {
+                (least as f64 * dt - self.w_lo[a]).min(self.w_hi[a] - most as f64 * dt)
+            })
+            .fold(f64::INFINITY, f64::min)
     }
 
     /// The crossings recorded so far (empty unless [`Simulation::recording`]).
@@ -458,6 +486,8 @@ impl<'m> Simulation<'m> {
             .extend(self.order.iter().map(|&b| self.temp[b as usize + PAD]));
         s.counts.clear();
         s.counts.extend_from_slice(&self.w_count);
+        s.crossed.clear();
+        s.crossed.extend_from_slice(&self.w_crossed);
     }
 
     /// Returns to a snapshot taken on this simulation while its first `snap.welded()`
@@ -469,6 +499,7 @@ impl<'m> Simulation<'m> {
             self.temp[s as usize + PAD] = t;
         }
         self.w_count.copy_from_slice(&snap.counts);
+        self.w_crossed.copy_from_slice(&snap.crossed);
         self.fragments = snap.fragments;
         self.steps = snap.steps;
     }
@@ -547,6 +578,7 @@ impl<'m> Simulation<'m> {
                 self.w_over.pop();
                 self.w_block.pop();
                 self.w_count.pop();
+                self.w_crossed.pop();
             }
         }
     }
@@ -577,6 +609,7 @@ impl<'m> Simulation<'m> {
             self.w_over.push(steps_beyond(w.max_s, model.dt));
             self.w_block.push(block as u32);
             self.w_count.push(0);
+            self.w_crossed.push(NOT_CROSSED);
         }
     }
 
@@ -726,6 +759,9 @@ impl<'m> Simulation<'m> {
                 }
             } else if u >= WARM_C {
                 let t85_s = self.w_count[a] as f64 * dt;
+                let (least, most) = &mut self.w_crossed[a];
+                *least = (*least).min(self.w_count[a]);
+                *most = (*most).max(self.w_count[a]);
                 if let Some(c) = &mut self.crossings {
                     c.push(Crossing {
                         block: self.w_block[a] as usize,
@@ -831,6 +867,53 @@ mod tests {
             !colder.is_empty(),
             "the deposit beside the tower never left its top colder"
         );
+    }
+
+    /// The margin a simulation carries is the one of the crossings a recording
+    /// simulation holds, also when resumed from a snapshot in another simulation: with
+    /// windows whose worst margin is a reheated block's shortest t8/5 (0.8 s of 0.8 and
+    /// 4.8 s), and its longest.
+    #[test]
+    fn the_margin_carried_is_the_margin_of_the_crossings() {
+        for (min_s, max_s) in [(0.7, 30.0), (0.5, 5.0)] {
+            let (part, m) = model(&format!(
+                "{WALL}t85: [{{box: {{min: [0,0,0], max: [3,0,1]}}, min_s: {min_s}, max_s: {max_s}}}]\n"
+            ));
+            let at = |b| part.index_of(b).unwrap();
+            // Two weld paths: the bottom row, then the top row the other way round.
+            let plan = vec![
+                (0..4).map(|x| at([x, 0, 0])).collect::<Vec<_>>(),
+                (0..4).rev().map(|x| at([x, 0, 1])).collect(),
+            ];
+            let seq: Vec<(usize, bool)> = plan
+                .iter()
+                .flat_map(|f| f.iter().enumerate().map(|(p, &b)| (b, p == 0)))
+                .collect();
+            let recorded = crate::simulate(&m, &plan).unwrap();
+            assert!(recorded.violation.is_none());
+            // Reheated blocks cross 500 °C twice.
+            assert!(recorded.crossings.len() > part.len());
+            let expected = m.margin(&recorded.crossings);
+            let mut whole = Simulation::new(&m);
+            let mut snap = None;
+            for (d, &(b, new)) in seq.iter().enumerate() {
+                whole.deposit(b, new).unwrap();
+                if d == 4 {
+                    snap = Some(whole.snapshot());
+                }
+            }
+            whole.finish().unwrap().unwrap();
+            assert_eq!(whole.margin_s().to_bits(), expected.to_bits());
+            let mut resumed = Simulation::new(&m);
+            resumed.restore_from_trail(&snap.unwrap(), &seq);
+            for &(b, new) in &seq[5..] {
+                resumed.deposit(b, new).unwrap();
+            }
+            resumed.finish().unwrap().unwrap();
+            assert_eq!(resumed.margin_s().to_bits(), expected.to_bits());
+        }
+        let (_, m) = model(WALL);
+        assert_eq!(Simulation::new(&m).margin_s(), f64::INFINITY);
     }
 
     #[test]
