@@ -38,6 +38,8 @@ use waam_part::graph::WeldGraph;
 use waam_part::Part;
 use waam_thermal::{self as thermal, ThermalModel};
 
+use crate::prefix_cache::deposits;
+
 pub use encoding::Acyclicity;
 pub use options::{
     estimated_memory_mb, ExecutedCheck, JudgeExecuted, Options, Rejection, DEFAULT_MAX_MEMORY_MB,
@@ -520,10 +522,7 @@ fn margin_under(
     if !model.has_windows() {
         return Ok(f64::INFINITY);
     }
-    let seq: Vec<(usize, bool)> = fragments
-        .iter()
-        .flat_map(|f| f.iter().enumerate().map(|(p, &b)| (b, p == 0)))
-        .collect();
+    let seq = deposits(fragments);
     let (sim, at) = search.resume_on(model, &seq);
     let mut sim = sim.with_deadline(opts.timeout.and_then(|t| started.checked_add(t)));
     if let Some(cancel) = &opts.cancel {

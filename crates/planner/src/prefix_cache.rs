@@ -38,6 +38,14 @@ pub fn resume<'m>(
     (sim, 0)
 }
 
+/// A plan's deposits in weld order, each with whether it begins a weld path: the
+/// sequence a simulation and the cache's keys follow.
+pub fn deposits(plan: &[Vec<usize>]) -> Vec<(usize, bool)> {
+    plan.iter()
+        .flat_map(|f| f.iter().enumerate().map(|(p, &b)| (b, p == 0)))
+        .collect()
+}
+
 /// A 128-bit hash of a deposit sequence prefix (two independent 64-bit mixes).
 pub type Key = (u64, u64);
 

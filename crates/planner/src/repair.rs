@@ -35,6 +35,7 @@ use waam_part::Part;
 use waam_thermal::{Simulation, Snapshot, ThermalModel};
 
 use crate::constructive::Limits;
+use crate::prefix_cache::deposits;
 
 /// What the repair works with.
 pub struct Repair<'a> {
@@ -139,7 +140,7 @@ impl<'a> Repair<'a> {
             }
             step += 1;
             let pieces = pieces(self.part, &plan);
-            let seq = sequence(&plan);
+            let seq = deposits(&plan);
             let anchor = self.first_piece_to_change(&pieces, &seq, broken.block);
             let from = anchor.saturating_sub(back);
             // The broken block's own piece (the anchor's or a later one).
@@ -485,7 +486,7 @@ impl<'a> Repair<'a> {
                     running.fetch_add(1, Ordering::Relaxed);
                     let t = std::time::Instant::now();
                     let (verdict, last) =
-                        run_from(sim.clone(), &sequence(plan), piece.at, &|| threads(c));
+                        run_from(sim.clone(), &deposits(plan), piece.at, &|| threads(c));
                     running.fetch_sub(1, Ordering::Relaxed);
                     tracing::trace!(
                         "warm-start repair: candidate {c} judged in {:.2} s",
@@ -555,13 +556,6 @@ fn run_from(
         Ok(()) => (Some(Ok(())), Some(last)),
         Err(v) => (Some(Err(Broken::of(&v, seq.len()))), None),
     }
-}
-
-/// The plan's deposits in weld order, each with whether it begins a weld path.
-fn sequence(plan: &[Vec<usize>]) -> Vec<(usize, bool)> {
-    plan.iter()
-        .flat_map(|f| f.iter().enumerate().map(|(p, &b)| (b, p == 0)))
-        .collect()
 }
 
 /// The plan's pieces (each weld path's runs of blocks in one layer), in weld order.

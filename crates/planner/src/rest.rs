@@ -29,6 +29,7 @@ use waam_thermal::{
 };
 
 use crate::encoding::{Decoded, Encoding};
+use crate::prefix_cache::deposits;
 use crate::sat::{Lit, SatSolver};
 use crate::search::fragments_of;
 use crate::shortening::shorten;
@@ -398,10 +399,7 @@ impl Judge<'_> {
         candidate: &[Vec<usize>],
         stats: &mut Stats,
     ) -> Result<Judged, RestError> {
-        let seq: Vec<(usize, bool)> = candidate
-            .iter()
-            .flat_map(|f| f.iter().enumerate().map(|(p, &b)| (b, p == 0)))
-            .collect();
+        let seq = deposits(candidate);
         debug_assert_eq!(seq[..self.built_len], self.built.state.order[..]);
         let mut sim = self.start(model)?.recording();
         stats.deposits_reused += self.built_len as u64;

@@ -22,7 +22,9 @@ use waam_part::Part;
 use waam_thermal::{self as thermal, Phase, Simulation, Snapshot, ThermalModel, Violation};
 
 use super::encoding::{Acyclicity, Decoded, Encoding};
-use super::prefix_cache::{prefix_keys, resume, snapshot_spacing, Key, PrefixCache, SharedCache};
+use super::prefix_cache::{
+    deposits, prefix_keys, resume, snapshot_spacing, Key, PrefixCache, SharedCache,
+};
 use super::sat::{Backend, Lit, SatSolver};
 use super::sharing::Sharing;
 use super::shortening::shorten;
@@ -342,10 +344,7 @@ impl<'p> Search<'p> {
     ) -> Result<Option<CandidateVerdict>, thermal::NotCooled> {
         let t = Instant::now();
         self.stats.candidates += 1;
-        let seq: Vec<(usize, bool)> = fragments
-            .iter()
-            .flat_map(|f| f.iter().enumerate().map(|(p, &b)| (b, p == 0)))
-            .collect();
+        let seq = deposits(fragments);
         let blocked = self
             .torch
             .as_ref()
@@ -559,10 +558,7 @@ impl<'p> Search<'p> {
     /// Keeps `snap`, another simulation's state after depositing all of `fragments` on
     /// this search's model: judging the plan then simulates its cooldown only.
     pub(crate) fn remember(&self, fragments: &[Vec<usize>], snap: Snapshot) {
-        let seq: Vec<(usize, bool)> = fragments
-            .iter()
-            .flat_map(|f| f.iter().enumerate().map(|(p, &b)| (b, p == 0)))
-            .collect();
+        let seq = deposits(fragments);
         if let Some(&key) = prefix_keys(&seq)
             .last()
             .filter(|_| snap.welded() == seq.len())
