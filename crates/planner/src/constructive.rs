@@ -1,7 +1,9 @@
 //! A warm start: a valid plan built layer by layer, so the search starts beside one.
 //!
 //! Each layer is covered by as few weld paths as a small SAT solve of that layer alone
-//! finds (one on most layers: a serpentine on a plate, a loop on a ring). The first path
+//! finds (one on most layers: a serpentine on a plate, a loop on a ring); a layer of whole
+//! rows that one path can cover is given its serpentine directly, since the solve of a
+//! plate of 10^4 blocks takes minutes (the floor of a box at 10^5). The first path
 //! of a layer starts on the block above where the layer below ended, so one weld path
 //! climbs on through the part, and each layer's ends are steered to blocks whose block
 //! above can start the next layer. A layer is a grid graph, so a checkerboard count tells
@@ -326,7 +328,23 @@ pub fn raster_covers(
             })
         })
         .collect();
+    let serpentines = if paths == 1 {
+        layer.serpentines()
+    } else {
+        Vec::new()
+    };
     for axis in [0, 1] {
+        // On a layer of whole rows the one-path rasters are its serpentines: no solve.
+        let along: Vec<&Vec<usize>> = serpentines
+            .iter()
+            .filter(|p| at(p[0])[axis] != at(p[1])[axis])
+            .collect();
+        if !along.is_empty() {
+            for path in along {
+                out.push(vec![path.iter().map(|&b| range.start + b).collect()]);
+            }
+            continue;
+        }
         let Some(mut search) = layer.search(&graph, paths, backend, limits) else {
             return out;
         };
@@ -529,6 +547,7 @@ impl Layer {
         let fewest = crate::layer_path_bound(&self.part, &graph)[0].1;
         // Steered where that can work, else not.
         let steerings: Vec<Option<&Steer>> = steer.map(Some).into_iter().chain([None]).collect();
+        let serpentines = self.serpentines();
         // Continue as many arriving paths as possible, then fewer (the last ones first).
         for continued in (0..=arriving.len()).rev() {
             let starts = &arriving[..continued];
@@ -546,8 +565,29 @@ impl Layer {
                 {
                     continue;
                 }
-                let mut search = self.search(&graph, paths, backend, limits)?;
+                let mut search = None;
                 for steer in &steerings {
+                    // One path on a layer of whole rows: a serpentine, built directly (a
+                    // SAT solve of a plate of 10^4 blocks takes minutes).
+                    if paths == 1 {
+                        let first = starts.first().or(own.first().and_then(|p| p.first()));
+                        let begins = own.first().map_or(&[][..], |p| &p[..]);
+                        if let Some(path) = serpentines.iter().find(|p| {
+                            first.is_none_or(|&b| p[0] == b)
+                                && p.starts_with(begins)
+                                && steer.is_none_or(|s| {
+                                    let at = if s.ends { p[p.len() - 1] } else { p[0] };
+                                    s.allowed[at] || (!s.ends && continued == 1)
+                                })
+                        }) {
+                            let path = path.iter().map(|b| self.first + b).collect();
+                            return Some((vec![path], continued));
+                        }
+                    }
+                    let search = match &mut search {
+                        Some(search) => search,
+                        None => search.insert(self.search(&graph, paths, backend, limits)?),
+                    };
                     let enc = &search.enc;
                     let mut assume: Vec<Lit> = starts
                         .iter()
@@ -590,6 +630,73 @@ impl Layer {
             }
         }
         None
+    }
+}
+
+impl Layer {
+    /// The serpentines through the layer (local blocks in weld order): along x or y, from
+    /// the first or the last row, setting off either way; each row is welded whole, and the
+    /// next row is entered where the last one ended. None when the rows are not whole
+    /// (a ring, an L) or a row's end has no row end beside it.
+    fn serpentines(&self) -> Vec<Vec<usize>> {
+        let n = self.part.len();
+        let mut out: Vec<Vec<usize>> = Vec::new();
+        for axis in [0, 1] {
+            let across = 1 - axis;
+            // The rows in order across them, each as its (first, last) along the axis.
+            let mut rows: std::collections::BTreeMap<i64, (i64, i64, usize)> = Default::default();
+            for b in 0..n {
+                let p = self.part.block(b);
+                let row = rows.entry(p[across]).or_insert((p[axis], p[axis], 0));
+                row.0 = row.0.min(p[axis]);
+                row.1 = row.1.max(p[axis]);
+                row.2 += 1;
+            }
+            let whole = rows
+                .values()
+                .all(|&(lo, hi, count)| (hi - lo + 1) as usize == count);
+            let keys: Vec<i64> = rows.keys().copied().collect();
+            let consecutive = keys.windows(2).all(|w| w[1] == w[0] + 1);
+            if !whole || !consecutive {
+                continue;
+            }
+            let at = |along: i64, row: i64| {
+                let mut p = [0, 0, 0];
+                p[axis] = along;
+                p[across] = row;
+                self.part.index_of(p).expect("a whole row has the block")
+            };
+            for reversed in [false, true] {
+                let order: Vec<i64> = match reversed {
+                    false => keys.clone(),
+                    true => keys.iter().rev().copied().collect(),
+                };
+                'way: for ascending in [true, false] {
+                    let mut path = Vec::with_capacity(n);
+                    let mut up = ascending;
+                    for (i, &row) in order.iter().enumerate() {
+                        let (lo, hi, _) = rows[&row];
+                        if i > 0 {
+                            // Enter this row beside where the last one ended, at one of its ends.
+                            let ended = self.part.block(*path.last().expect("a row before"))[axis];
+                            up = match ended {
+                                e if e == lo => true,
+                                e if e == hi => false,
+                                _ => continue 'way,
+                            };
+                        }
+                        match up {
+                            true => path.extend((lo..=hi).map(|a| at(a, row))),
+                            false => path.extend((lo..=hi).rev().map(|a| at(a, row))),
+                        }
+                    }
+                    if !out.contains(&path) {
+                        out.push(path);
+                    }
+                }
+            }
+        }
+        out
     }
 }
 
@@ -847,5 +954,80 @@ mod tests {
             .expect("one weld path per piece of the first layer, all climbing");
         assert_eq!(plan.len(), need);
         assert!(layered_plan(&part, &graph, need - 1, Backend::Cadical, &unlimited()).is_none());
+    }
+
+    /// A welded path: every block once, each move to a block beside the one before.
+    fn assert_path_through(part: &Part, path: &[usize]) {
+        let mut seen = path.to_vec();
+        seen.sort_unstable();
+        assert_eq!(
+            seen,
+            (0..part.len()).collect::<Vec<_>>(),
+            "every block once"
+        );
+        for w in path.windows(2) {
+            let (a, b) = (part.block(w[0]), part.block(w[1]));
+            let apart: i64 = (0..3).map(|i| (a[i] - b[i]).abs()).sum();
+            assert_eq!(apart, 1, "{a:?} -> {b:?} is not a move to a neighbour");
+        }
+    }
+
+    #[test]
+    fn a_layer_of_whole_rows_has_its_serpentines_and_others_none() {
+        let plate = plate_tower(5, 4, 1, 1);
+        let serpentines = Layer::new(&plate, 0..plate.len()).serpentines();
+        assert_eq!(serpentines.len(), 8, "two directions from four corners");
+        for path in &serpentines {
+            assert_path_through(&plate, path);
+        }
+        // A staircase: a row ends beside the next row's end only one way round, from each
+        // side (its columns give the same two paths).
+        let stairs: Vec<_> = [(0, 0..3), (1, 2..5)]
+            .into_iter()
+            .flat_map(|(y, xs)| xs.map(move |x| [x, y, 0]))
+            .collect();
+        let stairs = Part::from_blocks("s".into(), [6.0; 3], [0.0; 3], 1, stairs).unwrap();
+        let serpentines = Layer::new(&stairs, 0..stairs.len()).serpentines();
+        assert_eq!(serpentines.len(), 2, "{serpentines:?}");
+        for path in &serpentines {
+            assert_path_through(&stairs, path);
+        }
+        let ring: Vec<_> = (0..4)
+            .flat_map(|y| (0..4).map(move |x| [x, y, 0]))
+            .filter(|&[x, y, _]| x % 3 == 0 || y % 3 == 0)
+            .collect();
+        let ring = Part::from_blocks("ring".into(), [6.0; 3], [0.0; 3], 1, ring).unwrap();
+        assert!(Layer::new(&ring, 0..ring.len()).serpentines().is_empty());
+    }
+
+    #[test]
+    fn a_floor_is_a_serpentine_that_ends_under_the_wall() {
+        // An open box: a 9 x 8 floor, then a ring on its rim. The floor's path must end
+        // under the rim, where the ring can go on.
+        let (w, d) = (9, 8);
+        let mut blocks: Vec<_> = (0..d)
+            .flat_map(|y| (0..w).map(move |x| [x, y, 0]))
+            .collect();
+        for z in 1..4 {
+            blocks.extend(
+                (0..d)
+                    .flat_map(|y| (0..w).map(move |x| [x, y, z]))
+                    .filter(|&[x, y, _]| x == 0 || y == 0 || x == w - 1 || y == d - 1),
+            );
+        }
+        let part = Part::from_blocks("box".into(), [6.0, 6.0, 2.5], [0.0; 3], 1, blocks).unwrap();
+        let graph = WeldGraph::new(&part);
+        let plan = layered_plan(&part, &graph, 1, Backend::Cadical, &unlimited()).expect("a plan");
+        let floor = (w * d) as usize;
+        let layer = Layer::new(&part, 0..floor);
+        assert!(
+            layer.serpentines().contains(&plan[0][..floor].to_vec()),
+            "the floor is welded as a serpentine"
+        );
+        let [x, y, _] = part.block(plan[0][floor - 1]);
+        assert!(
+            x == 0 || y == 0 || x == w - 1 || y == d - 1,
+            "it ends under the rim"
+        );
     }
 }
