@@ -637,7 +637,7 @@ impl Layer {
     /// The serpentines through the layer (local blocks in weld order): along x or y, from
     /// the first or the last row, setting off either way; each row is welded whole, and the
     /// next row is entered where the last one ended. None when the rows are not whole
-    /// (a ring, an L) or a row's end has no row end beside it.
+    /// (a ring, a plate with a hole) or a row's end has no row end beside it.
     fn serpentines(&self) -> Vec<Vec<usize>> {
         let n = self.part.len();
         let mut out: Vec<Vec<usize>> = Vec::new();
