@@ -280,12 +280,15 @@ fn search_plans(
                 // The warm start as the search simulated it: its snapshots spare the
                 // repair simulating it again from the first deposit (a minute at 10^5).
                 let resume = |prefix: &[(usize, bool)]| search.resume_on(&base, prefix);
+                // The repair yields at the half once it stops getting further; while it
+                // gets further it may go on to the deadline (see `repair`).
                 let repair = repair::Repair {
                     part,
                     graph: &graph,
                     k,
                     model: &base,
-                    limits: &half_left,
+                    limits: &limits,
+                    yield_at: half_left.deadline,
                     workers,
                     resume: Some(&resume),
                 };

@@ -24,10 +24,18 @@
 //! first broken window, counted in blocks welded): no threshold, and the candidates of a
 //! step are judged all up to the first that keeps every window (those after it could not be
 //! chosen), so the choice does not depend on the thread count.
+//!
+//! How long: a repair that has stopped getting further gives up at `yield_at` (half the
+//! time left when it began: the search keeps the rest); one whose last step got further
+//! goes on to the run's deadline. At 10^5 blocks one step re-simulates tens of thousands
+//! of deposits per change (minutes), and a double tube's repair was cut off after a step
+//! that had got from 3,234 to 53,281 blocks, leaving the time to a search that found
+//! nothing in it.
 
 use std::collections::{HashMap, HashSet};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
+use std::time::Instant;
 
 use waam_part::graph::WeldGraph;
 use waam_part::plan::Plan;
@@ -44,6 +52,8 @@ pub struct Repair<'a> {
     pub k: usize,
     pub model: &'a ThermalModel,
     pub limits: &'a Limits,
+    /// When a repair whose last step got no further gives up (none: at the deadline).
+    pub yield_at: Option<Instant>,
     /// Threads judging one step's candidates.
     pub workers: usize,
     /// Where the plan simulated so far may start from: a simulation of the longest prefix
@@ -134,8 +144,15 @@ impl<'a> Repair<'a> {
         // to where it is changed), and the changes of the plan now judged already.
         let mut saved: Vec<(usize, Simulation)> = Vec::new();
         let mut tried: HashSet<(usize, Change)> = HashSet::new();
+        // Whether the last step got further: the next may then run to the deadline.
+        let mut getting_further = false;
         loop {
-            if self.limits.stopped() {
+            // This step's end: the deadline, or the time to yield when stalled.
+            let until = match (self.limits.deadline, self.yield_at) {
+                (d, Some(y)) if !getting_further => Some(d.map_or(y, |d| d.min(y))),
+                (d, _) => d,
+            };
+            if self.limits.stopped() || until.is_some_and(|u| Instant::now() >= u) {
                 return None;
             }
             step += 1;
@@ -223,10 +240,13 @@ impl<'a> Repair<'a> {
                 if n == 2 && verdicts.iter().any(further) {
                     break;
                 }
-                let measure = step == 1 && candidates.is_empty();
-                let (now, judged, feasible_end) = self.judge(&seq, &batch, &mut saved, measure);
+                // How far the plan now gets is measured once, with the first candidates.
+                let measure = broken.miss_s.is_infinite() && candidates.is_empty();
+                let (now, judged, feasible_end) =
+                    self.judge(&seq, &batch, &mut saved, measure, until);
                 end = end.or(feasible_end.map(|(c, snap)| (candidates.len() + c, snap)));
-                if judged.iter().any(Option::is_none) && self.limits.stopped() {
+                let stopped = self.limits.stopped() || until.is_some_and(|u| Instant::now() >= u);
+                if judged.iter().any(Option::is_none) && stopped {
                     return None;
                 }
                 if let Some(Err(now)) = now.filter(|_| measure) {
@@ -278,6 +298,7 @@ impl<'a> Repair<'a> {
                     anchor - from,
                     broken.blocks
                 );
+                getting_further = false;
                 if from == 0 {
                     return None;
                 }
@@ -297,6 +318,7 @@ impl<'a> Repair<'a> {
             let changed_at = candidates[c].0.at;
             plan = candidates.into_iter().nth(c).map(|(_, _, plan)| plan)?;
             broken = further;
+            getting_further = true;
             back = 0;
             saved.retain(|&(at, _)| at <= changed_at);
             tried.clear();
@@ -410,6 +432,7 @@ impl<'a> Repair<'a> {
         candidates: &[(Piece, Change, Vec<Vec<usize>>)],
         saved: &mut Vec<(usize, Simulation<'s>)>,
         measure: bool,
+        until: Option<Instant>,
     ) -> (Verdict, Vec<Verdict>, Option<(usize, Snapshot)>) {
         // The plan now, simulated once up to each candidate's first change (from the
         // latest state saved before them).
@@ -417,7 +440,7 @@ impl<'a> Repair<'a> {
         starts.sort_unstable();
         starts.dedup();
         let (first, last) = (starts[0], starts[starts.len() - 1]);
-        let (from, mut sim) = match saved.iter().rev().find(|(at, _)| *at <= first) {
+        let (from, sim) = match saved.iter().rev().find(|(at, _)| *at <= first) {
             Some((at, s)) => (*at, s.clone()),
             None => match self.resume {
                 Some(resume) => {
@@ -427,7 +450,8 @@ impl<'a> Repair<'a> {
                 None => (0, self.simulation()),
             },
         };
-        // Alone until the candidates are judged: on every thread.
+        // Alone until the candidates are judged: on every thread; stopped at this step's end.
+        let mut sim = sim.with_deadline(until);
         sim.set_threads(self.workers);
         for (d, &(b, new)) in seq.iter().enumerate().take(last + 1).skip(from) {
             if starts.binary_search(&d).is_ok() && !saved.iter().any(|(at, _)| *at == d) {
@@ -485,8 +509,8 @@ impl<'a> Repair<'a> {
                     };
                     running.fetch_add(1, Ordering::Relaxed);
                     let t = std::time::Instant::now();
-                    let (verdict, last) =
-                        run_from(sim.clone(), &deposits(plan), piece.at, &|| threads(c));
+                    let sim = sim.clone().with_deadline(until);
+                    let (verdict, last) = run_from(sim, &deposits(plan), piece.at, &|| threads(c));
                     running.fetch_sub(1, Ordering::Relaxed);
                     tracing::trace!(
                         "warm-start repair: candidate {c} judged in {:.2} s",
@@ -631,4 +655,97 @@ fn mirror(
             })
             .collect(),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::constructive;
+    use crate::sat::Backend;
+    use waam_part::Window;
+
+    /// A 40 x 14 wall whose windows are those of a plan that a second weld path takes over
+    /// half way up, from the wall's other end; and the plain warm start (one serpentine),
+    /// which breaks them.
+    fn wall_and_warm_start() -> (Part, WeldGraph, Vec<Vec<usize>>) {
+        let (len, h, take_over) = (40, 14, 7);
+        let blocks = (0..h)
+            .flat_map(|z| (0..len).map(move |x| [x, 0, z]))
+            .collect();
+        let mut part =
+            Part::from_blocks("wall".into(), [6.0, 6.0, 2.5], [0.0; 3], 2, blocks).expect("a wall");
+        let graph = WeldGraph::new(&part);
+        let limits = Limits {
+            deadline: None,
+            cancel: None,
+        };
+        let warm = constructive::layered_plan(&part, &graph, 2, Backend::Cadical, &limits)
+            .expect("a wall has a layer-by-layer plan");
+        let up_x = |z: i64| (part.block(warm[0][0])[0] == 0) == (z % 2 == 0);
+        let layer = |z: i64, forward: bool| -> Vec<usize> {
+            let mut xs: Vec<i64> = (0..len).collect();
+            if !forward {
+                xs.reverse();
+            }
+            xs.into_iter()
+                .map(|x| part.index_of([x, 0, z]).expect("a block"))
+                .collect()
+        };
+        let hidden: Vec<Vec<usize>> = vec![
+            (0..take_over).flat_map(|z| layer(z, up_x(z))).collect(),
+            (take_over..h).flat_map(|z| layer(z, up_x(z - 1))).collect(),
+        ];
+        let watched: Vec<usize> = (0..len)
+            .map(|x| part.index_of([x, 0, take_over]).expect("a block"))
+            .collect();
+        let wide = Window {
+            min_s: 0.0,
+            max_s: 1e6,
+        };
+        for &b in &watched {
+            part.set_window(b, wide);
+        }
+        let seen = waam_thermal::simulate(&ThermalModel::new(&part, &graph), &hidden)
+            .expect("cools")
+            .crossings;
+        for &b in &watched {
+            let t85 = || seen.iter().filter(|c| c.block == b).map(|c| c.t85_s);
+            let window = Window {
+                min_s: 0.95 * t85().fold(f64::INFINITY, f64::min),
+                max_s: 1.01 * t85().fold(0.0, f64::max),
+            };
+            part.set_window(b, window);
+        }
+        (part, graph, warm)
+    }
+
+    #[test]
+    fn a_repair_that_gets_no_further_yields_at_its_time() {
+        let (part, graph, warm) = wall_and_warm_start();
+        let model = ThermalModel::new(&part, &graph);
+        let broken = waam_thermal::simulate(&model, &warm)
+            .expect("cools")
+            .violation
+            .expect("the warm start breaks a window");
+        let limits = Limits {
+            deadline: None,
+            cancel: None,
+        };
+        let repair = |yield_at| Repair {
+            part: &part,
+            graph: &graph,
+            k: 2,
+            model: &model,
+            limits: &limits,
+            yield_at,
+            workers: 1,
+            resume: None,
+        };
+        let repaired = |r: Repair| r.repaired(&warm, broken.prefix_len, broken.block);
+        let found = repaired(repair(None)).expect("the repair keeps every window");
+        let outcome = waam_thermal::simulate(&model, &found.plan).expect("cools");
+        assert!(outcome.violation.is_none());
+        // Before any step has got further, the time to yield ends the repair.
+        assert!(repaired(repair(Some(Instant::now()))).is_none());
+    }
 }
