@@ -152,7 +152,11 @@ impl<'a> Repair<'a> {
                 (d, Some(y)) if !getting_further => Some(d.map_or(y, |d| d.min(y))),
                 (d, _) => d,
             };
-            if self.limits.stopped() || until.is_some_and(|u| Instant::now() >= u) {
+            let this_step = Limits {
+                deadline: until,
+                cancel: self.limits.cancel.clone(),
+            };
+            if this_step.stopped() {
                 return None;
             }
             step += 1;
@@ -245,8 +249,7 @@ impl<'a> Repair<'a> {
                 let (now, judged, feasible_end) =
                     self.judge(&seq, &batch, &mut saved, measure, until);
                 end = end.or(feasible_end.map(|(c, snap)| (candidates.len() + c, snap)));
-                let stopped = self.limits.stopped() || until.is_some_and(|u| Instant::now() >= u);
-                if judged.iter().any(Option::is_none) && stopped {
+                if judged.iter().any(Option::is_none) && this_step.stopped() {
                     return None;
                 }
                 if let Some(Err(now)) = now.filter(|_| measure) {
