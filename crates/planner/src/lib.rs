@@ -301,28 +301,24 @@ fn search_plans(
                     model: &base,
                     workers,
                 };
-                // A repaired plan leaves its simulation's last state with the search: its
-                // verdict below then simulates the cooldown only (a minute and a half of
-                // deposits at 10^5 blocks).
-                let kept = |r: repair::Repaired| {
-                    if let Some(end) = r.end {
-                        search.remember(&r.plan, end);
-                    }
-                    (r.plan, 0.0)
-                };
                 let varied = part
                     .index_of(block)
                     .and_then(|b| repair.repaired(&warm, prefix_len, b))
-                    .map(kept)
                     .or_else(|| match portfolio.rasters(&warm)? {
                         Ok(found) => Some(found),
                         Err((plan, blocks, b)) if blocks > prefix_len => {
-                            repair.repaired(&plan, blocks, b).map(kept)
+                            repair.repaired(&plan, blocks, b)
                         }
                         Err(_) => None,
                     })
                     .or_else(|| portfolio.varied_start(&warm));
-                if let Some((varied, _)) = varied {
+                if let Some(repair::Repaired { plan: varied, end }) = varied {
+                    // The changed plan leaves its simulation's last state with the search:
+                    // its verdict below then simulates the cooldown only (a minute and a
+                    // half of deposits at 10^5 blocks).
+                    if let Some(end) = end {
+                        search.remember(&varied, end);
+                    }
                     // Every judged candidate is reported (recordings count them), the
                     // warm start's broken one too.
                     if let Some(judged) = verdict {

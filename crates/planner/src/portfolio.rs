@@ -26,9 +26,10 @@ use std::sync::Mutex;
 
 use waam_part::graph::WeldGraph;
 use waam_part::Part;
-use waam_thermal::{self as thermal, ThermalModel};
+use waam_thermal::{self as thermal, Snapshot, ThermalModel};
 
 use crate::constructive::{self, Limits};
+use crate::repair::Repaired;
 use crate::sat::Backend;
 
 /// Variants judged together; fixed, so the choice is the same on any machine.
@@ -54,21 +55,26 @@ pub struct Portfolio<'a> {
 /// first two; a cover: every path whole), as [`constructive::layered_plan_from`] takes them.
 type Variant = Vec<Vec<usize>>;
 
-/// A variant built and simulated: `(plan, margin)`, or `(plan, Err((blocks welded before a
-/// window breaks, the broken block)))`; `None` when it could not be built or the run
-/// stopped its simulation.
-type Judged = Option<(Vec<Vec<usize>>, Result<f64, (usize, usize)>)>;
+/// A variant built and simulated (`None` in a round's slot: it could not be built, or the
+/// run stopped its simulation).
+#[derive(Debug, Clone, PartialEq)]
+struct Judged {
+    plan: Vec<Vec<usize>>,
+    /// Its margin, or `Err((blocks welded before a window breaks, the broken block))`.
+    margin: Result<f64, (usize, usize)>,
+    /// A feasible variant's simulation after its last deposit (see [`Repaired`]).
+    end: Option<Snapshot>,
+}
 
-/// The best raster variant: `Ok((plan, margin))` when one keeps every window, else the one
-/// that keeps them longest, as `Err((plan, blocks welded before a window breaks, the
-/// broken block))`.
-pub type Rastered = Result<(Vec<Vec<usize>>, f64), (Vec<Vec<usize>>, usize, usize)>;
+/// The best raster variant: `Ok` when one keeps every window, else the one that keeps them
+/// longest, as `Err((plan, blocks welded before a window breaks, the broken block))`.
+pub type Rastered = Result<Repaired, (Vec<Vec<usize>>, usize, usize)>;
 
 impl Portfolio<'_> {
     /// A feasible variant of `base` (a layer-by-layer plan that breaks a window), the best
     /// of the first round that has one; `None` when no variant keeps every window (or the
     /// run stopped first).
-    pub fn varied_start(&self, base: &[Vec<usize>]) -> Option<(Vec<Vec<usize>>, f64)> {
+    pub fn varied_start(&self, base: &[Vec<usize>]) -> Option<Repaired> {
         let moves = first_moves(self.part, self.graph, base);
         let starts: Vec<Variant> = moves.iter().map(|&(a, b)| vec![vec![a, b]]).collect();
         let rounds = starts.len().div_ceil(ROUND);
@@ -103,40 +109,35 @@ impl Portfolio<'_> {
         let built = judged.iter().filter(|j| j.is_some()).count();
         // Largest margin, else furthest before a window breaks; on a tie the earlier
         // variant (max_by keeps the last maximum: the judged ones are walked back).
-        let rank = |m: &Result<f64, (usize, usize)>| match m {
-            Ok(margin) => (1, *margin),
-            Err((blocks, _)) => (0, *blocks as f64),
+        let rank = |j: &Judged| match j.margin {
+            Ok(margin) => (1, margin),
+            Err((blocks, _)) => (0, blocks as f64),
         };
-        let best = judged
-            .into_iter()
-            .flatten()
-            .rev()
-            .max_by(|(_, a), (_, b)| {
-                let (a, b) = (rank(a), rank(b));
-                a.0.cmp(&b.0).then(a.1.total_cmp(&b.1))
-            })?;
+        let best = judged.into_iter().flatten().rev().max_by(|a, b| {
+            let (a, b) = (rank(a), rank(b));
+            a.0.cmp(&b.0).then(a.1.total_cmp(&b.1))
+        })?;
         tracing::debug!(
             "warm-start portfolio: {} of {} rasters of the first layer built; the best {}",
             built,
             variants.len(),
-            match &best.1 {
+            match &best.margin {
                 Ok(m) => format!("keeps every window, margin {m:.2} s"),
                 Err((blocks, _)) => format!("breaks a window after {blocks} blocks"),
             }
         );
-        Some(match best {
-            (plan, Ok(margin)) => Ok((plan, margin)),
-            (plan, Err((blocks, block))) => Err((plan, blocks, block)),
+        Some(match best.margin {
+            Ok(_) => Ok(Repaired {
+                plan: best.plan,
+                end: best.end,
+            }),
+            Err((blocks, block)) => Err((best.plan, blocks, block)),
         })
     }
 
     /// The best feasible variant of the first round (of [`ROUND`]) that has one; rounds are
     /// numbered from `first_round` in the log.
-    fn first_feasible(
-        &self,
-        variants: &[Variant],
-        first_round: usize,
-    ) -> Option<(Vec<Vec<usize>>, f64)> {
+    fn first_feasible(&self, variants: &[Variant], first_round: usize) -> Option<Repaired> {
         for (r, round) in variants.chunks(ROUND).enumerate() {
             if self.limits.stopped() {
                 return None;
@@ -146,23 +147,26 @@ impl Portfolio<'_> {
             let best = judged
                 .into_iter()
                 .enumerate()
-                .filter_map(|(i, j)| j.and_then(|(plan, margin)| Some((i, plan, margin.ok()?))))
+                .filter_map(|(i, j)| j.and_then(|j| Some((i, j.margin.ok()?, j))))
                 // Largest margin; on a tie the earlier variant (max_by keeps the last maximum).
-                .max_by(|a, b| a.2.total_cmp(&b.2).then(b.0.cmp(&a.0)));
+                .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)));
             tracing::debug!(
                 "warm-start portfolio: round {} ({} variants built and judged): {}",
                 first_round + r + 1,
                 tried,
                 best.as_ref()
-                    .map_or("none feasible".to_string(), |(i, _, m)| {
+                    .map_or("none feasible".to_string(), |(i, m, _)| {
                         format!(
                             "variant {} feasible, margin {m:.2} s",
                             (first_round + r) * ROUND + i
                         )
                     })
             );
-            if let Some((_, plan, margin)) = best {
-                return Some((plan, margin));
+            if let Some((_, _, j)) = best {
+                return Some(Repaired {
+                    plan: j.plan,
+                    end: j.end,
+                });
             }
         }
         None
@@ -170,9 +174,9 @@ impl Portfolio<'_> {
 
     /// Each variant of a round built and simulated by `workers` threads; slot i holds
     /// variant i whichever thread judged it, and whenever.
-    fn judge_round(&self, round: &[Variant], workers: usize) -> Vec<Judged> {
+    fn judge_round(&self, round: &[Variant], workers: usize) -> Vec<Option<Judged>> {
         let next = AtomicUsize::new(0);
-        let results: Mutex<Vec<Judged>> = Mutex::new(vec![None; round.len()]);
+        let results: Mutex<Vec<Option<Judged>>> = Mutex::new(vec![None; round.len()]);
         std::thread::scope(|scope| {
             for _ in 0..workers.clamp(1, round.len().max(1)) {
                 scope.spawn(|| loop {
@@ -187,7 +191,7 @@ impl Portfolio<'_> {
     }
 
     /// One variant built and simulated (on one thread: the variants are the parallel work).
-    fn judge_variant(&self, first: &[Vec<usize>]) -> Judged {
+    fn judge_variant(&self, first: &[Vec<usize>]) -> Option<Judged> {
         let Portfolio {
             part,
             graph,
@@ -210,7 +214,7 @@ impl Portfolio<'_> {
             Some(c) => sim.with_cancel(c.clone()),
             None => sim,
         };
-        let outcome = thermal::simulate_in(sim, &plan).ok()??;
+        let (outcome, end) = thermal::simulate_keeping_end(sim, &plan).ok()??;
         let margin = match &outcome.violation {
             Some(v) => {
                 tracing::debug!(
@@ -228,16 +232,24 @@ impl Portfolio<'_> {
                 Ok(m)
             }
         };
-        Some((plan, margin))
+        Some(Judged { plan, margin, end })
     }
 }
 
-/// A variant for the log: each path's first block, and where it goes next.
+/// A variant for the log: each path's first block, where it goes next and, for a whole
+/// piece, where it ends.
 fn describe(part: &Part, first: &[Vec<usize>]) -> String {
     let paths: Vec<String> = first
         .iter()
         .map(|p| match p.as_slice() {
-            [a, b, ..] => format!("{:?} -> {:?}", part.block(*a), part.block(*b)),
+            [a, b] => format!("{:?} -> {:?}", part.block(*a), part.block(*b)),
+            [a, b, .., z] => format!(
+                "{:?} -> {:?} .. {:?} ({} blocks)",
+                part.block(*a),
+                part.block(*b),
+                part.block(*z),
+                p.len()
+            ),
             [a] => format!("{:?}", part.block(*a)),
             [] => "any".to_string(),
         })
@@ -248,19 +260,25 @@ fn describe(part: &Part, first: &[Vec<usize>]) -> String {
 /// The first layer's covers (the base's and the others the weld graph allows), each with
 /// every order of its paths (rotations) and every way round of each; the base's own first
 /// layer left out, and on a one-path layer the variants whose first move was tried as a
-/// start (a first move fixes a single path's start and way already).
+/// start (a first move fixes a single path's start and way already). The covers take turns
+/// (each one's first order and way, then each one's second, ...), so that every cover is
+/// judged before any is judged again: which path takes a junction decides how long each
+/// path's layer is, so how soon a block gets the block above, and at 10^5 blocks one
+/// variant takes minutes, so a deadline may leave time for the first round only (on a
+/// T-wall there, all seven variants of the base's own cover broke the same window by the
+/// same 0.035 s).
 fn cover_variants(p: &Portfolio, base: &[Vec<usize>], moves: &[(usize, usize)]) -> Vec<Variant> {
     let own = first_layer_pieces(p.part, base);
     if own.is_empty() {
         return Vec::new();
     }
     let covers = constructive::first_layer_covers(p.part, p.backend, p.limits, &own);
-    let mut out: Vec<Variant> = Vec::new();
-    for cover in covers {
+    let orders = |cover: &Vec<Vec<usize>>| -> Vec<Variant> {
         let m = cover.len();
-        for rotation in 0..m {
-            for ways in 0..1usize << m {
-                let variant: Variant = (0..m)
+        (0..m)
+            .flat_map(|rotation| (0..1usize << m).map(move |ways| (rotation, ways)))
+            .map(|(rotation, ways)| {
+                (0..m)
                     .map(|i| {
                         let mut piece = cover[(i + rotation) % m].clone();
                         if (ways >> i) & 1 == 1 {
@@ -268,16 +286,20 @@ fn cover_variants(p: &Portfolio, base: &[Vec<usize>], moves: &[(usize, usize)]) 
                         }
                         piece
                     })
-                    .collect();
-                let tried = m == 1 && variant[0].len() >= 2 && {
-                    let (a, b) = (variant[0][0], variant[0][1]);
-                    moves.contains(&(a, b))
-                        || (base[0].len() >= 2 && (a, b) == (base[0][0], base[0][1]))
-                };
-                if variant != own && !tried && !out.contains(&variant) {
-                    out.push(variant);
-                }
-            }
+                    .collect()
+            })
+            .collect()
+    };
+    let per_cover: Vec<Vec<Variant>> = covers.iter().map(orders).collect();
+    let turns = per_cover.iter().map(Vec::len).max().unwrap_or(0);
+    let mut out: Vec<Variant> = Vec::new();
+    for variant in (0..turns).flat_map(|t| per_cover.iter().filter_map(move |c| c.get(t))) {
+        let tried = variant.len() == 1 && variant[0].len() >= 2 && {
+            let (a, b) = (variant[0][0], variant[0][1]);
+            moves.contains(&(a, b)) || (base[0].len() >= 2 && (a, b) == (base[0][0], base[0][1]))
+        };
+        if *variant != own && !tried && !out.contains(variant) {
+            out.push(variant.clone());
         }
     }
     out
@@ -414,12 +436,16 @@ mod tests {
         let variants: Vec<Variant> = moves.iter().map(|&(a, b)| vec![vec![a, b]]).collect();
         let judged = portfolio.judge_round(&variants, 2);
         for (m, j) in moves.iter().zip(&judged) {
-            let (plan, margin) = j.as_ref().expect("each start of a ring can be built");
-            assert_eq!(plan[0][..2], [m.0, m.1], "the variant sets off as asked");
-            waam_part::plan::Plan::from_indices(&part, plan)
+            let j = j.as_ref().expect("each start of a ring can be built");
+            assert_eq!(j.plan[0][..2], [m.0, m.1], "the variant sets off as asked");
+            waam_part::plan::Plan::from_indices(&part, &j.plan)
                 .validate(&part, &graph)
                 .expect("a valid plan");
-            assert!(margin.is_err(), "no plan keeps a 1 s window");
+            assert!(j.margin.is_err(), "no plan keeps a 1 s window");
+            assert!(
+                j.end.is_none(),
+                "no end state of a plan that breaks a window"
+            );
         }
         assert!(portfolio.varied_start(&base).is_none());
     }
@@ -436,9 +462,9 @@ mod tests {
         let portfolio = on_one_path(&part, &graph, &limits, &model);
         let judge = |workers| portfolio.judge_round(&moves, workers);
         let one = judge(1);
-        assert!(one
-            .iter()
-            .all(|j| j.as_ref().is_some_and(|(_, m)| m.is_ok())));
+        assert!(one.iter().all(|j| j
+            .as_ref()
+            .is_some_and(|j| j.margin.is_ok() && j.end.is_some())));
         for workers in [2, 3, 8] {
             assert_eq!(judge(workers), one, "{workers} threads");
         }
@@ -460,6 +486,53 @@ mod tests {
             .collect();
         assert!(portfolio.judge_round(&moves, 2).iter().all(Option::is_none));
         assert!(portfolio.varied_start(&base).is_none());
+    }
+
+    #[test]
+    fn every_cover_takes_its_turn_before_any_comes_again() {
+        // A T layer has three covers by two paths (the junction with either half of the
+        // bar, or the bar whole and the stem alone), each in 2 orders x 4 ways.
+        let blocks = (0..6)
+            .flat_map(|z| {
+                (0..7)
+                    .map(move |x| [x, 0, z])
+                    .chain((1..4).map(move |y| [2, y, z]))
+            })
+            .collect();
+        let part = Part::from_blocks("t".into(), [6.0, 6.0, 2.5], [0.0; 3], 2, blocks)
+            .expect("a valid part");
+        let graph = WeldGraph::new(&part);
+        let model = ThermalModel::new(&part, &graph);
+        let limits = no_limits();
+        let base = constructive::layered_plan(&part, &graph, 2, Backend::Cadical, &limits)
+            .expect("a T has a layer-by-layer plan");
+        let portfolio = Portfolio {
+            k: 2,
+            ..on_one_path(&part, &graph, &limits, &model)
+        };
+        let variants = cover_variants(&portfolio, &base, &[]);
+        assert_eq!(
+            variants.len(),
+            3 * 8 - 1,
+            "all but the base's own first layer"
+        );
+        let cover = |v: &Variant| {
+            let mut pairs: Vec<(usize, usize)> = v
+                .iter()
+                .flat_map(|p| p.windows(2).map(|w| (w[0].min(w[1]), w[0].max(w[1]))))
+                .collect();
+            pairs.sort();
+            pairs
+        };
+        let own = cover(&first_layer_pieces(&part, &base));
+        // The two other covers first, then the base's own in another order or way.
+        assert_ne!(cover(&variants[0]), own);
+        assert_ne!(cover(&variants[1]), own);
+        assert_ne!(cover(&variants[0]), cover(&variants[1]));
+        assert_eq!(cover(&variants[2]), own);
+        for (i, v) in variants.iter().enumerate().skip(3) {
+            assert_eq!(cover(v), cover(&variants[i % 3]), "variant {i}");
+        }
     }
 
     #[test]

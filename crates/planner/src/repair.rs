@@ -69,7 +69,8 @@ pub type Resume<'a> = dyn Fn(&[(usize, bool)]) -> (Simulation<'a>, usize) + 'a;
 /// the run stopped the simulation.
 type Verdict = Option<Result<(), Broken>>;
 
-/// A repaired plan, and its simulation after its last deposit (before cooling down): the
+/// A changed warm start that keeps every window (repaired here, or a variant of the
+/// portfolio's), and its simulation after its last deposit (before cooling down): the
 /// search's own verdict on the plan resumes from there instead of simulating it again.
 pub struct Repaired {
     pub plan: Vec<Vec<usize>>,

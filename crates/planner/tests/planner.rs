@@ -559,7 +559,7 @@ fn a_warm_start_that_breaks_a_window_high_up_is_repaired_from_a_layer_on() {
         .collect();
     windows_around(&mut part, &graph, &hidden, &watched);
     let report = the_repaired_warm_start_is_the_first_plan(&part, &graph, &base);
-    judged_from_the_repairs_simulation(&part, &graph, &base, &report);
+    judged_without_simulating_it_again(&part, &graph, &base, &report);
 }
 
 #[test]
@@ -622,7 +622,7 @@ fn a_tube_whose_windows_want_a_seam_elsewhere_from_some_layer_on_gets_a_weld_pat
         .collect();
     windows_around(&mut part, &graph, &hidden, &watched);
     let report = the_repaired_warm_start_is_the_first_plan(&part, &graph, &base);
-    judged_from_the_repairs_simulation(&part, &graph, &base, &report);
+    judged_without_simulating_it_again(&part, &graph, &base, &report);
 }
 
 #[test]
@@ -666,8 +666,9 @@ fn a_plate_whose_windows_want_its_rows_the_other_way_is_rastered_that_way() {
         .map(|&b| part.index_of(b).unwrap())
         .collect();
     windows_around(&mut part, &graph, &hidden, &watched);
-    // Rastered, not repaired: the search simulates the raster it judges.
-    the_repaired_warm_start_is_the_first_plan(&part, &graph, &base);
+    // Rastered, not repaired; judged from the portfolio's simulation of the raster.
+    let report = the_repaired_warm_start_is_the_first_plan(&part, &graph, &base);
+    judged_without_simulating_it_again(&part, &graph, &base, &report);
     let best = first_alone_twice(&part).best.unwrap();
     assert!(along_y(&part, &best.fragments), "rastered along y");
 }
@@ -769,14 +770,25 @@ fn a_warm_start_on_a_t_that_breaks_windows_takes_another_cover_of_its_layers() {
 
     // One configuration (no race): the portfolio's choice, before any solve of the search.
     let report = first_alone_twice(&part);
-    let best = report.best.expect("another cover keeps the windows");
+    let best = report
+        .best
+        .as_ref()
+        .expect("another cover keeps the windows");
     assert_eq!(
         (report.stats.candidates, report.stats.sat_solves),
         (2, 0),
         "the plain warm start, then the portfolio's choice; no search"
     );
     best.plan(&part).validate(&part, &graph).unwrap();
-    assert!(simulate(&part, &best.fragments).violation.is_none());
+    let outcome = simulate(&part, &best.fragments);
+    assert!(outcome.violation.is_none());
+    // Judged from the portfolio's simulation of it, to the same margin.
+    judged_without_simulating_it_again(&part, &graph, &base, &report);
+    let model = waam_thermal::ThermalModel::new(&part, &graph);
+    assert_eq!(
+        best.margin.to_bits(),
+        model.margin(&outcome.crossings).to_bits()
+    );
 }
 
 #[test]
@@ -1071,10 +1083,11 @@ fn the_repaired_warm_start_is_the_first_plan(
     report
 }
 
-/// The search judged the repaired plan from the repair's simulation of it: it simulated
-/// only the plain warm start `base`, up to the window it breaks (and the deposit whose
-/// transit broke it, if one did), not the repaired plan again from where it changed.
-fn judged_from_the_repairs_simulation(
+/// The search judged the changed warm start (repaired, a raster or another cover) from
+/// the simulation that chose it: it simulated only the plain warm start `base`, up to the
+/// window it breaks (and the deposit whose transit broke it, if one did), not the changed
+/// plan again from where it changed.
+fn judged_without_simulating_it_again(
     part: &Part,
     graph: &waam_part::graph::WeldGraph,
     base: &[Vec<usize>],

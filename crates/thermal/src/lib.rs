@@ -45,8 +45,8 @@ pub use simulation::{
     PARALLEL_MIN_SLOTS,
 };
 pub use timeline::{
-    simulate, simulate_in, simulate_on, simulate_on_until, simulate_until, Outcome, SimulateError,
-    Timeline, TimelineError,
+    simulate, simulate_in, simulate_keeping_end, simulate_on, simulate_on_until, simulate_until,
+    Outcome, SimulateError, Timeline, TimelineError,
 };
 pub use violation::{Crossing, NotCooled, Phase, Violation, ViolationKind};
 pub use waam_part::{ThermalParams, MAX_STEPS};

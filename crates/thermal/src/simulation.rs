@@ -20,7 +20,7 @@ use crate::violation::{Crossing, NotCooled, Phase, Violation, ViolationKind};
 const NOT_CROSSED: (u64, u64) = (u64::MAX, 0);
 
 /// A saved simulation state: resume from it with [`Simulation::restore`].
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Snapshot {
     welded: usize,
     windowed: usize,

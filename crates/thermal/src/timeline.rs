@@ -11,7 +11,7 @@ use waam_part::MAX_STEPS;
 
 use crate::interrupt::Interrupt;
 use crate::model::{round_steps, ThermalModel};
-use crate::simulation::Simulation;
+use crate::simulation::{Simulation, Snapshot};
 use crate::violation::{Crossing, NotCooled, Phase, Violation};
 
 /// The outcome of simulating a whole plan.
@@ -53,6 +53,24 @@ pub fn simulate_in(
     sim: Simulation<'_>,
     fragments: &[Vec<usize>],
 ) -> Result<Option<Outcome>, NotCooled> {
+    Ok(run(sim, fragments, false)?.map(|(outcome, _)| outcome))
+}
+
+/// [`simulate_in`], with the state after the last deposit (before the cooldown) when the
+/// plan keeps every window: whoever judges the plan again resumes from there instead of
+/// simulating every deposit again (minutes at 10^5 blocks).
+pub fn simulate_keeping_end(
+    sim: Simulation<'_>,
+    fragments: &[Vec<usize>],
+) -> Result<Option<(Outcome, Option<Snapshot>)>, NotCooled> {
+    run(sim, fragments, true)
+}
+
+fn run(
+    sim: Simulation<'_>,
+    fragments: &[Vec<usize>],
+    keep_end: bool,
+) -> Result<Option<(Outcome, Option<Snapshot>)>, NotCooled> {
     let mut sim = sim.recording();
     let mut violation = None;
     'plan: for fragment in fragments {
@@ -63,18 +81,22 @@ pub fn simulate_in(
             }
         }
     }
+    let mut end = None;
     if violation.is_none() {
+        end = keep_end.then(|| sim.snapshot());
         violation = sim.finish()?.err();
     }
     if sim.cancelled() {
         return Ok(None);
     }
-    Ok(Some(Outcome {
+    let end = end.filter(|_| violation.is_none());
+    let outcome = Outcome {
         violation,
         steps: sim.steps(),
         time_s: sim.time_s(),
         crossings: sim.crossings.take().unwrap_or_default(),
-    }))
+    };
+    Ok(Some((outcome, end)))
 }
 
 /// When a plan's blocks are deposited and each weld path's arc goes off, in Euler steps
