@@ -19,7 +19,8 @@
 //! window, the portfolio varies the first layer's cover: the base's, and each the weld
 //! graph allows with a path end moved on to a neighbour (another branch takes the
 //! junction), each with every way round and every order of its paths, judged in the same
-//! rounds.
+//! rounds, the covers taking turns. A feasible variant's simulation after its last deposit
+//! goes with it, so the search's verdict on it simulates only the cooldown.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
