@@ -7,10 +7,13 @@
 //! above it is deposited and reheats it. On a tall tube that moves a windowed block's
 //! t8/5 by hundreds of seconds (measured in the README), while the builder's other
 //! choices stay valid. The variants start at places spread evenly along the base plan's
-//! first layer (halves, then quarters, eighths, ...), setting off both ways; they are
-//! judged in rounds of a fixed size on all cores, and the first round with a feasible
-//! variant gives the one with the largest margin (ties: the earlier variant), so the
-//! answer does not depend on the number of cores or on which thread finishes first.
+//! first layer (halves, then quarters, eighths, ...), setting off both ways. They are
+//! judged in that order, several at once on the run's threads, and the first feasible one
+//! in the order wins: every variant before it is judged whole and those after it are
+//! stopped or never built, so the answer does not depend on the number of threads or on
+//! which finishes first, and a run does not judge variants it will not use (in a race the
+//! portfolio has one thread: rounds of eight, the best margin of a round, made a run judge
+//! up to seven more after a feasible one, a minute each at 10^5 blocks).
 //!
 //! Why the cover: on a layer that needs several paths (a T, two rings) a first move fixes
 //! only where the first path starts, and on a branching layer no path can start inside a
@@ -19,11 +22,12 @@
 //! window, the portfolio varies the first layer's cover: the base's, and each the weld
 //! graph allows with a path end moved on to a neighbour (another branch takes the
 //! junction), each with every way round and every order of its paths, judged in the same
-//! rounds, the covers taking turns. A feasible variant's simulation after its last deposit
+//! way, the covers taking turns. A feasible variant's simulation after its last deposit
 //! goes with it, so the search's verdict on it simulates only the cooldown.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
 use waam_part::graph::WeldGraph;
 use waam_part::Part;
@@ -33,8 +37,8 @@ use crate::constructive::{self, Limits};
 use crate::repair::Repaired;
 use crate::sat::Backend;
 
-/// Variants judged together; fixed, so the choice is the same on any machine.
-const ROUND: usize = 8;
+/// Variants judged at once at most (each holds a simulation of the whole part).
+const AT_ONCE: usize = 8;
 /// Places along the first layer tried at most (each set off both ways): 32, a start every
 /// 3% of the way (on a generated 26 x 18 tube whose windows are those of a hidden plan, 16
 /// places found no feasible variant and 32 did; see the README).
@@ -48,7 +52,7 @@ pub struct Portfolio<'a> {
     pub backend: Backend,
     pub limits: &'a Limits,
     pub model: &'a ThermalModel,
-    /// Threads judging a round's variants (1 in a race: the other racers have the rest).
+    /// Threads judging variants (1 in a race: the other racers have the rest).
     pub workers: usize,
 }
 
@@ -56,8 +60,8 @@ pub struct Portfolio<'a> {
 /// first two; a cover: every path whole), as [`constructive::layered_plan_from`] takes them.
 type Variant = Vec<Vec<usize>>;
 
-/// A variant built and simulated (`None` in a round's slot: it could not be built, or the
-/// run stopped its simulation).
+/// A variant built and simulated (`None` in a slot of [`Portfolio::judge_in_order`]: it
+/// could not be built, it came after a feasible one, or the run stopped).
 #[derive(Debug, Clone, PartialEq)]
 struct Judged {
     plan: Vec<Vec<usize>>,
@@ -72,18 +76,16 @@ struct Judged {
 pub type Rastered = Result<Repaired, (Vec<Vec<usize>>, usize, usize)>;
 
 impl Portfolio<'_> {
-    /// A feasible variant of `base` (a layer-by-layer plan that breaks a window), the best
-    /// of the first round that has one; `None` when no variant keeps every window (or the
-    /// run stopped first).
+    /// A feasible variant of `base` (a layer-by-layer plan that breaks a window), the first
+    /// in order; `None` when no variant keeps every window (or the run stopped first).
     pub fn varied_start(&self, base: &[Vec<usize>]) -> Option<Repaired> {
         let moves = first_moves(self.part, self.graph, base);
         let starts: Vec<Variant> = moves.iter().map(|&(a, b)| vec![vec![a, b]]).collect();
-        let rounds = starts.len().div_ceil(ROUND);
-        if let Some(found) = self.first_feasible(&starts, 0) {
+        if let Some(found) = self.first_feasible(&starts, "start") {
             return Some(found);
         }
-        // No start keeps every window: other covers of the first layer, judged in rounds
-        // numbered on from the starts' (the solves of the covers cost little beside them).
+        // No start keeps every window: other covers of the first layer (the solves of the
+        // covers cost little beside the simulations).
         if self.limits.stopped() {
             return None;
         }
@@ -92,12 +94,12 @@ impl Portfolio<'_> {
             "warm-start portfolio: {} variants of the first layer's cover",
             covers.len()
         );
-        self.first_feasible(&covers, rounds)
+        self.first_feasible(&covers, "cover")
     }
 
     /// The first layer welded as a raster ([`constructive::raster_covers`], as many paths
-    /// as `base` starts there), each way and from each corner, judged in one round: the
-    /// best feasible variant, else the one that keeps every window longest; `None` when the
+    /// as `base` starts there), each way and from each corner: the first feasible variant,
+    /// else the one that keeps every window longest (on a tie the earlier); `None` when the
     /// first layer has no area (or no raster is built, or the run stopped).
     pub fn rasters(&self, base: &[Vec<usize>]) -> Option<Rastered> {
         let own = first_layer_pieces(self.part, base);
@@ -106,20 +108,23 @@ impl Portfolio<'_> {
         if variants.is_empty() {
             return None;
         }
-        let judged = self.judge_round(&variants, self.workers);
+        let judged = self.judge_in_order(&variants);
         let built = judged.iter().filter(|j| j.is_some()).count();
-        // Largest margin, else furthest before a window breaks; on a tie the earlier
-        // variant (max_by keeps the last maximum: the judged ones are walked back).
-        let rank = |j: &Judged| match j.margin {
-            Ok(margin) => (1, margin),
-            Err((blocks, _)) => (0, blocks as f64),
-        };
-        let best = judged.into_iter().flatten().rev().max_by(|a, b| {
-            let (a, b) = (rank(a), rank(b));
-            a.0.cmp(&b.0).then(a.1.total_cmp(&b.1))
-        })?;
+        // The first feasible, else furthest before a window breaks (max_by keeps the last
+        // maximum: the judged ones are walked back, so a tie goes to the earlier).
+        let best = match judged
+            .iter()
+            .position(|j| j.as_ref().is_some_and(|j| j.margin.is_ok()))
+        {
+            Some(i) => judged.into_iter().nth(i).flatten(),
+            None => judged
+                .into_iter()
+                .flatten()
+                .rev()
+                .max_by_key(|j| j.margin.err().map_or(0, |(blocks, _)| blocks)),
+        }?;
         tracing::debug!(
-            "warm-start portfolio: {} of {} rasters of the first layer built; the best {}",
+            "warm-start portfolio: {} of {} rasters of the first layer built and judged; the chosen one {}",
             built,
             variants.len(),
             match &best.margin {
@@ -136,71 +141,99 @@ impl Portfolio<'_> {
         })
     }
 
-    /// The best feasible variant of the first round (of [`ROUND`]) that has one; rounds are
-    /// numbered from `first_round` in the log.
-    fn first_feasible(&self, variants: &[Variant], first_round: usize) -> Option<Repaired> {
-        for (r, round) in variants.chunks(ROUND).enumerate() {
-            if self.limits.stopped() {
-                return None;
-            }
-            let judged = self.judge_round(round, self.workers);
-            let tried = judged.iter().filter(|j| j.is_some()).count();
-            let best = judged
-                .into_iter()
-                .enumerate()
-                .filter_map(|(i, j)| j.and_then(|j| Some((i, j.margin.ok()?, j))))
-                // Largest margin; on a tie the earlier variant (max_by keeps the last maximum).
-                .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)));
-            tracing::debug!(
-                "warm-start portfolio: round {} ({} variants built and judged): {}",
-                first_round + r + 1,
-                tried,
-                best.as_ref()
-                    .map_or("none feasible".to_string(), |(i, m, _)| {
-                        format!(
-                            "variant {} feasible, margin {m:.2} s",
-                            (first_round + r) * ROUND + i
-                        )
-                    })
-            );
-            if let Some((_, _, j)) = best {
-                return Some(Repaired {
-                    plan: j.plan,
-                    end: j.end,
-                });
-            }
+    /// The first feasible of `variants` in order (`kind` names them in the log).
+    fn first_feasible(&self, variants: &[Variant], kind: &str) -> Option<Repaired> {
+        if variants.is_empty() || self.limits.stopped() {
+            return None;
         }
-        None
+        let judged = self.judge_in_order(variants);
+        let tried = judged.iter().filter(|j| j.is_some()).count();
+        let found = judged
+            .into_iter()
+            .enumerate()
+            .find_map(|(i, j)| j.filter(|j| j.margin.is_ok()).map(|j| (i, j)));
+        tracing::debug!(
+            "warm-start portfolio: {tried} of {} {kind} variants built and judged: {}",
+            variants.len(),
+            found
+                .as_ref()
+                .map_or("none feasible".to_string(), |(i, j)| {
+                    format!(
+                        "{kind} variant {i} feasible, margin {:.2} s",
+                        j.margin.unwrap_or(f64::NAN)
+                    )
+                })
+        );
+        found.map(|(_, j)| Repaired {
+            plan: j.plan,
+            end: j.end,
+        })
     }
 
-    /// Each variant of a round built and simulated by `workers` threads; slot i holds
-    /// variant i whichever thread judged it, and whenever.
-    fn judge_round(&self, round: &[Variant], workers: usize) -> Vec<Option<Judged>> {
+    /// The variants built and simulated in order by up to [`AT_ONCE`] of the run's threads,
+    /// until one keeps every window: slot i holds variant i's verdict whichever thread
+    /// judged it. Every variant before the first feasible one is judged whole; those after
+    /// it are stopped or never built (`None`), so the first feasible slot is the same on
+    /// any number of threads. A run stopped meanwhile claims nothing (every slot `None`).
+    fn judge_in_order(&self, variants: &[Variant]) -> Vec<Option<Judged>> {
         let next = AtomicUsize::new(0);
-        let results: Mutex<Vec<Option<Judged>>> = Mutex::new(vec![None; round.len()]);
+        // The first feasible variant found so far (`usize::MAX`: none yet).
+        let first_feasible = AtomicUsize::new(usize::MAX);
+        // One stop flag per variant: those after a feasible one are stopped, all of them
+        // when the run is.
+        let stops: Vec<Arc<AtomicBool>> = variants.iter().map(|_| Arc::default()).collect();
+        let stop_from = |i: usize| {
+            for stop in stops.iter().skip(i) {
+                stop.store(true, Ordering::Relaxed);
+            }
+        };
+        let results: Mutex<Vec<Option<Judged>>> = Mutex::new(vec![None; variants.len()]);
+        let workers = self.workers.clamp(1, AT_ONCE).min(variants.len().max(1));
         std::thread::scope(|scope| {
-            for _ in 0..workers.clamp(1, round.len().max(1)) {
-                scope.spawn(|| loop {
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(first) = round.get(i) else { break };
-                    let judged = self.judge_variant(first);
-                    results.lock().expect("no worker panics")[i] = judged;
-                });
+            let handles: Vec<_> = (0..workers)
+                .map(|_| {
+                    scope.spawn(|| loop {
+                        let i = next.fetch_add(1, Ordering::Relaxed);
+                        if i >= variants.len() || i > first_feasible.load(Ordering::Relaxed) {
+                            break;
+                        }
+                        let limits = Limits {
+                            deadline: self.limits.deadline,
+                            cancel: Some(stops[i].clone()),
+                        };
+                        let judged = self.judge_variant(&variants[i], &limits);
+                        if judged.as_ref().is_some_and(|j| j.margin.is_ok()) {
+                            first_feasible.fetch_min(i, Ordering::Relaxed);
+                            stop_from(i + 1);
+                        }
+                        results.lock().expect("no worker panics")[i] = judged;
+                    })
+                })
+                .collect();
+            // The run's own cancel reaches the variants through their flags.
+            while !handles.iter().all(|h| h.is_finished()) {
+                if self.limits.stopped() {
+                    stop_from(0);
+                }
+                std::thread::sleep(Duration::from_millis(10));
             }
         });
+        if self.limits.stopped() {
+            return vec![None; variants.len()];
+        }
         results.into_inner().expect("no worker panics")
     }
 
-    /// One variant built and simulated (on one thread: the variants are the parallel work).
-    fn judge_variant(&self, first: &[Vec<usize>]) -> Option<Judged> {
+    /// One variant built and simulated within `limits` (on one thread: the variants are
+    /// the parallel work).
+    fn judge_variant(&self, first: &[Vec<usize>], limits: &Limits) -> Option<Judged> {
         let Portfolio {
             part,
             graph,
             k,
             backend,
-            limits,
             model,
-            workers: _,
+            ..
         } = *self;
         let name = describe(part, first);
         let Some(plan) = constructive::layered_plan_from(part, graph, k, backend, limits, first)
@@ -435,7 +468,7 @@ mod tests {
         let limits = no_limits();
         let portfolio = on_one_path(&part, &graph, &limits, &model);
         let variants: Vec<Variant> = moves.iter().map(|&(a, b)| vec![vec![a, b]]).collect();
-        let judged = portfolio.judge_round(&variants, 2);
+        let judged = portfolio.judge_in_order(&variants);
         for (m, j) in moves.iter().zip(&judged) {
             let j = j.as_ref().expect("each start of a ring can be built");
             assert_eq!(j.plan[0][..2], [m.0, m.1], "the variant sets off as asked");
@@ -452,22 +485,67 @@ mod tests {
     }
 
     #[test]
-    fn a_round_judges_the_same_on_any_number_of_threads() {
-        // Each variant lands in its own slot whatever thread judged it and when.
-        let (part, graph, model, base) = ring_and_base(10, 1e6);
+    fn the_first_feasible_variant_in_order_wins_on_any_number_of_threads() {
+        // Each start's least t8/5 of the windowed block, from a window that keeps them all.
+        let h = 10;
+        let part = ring(
+            h,
+            waam_part::Window {
+                min_s: 0.0,
+                max_s: 1e6,
+            },
+        );
+        let graph = WeldGraph::new(&part);
+        let limits = no_limits();
+        let base = constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &limits)
+            .expect("a ring has a layer-by-layer plan");
         let moves: Vec<Variant> = first_moves(&part, &graph, &base)
             .into_iter()
             .map(|(a, b)| vec![vec![a, b]])
             .collect();
-        let limits = no_limits();
+        let model = ThermalModel::new(&part, &graph);
         let portfolio = on_one_path(&part, &graph, &limits, &model);
-        let judge = |workers| portfolio.judge_round(&moves, workers);
-        let one = judge(1);
-        assert!(one.iter().all(|j| j
-            .as_ref()
-            .is_some_and(|j| j.margin.is_ok() && j.end.is_some())));
-        for workers in [2, 3, 8] {
-            assert_eq!(judge(workers), one, "{workers} threads");
+        let least: Vec<f64> = moves
+            .iter()
+            .map(|m| {
+                let j = portfolio.judge_in_order(std::slice::from_ref(m));
+                j[0].as_ref()
+                    .expect("each start is built")
+                    .margin
+                    .expect("kept")
+            })
+            .collect();
+        // A least t8/5 the first start misses and a later one keeps.
+        let most = least.iter().copied().fold(f64::MIN, f64::max);
+        assert!(most > least[0] + 0.1, "the starts differ: {least:?}");
+        let min_s = (least[0] + most) / 2.0;
+        let expected = least.iter().position(|&t| t > min_s).expect("one keeps it");
+        let mut part = part.clone();
+        let corner = part.index_of([0, 0, h - 2]).expect("the corner block");
+        part.set_window(corner, waam_part::Window { min_s, max_s: 1e6 });
+        let model = ThermalModel::new(&part, &graph);
+        for workers in [1, 2, 3, 8] {
+            let portfolio = Portfolio {
+                workers,
+                ..on_one_path(&part, &graph, &limits, &model)
+            };
+            let judged = portfolio.judge_in_order(&moves);
+            for (i, j) in judged.iter().enumerate().take(expected) {
+                let j = j.as_ref().expect("every start before it is judged whole");
+                assert!(
+                    j.margin.is_err(),
+                    "start {i} misses {min_s} s ({workers} threads)"
+                );
+            }
+            let found = portfolio
+                .varied_start(&base)
+                .expect("a start keeps the window");
+            assert_eq!(
+                found.plan[0][..2],
+                moves[expected][0][..],
+                "{workers} threads"
+            );
+            assert!(found.end.is_some());
         }
     }
 
@@ -485,7 +563,7 @@ mod tests {
             .into_iter()
             .map(|(a, b)| vec![vec![a, b]])
             .collect();
-        assert!(portfolio.judge_round(&moves, 2).iter().all(Option::is_none));
+        assert!(portfolio.judge_in_order(&moves).iter().all(Option::is_none));
         assert!(portfolio.varied_start(&base).is_none());
     }
 
