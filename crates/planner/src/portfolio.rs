@@ -153,8 +153,13 @@ impl Portfolio<'_> {
             .enumerate()
             .find_map(|(i, j)| j.filter(|j| j.margin.is_ok()).map(|j| (i, j)));
         tracing::debug!(
-            "warm-start portfolio: {tried} of {} {kind} variants built and judged: {}",
+            "warm-start portfolio: {tried} of {} {kind} variants built and judged{}: {}",
             variants.len(),
+            if self.limits.stopped() {
+                " before the deadline"
+            } else {
+                ""
+            },
             found
                 .as_ref()
                 .map_or("none feasible".to_string(), |(i, j)| {
@@ -174,7 +179,8 @@ impl Portfolio<'_> {
     /// until one keeps every window: slot i holds variant i's verdict whichever thread
     /// judged it. Every variant before the first feasible one is judged whole; those after
     /// it are stopped or never built (`None`), so the first feasible slot is the same on
-    /// any number of threads. A run stopped meanwhile claims nothing (every slot `None`).
+    /// any number of threads. Once the run stops no variant is started and those under way
+    /// stop (`None`); a variant judged before it keeps its verdict.
     fn judge_in_order(&self, variants: &[Variant]) -> Vec<Option<Judged>> {
         let next = AtomicUsize::new(0);
         // The first feasible variant found so far (`usize::MAX`: none yet).
@@ -194,7 +200,10 @@ impl Portfolio<'_> {
                 .map(|_| {
                     scope.spawn(|| loop {
                         let i = next.fetch_add(1, Ordering::Relaxed);
-                        if i >= variants.len() || i > first_feasible.load(Ordering::Relaxed) {
+                        if i >= variants.len()
+                            || i > first_feasible.load(Ordering::Relaxed)
+                            || self.limits.stopped()
+                        {
                             break;
                         }
                         let limits = Limits {
@@ -218,9 +227,6 @@ impl Portfolio<'_> {
                 std::thread::sleep(Duration::from_millis(10));
             }
         });
-        if self.limits.stopped() {
-            return vec![None; variants.len()];
-        }
         results.into_inner().expect("no worker panics")
     }
 
@@ -565,6 +571,34 @@ mod tests {
             .collect();
         assert!(portfolio.judge_in_order(&moves).iter().all(Option::is_none));
         assert!(portfolio.varied_start(&base).is_none());
+    }
+
+    #[test]
+    fn a_cancel_during_the_run_stops_the_variant_under_way() {
+        // One start of a tall ring, built and simulated nearly to its top (a window no
+        // start keeps, two layers down); then the same again, cancelled an eighth of the
+        // way through: the run's cancel reaches the variant's own flag.
+        let (part, graph, model, base) = ring_and_base(300, 1.0);
+        let moves = first_moves(&part, &graph, &base);
+        let one: Vec<Variant> = vec![vec![vec![moves[0].0, moves[0].1]]];
+        let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let limits = Limits {
+            deadline: None,
+            cancel: Some(cancel.clone()),
+        };
+        let portfolio = on_one_path(&part, &graph, &limits, &model);
+        let started = std::time::Instant::now();
+        let whole = portfolio.judge_in_order(&one);
+        let took = started.elapsed();
+        assert!(whole[0].as_ref().is_some_and(|j| j.margin.is_err()));
+        let judged = std::thread::scope(|scope| {
+            scope.spawn(|| {
+                std::thread::sleep(took / 8);
+                cancel.store(true, Ordering::Relaxed);
+            });
+            portfolio.judge_in_order(&one)
+        });
+        assert!(judged[0].is_none(), "the variant under way is stopped");
     }
 
     #[test]
