@@ -291,6 +291,7 @@ fn search_plans(
                     yield_at: half_left.deadline,
                     workers,
                     resume: Some(&resume),
+                    reached: Default::default(),
                 };
                 let portfolio = portfolio::Portfolio {
                     part,

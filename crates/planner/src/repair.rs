@@ -32,6 +32,7 @@
 //! that had got from 3,234 to 53,281 blocks, leaving the time to a search that found
 //! nothing in it.
 
+use std::cell::RefCell;
 use std::collections::{HashMap, HashSet};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -60,6 +61,9 @@ pub struct Repair<'a> {
     /// of the given deposits that is simulated already (the search's snapshots of the plan
     /// it judged), and its length; none: from the first deposit.
     pub resume: Option<&'a Resume<'a>>,
+    /// Where the plans its runs got to first break a window (empty at first: see
+    /// [`Repair::repaired`]).
+    pub(crate) reached: RefCell<Vec<Broken>>,
 }
 
 /// A simulation at the longest known prefix of a deposit sequence, and its length.
@@ -80,7 +84,7 @@ pub struct Repaired {
 /// Where a plan first breaks a window: after how many blocks welded, whose window, and by
 /// how much (s) the block's t8/5 misses it.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Broken {
+pub(crate) struct Broken {
     blocks: usize,
     block: usize,
     miss_s: f64,
@@ -128,6 +132,11 @@ enum Change {
 impl<'a> Repair<'a> {
     /// A plan that keeps every window, changed from `plan` (valid, breaking a window after
     /// `broken` blocks); `None` when no sequence of changes gets there (or the run stopped).
+    /// A run that gets to where an earlier run of this repair got (the same window broken
+    /// after as many blocks, missed by the same amount to the bit: the same plan up to
+    /// there, as far as the simulator can tell) ends there: the earlier run went on from
+    /// that point without keeping every window (on a cup, a raster's repair retraced the
+    /// first repair's steps to its dead end, 13 s).
     pub fn repaired(&self, plan: &[Vec<usize>], blocks: usize, block: usize) -> Option<Repaired> {
         let mut plan = plan.to_vec();
         // By how much it is missed is measured in the first step.
@@ -319,6 +328,13 @@ impl<'a> Repair<'a> {
                 broken.blocks,
                 broken.miss_s
             );
+            if self.reached.borrow().contains(&further) {
+                tracing::debug!(
+                    "warm-start repair: step {step}: an earlier repair got here and no further"
+                );
+                return None;
+            }
+            self.reached.borrow_mut().push(further);
             let changed_at = candidates[c].0.at;
             plan = candidates.into_iter().nth(c).map(|(_, _, plan)| plan)?;
             broken = further;
@@ -744,6 +760,7 @@ mod tests {
             yield_at,
             workers: 1,
             resume: None,
+            reached: Default::default(),
         };
         let repaired = |r: Repair| r.repaired(&warm, broken.prefix_len, broken.block);
         let found = repaired(repair(None)).expect("the repair keeps every window");
@@ -751,5 +768,54 @@ mod tests {
         assert!(outcome.violation.is_none());
         // Before any step has got further, the time to yield ends the repair.
         assert!(repaired(repair(Some(Instant::now()))).is_none());
+    }
+
+    #[test]
+    fn a_repair_ends_where_an_earlier_run_of_it_got() {
+        // The wall's windows and, on its top layer, one that no plan keeps: a run gets
+        // further (past the windows at the take-over), then no change gets past the top.
+        let (mut part, graph, warm) = wall_and_warm_start();
+        let top = part.index_of([20, 0, 13]).expect("a top block");
+        part.set_window(
+            top,
+            Window {
+                min_s: 0.0,
+                max_s: 1e-3,
+            },
+        );
+        let model = ThermalModel::new(&part, &graph);
+        let broken = waam_thermal::simulate(&model, &warm)
+            .expect("cools")
+            .violation
+            .expect("the warm start breaks a window");
+        let limits = Limits {
+            deadline: None,
+            cancel: None,
+        };
+        let repair = Repair {
+            part: &part,
+            graph: &graph,
+            k: 2,
+            model: &model,
+            limits: &limits,
+            yield_at: None,
+            workers: 1,
+            resume: None,
+            reached: Default::default(),
+        };
+        assert!(repair
+            .repaired(&warm, broken.prefix_len, broken.block)
+            .is_none());
+        let reached = repair.reached.borrow().clone();
+        assert!(
+            !reached.is_empty(),
+            "the first run got further before its dead end"
+        );
+        // The same plan again: its first step that gets further gets where the first run
+        // got, and the run ends there instead of walking on to the same dead end.
+        assert!(repair
+            .repaired(&warm, broken.prefix_len, broken.block)
+            .is_none());
+        assert_eq!(*repair.reached.borrow(), reached, "no state reached twice");
     }
 }
