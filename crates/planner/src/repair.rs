@@ -739,35 +739,53 @@ mod tests {
         (part, graph, warm)
     }
 
-    #[test]
-    fn a_repair_that_gets_no_further_yields_at_its_time() {
-        let (part, graph, warm) = wall_and_warm_start();
-        let model = ThermalModel::new(&part, &graph);
-        let broken = waam_thermal::simulate(&model, &warm)
-            .expect("cools")
-            .violation
-            .expect("the warm start breaks a window");
-        let limits = Limits {
-            deadline: None,
-            cancel: None,
-        };
-        let repair = |yield_at| Repair {
-            part: &part,
-            graph: &graph,
+    const NO_LIMITS: Limits = Limits {
+        deadline: None,
+        cancel: None,
+    };
+
+    /// A repair of the wall's warm start on one thread, yielding at `yield_at`.
+    fn repair_of<'a>(
+        part: &'a Part,
+        graph: &'a WeldGraph,
+        model: &'a ThermalModel,
+        yield_at: Option<Instant>,
+    ) -> Repair<'a> {
+        Repair {
+            part,
+            graph,
             k: 2,
-            model: &model,
-            limits: &limits,
+            model,
+            limits: &NO_LIMITS,
             yield_at,
             workers: 1,
             resume: None,
             reached: Default::default(),
-        };
-        let repaired = |r: Repair| r.repaired(&warm, broken.prefix_len, broken.block);
-        let found = repaired(repair(None)).expect("the repair keeps every window");
+        }
+    }
+
+    /// Where `warm` first breaks a window: after how many blocks, and whose.
+    fn first_broken(model: &ThermalModel, warm: &[Vec<usize>]) -> (usize, usize) {
+        let v = waam_thermal::simulate(model, warm)
+            .expect("cools")
+            .violation
+            .expect("the warm start breaks a window");
+        (v.prefix_len, v.block)
+    }
+
+    #[test]
+    fn a_repair_that_gets_no_further_yields_at_its_time() {
+        let (part, graph, warm) = wall_and_warm_start();
+        let model = ThermalModel::new(&part, &graph);
+        let (blocks, block) = first_broken(&model, &warm);
+        let repaired = |r: Repair| r.repaired(&warm, blocks, block);
+        let found = repaired(repair_of(&part, &graph, &model, None))
+            .expect("the repair keeps every window");
         let outcome = waam_thermal::simulate(&model, &found.plan).expect("cools");
         assert!(outcome.violation.is_none());
         // Before any step has got further, the time to yield ends the repair.
-        assert!(repaired(repair(Some(Instant::now()))).is_none());
+        let now = Some(Instant::now());
+        assert!(repaired(repair_of(&part, &graph, &model, now)).is_none());
     }
 
     #[test]
@@ -776,36 +794,15 @@ mod tests {
         // further (past the windows at the take-over), then no change gets past the top.
         let (mut part, graph, warm) = wall_and_warm_start();
         let top = part.index_of([20, 0, 13]).expect("a top block");
-        part.set_window(
-            top,
-            Window {
-                min_s: 0.0,
-                max_s: 1e-3,
-            },
-        );
+        let never = Window {
+            min_s: 0.0,
+            max_s: 1e-3,
+        };
+        part.set_window(top, never);
         let model = ThermalModel::new(&part, &graph);
-        let broken = waam_thermal::simulate(&model, &warm)
-            .expect("cools")
-            .violation
-            .expect("the warm start breaks a window");
-        let limits = Limits {
-            deadline: None,
-            cancel: None,
-        };
-        let repair = Repair {
-            part: &part,
-            graph: &graph,
-            k: 2,
-            model: &model,
-            limits: &limits,
-            yield_at: None,
-            workers: 1,
-            resume: None,
-            reached: Default::default(),
-        };
-        assert!(repair
-            .repaired(&warm, broken.prefix_len, broken.block)
-            .is_none());
+        let (blocks, block) = first_broken(&model, &warm);
+        let repair = repair_of(&part, &graph, &model, None);
+        assert!(repair.repaired(&warm, blocks, block).is_none());
         let reached = repair.reached.borrow().clone();
         assert!(
             !reached.is_empty(),
@@ -813,9 +810,7 @@ mod tests {
         );
         // The same plan again: its first step that gets further gets where the first run
         // got, and the run ends there instead of walking on to the same dead end.
-        assert!(repair
-            .repaired(&warm, broken.prefix_len, broken.block)
-            .is_none());
+        assert!(repair.repaired(&warm, blocks, block).is_none());
         assert_eq!(*repair.reached.borrow(), reached, "no state reached twice");
     }
 }
