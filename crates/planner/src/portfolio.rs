@@ -304,7 +304,7 @@ fn describe(part: &Part, first: &[Vec<usize>]) -> String {
 /// (each one's first order and way, then each one's second, ...), so that every cover is
 /// judged before any is judged again: which path takes a junction decides how long each
 /// path's layer is, so how soon a block gets the block above, and at 10^5 blocks one
-/// variant takes minutes, so a deadline may leave time for the first round only (on a
+/// variant takes minutes, so a deadline may leave time for the first few variants only (on a
 /// T-wall there, all seven variants of the base's own cover broke the same window by the
 /// same 0.035 s).
 fn cover_variants(p: &Portfolio, base: &[Vec<usize>], moves: &[(usize, usize)]) -> Vec<Variant> {
@@ -362,7 +362,7 @@ fn first_layer_pieces(part: &Part, base: &[Vec<usize>]) -> Vec<Vec<usize>> {
         .collect()
 }
 
-/// The available cores (a run on all cores judges a round on all of them).
+/// The available cores (a run on all cores judges up to 8 variants at once).
 pub fn cores() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }
