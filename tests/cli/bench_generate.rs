@@ -51,6 +51,41 @@ fn generated_parts_pass_waam_check_with_their_witness() {
     for s in summary {
         assert_eq!(s["parts"], 1);
     }
+
+    // The folder `--out` wrote, timed as a folder on the threads asked for: the six parts,
+    // not their witness plans.
+    let folder_json = dir.path().join("folder.json");
+    let out = waam()
+        .args([
+            "bench",
+            "scale",
+            "--timeout",
+            "30",
+            "--threads",
+            "1",
+            "--json",
+        ])
+        .arg(&folder_json)
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}");
+    assert!(!stdout.contains("skipped"), "{stdout}");
+    let rows: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&folder_json).unwrap()).unwrap();
+    let rows = rows.as_array().unwrap();
+    let files: Vec<&str> = rows.iter().map(|r| r["file"].as_str().unwrap()).collect();
+    let mut expected: Vec<String> = families
+        .iter()
+        .map(|f| format!("{f}-400-s11.yaml"))
+        .collect();
+    expected.sort();
+    assert_eq!(files, expected);
+    for row in rows {
+        assert_eq!(row["first"]["threads"], 1, "{row}");
+        assert_eq!(row["first"]["checked"], true, "{row}");
+    }
 }
 
 #[test]

@@ -39,11 +39,9 @@ pub struct GenerateArgs {
     /// Windowed blocks per generated part, 1 to 4 [default: 1 to 4 from the seed].
     #[arg(long = "windows", value_name = "W")]
     pub window_count: Option<usize>,
-    /// Planner threads (the portfolio's racers) [default: all cores].
-    #[arg(long, value_name = "N")]
-    pub threads: Option<usize>,
     /// Write each generated part and its witness plan (the plan its windows come from) to
-    /// DIR as NAME.yaml and NAME.witness.yaml.
+    /// DIR as NAME.yaml and NAME.witness.yaml (`waam bench scale DIR` times the parts and
+    /// leaves the witnesses out).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
 }
@@ -105,7 +103,7 @@ pub fn run(args: &ScaleArgs, n: u64) -> anyhow::Result<ExitCode> {
                     cancel: Some(Arc::clone(&stop)),
                     solver: args.solver,
                     warm_start: !args.no_warm_start,
-                    threads: g.threads.unwrap_or(0),
+                    threads: args.threads(),
                     ..Options::default()
                 };
                 let run = timed(part, &opts, false, &stop)?;

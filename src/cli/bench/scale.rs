@@ -51,6 +51,9 @@ pub struct ScaleArgs {
     /// Search from scratch, without the layer-by-layer warm start.
     #[arg(long)]
     pub no_warm_start: bool,
+    /// Planner threads: the race's racers and the portfolio's variants [default: all cores].
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
     /// Write the rows as a JSON array to FILE as well.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
@@ -58,6 +61,14 @@ pub struct ScaleArgs {
     pub mesh: MeshArgs,
     #[command(flatten, next_help_heading = "Generated parts (--generate)")]
     pub generated: super::generate::GenerateArgs,
+}
+
+impl ScaleArgs {
+    /// The planner's threads, all cores unless --threads says.
+    pub(super) fn threads(&self) -> usize {
+        self.threads
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+    }
 }
 
 fn parse_mesh_pitch(s: &str) -> Result<(String, [f64; 3]), String> {
@@ -104,6 +115,8 @@ struct Row {
 /// One planner run on a part.
 #[derive(Debug, Serialize)]
 pub(super) struct Run {
+    /// The threads the planner was given (a chosen solver or --no-warm-start runs on one).
+    threads: usize,
     /// Seconds to the first feasible plan (None: none found).
     pub(super) first_feasible_s: Option<f64>,
     pub(super) total_s: f64,
@@ -136,6 +149,8 @@ pub fn run(args: ScaleArgs) -> anyhow::Result<ExitCode> {
             p.extension()
                 .is_some_and(|e| e.eq_ignore_ascii_case("yaml") || e.eq_ignore_ascii_case("stl"))
         })
+        // The plans `--generate --out` writes beside its parts are not parts.
+        .filter(|p| !file_name(p).ends_with(".witness.yaml"))
         .filter(|p| {
             args.only.as_ref().is_none_or(|o| {
                 p.file_name()
@@ -177,6 +192,7 @@ pub fn run(args: ScaleArgs) -> anyhow::Result<ExitCode> {
             cancel: Some(Arc::clone(&stop)),
             solver: args.solver,
             warm_start: !args.no_warm_start,
+            threads: args.threads(),
             ..Options::default()
         };
         let first = timed(&part, &opts, false, &stop)?;
@@ -272,6 +288,7 @@ pub(super) fn timed(
         _ => None,
     };
     Ok(Run {
+        threads: opts.threads,
         first_feasible_s: s.first_feasible_s,
         total_s: s.total_s,
         found: report.best.is_some(),
