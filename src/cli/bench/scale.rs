@@ -22,6 +22,10 @@ use crate::cli::EXIT_OK;
 /// Planner on every part in a folder: blocks, k, windows, time to the first feasible plan,
 /// time to the best plan, proven or not, as a table (and as JSON with --json FILE).
 #[derive(Debug, clap::Args)]
+#[command(mut_arg("k", |k| k.help(
+    "k of the meshes: the most weld paths (arc starts) a plan may use [default: 1]; a part \
+     file keeps its own max_fragments"
+)))]
 pub struct ScaleArgs {
     /// A folder of part files (.yaml) and STL meshes (.stl), e.g. ../shared/parts/scale.
     #[arg(required_unless_present = "generate")]
