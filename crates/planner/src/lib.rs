@@ -247,7 +247,7 @@ fn search_plans(
             // Stopped before a verdict: the loop below sees the timeout.
             let mut verdict = search.judge(&warm)?;
             // The simulator says the warm start breaks a window: the portfolio varies the
-            // cube construction's starts (in a race, a racer of its own does).
+            // cube construction's starts (in a race, the default and varisat racers do).
             if let Some(CandidateVerdict::Violated {
                 block,
                 kind,
