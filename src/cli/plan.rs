@@ -461,7 +461,10 @@ fn print_stats(s: &Stats) {
         .first_feasible_s
         .map_or("-".to_string(), |t| format!("{t:.4} s"));
     if let Some(racer) = &s.first_plan_racer {
-        first.push_str(&format!(" (racer: {racer})"));
+        first.push_str(&format!(
+            " (racer: {racer}, {} racer(s) started)",
+            s.racers_started
+        ));
     }
     if s.torch_blocked > 0 {
         eprintln!(

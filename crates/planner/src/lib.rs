@@ -246,6 +246,9 @@ fn search_plans(
             any_valid = true;
             // Stopped before a verdict: the loop below sees the timeout.
             let mut verdict = search.judge(&warm)?;
+            if !matches!(verdict, Some(CandidateVerdict::Feasible)) {
+                tuning.note_warm_start_failed();
+            }
             // The simulator says the warm start breaks a window: the portfolio varies the
             // cube construction's starts (in a race, the default and varisat racers do).
             if let Some(CandidateVerdict::Violated {
@@ -359,6 +362,9 @@ fn search_plans(
                 }
             }
         }
+    }
+    if best.is_none() {
+        tuning.note_warm_start_failed();
     }
     // Fewest fragments first: f = 1, 2, ... under an assumption (all of k when not optimizing).
     let levels: Vec<usize> = if optimize { (1..=k).collect() } else { vec![k] };

@@ -8,14 +8,16 @@
 //! (each plan is judged by the simulator, each learned clause is a fact about the part), so
 //! racing them costs only cores.
 //!
-//! The racers ([`racers`]), one per thread, all started at once: the default (CaDiCaL with
-//! the layer-by-layer warm start and, when that breaks a window, the varied starts of
-//! [`crate::portfolio`]: exactly the run of `--threads 1`), CaDiCaL without the warm start,
-//! varisat (its own warm start, repaired and varied as the default's is: exactly the run
-//! of `--solver varisat`), then CaDiCaL with other seeds. Each racer is one thread (its varied starts
-//! too), so none waits for another and none shares its core: the race is as fast as the
-//! fastest of the configurations it runs, up to what the racers cost each other in memory
-//! bandwidth. An earlier race ran the varied starts as a racer of their own and queued the
+//! The racers ([`racers`]), one per thread: the default (CaDiCaL with the layer-by-layer
+//! warm start and, when that breaks a window, the varied starts of [`crate::portfolio`]:
+//! exactly the run of `--threads 1`), CaDiCaL without the warm start, varisat (its own warm
+//! start, repaired and varied as the default's is: exactly the run of `--solver varisat`),
+//! then CaDiCaL with other seeds. The default starts at once, the others as soon as its
+//! warm start is judged and is no plan ([`Gate`]): a feasible warm start is the answer
+//! without a racer beside it slowing it down. Each racer is one thread (its varied starts
+//! too), so none waits for another once started and none shares its core: the race is as
+//! fast as the fastest of the configurations it runs, up to the default's warm start and
+//! what the racers cost each other in memory bandwidth. An earlier race ran the varied starts as a racer of their own and queued the
 //! other configurations behind them: on 2 threads a generated box waited 5.7 s for a plan
 //! that `--no-warm-start` finds in 0.5 s. Three racers on two cores were tried too: each
 //! CaDiCaL racer then ran about half as fast (cache and time slicing), more than the
@@ -33,7 +35,7 @@
 //! search of `--threads 1`, the others look for a first plan; when one of them finds it
 //! before the default has any, a second optimizing search starts from that plan.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -95,6 +97,9 @@ pub(crate) struct Tuning {
     /// A feasible plan another racer found: the search judges it first, in the warm
     /// start's place, and looks only for better plans.
     pub incumbent: Option<Vec<Vec<usize>>>,
+    /// Raised once the warm start is judged and is no feasible plan, or there is none (the
+    /// default racer's: the other racers start then).
+    pub warm_start_failed: Option<Arc<AtomicBool>>,
 }
 
 impl Tuning {
@@ -105,6 +110,14 @@ impl Tuning {
             sharing: None,
             seed: None,
             incumbent: None,
+            warm_start_failed: None,
+        }
+    }
+
+    /// The warm start gave no feasible plan (raises [`Tuning::warm_start_failed`]).
+    pub fn note_warm_start_failed(&self) {
+        if let Some(flag) = &self.warm_start_failed {
+            flag.store(true, Ordering::Relaxed);
         }
     }
 }
@@ -172,20 +185,29 @@ pub(crate) fn race(
     let shared = Arc::new((part.clone(), opts.clone()));
     let (tx, rx) = mpsc::channel::<Message>();
     let n = racers.len();
+    let warm_start_failed = Arc::new(AtomicBool::new(false));
+    let gate = Gate {
+        after: Some(Arc::clone(&warm_start_failed)),
+        ..Gate::default()
+    };
     for (i, racer) in racers.into_iter().enumerate() {
         let sharing = Sharing::new(Arc::clone(&pool), i);
         // The default takes no clauses in: its proofs stay those of a run alone.
-        let sharing = match racer {
-            Racer::Default => sharing.publish_only(),
-            _ => sharing,
+        let (sharing, gate, failed) = match racer {
+            Racer::Default => (
+                sharing.publish_only(),
+                gate.open(),
+                Some(Arc::clone(&warm_start_failed)),
+            ),
+            _ => (sharing, gate.clone(), None),
         };
         spawn(
             (racer, share(i, n, threads)),
             &shared,
-            started,
+            (started, &gate),
             &stop,
             &tx,
-            move |part, o, progress| run(racer, part, o, progress, sharing, false),
+            move |part, o, progress| run(racer, part, o, progress, sharing, false, failed),
         );
     }
     drop(tx);
@@ -247,6 +269,7 @@ pub(crate) fn race(
         (None, None) => stopped_early(started),
     };
     report.stats.total_s = started.elapsed().as_secs_f64();
+    report.stats.racers_started = gate.started.load(Ordering::Relaxed);
     Ok(report)
 }
 
@@ -292,27 +315,33 @@ pub(crate) fn race_best(
     let (tx, rx) = mpsc::channel::<Message>();
     let from_plan_id = racers.len();
     let n = racers.len();
+    let warm_start_failed = Arc::new(AtomicBool::new(false));
+    let gate = Gate {
+        after: Some(Arc::clone(&warm_start_failed)),
+        ..Gate::default()
+    };
     for (i, racer) in racers.into_iter().enumerate() {
         let sharing = Sharing::new(Arc::clone(&pool), i);
         if racer == Racer::Default {
             // Takes no clauses in: its "no plan" is that of a run alone.
             let sharing = sharing.publish_only();
+            let failed = Some(Arc::clone(&warm_start_failed));
             spawn(
                 (racer, share(i, n, threads)),
                 &shared,
-                started,
+                (started, &gate.open()),
                 &optimizers,
                 &tx,
-                move |part, o, progress| run(racer, part, o, progress, sharing, true),
+                move |part, o, progress| run(racer, part, o, progress, sharing, true, failed),
             );
         } else {
             spawn(
                 (racer, share(i, n, threads)),
                 &shared,
-                started,
+                (started, &gate),
                 &seekers,
                 &tx,
-                move |part, o, progress| run(racer, part, o, progress, sharing, false),
+                move |part, o, progress| run(racer, part, o, progress, sharing, false, None),
             );
         }
     }
@@ -388,12 +417,14 @@ pub(crate) fn race_best(
                         sharing: Some(Sharing::new(Arc::clone(&pool), from_plan_id)),
                         seed: None,
                         incumbent: Some(plan),
+                        warm_start_failed: None,
                     };
                     let opt = Racer::FromPlan;
+                    // Not counted among the racers: it is the default configuration again.
                     spawn(
                         (opt, 1),
                         &shared,
-                        started,
+                        (started, &Gate::default()),
                         &optimizers,
                         &tx,
                         move |part, o, progress| search_plans(part, o, progress, true, &tuning),
@@ -431,6 +462,7 @@ pub(crate) fn race_best(
         }
     }
     report.stats.total_s = started.elapsed().as_secs_f64();
+    report.stats.racers_started = gate.started.load(Ordering::Relaxed);
     Ok(report)
 }
 
@@ -470,13 +502,21 @@ fn share(i: usize, racers: usize, threads: usize) -> usize {
 fn spawn(
     (racer, threads): (Racer, usize),
     shared: &Arc<(Part, Options)>,
-    started: Instant,
+    (started, gate): (Instant, &Gate),
     stop: &Arc<AtomicBool>,
     tx: &mpsc::Sender<Message>,
     search: impl FnOnce(&Part, &Options, Progress) -> Result<Report, PlanError> + Send + 'static,
 ) {
-    let (shared, stop, tx) = (Arc::clone(shared), Arc::clone(stop), tx.clone());
+    let (shared, stop, tx, gate) = (
+        Arc::clone(shared),
+        Arc::clone(stop),
+        tx.clone(),
+        gate.clone(),
+    );
     std::thread::spawn(move || {
+        if !gate.pass(&stop) {
+            return;
+        }
         let (part, opts) = &*shared;
         let offset = started.elapsed();
         // Its share of the threads: its varied starts take no other racer's core.
@@ -510,7 +550,54 @@ fn spawn(
     });
 }
 
-/// One racer's run, stopped by `opts.cancel` (the race's) or its deadline.
+/// When a racer starts, and how many have.
+///
+/// The racers other than the default start once the default's warm start is judged and is
+/// no feasible plan (or there is none): a feasible warm start is the answer, and racers
+/// beside it only slow it down — on 2 cores a 10^4-block box's warm start was judged in
+/// 1.0 s alone, 1.4–1.7 s beside `--no-warm-start`. The wait is the time to build the warm
+/// start and simulate it up to the window it breaks; another racer's first plan needs a
+/// whole simulation of its own.
+#[derive(Clone, Default)]
+struct Gate {
+    /// None: start at once; else once it is raised.
+    after: Option<Arc<AtomicBool>>,
+    /// Racers that started (a race's statistic).
+    started: Arc<AtomicUsize>,
+}
+
+impl Gate {
+    /// Waits until the racer may start (true) or the race is stopped first (false).
+    fn pass(&self, stop: &AtomicBool) -> bool {
+        if let Some(after) = &self.after {
+            while !after.load(Ordering::Relaxed) {
+                if stop.load(Ordering::Relaxed) {
+                    return false;
+                }
+                std::thread::sleep(GATE_POLL);
+            }
+        }
+        if stop.load(Ordering::Relaxed) {
+            return false;
+        }
+        self.started.fetch_add(1, Ordering::Relaxed);
+        true
+    }
+
+    /// The same count, starting at once.
+    fn open(&self) -> Gate {
+        Gate {
+            after: None,
+            started: Arc::clone(&self.started),
+        }
+    }
+}
+
+/// How often a racer waiting at its [`Gate`] looks again.
+const GATE_POLL: Duration = Duration::from_millis(5);
+
+/// One racer's run, stopped by `opts.cancel` (the race's) or its deadline; the default
+/// raises `warm_start_failed` when its warm start is no plan.
 fn run(
     racer: Racer,
     part: &Part,
@@ -518,6 +605,7 @@ fn run(
     progress: Progress,
     sharing: Sharing,
     optimize: bool,
+    warm_start_failed: Option<Arc<AtomicBool>>,
 ) -> Result<Report, PlanError> {
     let tuning = Tuning {
         varied_starts: racer.varies_starts(),
@@ -527,6 +615,7 @@ fn run(
             _ => None,
         },
         incumbent: None,
+        warm_start_failed,
     };
     let o = match racer {
         Racer::Default | Racer::Seeded(_) | Racer::FromPlan => opts.clone(),
@@ -546,16 +635,42 @@ fn run(
 mod tests {
     use super::*;
 
+    fn test_part(file: &str) -> Part {
+        let path = format!("{}/../../tests/data/{file}", env!("CARGO_MANIFEST_DIR"));
+        Part::parse(&std::fs::read_to_string(path).unwrap()).unwrap()
+    }
+
+    /// The default's feasible warm start ends the race before another racer starts; one
+    /// that breaks a window lets them start, and the faster one wins.
+    #[test]
+    fn the_other_racers_start_once_the_default_warm_start_breaks_a_window() {
+        let opts = Options {
+            timeout: Some(Duration::from_secs(60)),
+            ..Options::default()
+        };
+        // CaDiCaL's warm start of this tube keeps every window (varisat's does not).
+        let part = test_part("varisat-tube-400.yaml");
+        let report = race(&part, &opts, &mut |_| {}, 3).unwrap();
+        assert!(report.best.is_some());
+        assert_eq!(report.stats.first_plan_racer.as_deref(), Some("default"));
+        assert_eq!(report.stats.racers_started, 1, "{:?}", report.stats);
+        // The default's warm start of this one breaks a window, and the search without it
+        // finds a plan about ten times sooner than the default's repair.
+        let part = test_part("race-tube-600.yaml");
+        let report = race(&part, &opts, &mut |_| {}, 2).unwrap();
+        assert_eq!(report.stats.racers_started, 2, "{:?}", report.stats);
+        assert_eq!(
+            report.stats.first_plan_racer.as_deref(),
+            Some("no-warm-start")
+        );
+    }
+
     /// Varisat's racer repairs its own warm start, as `--solver varisat` alone does: a
     /// generated tube whose varisat warm start breaks a window gets its plan from the
     /// repair (no solve), where a racer that only searched needed solves.
     #[test]
     fn the_varisat_racer_repairs_its_own_warm_start() {
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../tests/data/varisat-tube-400.yaml"
-        );
-        let part = Part::parse(&std::fs::read_to_string(path).unwrap()).unwrap();
+        let part = test_part("varisat-tube-400.yaml");
         let opts = Options {
             threads: 1,
             timeout: Some(Duration::from_secs(60)),
@@ -570,7 +685,16 @@ mod tests {
             }
         };
         let sharing = Sharing::new(Arc::new(ClausePool::default()), 2);
-        let report = run(Racer::Varisat, &part, &opts, &mut progress, sharing, false).unwrap();
+        let report = run(
+            Racer::Varisat,
+            &part,
+            &opts,
+            &mut progress,
+            sharing,
+            false,
+            None,
+        )
+        .unwrap();
         assert!(
             warm_start_broke,
             "the test needs a warm start that breaks a window"
@@ -678,6 +802,7 @@ mod tests {
             sharing: None,
             seed: None,
             incumbent: Some(worst.clone()),
+            warm_start_failed: None,
         };
         let from_plan = search_plans(&part, &opts, &mut |_| {}, true, &tuning).unwrap();
         let (a, f) = (alone.best.unwrap(), from_plan.best.unwrap());

@@ -56,6 +56,9 @@ pub struct Stats {
     /// The racer whose feasible plan the race saw first (`race.rs`: "default",
     /// "no-warm-start", "varisat", "seed N"); None without a race.
     pub first_plan_racer: Option<String>,
+    /// Racers the race started (0 without a race): the others wait for the default's warm
+    /// start, and a feasible one ends the race before they start (`race.rs`).
+    pub racers_started: usize,
     pub clause_len_min: Option<usize>,
     pub clause_len_max: Option<usize>,
     pub clause_len_mean: Option<f64>,
@@ -144,6 +147,7 @@ impl Stats {
             inside_reused,
             clauses_imported,
             first_plan_racer,
+            racers_started,
             clause_len_min,
             clause_len_max,
             clause_len_mean: _,
@@ -184,6 +188,7 @@ impl Stats {
         self.inside_deposits += inside_deposits;
         self.inside_reused += inside_reused;
         self.clauses_imported += clauses_imported;
+        self.racers_started = self.racers_started.max(*racers_started);
         if self.first_plan_racer.is_none() {
             self.first_plan_racer.clone_from(first_plan_racer);
         }
