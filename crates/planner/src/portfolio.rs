@@ -71,9 +71,23 @@ struct Judged {
     end: Option<Snapshot>,
 }
 
-/// The best raster variant: `Ok` when one keeps every window, else the one that keeps them
-/// longest, as `Err((plan, blocks welded before a window breaks, the broken block))`.
-pub type Rastered = Result<Repaired, (Vec<Vec<usize>>, usize, usize)>;
+impl Judged {
+    /// The variant as the portfolio hands it on.
+    fn tried(self) -> Tried {
+        match self.margin {
+            Ok(_) => Ok(Repaired {
+                plan: self.plan,
+                end: self.end,
+            }),
+            Err((blocks, block)) => Err((self.plan, blocks, block)),
+        }
+    }
+}
+
+/// A plan the portfolio built and judged (the best raster variant, or the other backend's
+/// layer-by-layer plan): `Ok` when it keeps every window, else `Err((plan, blocks welded
+/// before a window breaks, the broken block))`, for the repair.
+pub type Tried = Result<Repaired, (Vec<Vec<usize>>, usize, usize)>;
 
 impl Portfolio<'_> {
     /// A feasible variant of `base` (a layer-by-layer plan that breaks a window), the first
@@ -97,11 +111,32 @@ impl Portfolio<'_> {
         self.first_feasible(&covers, "cover")
     }
 
+    /// The layer-by-layer plan built with this portfolio's backend, simulated: `Ok` when it
+    /// keeps every window, else `Err((plan, blocks welded before a window breaks, the broken
+    /// block))`; `None` when it is `base` (nothing new), is not built, or the run stopped.
+    /// Built with the other backend it is another plan: varisat covers the layers otherwise
+    /// than CaDiCaL.
+    pub fn layered(&self, base: &[Vec<usize>]) -> Option<Tried> {
+        let judged = self.judge_variant(&[], self.limits)?;
+        if judged.plan == base {
+            return None;
+        }
+        tracing::debug!(
+            "warm-start portfolio: the layer-by-layer plan of {:?}: {}",
+            self.backend,
+            match &judged.margin {
+                Ok(m) => format!("feasible, margin {m:.2} s"),
+                Err((blocks, _)) => format!("breaks a window after {blocks} blocks"),
+            }
+        );
+        Some(judged.tried())
+    }
+
     /// The first layer welded as a raster ([`constructive::raster_covers`], as many paths
     /// as `base` starts there), each way and from each corner: the first feasible variant,
     /// else the one that keeps every window longest (on a tie the earlier); `None` when the
     /// first layer has no area (or no raster is built, or the run stopped).
-    pub fn rasters(&self, base: &[Vec<usize>]) -> Option<Rastered> {
+    pub fn rasters(&self, base: &[Vec<usize>]) -> Option<Tried> {
         let own = first_layer_pieces(self.part, base);
         let covers = constructive::raster_covers(self.part, self.backend, self.limits, own.len());
         let variants: Vec<Variant> = covers.into_iter().filter(|c| *c != own).collect();
@@ -132,13 +167,7 @@ impl Portfolio<'_> {
                 Err((blocks, _)) => format!("breaks a window after {blocks} blocks"),
             }
         );
-        Some(match best.margin {
-            Ok(_) => Ok(Repaired {
-                plan: best.plan,
-                end: best.end,
-            }),
-            Err((blocks, block)) => Err((best.plan, blocks, block)),
-        })
+        Some(best.tried())
     }
 
     /// The first feasible of `variants` in order (`kind` names them in the log).

@@ -12,7 +12,10 @@
 //! warm start and, when that breaks a window, the varied starts of [`crate::portfolio`]:
 //! exactly the run of `--threads 1`), CaDiCaL without the warm start, varisat (its own warm
 //! start, repaired and varied as the default's is: exactly the run of `--solver varisat`),
-//! then CaDiCaL with other seeds. The default starts at once, the others as soon as its
+//! then CaDiCaL with other seeds. A run alone whose warm start cannot be repaired also
+//! tries the other backend's layer-by-layer plan ([`crate::portfolio::Portfolio::layered`]);
+//! in a race only the default does, and only when no varisat racer runs (on 2 threads):
+//! otherwise that racer has it. The default starts at once, the others as soon as its
 //! warm start is judged and is no plan ([`Gate`]): a feasible warm start is the answer
 //! without a racer beside it slowing it down. Each racer is one thread (its varied starts
 //! too), so none waits for another once started and none shares its core: the race is as
@@ -92,6 +95,9 @@ pub(crate) struct Tuning {
     /// Try the varied starts when the warm start breaks a window (in a race, the racers
     /// that [`Racer::varies_starts`]).
     pub varied_starts: bool,
+    /// With the varied starts, also try the other SAT backend's layer-by-layer plan when
+    /// the run's own cannot be repaired (not in a race that runs a racer of that backend).
+    pub other_warm_start: bool,
     pub sharing: Option<Sharing>,
     pub seed: Option<u32>,
     /// A feasible plan another racer found: the search judges it first, in the warm
@@ -103,10 +109,32 @@ pub(crate) struct Tuning {
 }
 
 impl Tuning {
+    /// A racer's in a race of `lineup`; `warm_start_failed` for the default's to raise.
+    fn racing(
+        racer: Racer,
+        lineup: &[Racer],
+        sharing: Sharing,
+        warm_start_failed: Option<Arc<AtomicBool>>,
+    ) -> Tuning {
+        Tuning {
+            varied_starts: racer.varies_starts(),
+            // The default tries varisat's plan after its own unless varisat races.
+            other_warm_start: racer == Racer::Default && !lineup.contains(&Racer::Varisat),
+            sharing: Some(sharing),
+            seed: match racer {
+                Racer::Seeded(s) => Some(s),
+                _ => None,
+            },
+            incumbent: None,
+            warm_start_failed,
+        }
+    }
+
     /// A run on its own (no race).
     pub fn alone() -> Tuning {
         Tuning {
             varied_starts: true,
+            other_warm_start: true,
             sharing: None,
             seed: None,
             incumbent: None,
@@ -190,7 +218,7 @@ pub(crate) fn race(
         after: Some(Arc::clone(&warm_start_failed)),
         ..Gate::default()
     };
-    for (i, racer) in racers.into_iter().enumerate() {
+    for (i, &racer) in racers.iter().enumerate() {
         let sharing = Sharing::new(Arc::clone(&pool), i);
         // The default takes no clauses in: its proofs stay those of a run alone.
         let (sharing, gate, failed) = match racer {
@@ -201,13 +229,14 @@ pub(crate) fn race(
             ),
             _ => (sharing, gate.clone(), None),
         };
+        let tuning = Tuning::racing(racer, &racers, sharing, failed);
         spawn(
             (racer, share(i, n, threads)),
             &shared,
             (started, &gate),
             &stop,
             &tx,
-            move |part, o, progress| run(racer, part, o, progress, sharing, false, failed),
+            move |part, o, progress| run(racer, part, o, progress, tuning, false),
         );
     }
     drop(tx);
@@ -320,28 +349,29 @@ pub(crate) fn race_best(
         after: Some(Arc::clone(&warm_start_failed)),
         ..Gate::default()
     };
-    for (i, racer) in racers.into_iter().enumerate() {
+    for (i, &racer) in racers.iter().enumerate() {
         let sharing = Sharing::new(Arc::clone(&pool), i);
         if racer == Racer::Default {
             // Takes no clauses in: its "no plan" is that of a run alone.
-            let sharing = sharing.publish_only();
             let failed = Some(Arc::clone(&warm_start_failed));
+            let tuning = Tuning::racing(racer, &racers, sharing.publish_only(), failed);
             spawn(
                 (racer, share(i, n, threads)),
                 &shared,
                 (started, &gate.open()),
                 &optimizers,
                 &tx,
-                move |part, o, progress| run(racer, part, o, progress, sharing, true, failed),
+                move |part, o, progress| run(racer, part, o, progress, tuning, true),
             );
         } else {
+            let tuning = Tuning::racing(racer, &racers, sharing, None);
             spawn(
                 (racer, share(i, n, threads)),
                 &shared,
                 (started, &gate),
                 &seekers,
                 &tx,
-                move |part, o, progress| run(racer, part, o, progress, sharing, false, None),
+                move |part, o, progress| run(racer, part, o, progress, tuning, false),
             );
         }
     }
@@ -414,6 +444,7 @@ pub(crate) fn race_best(
                     optimizing += 1;
                     let tuning = Tuning {
                         varied_starts: false,
+                        other_warm_start: false,
                         sharing: Some(Sharing::new(Arc::clone(&pool), from_plan_id)),
                         seed: None,
                         incumbent: Some(plan),
@@ -597,26 +628,15 @@ impl Gate {
 const GATE_POLL: Duration = Duration::from_millis(5);
 
 /// One racer's run, stopped by `opts.cancel` (the race's) or its deadline; the default
-/// raises `warm_start_failed` when its warm start is no plan.
+/// raises `tuning.warm_start_failed` when its warm start is no plan.
 fn run(
     racer: Racer,
     part: &Part,
     opts: &Options,
     progress: Progress,
-    sharing: Sharing,
+    tuning: Tuning,
     optimize: bool,
-    warm_start_failed: Option<Arc<AtomicBool>>,
 ) -> Result<Report, PlanError> {
-    let tuning = Tuning {
-        varied_starts: racer.varies_starts(),
-        sharing: Some(sharing),
-        seed: match racer {
-            Racer::Seeded(s) => Some(s),
-            _ => None,
-        },
-        incumbent: None,
-        warm_start_failed,
-    };
     let o = match racer {
         Racer::Default | Racer::Seeded(_) | Racer::FromPlan => opts.clone(),
         Racer::NoWarmStart => Options {
@@ -685,16 +705,9 @@ mod tests {
             }
         };
         let sharing = Sharing::new(Arc::new(ClausePool::default()), 2);
-        let report = run(
-            Racer::Varisat,
-            &part,
-            &opts,
-            &mut progress,
-            sharing,
-            false,
-            None,
-        )
-        .unwrap();
+        let lineup = racers(3);
+        let tuning = Tuning::racing(Racer::Varisat, &lineup, sharing, None);
+        let report = run(Racer::Varisat, &part, &opts, &mut progress, tuning, false).unwrap();
         assert!(
             warm_start_broke,
             "the test needs a warm start that breaks a window"
@@ -702,6 +715,32 @@ mod tests {
         assert!(report.best.is_some());
         assert_eq!(report.stats.sat_solves, 0, "{:?}", report.stats);
         assert_eq!(report.stats.candidates, 2, "{:?}", report.stats);
+    }
+
+    /// A run on its own whose warm start breaks a window that its repair does not keep
+    /// tries the other backend's layer-by-layer plan: on this double tube varisat's plan,
+    /// repaired or varied, gives the default a plan without a solve (without it: one solve,
+    /// 13 s in a release build).
+    #[test]
+    fn a_run_alone_tries_the_other_backends_plan_when_its_own_cannot_be_repaired() {
+        let part = test_part("double-tube-800.yaml");
+        let opts = Options {
+            threads: 1,
+            timeout: Some(Duration::from_secs(120)),
+            ..Options::default()
+        };
+        let mut warm_start_broke = false;
+        let mut progress = |event: Event<'_>| {
+            if let Event::Candidate { verdict, stats, .. } = event {
+                if stats.candidates == 1 {
+                    warm_start_broke = matches!(verdict, CandidateVerdict::Violated { .. });
+                }
+            }
+        };
+        let report = search_plans(&part, &opts, &mut progress, false, &Tuning::alone()).unwrap();
+        assert!(warm_start_broke, "the test needs a broken warm start");
+        assert!(report.best.is_some(), "{:?}", report.stats);
+        assert_eq!(report.stats.sat_solves, 0, "{:?}", report.stats);
     }
 
     #[test]
@@ -799,6 +838,7 @@ mod tests {
         let alone = search_plans(&part, &opts, &mut |_| {}, true, &Tuning::alone()).unwrap();
         let tuning = Tuning {
             varied_starts: false,
+            other_warm_start: false,
             sharing: None,
             seed: None,
             incumbent: Some(worst.clone()),
