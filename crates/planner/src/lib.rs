@@ -278,9 +278,9 @@ fn search_plans(
                 };
                 // First the plan changed around the window the simulator names (it stops
                 // by itself when no change gets further); on a first layer with area, then
-                // its rasters (the one that gets furthest repaired in turn); then the other
-                // backend's plan, repaired; then the portfolio's other starts and covers of
-                // this plan, then of the other's, in what is left of that time.
+                // its rasters (the one that gets furthest repaired in turn); then the
+                // portfolio's other starts and covers; then varisat's plan, repaired, then
+                // varied: all in what is left of that time.
                 // The warm start as the search simulated it: its snapshots spare the
                 // repair simulating it again from the first deposit (a minute at 10^5).
                 let resume = |prefix: &[(usize, bool)]| search.resume_on(&base, prefix);
@@ -306,14 +306,15 @@ fn search_plans(
                     model: &base,
                     workers,
                 };
-                // The other SAT backend's layer-by-layer plan (varisat covers the layers
-                // otherwise than CaDiCaL), judged, repaired and varied as this one (unless a
-                // racer of that backend does).
-                let other = tuning.other_warm_start.then_some(portfolio::Portfolio {
-                    backend: opts.solver.other(),
-                    ..portfolio
-                });
-                let mut other_plan = None;
+                // Varisat's layer-by-layer plan (varisat covers the layers otherwise than
+                // CaDiCaL), judged, repaired and varied as this one, last, in a CaDiCaL run
+                // (`--solver varisat` runs varisat only) unless a varisat racer has it. Last:
+                // at 10^5 blocks building and simulating it takes minutes.
+                let other = (tuning.varisat_warm_start && opts.solver == Backend::Cadical)
+                    .then_some(portfolio::Portfolio {
+                        backend: Backend::Varisat,
+                        ..portfolio
+                    });
                 let varied = part
                     .index_of(block)
                     .and_then(|b| repair.repaired(&warm, prefix_len, b))
@@ -324,16 +325,13 @@ fn search_plans(
                         }
                         Err(_) => None,
                     })
+                    .or_else(|| portfolio.varied_start(&warm))
                     .or_else(|| match other.as_ref()?.layered(&warm)? {
                         Ok(found) => Some(found),
-                        Err((plan, blocks, b)) => {
-                            let repaired = repair.repaired(&plan, blocks, b);
-                            other_plan = Some(plan);
-                            repaired
-                        }
-                    })
-                    .or_else(|| portfolio.varied_start(&warm))
-                    .or_else(|| other.as_ref()?.varied_start(other_plan.as_ref()?));
+                        Err((plan, blocks, b)) => repair
+                            .repaired(&plan, blocks, b)
+                            .or_else(|| other.as_ref()?.varied_start(&plan)),
+                    });
                 if let Some(repair::Repaired { plan: varied, end }) = varied {
                     // The changed plan leaves its simulation's last state with the search:
                     // its verdict below then simulates the cooldown only (a minute and a

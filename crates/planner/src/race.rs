@@ -12,10 +12,10 @@
 //! warm start and, when that breaks a window, the varied starts of [`crate::portfolio`]:
 //! exactly the run of `--threads 1`), CaDiCaL without the warm start, varisat (its own warm
 //! start, repaired and varied as the default's is: exactly the run of `--solver varisat`),
-//! then CaDiCaL with other seeds. A run alone whose warm start cannot be repaired also
-//! tries the other backend's layer-by-layer plan ([`crate::portfolio::Portfolio::layered`]);
-//! in a race only the default does, and only when no varisat racer runs (on 2 threads):
-//! otherwise that racer has it. The default starts at once, the others as soon as its
+//! then CaDiCaL with other seeds. The default configuration, when its warm start cannot
+//! be repaired, also tries varisat's layer-by-layer plan
+//! ([`crate::portfolio::Portfolio::layered`]); in a race only when no varisat racer runs
+//! (on 2 threads): otherwise that racer has it. The default starts at once, the others as soon as its
 //! warm start is judged and is no plan ([`Gate`]): a feasible warm start is the answer
 //! without a racer beside it slowing it down. Each racer is one thread (its varied starts
 //! too), so none waits for another once started and none shares its core: the race is as
@@ -95,9 +95,9 @@ pub(crate) struct Tuning {
     /// Try the varied starts when the warm start breaks a window (in a race, the racers
     /// that [`Racer::varies_starts`]).
     pub varied_starts: bool,
-    /// With the varied starts, also try the other SAT backend's layer-by-layer plan when
-    /// the run's own cannot be repaired (not in a race that runs a racer of that backend).
-    pub other_warm_start: bool,
+    /// With the varied starts, a CaDiCaL run also tries varisat's layer-by-layer plan when
+    /// its own cannot be repaired (not in a race that runs a varisat racer).
+    pub varisat_warm_start: bool,
     pub sharing: Option<Sharing>,
     pub seed: Option<u32>,
     /// A feasible plan another racer found: the search judges it first, in the warm
@@ -119,7 +119,7 @@ impl Tuning {
         Tuning {
             varied_starts: racer.varies_starts(),
             // The default tries varisat's plan after its own unless varisat races.
-            other_warm_start: racer == Racer::Default && !lineup.contains(&Racer::Varisat),
+            varisat_warm_start: racer == Racer::Default && !lineup.contains(&Racer::Varisat),
             sharing: Some(sharing),
             seed: match racer {
                 Racer::Seeded(s) => Some(s),
@@ -134,7 +134,7 @@ impl Tuning {
     pub fn alone() -> Tuning {
         Tuning {
             varied_starts: true,
-            other_warm_start: true,
+            varisat_warm_start: true,
             sharing: None,
             seed: None,
             incumbent: None,
@@ -444,7 +444,7 @@ pub(crate) fn race_best(
                     optimizing += 1;
                     let tuning = Tuning {
                         varied_starts: false,
-                        other_warm_start: false,
+                        varisat_warm_start: false,
                         sharing: Some(Sharing::new(Arc::clone(&pool), from_plan_id)),
                         seed: None,
                         incumbent: Some(plan),
@@ -718,11 +718,11 @@ mod tests {
     }
 
     /// A run on its own whose warm start breaks a window that its repair does not keep
-    /// tries the other backend's layer-by-layer plan: on this double tube varisat's plan,
+    /// tries varisat's layer-by-layer plan: on this double tube varisat's plan,
     /// repaired or varied, gives the default a plan without a solve (without it: one solve,
     /// 13 s in a release build).
     #[test]
-    fn a_run_alone_tries_the_other_backends_plan_when_its_own_cannot_be_repaired() {
+    fn a_run_alone_tries_varisats_plan_when_its_own_cannot_be_repaired() {
         let part = test_part("double-tube-800.yaml");
         let opts = Options {
             threads: 1,
@@ -838,7 +838,7 @@ mod tests {
         let alone = search_plans(&part, &opts, &mut |_| {}, true, &Tuning::alone()).unwrap();
         let tuning = Tuning {
             varied_starts: false,
-            other_warm_start: false,
+            varisat_warm_start: false,
             sharing: None,
             seed: None,
             incumbent: Some(worst.clone()),

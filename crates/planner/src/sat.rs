@@ -45,14 +45,6 @@ impl std::str::FromStr for Backend {
 }
 
 impl Backend {
-    /// The other backend.
-    pub fn other(self) -> Backend {
-        match self {
-            Backend::Cadical => Backend::Varisat,
-            Backend::Varisat => Backend::Cadical,
-        }
-    }
-
     /// Every backend with its name (as settings and recordings write it) and a one-line help.
     pub const ALL: [(Backend, &'static str, &'static str); 2] = [
         (
