@@ -685,6 +685,22 @@ mod tests {
         );
     }
 
+    /// `search`'s report, and whether its first candidate (the warm start) broke a window.
+    fn watching_the_warm_start(
+        search: impl FnOnce(Progress) -> Result<Report, PlanError>,
+    ) -> (bool, Report) {
+        let mut broke = false;
+        let report = search(&mut |event: Event<'_>| {
+            if let Event::Candidate { verdict, stats, .. } = event {
+                if stats.candidates == 1 {
+                    broke = matches!(verdict, CandidateVerdict::Violated { .. });
+                }
+            }
+        })
+        .unwrap();
+        (broke, report)
+    }
+
     /// Varisat's racer repairs its own warm start, as `--solver varisat` alone does: a
     /// generated tube whose varisat warm start breaks a window gets its plan from the
     /// repair (no solve), where a racer that only searched needed solves.
@@ -696,18 +712,11 @@ mod tests {
             timeout: Some(Duration::from_secs(60)),
             ..Options::default()
         };
-        let mut warm_start_broke = false;
-        let mut progress = |event: Event<'_>| {
-            if let Event::Candidate { verdict, stats, .. } = event {
-                if stats.candidates == 1 {
-                    warm_start_broke = matches!(verdict, CandidateVerdict::Violated { .. });
-                }
-            }
-        };
         let sharing = Sharing::new(Arc::new(ClausePool::default()), 2);
-        let lineup = racers(3);
-        let tuning = Tuning::racing(Racer::Varisat, &lineup, sharing, None);
-        let report = run(Racer::Varisat, &part, &opts, &mut progress, tuning, false).unwrap();
+        let tuning = Tuning::racing(Racer::Varisat, &racers(3), sharing, None);
+        let (warm_start_broke, report) = watching_the_warm_start(|progress| {
+            run(Racer::Varisat, &part, &opts, progress, tuning, false)
+        });
         assert!(
             warm_start_broke,
             "the test needs a warm start that breaks a window"
@@ -729,15 +738,9 @@ mod tests {
             timeout: Some(Duration::from_secs(120)),
             ..Options::default()
         };
-        let mut warm_start_broke = false;
-        let mut progress = |event: Event<'_>| {
-            if let Event::Candidate { verdict, stats, .. } = event {
-                if stats.candidates == 1 {
-                    warm_start_broke = matches!(verdict, CandidateVerdict::Violated { .. });
-                }
-            }
-        };
-        let report = search_plans(&part, &opts, &mut progress, false, &Tuning::alone()).unwrap();
+        let (warm_start_broke, report) = watching_the_warm_start(|progress| {
+            search_plans(&part, &opts, progress, false, &Tuning::alone())
+        });
         assert!(warm_start_broke, "the test needs a broken warm start");
         assert!(report.best.is_some(), "{:?}", report.stats);
         assert_eq!(report.stats.sat_solves, 0, "{:?}", report.stats);
