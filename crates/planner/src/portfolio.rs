@@ -117,7 +117,9 @@ impl Portfolio<'_> {
     /// Built with the other backend it is another plan: varisat covers the layers otherwise
     /// than CaDiCaL.
     pub fn layered(&self, base: &[Vec<usize>]) -> Option<Tried> {
-        let judged = self.judge_variant(&[], self.limits)?;
+        let Portfolio { part, graph, k, .. } = *self;
+        let plan = constructive::layered_plan_detached(part, graph, k, self.backend, self.limits)?;
+        let judged = self.judge_plan(plan, "the layer-by-layer plan", self.limits)?;
         if judged.plan == base {
             return None;
         }
@@ -267,7 +269,6 @@ impl Portfolio<'_> {
             graph,
             k,
             backend,
-            model,
             ..
         } = *self;
         let name = describe(part, first);
@@ -276,6 +277,12 @@ impl Portfolio<'_> {
             tracing::debug!("warm-start variant {name}: not built");
             return None;
         };
+        self.judge_plan(plan, &name, limits)
+    }
+
+    /// A plan simulated within `limits` on one thread (`name` for the log).
+    fn judge_plan(&self, plan: Vec<Vec<usize>>, name: &str, limits: &Limits) -> Option<Judged> {
+        let Portfolio { part, model, .. } = *self;
         let sim = thermal::Simulation::new(model)
             .with_threads(1)
             .with_deadline(limits.deadline);
