@@ -1063,3 +1063,47 @@ fn plan_stops_on_ctrl_c_within_a_second_and_says_so() {
         "{info_text}"
     );
 }
+
+/// A part file: two layers of a disc of radius `r` blocks, k = 16.
+fn disc_part(r: i64) -> String {
+    let layer: String = (-r..=r)
+        .map(|y| {
+            let row: String = (-r..=r)
+                .map(|x| if x * x + y * y <= r * r { '#' } else { '.' })
+                .collect();
+            format!("    {row}\n")
+        })
+        .collect();
+    format!(
+        "name: \"disc\"\nblock_mm: [6.0, 6.0, 2.5]\nmax_fragments: 16\nlayers:\n  - |\n{layer}  - |\n{layer}"
+    )
+}
+
+/// `--solver varisat` keeps its timeout in its layer-by-layer warm start: a varisat solve
+/// cannot be stopped inside, so the construction runs on a thread of its own that the run
+/// stops waiting for at the deadline (the default configuration builds varisat's plan the
+/// same way). On this 3,922-block disc (k = 16) varisat's first layer solve runs for
+/// minutes: `--timeout 2` answered after more than 30 s before (killed there; it did not
+/// stop on SIGTERM either), 2.0 s now.
+#[test]
+fn a_varisat_layer_solve_does_not_hold_the_timeout() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("disc.yaml"), disc_part(25)).unwrap();
+    let args = [
+        "plan",
+        "disc.yaml",
+        "--solver",
+        "varisat",
+        "--timeout",
+        "2",
+        "-q",
+    ];
+    let run = measured(dir.path(), &args, Duration::from_secs(60));
+    assert_eq!(run.code, Some(1), "{}", run.describe());
+    assert!(
+        run.stdout.contains("none found before the timeout"),
+        "{}",
+        run.describe()
+    );
+    assert!(run.wall < Duration::from_secs(3), "{}", run.describe());
+}
