@@ -84,7 +84,7 @@ impl Judged {
     }
 }
 
-/// A plan the portfolio built and judged (the best raster variant, or the other backend's
+/// A plan the portfolio built and judged (the best raster variant, or varisat's
 /// layer-by-layer plan): `Ok` when it keeps every window, else `Err((plan, blocks welded
 /// before a window breaks, the broken block))`, for the repair.
 pub type Tried = Result<Repaired, (Vec<Vec<usize>>, usize, usize)>;
@@ -118,11 +118,9 @@ impl Portfolio<'_> {
     /// than CaDiCaL.
     pub fn layered(&self, base: &[Vec<usize>]) -> Option<Tried> {
         let Portfolio { part, graph, k, .. } = *self;
-        let plan = constructive::layered_plan_detached(part, graph, k, self.backend, self.limits)?;
+        let plan = constructive::layered_plan_detached(part, graph, k, self.backend, self.limits)
+            .filter(|plan| plan != base)?;
         let judged = self.judge_plan(plan, "the layer-by-layer plan", self.limits)?;
-        if judged.plan == base {
-            return None;
-        }
         tracing::debug!(
             "warm-start portfolio: the layer-by-layer plan of {:?}: {}",
             self.backend,
