@@ -288,8 +288,8 @@ fn search_plans(
                 // The warm start as the search simulated it: its snapshots spare the
                 // repair simulating it again from the first deposit (a minute at 10^5).
                 let resume = |prefix: &[(usize, bool)]| search.resume_on(&base, prefix);
-                // The repair yields at the half once it stops getting further; while it
-                // gets further it may go on to the deadline (see `repair`).
+                // The repair's first step ends at the half; once a step gets further the
+                // repair may go on to the deadline (see `repair`).
                 let repair = repair::Repair {
                     part,
                     graph: &graph,
