@@ -234,10 +234,38 @@ pub fn layered_plan_from(
     }
 }
 
+/// Whether the first layer has a cover by at most `k` paths that begin as `first` says
+/// (global blocks, as [`layered_plan_from`] takes them): the first solve of that build,
+/// without the layers above. A start inside a branch of a T has none: the portfolio skips
+/// such starts at the cost of one small solve each, not a build. `None` when the part
+/// has no layer.
+pub fn first_layer_allows<'l>(
+    part: &Part,
+    k: usize,
+    backend: Backend,
+    limits: &'l Limits,
+) -> Option<impl Fn(&[Vec<usize>]) -> bool + 'l> {
+    let range = layer_ranges(part).into_iter().next()?;
+    let layer = Layer::new(part, range.clone());
+    Some(move |first: &[Vec<usize>]| {
+        let local: Option<Vec<Vec<usize>>> = first
+            .iter()
+            .map(|p| {
+                p.iter()
+                    .map(|b| range.contains(b).then(|| b - range.start))
+                    .collect()
+            })
+            .collect();
+        local.is_some_and(|local| layer.solve(&[], &local, None, k, backend, limits).is_some())
+    })
+}
+
 /// The covers of the first layer by as many paths as `base` (its pieces, global blocks in
 /// weld order): `base` first, then each cover in which an end of one of its pieces welds on
 /// to a neighbour it does not weld to in `base`, so that some path ends elsewhere (on a
-/// branching layer another branch takes the junction; on a ring the seam moves). Each cover
+/// branching layer another branch takes the junction; on a ring the seam moves) and, where
+/// that neighbour is a junction, each such cover going on from it along each other arm (the
+/// solve picks one; on a T-wall the cover that kept every window was another). Each cover
 /// once (as its set of welded pairs), in a fixed order, paths in the solve's order; fewer
 /// when the run stops.
 pub fn first_layer_covers(
@@ -269,6 +297,23 @@ pub fn first_layer_covers(
     let Some(mut search) = layer.search(&graph, local.len().max(1), backend, limits) else {
         return out;
     };
+    // A cover with `assumed` welded, if any and not seen yet: kept (global blocks).
+    let mut cover_with = |search: &mut Search, assumed: &[Lit]| -> Option<Vec<Vec<usize>>> {
+        let deadline = limits.attempt(layer.part.len());
+        search.set_interrupt(Some(deadline), limits.cancel.clone());
+        let pieces = search.next_candidate(assumed)?;
+        let key = pairs(&pieces);
+        if !seen.contains(&key) {
+            seen.push(key);
+            out.push(
+                pieces
+                    .iter()
+                    .map(|p| p.iter().map(|&b| range.start + b).collect())
+                    .collect(),
+            );
+        }
+        Some(pieces)
+    };
     for piece in &local {
         let (Some(&head), Some(&tail)) = (piece.first(), piece.last()) else {
             continue;
@@ -292,20 +337,34 @@ pub fn first_layer_covers(
                     let Some(welded) = search.enc.edge(a, b) else {
                         continue;
                     };
-                    let deadline = limits.attempt(layer.part.len());
-                    search.set_interrupt(Some(deadline), limits.cancel.clone());
-                    let Some(pieces) = search.next_candidate(&[welded]) else {
+                    let Some(pieces) = cover_with(&mut search, &[welded]) else {
                         continue;
                     };
-                    let key = pairs(&pieces);
-                    if !seen.contains(&key) {
-                        seen.push(key);
-                        out.push(
-                            pieces
-                                .into_iter()
-                                .map(|p| p.into_iter().map(|b| range.start + b).collect())
-                                .collect(),
-                        );
+                    // At a junction the path goes on from `next` one way of several, as the
+                    // solver chose: each other way is a cover of its own (on a T, the path
+                    // that takes the junction goes on along either arm).
+                    let onward = |u: usize, v: usize| if a == end { (u, v) } else { (v, u) };
+                    let taken = pieces.iter().find_map(|p| {
+                        let at = p.iter().position(|&x| x == next)?;
+                        if a == end {
+                            p.get(at + 1)
+                        } else {
+                            at.checked_sub(1).map(|i| &p[i])
+                        }
+                        .copied()
+                    });
+                    for &other in graph.successors(next) {
+                        let other = other as usize;
+                        if other == end || Some(other) == taken {
+                            continue;
+                        }
+                        if limits.stopped() {
+                            return out;
+                        }
+                        let (u, v) = onward(next, other);
+                        if let Some(on) = search.enc.edge(u, v) {
+                            cover_with(&mut search, &[welded, on]);
+                        }
                     }
                 }
             }
@@ -882,13 +941,13 @@ mod tests {
         );
     }
 
-    #[test]
-    fn a_t_layer_has_three_covers_by_two_paths_and_each_is_built() {
-        // A bar of 7 with a stem of 3 from its middle, 3 layers: two paths per layer, and
-        // the junction goes with the left half, the right half or the stem.
-        let t: Vec<[i64; 2]> = (0..7)
+    /// The covers of the first layer of a T (a bar of `bar` blocks along x with a stem of
+    /// `stem` blocks along y from `[stem_x, 0]`, 3 layers, k = 2), each checked to build a
+    /// plan that begins with it; and which arm the junction is welded without, per cover.
+    fn t_layer_covers(bar: i64, stem_x: i64, stem: i64) -> (Vec<Vec<Vec<usize>>>, Vec<usize>) {
+        let t: Vec<[i64; 2]> = (0..bar)
             .map(|x| [x, 0])
-            .chain((1..=3).map(|y| [3, y]))
+            .chain((1..=stem).map(|y| [stem_x, y]))
             .collect();
         let blocks: Vec<_> = (0..3)
             .flat_map(|z| t.iter().map(move |&[x, y]| [x, y, z]))
@@ -902,9 +961,8 @@ mod tests {
             .collect();
         let covers = first_layer_covers(&part, Backend::Cadical, &unlimited(), &first);
         assert_eq!(covers[0], first, "the base's cover first");
-        // Which arm the junction's block is welded without: one per cover.
-        let junction = part.index_of([3, 0, 0]).unwrap();
-        let mut apart: Vec<usize> = covers
+        let junction = part.index_of([stem_x, 0, 0]).unwrap();
+        let apart = covers
             .iter()
             .map(|c| {
                 let with: Vec<usize> = c
@@ -923,15 +981,36 @@ mod tests {
                     .unwrap()
             })
             .collect();
-        apart.sort();
-        apart.dedup();
-        assert_eq!(apart.len(), 3, "three covers: {covers:?}");
         for cover in &covers {
             let plan = layered_plan_from(&part, &graph, 2, Backend::Cadical, &unlimited(), cover)
                 .expect("a plan from each cover");
             for (f, piece) in plan.iter().zip(cover) {
                 assert_eq!(&f[..piece.len()], &piece[..], "each path as given");
             }
+        }
+        (covers, apart)
+    }
+
+    #[test]
+    fn a_t_layer_has_three_covers_by_two_paths_and_each_is_built() {
+        // Two paths per layer: the junction goes with the left half, the right half or the
+        // stem, whichever arm the solve picks for a path that takes the junction (the
+        // shapes of the generated T-walls' first layers among them).
+        for (bar, stem_x, stem) in [
+            (7, 3, 3),
+            (44, 37, 30),
+            (40, 10, 25),
+            (40, 21, 17),
+            (9, 1, 5),
+        ] {
+            let (covers, mut apart) = t_layer_covers(bar, stem_x, stem);
+            apart.sort();
+            apart.dedup();
+            assert_eq!(
+                apart.len(),
+                3,
+                "T {bar}/{stem_x}/{stem}: three covers: {covers:?}"
+            );
         }
     }
 

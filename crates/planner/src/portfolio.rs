@@ -7,7 +7,8 @@
 //! above it is deposited and reheats it. On a tall tube that moves a windowed block's
 //! t8/5 by hundreds of seconds (measured in the README), while the builder's other
 //! choices stay valid. The variants start at places spread evenly along the base plan's
-//! first layer (halves, then quarters, eighths, ...), setting off both ways. They are
+//! first layer (every path's piece there; halves, then quarters, eighths, ...), setting
+//! off both ways, at places where the first layer can be covered so. They are
 //! judged in that order, several at once on the run's threads, and the first feasible one
 //! in the order wins: every variant before it is judged whole and those after it are
 //! stopped or never built, so the answer does not depend on the number of threads or on
@@ -21,7 +22,8 @@
 //! which blocks climb together and so when each is reheated. When no start keeps every
 //! window, the portfolio varies the first layer's cover: the base's, and each the weld
 //! graph allows with a path end moved on to a neighbour (another branch takes the
-//! junction), each with every way round and every order of its paths, judged in the same
+//! junction) and, at a junction, on along each arm, each with every way round and every
+//! order of its paths, judged in the same
 //! way, the covers taking turns. A feasible variant's simulation after its last deposit
 //! goes with it, so the search's verdict on it simulates only the cooldown.
 
@@ -93,7 +95,11 @@ impl Portfolio<'_> {
     /// A feasible variant of `base` (a layer-by-layer plan that breaks a window), the first
     /// in order; `None` when no variant keeps every window (or the run stopped first).
     pub fn varied_start(&self, base: &[Vec<usize>]) -> Option<Repaired> {
-        let moves = first_moves(self.part, self.graph, base);
+        let Portfolio { part, k, .. } = *self;
+        let allows = constructive::first_layer_allows(part, k, self.backend, self.limits);
+        let moves = first_moves(part, self.graph, base, |first| {
+            allows.as_ref().is_some_and(|allows| allows(first))
+        });
         let starts: Vec<Variant> = moves.iter().map(|&(a, b)| vec![vec![a, b]]).collect();
         if let Some(found) = self.first_feasible(&starts, "start") {
             return Some(found);
@@ -402,30 +408,57 @@ pub fn cores() -> usize {
 }
 
 /// The first moves to try: from places spread evenly along the base plan's first layer
-/// (in the order the first weld path welds it: 1/2, 1/4, 3/4, 1/8, ... of the way), each
-/// setting off forwards and backwards along that order, where the weld graph allows; the
-/// base plan's own first move left out.
-fn first_moves(part: &Part, graph: &WeldGraph, base: &[Vec<usize>]) -> Vec<(usize, usize)> {
-    let Some(first) = base.first() else {
+/// (its weld paths' pieces there in weld order, one after the other: 1/2, 1/4, 3/4, 1/8,
+/// ... of the way), each setting off forwards and backwards along its piece (round it, on
+/// a ring), where the weld graph allows and `allows` says the first layer can be covered
+/// so; the base plan's own first move left out; from at most [`MAX_STARTS`] places that
+/// have such a move. Every piece, not only the first path's: on a layer of several paths
+/// (a T, two rings) the first path may as well start in another's piece (on a T-wall the
+/// plan that kept every window started in the base's second piece). Places count only
+/// with a move that can be built: on a T most starts cannot (no two paths cover the rest),
+/// and skipping them costs a small solve, not a simulation.
+fn first_moves(
+    part: &Part,
+    graph: &WeldGraph,
+    base: &[Vec<usize>],
+    allows: impl Fn(&[Vec<usize>]) -> bool,
+) -> Vec<(usize, usize)> {
+    let pieces = first_layer_pieces(part, base);
+    let Some(first) = pieces.first() else {
         return Vec::new();
     };
-    let z0 = part.block(first[0])[2];
-    let layer: Vec<usize> = first
+    let own = (first[0], first.get(1).copied().unwrap_or(first[0]));
+    // Each place on the layer: its piece and where in it.
+    let places: Vec<(&Vec<usize>, usize)> = pieces
         .iter()
-        .copied()
-        .take_while(|&b| part.block(b)[2] == z0)
+        .flat_map(|piece| (0..piece.len()).map(move |o| (piece, o)))
         .collect();
-    let n = layer.len();
-    let own = (layer[0], layer.get(1).copied().unwrap_or(layer[0]));
+    let n = places.len();
+    let mut visited = vec![false; n];
     let mut moves = Vec::new();
-    for i in 0..MAX_STARTS.min(n) {
+    let mut counted = 0;
+    for i in 0..n.next_power_of_two() {
         let p = (van_der_corput(i) * n as f64) as usize;
-        for q in [p + 1, p + n - 1] {
-            let m = (layer[p], layer[q % n]);
-            if m != own && graph.has_edge(m.0, m.1) && !moves.contains(&m) {
-                moves.push(m);
+        if counted == MAX_STARTS {
+            break;
+        }
+        if std::mem::replace(&mut visited[p], true) {
+            continue;
+        }
+        let (piece, o) = places[p];
+        let m = piece.len();
+        let before = moves.len();
+        for q in [o + 1, o + m - 1] {
+            let mv = (piece[o], piece[q % m]);
+            if mv != own
+                && graph.has_edge(mv.0, mv.1)
+                && !moves.contains(&mv)
+                && allows(&[vec![mv.0, mv.1]])
+            {
+                moves.push(mv);
             }
         }
+        counted += usize::from(moves.len() > before);
     }
     moves
 }
@@ -503,7 +536,7 @@ mod tests {
         // A window no start can keep (at most 1 s between 800 and 500 °C high on a wall):
         // every variant is built and simulated, and none is claimed.
         let (part, graph, model, base) = ring_and_base(12, 1.0);
-        let moves = first_moves(&part, &graph, &base);
+        let moves = first_moves(&part, &graph, &base, |_| true);
         assert!(moves.len() >= 8, "{} first moves", moves.len());
         let limits = no_limits();
         let portfolio = on_one_path(&part, &graph, &limits, &model);
@@ -539,7 +572,7 @@ mod tests {
         let limits = no_limits();
         let base = constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &limits)
             .expect("a ring has a layer-by-layer plan");
-        let moves: Vec<Variant> = first_moves(&part, &graph, &base)
+        let moves: Vec<Variant> = first_moves(&part, &graph, &base, |_| true)
             .into_iter()
             .map(|(a, b)| vec![vec![a, b]])
             .collect();
@@ -599,7 +632,7 @@ mod tests {
             ))),
         };
         let portfolio = on_one_path(&part, &graph, &limits, &model);
-        let moves: Vec<Variant> = first_moves(&part, &graph, &base)
+        let moves: Vec<Variant> = first_moves(&part, &graph, &base, |_| true)
             .into_iter()
             .map(|(a, b)| vec![vec![a, b]])
             .collect();
@@ -613,7 +646,7 @@ mod tests {
         // start keeps, two layers down); then the same again, cancelled an eighth of the
         // way through: the run's cancel reaches the variant's own flag.
         let (part, graph, model, base) = ring_and_base(300, 1.0);
-        let moves = first_moves(&part, &graph, &base);
+        let moves = first_moves(&part, &graph, &base, |_| true);
         let one: Vec<Variant> = vec![vec![vec![moves[0].0, moves[0].1]]];
         let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
         let limits = Limits {
@@ -635,10 +668,8 @@ mod tests {
         assert!(judged[0].is_none(), "the variant under way is stopped");
     }
 
-    #[test]
-    fn every_cover_takes_its_turn_before_any_comes_again() {
-        // A T layer has three covers by two paths (the junction with either half of the
-        // bar, or the bar whole and the stem alone), each in 2 orders x 4 ways.
+    /// A T-wall: a bar of 7 along x with a stem of 3 from x = 2, 6 layers, k = 2.
+    fn t_wall() -> Part {
         let blocks = (0..6)
             .flat_map(|z| {
                 (0..7)
@@ -646,8 +677,47 @@ mod tests {
                     .chain((1..4).map(move |y| [2, y, z]))
             })
             .collect();
-        let part = Part::from_blocks("t".into(), [6.0, 6.0, 2.5], [0.0; 3], 2, blocks)
-            .expect("a valid part");
+        Part::from_blocks("t".into(), [6.0, 6.0, 2.5], [0.0; 3], 2, blocks).expect("a valid part")
+    }
+
+    #[test]
+    fn starts_come_from_every_path_of_the_first_layer_and_each_can_be_built() {
+        let part = t_wall();
+        let graph = WeldGraph::new(&part);
+        let limits = no_limits();
+        let base = constructive::layered_plan(&part, &graph, 2, Backend::Cadical, &limits)
+            .expect("a T has a layer-by-layer plan");
+        let pieces = first_layer_pieces(&part, &base);
+        assert_eq!(pieces.len(), 2, "two paths start in the first layer");
+        let allows = constructive::first_layer_allows(&part, 2, Backend::Cadical, &limits)
+            .expect("a part with a layer");
+        let moves = first_moves(&part, &graph, &base, &allows);
+        assert!(
+            moves.iter().any(|&(a, _)| pieces[1].contains(&a)),
+            "a start in the second path's piece: {moves:?}"
+        );
+        for &(a, b) in &moves {
+            let plan = constructive::layered_plan_from(
+                &part,
+                &graph,
+                2,
+                Backend::Cadical,
+                &limits,
+                &[vec![a, b]],
+            )
+            .expect("each start is built");
+            assert_eq!(plan[0][..2], [a, b]);
+        }
+        // Inside a branch no two paths cover the rest: such starts are left out.
+        let every = first_moves(&part, &graph, &base, |_| true);
+        assert!(every.len() > moves.len(), "{every:?} / {moves:?}");
+    }
+
+    #[test]
+    fn every_cover_takes_its_turn_before_any_comes_again() {
+        // A T layer has three covers by two paths (the junction with either half of the
+        // bar, or the bar whole and the stem alone), each in 2 orders x 4 ways.
+        let part = t_wall();
         let graph = WeldGraph::new(&part);
         let model = ThermalModel::new(&part, &graph);
         let limits = no_limits();
