@@ -41,8 +41,8 @@ use crate::sat::Backend;
 
 /// Variants judged at once at most (each holds a simulation of the whole part).
 const AT_ONCE: usize = 8;
-/// Places along the first layer tried at most (each set off both ways): 32, a start every
-/// 3% of the way (on a generated 26 x 18 tube whose windows are those of a hidden plan, 16
+/// Places along the first layer tried at most (each set off both ways; only places with a
+/// start the layer can be covered from count): 32, on a ring a start every 3% of the way (on a generated 26 x 18 tube whose windows are those of a hidden plan, 16
 /// places found no feasible variant and 32 did; see the README).
 const MAX_STARTS: usize = 32;
 
