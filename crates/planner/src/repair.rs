@@ -241,6 +241,8 @@ impl<'a> Repair<'a> {
             let mut verdicts: Vec<Verdict> = Vec::new();
             // The first feasible candidate's simulation at its end.
             let mut end = None;
+            // The states kept by the candidates that may be chosen.
+            let mut kept = Vec::new();
             for (n, batch) in [plain, rotated, seam_rotated].into_iter().enumerate() {
                 if batch.is_empty() {
                     continue;
@@ -251,17 +253,20 @@ impl<'a> Repair<'a> {
                 }
                 // How far the plan now gets is measured once, with the first candidates.
                 let measure = broken.miss_s.is_infinite() && candidates.is_empty();
-                let (now, judged, feasible_end) =
-                    self.judge(&seq, &batch, &mut saved, measure, until);
-                end = end.or(feasible_end.map(|(c, snap)| (candidates.len() + c, snap)));
-                if judged.iter().any(Option::is_none) && this_step.stopped() {
+                let judged = self.judge(&seq, &batch, &mut saved, measure, until);
+                let offset = candidates.len();
+                end = end.or(judged.end.map(|(c, snap)| (offset + c, snap)));
+                if judged.verdicts.iter().any(Option::is_none) && this_step.stopped() {
                     return None;
                 }
-                if let Some(Err(now)) = now.filter(|_| measure) {
+                if let Some(Err(now)) = judged.now.filter(|_| measure) {
                     broken = now;
                 }
+                for (c, b, states) in judged.states {
+                    keep(&mut kept, offset + c, b, states);
+                }
                 candidates.extend(batch);
-                verdicts.extend(judged);
+                verdicts.extend(judged.verdicts);
                 if verdicts.iter().any(|v| matches!(v, Some(Ok(())))) {
                     break;
                 }
@@ -329,6 +334,10 @@ impl<'a> Repair<'a> {
             broken = further;
             got_further = true;
             saved.retain(|&(at, _)| at <= changed_at);
+            // The chosen plan's states from its run, where the next step may change it.
+            if let Some((_, _, states)) = kept.into_iter().find(|(k, _, _)| *k == c) {
+                saved.extend(states);
+            }
         }
     }
 
@@ -443,13 +452,18 @@ impl<'a> Repair<'a> {
         saved: &mut Vec<(usize, Simulation<'s>)>,
         measure: bool,
         until: Option<Instant>,
-    ) -> (Verdict, Vec<Verdict>, Option<(usize, Snapshot)>) {
+    ) -> Judged<'s> {
         // The plan now, simulated once up to each candidate's first change (from the
-        // latest state saved before them).
+        // latest state saved before the first not saved yet).
         let mut starts: Vec<usize> = candidates.iter().map(|(p, _, _)| p.at).collect();
         starts.sort_unstable();
         starts.dedup();
-        let (first, last) = (starts[0], starts[starts.len() - 1]);
+        let last = starts[starts.len() - 1];
+        let first = starts
+            .iter()
+            .copied()
+            .find(|&s| !saved.iter().any(|(at, _)| *at == s))
+            .unwrap_or(last);
         let (from, sim) = match saved.iter().rev().find(|(at, _)| *at <= first) {
             Some((at, s)) => (*at, s.clone()),
             None => match self.resume {
@@ -472,13 +486,16 @@ impl<'a> Repair<'a> {
             }
             // The plan now keeps every window up to the broken one, after every start.
             if sim.deposit(b, new).is_err() || sim.cancelled() {
-                return (None, vec![None; candidates.len()], None);
+                return Judged {
+                    verdicts: vec![None; candidates.len()],
+                    ..Judged::default()
+                };
             }
         }
         saved.sort_by_key(|(at, _)| *at);
         // The plan now, on to where it breaks (how much it misses its window by).
         let now = if measure {
-            run_from(sim, seq, last, &|| Some(self.workers)).0
+            run_from(sim, seq, last, (&[], 0), &|| Some(self.workers)).verdict
         } else {
             None
         };
@@ -504,6 +521,8 @@ impl<'a> Repair<'a> {
         let results: Mutex<Vec<Verdict>> = Mutex::new(vec![None; candidates.len()]);
         // The end state of the feasible candidate of the lowest index.
         let end: Mutex<Option<(usize, Snapshot)>> = Mutex::new(None);
+        // The states kept by candidates that may be chosen (see [`Judged::states`]).
+        let states: Mutex<Vec<KeptStates<'s>>> = Mutex::new(Vec::new());
         std::thread::scope(|scope| {
             for _ in 0..self.workers.clamp(1, candidates.len().max(1)) {
                 scope.spawn(|| loop {
@@ -520,7 +539,11 @@ impl<'a> Repair<'a> {
                     running.fetch_add(1, Ordering::Relaxed);
                     let t = std::time::Instant::now();
                     let sim = sim.clone().with_deadline(until);
-                    let (verdict, last) = run_from(sim, &deposits(plan), piece.at, &|| threads(c));
+                    let keep_at: Vec<usize> =
+                        pieces(self.part, plan).iter().map(|p| p.at).collect();
+                    let kept_at = (&keep_at[..], kept_states(self.part.len()));
+                    let run = run_from(sim, &deposits(plan), piece.at, kept_at, &|| threads(c));
+                    let verdict = run.verdict;
                     running.fetch_sub(1, Ordering::Relaxed);
                     tracing::trace!(
                         "warm-start repair: candidate {c} judged in {:.2} s",
@@ -530,18 +553,27 @@ impl<'a> Repair<'a> {
                         first_feasible.fetch_min(c, Ordering::Relaxed);
                         let mut end = end.lock().expect("no worker panics");
                         if end.as_ref().is_none_or(|(e, _)| c < *e) {
-                            *end = last.map(|snap| (c, snap));
+                            *end = run.end.map(|snap| (c, snap));
                         }
+                    }
+                    if let Some(Err(b)) = verdict {
+                        keep(
+                            &mut states.lock().expect("no worker panics"),
+                            c,
+                            b,
+                            run.states,
+                        );
                     }
                     results.lock().expect("no worker panics")[c] = verdict;
                 });
             }
         });
-        (
+        Judged {
             now,
-            results.into_inner().expect("no worker panics"),
-            end.into_inner().expect("no worker panics"),
-        )
+            verdicts: results.into_inner().expect("no worker panics"),
+            end: end.into_inner().expect("no worker panics"),
+            states: states.into_inner().expect("no worker panics"),
+        }
     }
 
     fn simulation(&self) -> Simulation<'a> {
@@ -558,37 +590,134 @@ impl<'a> Repair<'a> {
     }
 }
 
+/// A step's candidates judged.
+#[derive(Default)]
+struct Judged<'s> {
+    /// Where the plan now breaks its window (when measured).
+    now: Verdict,
+    /// Candidate i's verdict in slot i.
+    verdicts: Vec<Verdict>,
+    /// The first feasible candidate's index and its state after its last deposit.
+    end: Option<(usize, Snapshot)>,
+    /// The states the candidates that may be chosen kept from their runs.
+    states: Vec<KeptStates<'s>>,
+}
+
+/// A candidate's index, where it breaks a window, and the states its run kept.
+type KeptStates<'s> = (usize, Broken, Vec<(usize, Simulation<'s>)>);
+
+/// How many candidates' states are kept at most: those that break a window latest (only
+/// those can be chosen), the lowest indices first (a tie goes to the first).
+const KEPT_CANDIDATES: usize = 4;
+
+/// Adds candidate `c`'s states (it breaks a window at `b`) to `kept` when it may be chosen:
+/// it gets as far as the furthest kept so far (those that get less far are dropped), and
+/// fewer than [`KEPT_CANDIDATES`] kept do, or it comes before one of them. Only speed
+/// depends on it: a chosen candidate whose states were dropped is simulated again.
+fn keep<'s>(
+    kept: &mut Vec<KeptStates<'s>>,
+    c: usize,
+    b: Broken,
+    states: Vec<(usize, Simulation<'s>)>,
+) {
+    if states.is_empty() {
+        return;
+    }
+    let furthest = kept.iter().map(|(_, k, _)| k.blocks).max().unwrap_or(0);
+    if b.blocks < furthest {
+        return;
+    }
+    kept.retain(|(_, k, _)| k.blocks >= b.blocks);
+    kept.push((c, b, states));
+    kept.sort_by_key(|(c, _, _)| *c);
+    kept.truncate(KEPT_CANDIDATES);
+}
+
+/// A plan simulated from some deposit on.
+struct Run<'m> {
+    verdict: Verdict,
+    /// The state after the last deposit, when the plan keeps every window.
+    end: Option<Snapshot>,
+    /// The states at the last asked deposits (`keep_at`) passed, at most as many as asked.
+    states: Vec<(usize, Simulation<'m>)>,
+}
+
+/// The memory a candidate's run may keep states in: those at the starts of its last pieces
+/// before the window it breaks. Chosen, it is the next step's plan, and the next step
+/// changes it from the piece under the broken block on, welded as long before the break
+/// as the block's t8/5 lasts (five pieces back on a double tube): these states spare
+/// simulating it again up to there (0.8 s of a 1.9 s step). A state costs about
+/// [`STATE_BYTES_PER_BLOCK`] per block of the part: at 10^4 blocks fifty fit, at 10^5
+/// five. At most the runs under way and [`KEPT_CANDIDATES`] keep states at once.
+const KEPT_STATES_BYTES: usize = 32 << 20;
+
+/// A simulation's size per block of the part (temperatures before and after a step, the
+/// neighbour slots, radiation, flags: 43 bytes per slot; the weld order: 13 per deposit).
+const STATE_BYTES_PER_BLOCK: usize = 64;
+
+/// How many states a candidate's run keeps on a part of `blocks` blocks (at least two:
+/// the broken block's piece and the one under it).
+fn kept_states(blocks: usize) -> usize {
+    (KEPT_STATES_BYTES / (STATE_BYTES_PER_BLOCK * blocks.max(1))).max(2)
+}
+
 /// `seq` simulated on from deposit `from` (the simulation holds its prefix), each deposit
-/// on as many threads as `threads` says then (none: no verdict is wanted any more); with
-/// the state after the last deposit when the plan keeps every window.
-fn run_from(
-    mut sim: Simulation,
+/// on as many threads as `threads` says then (none: no verdict is wanted any more),
+/// keeping the states at the last `keep` deposits of `keep_at` (sorted) it passes (before
+/// each is deposited).
+fn run_from<'m>(
+    mut sim: Simulation<'m>,
     seq: &[(usize, bool)],
     from: usize,
+    (keep_at, keep): (&[usize], usize),
     threads: &dyn Fn() -> Option<usize>,
-) -> (Verdict, Option<Snapshot>) {
+) -> Run<'m> {
+    let stopped = || Run {
+        verdict: None,
+        end: None,
+        states: Vec::new(),
+    };
+    let mut states = std::collections::VecDeque::new();
     for (d, &(b, new)) in seq.iter().enumerate().skip(from) {
         let Some(threads) = threads() else {
-            return (None, None);
+            return stopped();
         };
+        if keep > 0 && d > from && keep_at.binary_search(&d).is_ok() {
+            if states.len() == keep {
+                states.pop_front();
+            }
+            states.push_back((d, sim.clone()));
+        }
         sim.set_threads(threads);
         if let Err(v) = sim.deposit(b, new) {
-            return (Some(Err(Broken::of(&v, d + 1))), None);
+            return Run {
+                verdict: Some(Err(Broken::of(&v, d + 1))),
+                end: None,
+                states: states.into(),
+            };
         }
         if sim.cancelled() {
-            return (None, None);
+            return stopped();
         }
     }
     let last = sim.snapshot();
     let Ok(end) = sim.finish() else {
-        return (None, None);
+        return stopped();
     };
     if sim.cancelled() {
-        return (None, None);
+        return stopped();
     }
     match end {
-        Ok(()) => (Some(Ok(())), Some(last)),
-        Err(v) => (Some(Err(Broken::of(&v, seq.len()))), None),
+        Ok(()) => Run {
+            verdict: Some(Ok(())),
+            end: Some(last),
+            states: Vec::new(),
+        },
+        Err(v) => Run {
+            verdict: Some(Err(Broken::of(&v, seq.len()))),
+            end: None,
+            states: states.into(),
+        },
     }
 }
 
@@ -795,6 +924,72 @@ mod tests {
         distinct.sort_unstable();
         distinct.dedup();
         assert_eq!(distinct.len(), rotations.len(), "each rotation once");
+    }
+
+    #[test]
+    fn a_run_keeps_its_last_piece_starts_as_a_run_from_the_first_deposit_has_them() {
+        let (part, graph, warm) = wall_and_warm_start();
+        let model = ThermalModel::new(&part, &graph);
+        let (blocks, _) = first_broken(&model, &warm);
+        let seq = deposits(&warm);
+        let starts: Vec<usize> = pieces(&part, &warm).iter().map(|p| p.at).collect();
+        let repair = repair_of(&part, &graph, &model, None);
+        // From the second piece on: the state there is given, not kept.
+        let mut sim = repair.simulation();
+        for &(b, new) in &seq[..starts[1]] {
+            sim.deposit(b, new)
+                .expect("the first piece keeps its windows");
+        }
+        let run = run_from(sim, &seq, starts[1], (&starts, 3), &|| Some(1));
+        assert!(matches!(run.verdict, Some(Err(b)) if b.blocks == blocks));
+        // Only the last three starts passed before the window broke; none at the first.
+        let passed: Vec<usize> = starts
+            .iter()
+            .copied()
+            .filter(|&s| s > starts[1] && s < blocks)
+            .collect();
+        assert!(passed.len() > 3, "the wall breaks a window pieces in");
+        let kept: Vec<usize> = run.states.iter().map(|(at, _)| *at).collect();
+        assert_eq!(kept, passed[passed.len() - 3..]);
+        for (at, sim) in &run.states {
+            let mut fresh = Simulation::new(&model);
+            for &(b, new) in &seq[..*at] {
+                fresh
+                    .deposit(b, new)
+                    .expect("no window breaks before the break");
+            }
+            assert_eq!(sim.state(), fresh.state(), "the state at deposit {at}");
+        }
+    }
+
+    #[test]
+    fn only_candidates_that_may_be_chosen_keep_their_states() {
+        let (part, graph, _) = wall_and_warm_start();
+        let model = ThermalModel::new(&part, &graph);
+        let sim = Simulation::new(&model);
+        let broken = |blocks| Broken {
+            blocks,
+            block: 0,
+            miss_s: 0.0,
+        };
+        let states = || vec![(1, sim.clone())];
+        let indices = |kept: &Vec<KeptStates>| kept.iter().map(|(c, _, _)| *c).collect::<Vec<_>>();
+        let mut kept = Vec::new();
+        keep(&mut kept, 5, broken(10), states());
+        // One that gets less far can never be chosen.
+        keep(&mut kept, 2, broken(8), states());
+        assert_eq!(indices(&kept), [5]);
+        // One that gets further: the others can no longer be chosen.
+        keep(&mut kept, 7, broken(12), states());
+        assert_eq!(indices(&kept), [7]);
+        // As far: on a tie the first is chosen, so the lowest indices are kept.
+        for c in [9, 3, 8, 11, 4, 6] {
+            keep(&mut kept, c, broken(12), states());
+        }
+        assert_eq!(indices(&kept), [3, 4, 6, 7][..KEPT_CANDIDATES]);
+        // A run that kept no state adds nothing.
+        keep(&mut kept, 1, broken(20), Vec::new());
+        assert_eq!(indices(&kept), [3, 4, 6, 7][..KEPT_CANDIDATES]);
     }
 
     #[test]
