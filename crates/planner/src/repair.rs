@@ -510,6 +510,7 @@ impl<'a> Repair<'a> {
         // while the others idle; one after a feasible one stops (it cannot be chosen).
         let running = AtomicUsize::new(0);
         let workers = self.workers;
+        let kept = kept_states(self.part.len(), workers);
         let threads = |c: usize| {
             if c > first_feasible.load(Ordering::Relaxed) {
                 return None;
@@ -541,7 +542,7 @@ impl<'a> Repair<'a> {
                     let sim = sim.clone().with_deadline(until);
                     let keep_at: Vec<usize> =
                         pieces(self.part, plan).iter().map(|p| p.at).collect();
-                    let kept_at = (&keep_at[..], kept_states(self.part.len()));
+                    let kept_at = (&keep_at[..], kept);
                     let run = run_from(sim, &deposits(plan), piece.at, kept_at, &|| threads(c));
                     let verdict = run.verdict;
                     running.fetch_sub(1, Ordering::Relaxed);
@@ -642,23 +643,24 @@ struct Run<'m> {
     states: Vec<(usize, Simulation<'m>)>,
 }
 
-/// The memory a candidate's run may keep states in: those at the starts of its last pieces
-/// before the window it breaks. Chosen, it is the next step's plan, and the next step
-/// changes it from the piece under the broken block on, welded as long before the break
-/// as the block's t8/5 lasts (five pieces back on a double tube): these states spare
-/// simulating it again up to there (0.8 s of a 1.9 s step). A state costs about
-/// [`STATE_BYTES_PER_BLOCK`] per block of the part: at 10^4 blocks fifty fit, at 10^5
-/// five. At most the runs under way and [`KEPT_CANDIDATES`] keep states at once.
-const KEPT_STATES_BYTES: usize = 32 << 20;
+/// The memory a step's candidates may keep states in: those at the starts of their last
+/// pieces before the window each breaks. Chosen, a candidate is the next step's plan, and
+/// the next step changes it from the piece under the broken block on, welded as long
+/// before the break as the block's t8/5 lasts (five pieces back on a double tube): these
+/// states spare simulating it again up to there (0.8 s of a 1.9 s step). Shared by the
+/// runs under way (one per worker) and the [`KEPT_CANDIDATES`] kept: on 2 workers 32 MB
+/// each, which at [`STATE_BYTES_PER_BLOCK`] holds fifty states at 10^4 blocks, five at 10^5.
+const KEPT_STATES_BYTES: usize = 192 << 20;
 
 /// A simulation's size per block of the part (temperatures before and after a step, the
 /// neighbour slots, radiation, flags: 43 bytes per slot; the weld order: 13 per deposit).
 const STATE_BYTES_PER_BLOCK: usize = 64;
 
-/// How many states a candidate's run keeps on a part of `blocks` blocks (at least two:
-/// the broken block's piece and the one under it).
-fn kept_states(blocks: usize) -> usize {
-    (KEPT_STATES_BYTES / (STATE_BYTES_PER_BLOCK * blocks.max(1))).max(2)
+/// How many states a candidate's run keeps on a part of `blocks` blocks, judged on
+/// `workers` threads (at least two: the broken block's piece and the one under it).
+fn kept_states(blocks: usize, workers: usize) -> usize {
+    let each = KEPT_STATES_BYTES / (KEPT_CANDIDATES + workers.max(1));
+    (each / (STATE_BYTES_PER_BLOCK * blocks.max(1))).max(2)
 }
 
 /// `seq` simulated on from deposit `from` (the simulation holds its prefix), each deposit
