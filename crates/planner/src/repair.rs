@@ -510,7 +510,7 @@ impl<'a> Repair<'a> {
         // while the others idle; one after a feasible one stops (it cannot be chosen).
         let running = AtomicUsize::new(0);
         let workers = self.workers;
-        let kept = kept_states(self.part.len(), workers);
+        let states_per_run = kept_states(self.part.len(), workers);
         let threads = |c: usize| {
             if c > first_feasible.load(Ordering::Relaxed) {
                 return None;
@@ -540,10 +540,15 @@ impl<'a> Repair<'a> {
                     running.fetch_add(1, Ordering::Relaxed);
                     let t = std::time::Instant::now();
                     let sim = sim.clone().with_deadline(until);
-                    let keep_at: Vec<usize> =
+                    let piece_starts: Vec<usize> =
                         pieces(self.part, plan).iter().map(|p| p.at).collect();
-                    let kept_at = (&keep_at[..], kept);
-                    let run = run_from(sim, &deposits(plan), piece.at, kept_at, &|| threads(c));
+                    let run = run_from(
+                        sim,
+                        &deposits(plan),
+                        piece.at,
+                        (&piece_starts, states_per_run),
+                        &|| threads(c),
+                    );
                     let verdict = run.verdict;
                     running.fetch_sub(1, Ordering::Relaxed);
                     tracing::trace!(
