@@ -1070,24 +1070,29 @@ mod tests {
             .flat_map(|p| [(p, Change::Mirror), (p, Change::NewPath)])
             .filter_map(|(p, c)| Some((p, c, repair.changed(&warm, p, c)?)))
             .collect();
-        let all = repair.judge(
-            &seq,
-            &candidates,
-            &mut Vec::new(),
-            (true, broken),
-            false,
-            None,
-        );
-        let Some(Err(now)) = all.now else {
-            panic!("the plan now breaks its window: {:?}", all.now);
+        // The plan now, the verdicts and the candidates whose states are kept.
+        let judged = |repair: &Repair, first_further| {
+            let j = repair.judge(
+                &seq,
+                &candidates,
+                &mut Vec::new(),
+                (true, broken),
+                first_further,
+                None,
+            );
+            let kept: Vec<usize> = j.states.iter().map(|(c, _, _)| *c).collect();
+            (j.now, j.verdicts, kept)
         };
-        let first = all
-            .verdicts
+        let (now, verdicts, _) = judged(&repair, false);
+        let Some(Err(now)) = now else {
+            panic!("the plan now breaks its window: {now:?}");
+        };
+        let first = verdicts
             .iter()
             .position(|v| matches!(v, Some(Err(b)) if b.further_than(&now)))
             .expect("a change gets further");
         assert!(
-            all.verdicts[first + 1..].iter().any(Option::is_some),
+            verdicts[first + 1..].iter().any(Option::is_some),
             "changes after it are judged when the batch does not end there"
         );
         for workers in [1, 2] {
@@ -1095,24 +1100,13 @@ mod tests {
                 workers,
                 ..repair_of(&part, &graph, &model, None)
             };
-            let cut = repair.judge(
-                &seq,
-                &candidates,
-                &mut Vec::new(),
-                (true, broken),
-                true,
-                None,
-            );
-            assert_eq!(
-                cut.verdicts[..=first],
-                all.verdicts[..=first],
-                "{workers} workers"
-            );
+            let (_, cut, kept) = judged(&repair, true);
+            assert_eq!(cut[..=first], verdicts[..=first], "{workers} workers");
             assert!(
-                cut.verdicts[first + 1..].iter().all(Option::is_none),
+                cut[first + 1..].iter().all(Option::is_none),
                 "none judged after the first that gets further, on {workers} workers"
             );
-            assert!(cut.states.iter().all(|(c, _, _)| *c <= first));
+            assert!(kept.iter().all(|&c| c <= first));
         }
     }
 
