@@ -535,7 +535,8 @@ impl<'a> Repair<'a> {
         };
         // Candidates being simulated. The last one still running (often the one that gets
         // furthest, simulated far beyond the others) steps on every thread, not on one
-        // while the others idle; one after a feasible one stops (it cannot be chosen).
+        // while the others idle; one after the one that ends the judging stops (it cannot be
+        // chosen).
         let running = AtomicUsize::new(0);
         let workers = self.workers;
         let states_per_run = kept_states(self.part.len(), workers);
@@ -908,6 +909,18 @@ mod tests {
         (part, graph, warm)
     }
 
+    /// The wall of [`wall_and_warm_start`] with, on its top layer, a window no plan keeps.
+    fn wall_with_a_window_no_plan_keeps() -> (Part, WeldGraph, Vec<Vec<usize>>) {
+        let (mut part, graph, warm) = wall_and_warm_start();
+        let top = part.index_of([20, 0, 13]).expect("a top block");
+        let never = Window {
+            min_s: 0.0,
+            max_s: 1e-3,
+        };
+        part.set_window(top, never);
+        (part, graph, warm)
+    }
+
     const NO_LIMITS: Limits = Limits {
         deadline: None,
         cancel: None,
@@ -1044,17 +1057,9 @@ mod tests {
 
     #[test]
     fn a_batch_that_ends_at_the_first_change_that_gets_further_judges_none_after_it() {
-        // The wall with a window on top that no plan keeps: a change that keeps the broken
-        // window gets further, to the top, and no change keeps every window.
-        let (mut part, graph, warm) = wall_and_warm_start();
-        let top = part.index_of([20, 0, 13]).expect("a top block");
-        part.set_window(
-            top,
-            Window {
-                min_s: 0.0,
-                max_s: 1e-3,
-            },
-        );
+        // A change that keeps the broken window gets further, to the top, and no change
+        // keeps every window.
+        let (part, graph, warm) = wall_with_a_window_no_plan_keeps();
         let model = ThermalModel::new(&part, &graph);
         let (blocks, block) = first_broken(&model, &warm);
         let broken = Broken {
@@ -1127,15 +1132,9 @@ mod tests {
 
     #[test]
     fn a_repair_ends_where_an_earlier_run_of_it_got() {
-        // The wall's windows and, on its top layer, one that no plan keeps: a run gets
-        // further (past the windows at the take-over), then no change gets past the top.
-        let (mut part, graph, warm) = wall_and_warm_start();
-        let top = part.index_of([20, 0, 13]).expect("a top block");
-        let never = Window {
-            min_s: 0.0,
-            max_s: 1e-3,
-        };
-        part.set_window(top, never);
+        // A run gets further (past the windows at the take-over), then no change gets past
+        // the top.
+        let (part, graph, warm) = wall_with_a_window_no_plan_keeps();
         let model = ThermalModel::new(&part, &graph);
         let (blocks, block) = first_broken(&model, &warm);
         let repair = repair_of(&part, &graph, &model, None);
