@@ -77,7 +77,8 @@ pub struct PlanArgs {
     #[arg(long, value_parser = super::acyclicity_parser(), default_value = "lazy")]
     pub acyclicity: Acyclicity,
     /// The SAT solver: CaDiCaL (cycles kept out inside its search; stops inside a solve at
-    /// --timeout) or varisat (pure Rust; cycles cut between solves, stops between solves).
+    /// --timeout) or varisat (pure Rust; cycles cut between solves; stops inside a solve at
+    /// --timeout too).
     #[arg(long, value_parser = super::solver_parser(), default_value = Backend::default().name())]
     pub solver: Backend,
     /// Learn the plain violating prefix (as the paper) instead of proven shorter clauses.

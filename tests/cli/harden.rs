@@ -1079,12 +1079,11 @@ fn disc_part(r: i64) -> String {
     )
 }
 
-/// `--solver varisat` keeps its timeout in its layer-by-layer warm start: a varisat solve
-/// cannot be stopped inside, so the construction runs on a thread of its own that the run
-/// stops waiting for at the deadline (the default configuration builds varisat's plan the
-/// same way). On this 3,922-block disc (k = 16) varisat's first layer solve runs for
-/// minutes: `--timeout 2` answered after more than 30 s before (killed there; it did not
-/// stop on SIGTERM either), 2.0 s now.
+/// `--solver varisat` keeps its timeout in its layer-by-layer warm start: upstream varisat
+/// cannot stop inside a solve; the vendored one polls the deadline and the cancel between
+/// conflicts (vendor/README.md). On this 3,922-block disc (k = 16) varisat's first layer
+/// solve runs for minutes: `--timeout 2` answered after more than 30 s before it was built
+/// on a thread of its own (killed there; it did not stop on SIGTERM either), 2.0 s since.
 #[test]
 fn a_varisat_layer_solve_does_not_hold_the_timeout() {
     let dir = tempfile::tempdir().unwrap();

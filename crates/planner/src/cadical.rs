@@ -636,22 +636,7 @@ mod tests {
     }
 
     fn stop_a_hard_solve(mut s: Cadical) {
-        // Pigeonhole 11 into 10: far beyond a millisecond.
-        let (p, h) = (11, 10);
-        let x: Vec<Vec<Lit>> = (0..p)
-            .map(|_| (0..h).map(|_| s.new_lit()).collect())
-            .collect();
-        for row in &x {
-            s.add_clause(row);
-        }
-        #[allow(clippy::needless_range_loop)] // j is a hole, a and b pigeons: the maths reads so
-        for j in 0..h {
-            for a in 0..p {
-                for b in a + 1..p {
-                    s.add_clause(&[!x[a][j], !x[b][j]]);
-                }
-            }
-        }
+        crate::sat::tests::pigeonhole(&mut s, 11, 10);
         let t = Instant::now();
         s.set_interrupt(Some(t + std::time::Duration::from_millis(200)), None);
         assert_eq!(s.solve(&[]), None);

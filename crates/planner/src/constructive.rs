@@ -66,33 +66,6 @@ pub fn layered_plan(
     layered_plan_from(part, graph, k, backend, limits, &[])
 }
 
-/// [`layered_plan`] built on a thread of its own and waited for only until `limits` stop
-/// the run. A varisat solve cannot be stopped inside (the limits are looked at between
-/// solves), so a run that must keep its deadline and Ctrl-C with varisat's layer solves
-/// (the default configuration trying varisat's plan) leaves the thread to end its solve
-/// alone: it builds nothing after it, the limits being past.
-pub fn layered_plan_detached(
-    part: &Part,
-    graph: &WeldGraph,
-    k: usize,
-    backend: Backend,
-    limits: &Limits,
-) -> Option<Vec<Vec<usize>>> {
-    let (tx, rx) = std::sync::mpsc::channel();
-    let (part, graph, own) = (part.clone(), graph.clone(), limits.clone());
-    std::thread::spawn(move || {
-        // The receiver may have stopped waiting: nothing to hand over then.
-        let _ = tx.send(layered_plan(&part, &graph, k, backend, &own));
-    });
-    loop {
-        match rx.recv_timeout(Duration::from_millis(10)) {
-            Ok(plan) => return plan,
-            Err(std::sync::mpsc::RecvTimeoutError::Timeout) if !limits.stopped() => {}
-            Err(_) => return None,
-        }
-    }
-}
-
 /// The first weld path's first move `(from, to)` (global block indices, both in the first
 /// layer): where the construction starts and which way it sets off.
 pub type FirstMove = (usize, usize);

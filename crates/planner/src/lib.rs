@@ -239,10 +239,6 @@ fn search_plans(
         let graph_part = part.bead_part().is_some();
         let warm = if graph_part {
             contour::layered_plan(part, &graph, k, &limits)
-        } else if opts.solver == Backend::Varisat {
-            // A varisat layer solve cannot be stopped inside: waited for on its own
-            // thread only until the deadline or Ctrl-C.
-            constructive::layered_plan_detached(part, &graph, k, opts.solver, &limits)
         } else {
             constructive::layered_plan(part, &graph, k, opts.solver, &limits)
         };

@@ -124,7 +124,7 @@ impl Portfolio<'_> {
     /// than CaDiCaL.
     pub fn layered(&self, base: &[Vec<usize>]) -> Option<Tried> {
         let Portfolio { part, graph, k, .. } = *self;
-        let plan = constructive::layered_plan_detached(part, graph, k, self.backend, self.limits)
+        let plan = constructive::layered_plan(part, graph, k, self.backend, self.limits)
             .filter(|plan| plan != base)?;
         let judged = self.judge_plan(plan, "the layer-by-layer plan", self.limits)?;
         tracing::debug!(

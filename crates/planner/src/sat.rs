@@ -23,7 +23,8 @@ pub enum Backend {
     /// propagator (IPASIR-UP), and solves stop at the deadline or on cancel.
     #[default]
     Cadical,
-    /// varisat (pure Rust): cycles cut between solves; a solve runs to its end.
+    /// varisat (pure Rust, vendored with an interrupt): cycles cut between solves, and
+    /// solves stop at the deadline or on cancel.
     Varisat,
 }
 
@@ -55,7 +56,7 @@ impl Backend {
         (
             Backend::Varisat,
             "varisat",
-            "varisat (pure Rust): cycles cut between solves, stops between solves",
+            "varisat (pure Rust): cycles cut between solves, stops inside a solve at the deadline",
         ),
     ];
 
@@ -92,8 +93,7 @@ pub trait SatSolver {
         let _ = seed;
     }
     /// Makes solves stop at `deadline`, or soon after `cancel` is set: `solve` then returns
-    /// `None`. Backends that cannot stop inside a solve (varisat) ignore it; the caller
-    /// still stops between solves.
+    /// `None`.
     fn set_interrupt(&mut self, deadline: Option<Instant>, cancel: Option<Arc<AtomicBool>>) {
         let _ = (deadline, cancel);
     }
@@ -231,10 +231,15 @@ impl SatSolver for Varisat {
     fn size(&self) -> (usize, usize) {
         (self.vars, self.clauses)
     }
+
+    fn set_interrupt(&mut self, deadline: Option<Instant>, cancel: Option<Arc<AtomicBool>>) {
+        // The vendored varisat's one patch (vendor/README.md).
+        self.solver.set_interrupt(deadline, cancel);
+    }
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     #[test]
@@ -250,5 +255,50 @@ mod tests {
             assert_eq!(s.solve(&[]), Some(true), "{backend:?}");
             assert_eq!(s.size(), (2, 2));
         }
+    }
+
+    /// Pigeonhole `p` into `h` (`x[pigeon][hole]`): unsatisfiable for p > h, and for 11 into
+    /// 10 far beyond a millisecond for a CDCL solver.
+    pub(crate) fn pigeonhole(s: &mut dyn SatSolver, p: usize, h: usize) -> Vec<Vec<Lit>> {
+        let x: Vec<Vec<Lit>> = (0..p)
+            .map(|_| (0..h).map(|_| s.new_lit()).collect())
+            .collect();
+        for row in &x {
+            s.add_clause(row);
+        }
+        #[allow(clippy::needless_range_loop)] // a hole, two pigeons: the maths reads so
+        for hole in 0..h {
+            for a in 0..p {
+                for b in a + 1..p {
+                    s.add_clause(&[!x[a][hole], !x[b][hole]]);
+                }
+            }
+        }
+        x
+    }
+
+    #[test]
+    fn a_varisat_solve_stops_at_its_deadline_or_cancel_and_the_solver_stays_usable() {
+        let mut s = Varisat::default();
+        let x = pigeonhole(&mut s, 11, 10);
+        let t = Instant::now();
+        s.set_interrupt(Some(t + std::time::Duration::from_millis(200)), None);
+        assert_eq!(s.solve(&[]), None);
+        assert!(t.elapsed().as_secs_f64() < 1.2, "{:?}", t.elapsed());
+        // A cancel raised from another thread during the solve.
+        let cancel = Arc::new(AtomicBool::new(false));
+        s.set_interrupt(None, Some(cancel.clone()));
+        let raise = std::thread::spawn(move || {
+            std::thread::sleep(std::time::Duration::from_millis(200));
+            cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+        });
+        let t = Instant::now();
+        assert_eq!(s.solve(&[]), None);
+        assert!(t.elapsed().as_secs_f64() < 1.2, "{:?}", t.elapsed());
+        raise.join().unwrap();
+        // Usable after the interrupts: pigeon 0 in no hole is refuted at once.
+        s.set_interrupt(None, None);
+        let none: Vec<Lit> = x[0].iter().map(|&l| !l).collect();
+        assert_eq!(s.solve(&none), Some(false));
     }
 }
