@@ -97,9 +97,18 @@ impl Portfolio<'_> {
     pub fn varied_start(&self, base: &[Vec<usize>]) -> Option<Repaired> {
         let Portfolio { part, k, .. } = *self;
         let allows = constructive::first_layer_allows(part, k, self.backend, self.limits);
+        // One small solve of the first layer per start: on a big floor seconds each, so
+        // the log says what they cost (box s8015 at 10^4: 27 s, benchmarks.md).
+        let filtering = std::time::Instant::now();
         let moves = first_moves(part, self.graph, base, |first| {
             allows.as_ref().is_some_and(|allows| allows(first))
         });
+        tracing::debug!(
+            "warm-start portfolio: {} start(s) the first layer can be covered from, found in {:.2} s{}",
+            moves.len(),
+            filtering.elapsed().as_secs_f64(),
+            if self.limits.stopped() { " (stopped)" } else { "" }
+        );
         let starts: Vec<Variant> = moves.iter().map(|&(a, b)| vec![vec![a, b]]).collect();
         if let Some(found) = self.first_feasible(&starts, "start") {
             return Some(found);
