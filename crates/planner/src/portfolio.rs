@@ -36,6 +36,7 @@ use waam_part::Part;
 use waam_thermal::{self as thermal, Snapshot, ThermalModel};
 
 use crate::constructive::{self, Limits};
+use crate::prefix_cache::deposits;
 use crate::repair::Repaired;
 use crate::sat::Backend;
 
@@ -86,6 +87,49 @@ impl Judged {
     }
 }
 
+/// The prefixes that broke a window in the variants judged so far: a variant whose plan
+/// begins with one breaks that window the same way (the simulation up to the break is the
+/// same), so it is not simulated again. The prefix is the one the search learns a clause
+/// from: the deposits up to the break, and when the window broke after a weld path ended
+/// (in the transit), that the path ended there. Starts and covers meet in the same
+/// prefixes: on a generated T-wall 8 of the 13 cover variants judged before the feasible
+/// one began as a start or an earlier cover had (2 s of simulation each).
+#[derive(Default)]
+struct Seen(Mutex<Vec<BrokenPrefix>>);
+
+struct BrokenPrefix {
+    deposits: Vec<(usize, bool)>,
+    /// The weld path ended after the prefix (the next deposit begins one, or none comes).
+    closed: bool,
+    /// Blocks welded before the window broke, and the broken block.
+    broken: (usize, usize),
+}
+
+impl Seen {
+    /// Where `plan` breaks a window, if it begins with a prefix seen breaking one.
+    fn broken(&self, plan: &[Vec<usize>]) -> Option<(usize, usize)> {
+        let seq = deposits(plan);
+        let seen = self.0.lock().expect("no worker panics");
+        seen.iter()
+            .find(|p| {
+                seq.starts_with(&p.deposits)
+                    && (!p.closed || seq.get(p.deposits.len()).is_none_or(|&(_, new)| new))
+            })
+            .map(|p| p.broken)
+    }
+
+    fn remember(&self, plan: &[Vec<usize>], v: &thermal::Violation) {
+        let mut seq = deposits(plan);
+        seq.truncate(v.prefix_len);
+        let prefix = BrokenPrefix {
+            deposits: seq,
+            closed: v.phase != thermal::Phase::Deposit,
+            broken: (v.prefix_len, v.block),
+        };
+        self.0.lock().expect("no worker panics").push(prefix);
+    }
+}
+
 /// A plan the portfolio built and judged (the best raster variant, or varisat's
 /// layer-by-layer plan): `Ok` when it keeps every window, else `Err((plan, blocks welded
 /// before a window breaks, the broken block))`, for the repair.
@@ -113,7 +157,8 @@ impl Portfolio<'_> {
             if self.limits.stopped() { " (stopped)" } else { "" }
         );
         let starts: Vec<Variant> = moves.iter().map(|&(a, b)| vec![vec![a, b]]).collect();
-        if let Some(found) = self.first_feasible(&starts, "start") {
+        let seen = Seen::default();
+        if let Some(found) = self.first_feasible(&starts, "start", &seen) {
             return Some(found);
         }
         // No start keeps every window: other covers of the first layer (the solves of the
@@ -126,7 +171,7 @@ impl Portfolio<'_> {
             "warm-start portfolio: {} variants of the first layer's cover",
             covers.len()
         );
-        self.first_feasible(&covers, "cover")
+        self.first_feasible(&covers, "cover", &seen)
     }
 
     /// The layer-by-layer plan built with this portfolio's backend, simulated: `Ok` when it
@@ -138,7 +183,7 @@ impl Portfolio<'_> {
         let Portfolio { part, graph, k, .. } = *self;
         let plan = constructive::layered_plan(part, graph, k, self.backend, self.limits)
             .filter(|plan| plan != base)?;
-        let judged = self.judge_plan(plan, "the layer-by-layer plan", self.limits)?;
+        let judged = self.judge_plan(plan, "the layer-by-layer plan", self.limits, None)?;
         tracing::debug!(
             "warm-start portfolio: the layer-by-layer plan of {:?}: {}",
             self.backend,
@@ -161,7 +206,7 @@ impl Portfolio<'_> {
         if variants.is_empty() {
             return None;
         }
-        let judged = self.judge_in_order(&variants);
+        let judged = self.judge_in_order(&variants, &Seen::default());
         let built = judged.iter().filter(|j| j.is_some()).count();
         // The first feasible, else furthest before a window breaks (max_by keeps the last
         // maximum: the judged ones are walked back, so a tie goes to the earlier).
@@ -189,11 +234,11 @@ impl Portfolio<'_> {
     }
 
     /// The first feasible of `variants` in order (`kind` names them in the log).
-    fn first_feasible(&self, variants: &[Variant], kind: &str) -> Option<Repaired> {
+    fn first_feasible(&self, variants: &[Variant], kind: &str, seen: &Seen) -> Option<Repaired> {
         if variants.is_empty() || self.limits.stopped() {
             return None;
         }
-        let judged = self.judge_in_order(variants);
+        let judged = self.judge_in_order(variants, seen);
         let tried = judged.iter().filter(|j| j.is_some()).count();
         let found = judged
             .into_iter()
@@ -228,7 +273,7 @@ impl Portfolio<'_> {
     /// it are stopped or never built (`None`), so the first feasible slot is the same on
     /// any number of threads. Once the run stops no variant is started and those under way
     /// stop (`None`); a variant judged before it keeps its verdict.
-    fn judge_in_order(&self, variants: &[Variant]) -> Vec<Option<Judged>> {
+    fn judge_in_order(&self, variants: &[Variant], seen: &Seen) -> Vec<Option<Judged>> {
         let next = AtomicUsize::new(0);
         // The first feasible variant found so far (`usize::MAX`: none yet).
         let first_feasible = AtomicUsize::new(usize::MAX);
@@ -257,7 +302,7 @@ impl Portfolio<'_> {
                             deadline: self.limits.deadline,
                             cancel: Some(stops[i].clone()),
                         };
-                        let judged = self.judge_variant(&variants[i], &limits);
+                        let judged = self.judge_variant(&variants[i], &limits, seen);
                         if judged.as_ref().is_some_and(|j| j.margin.is_ok()) {
                             first_feasible.fetch_min(i, Ordering::Relaxed);
                             stop_from(i + 1);
@@ -279,7 +324,7 @@ impl Portfolio<'_> {
 
     /// One variant built and simulated within `limits` (on one thread: the variants are
     /// the parallel work).
-    fn judge_variant(&self, first: &[Vec<usize>], limits: &Limits) -> Option<Judged> {
+    fn judge_variant(&self, first: &[Vec<usize>], limits: &Limits, seen: &Seen) -> Option<Judged> {
         let Portfolio {
             part,
             graph,
@@ -293,11 +338,30 @@ impl Portfolio<'_> {
             tracing::debug!("warm-start variant {name}: not built");
             return None;
         };
-        self.judge_plan(plan, &name, limits)
+        if let Some(broken) = seen.broken(&plan) {
+            tracing::debug!(
+                "warm-start variant {name}: begins as a variant judged before, which broke the window of {:?} after {} blocks",
+                part.block(broken.1),
+                broken.0
+            );
+            return Some(Judged {
+                plan,
+                margin: Err(broken),
+                end: None,
+            });
+        }
+        self.judge_plan(plan, &name, limits, Some(seen))
     }
 
     /// A plan simulated within `limits` on one thread (`name` for the log).
-    fn judge_plan(&self, plan: Vec<Vec<usize>>, name: &str, limits: &Limits) -> Option<Judged> {
+    /// A plan that breaks a window is remembered in `seen`.
+    fn judge_plan(
+        &self,
+        plan: Vec<Vec<usize>>,
+        name: &str,
+        limits: &Limits,
+        seen: Option<&Seen>,
+    ) -> Option<Judged> {
         let Portfolio { part, model, .. } = *self;
         let sim = thermal::Simulation::new(model)
             .with_threads(1)
@@ -316,6 +380,9 @@ impl Portfolio<'_> {
                     v.time_s,
                     v.t85_s
                 );
+                if let Some(seen) = seen {
+                    seen.remember(&plan, v);
+                }
                 Err((v.prefix_len, v.block))
             }
             None => {
@@ -553,7 +620,7 @@ mod tests {
         let limits = no_limits();
         let portfolio = on_one_path(&part, &graph, &limits, &model);
         let variants: Vec<Variant> = moves.iter().map(|&(a, b)| vec![vec![a, b]]).collect();
-        let judged = portfolio.judge_in_order(&variants);
+        let judged = portfolio.judge_in_order(&variants, &Seen::default());
         for (m, j) in moves.iter().zip(&judged) {
             let j = j.as_ref().expect("each start of a ring can be built");
             assert_eq!(j.plan[0][..2], [m.0, m.1], "the variant sets off as asked");
@@ -567,6 +634,56 @@ mod tests {
             );
         }
         assert!(portfolio.varied_start(&base).is_none());
+    }
+
+    #[test]
+    fn a_plan_that_begins_with_a_prefix_that_broke_a_window_breaks_it_the_same_way() {
+        // A window of at most 1 s low on the ring: broken long before the last block.
+        let mut part = ring(
+            12,
+            waam_part::Window {
+                min_s: 0.0,
+                max_s: 1e9,
+            },
+        );
+        let low = part.index_of([0, 0, 2]).expect("a corner block");
+        part.set_window(
+            low,
+            waam_part::Window {
+                min_s: 0.0,
+                max_s: 1.0,
+            },
+        );
+        let graph = WeldGraph::new(&part);
+        let model = ThermalModel::new(&part, &graph);
+        let limits = no_limits();
+        let base = constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &limits)
+            .expect("a ring has a layer-by-layer plan");
+        let portfolio = on_one_path(&part, &graph, &limits, &model);
+        let seen = Seen::default();
+        let judged = portfolio
+            .judge_plan(base.clone(), "the base", &limits, Some(&seen))
+            .expect("judged");
+        let Err((blocks, block)) = judged.margin else {
+            panic!("no plan keeps a 1 s window");
+        };
+        assert_eq!(seen.broken(&base), Some((blocks, block)));
+        // The same prefix, the rest welded otherwise: the simulator breaks the same window
+        // after as many blocks, and the portfolio knows it without simulating.
+        let mut other = base.clone();
+        other[0][blocks..].reverse();
+        assert!(
+            blocks + 2 < base[0].len() && other != base,
+            "the rest is welded otherwise"
+        );
+        assert_eq!(seen.broken(&other), Some((blocks, block)));
+        let outcome = thermal::simulate(&model, &other).expect("simulated");
+        let v = outcome.violation.expect("the window breaks");
+        assert_eq!((v.prefix_len, v.block), (blocks, block));
+        // Another first move is another prefix: simulated.
+        let mut early = base.clone();
+        early[0].swap(0, 1);
+        assert_eq!(seen.broken(&early), None);
     }
 
     #[test]
@@ -593,7 +710,7 @@ mod tests {
         let least: Vec<f64> = moves
             .iter()
             .map(|m| {
-                let j = portfolio.judge_in_order(std::slice::from_ref(m));
+                let j = portfolio.judge_in_order(std::slice::from_ref(m), &Seen::default());
                 j[0].as_ref()
                     .expect("each start is built")
                     .margin
@@ -614,7 +731,7 @@ mod tests {
                 workers,
                 ..on_one_path(&part, &graph, &limits, &model)
             };
-            let judged = portfolio.judge_in_order(&moves);
+            let judged = portfolio.judge_in_order(&moves, &Seen::default());
             for (i, j) in judged.iter().enumerate().take(expected) {
                 let j = j.as_ref().expect("every start before it is judged whole");
                 assert!(
@@ -648,7 +765,10 @@ mod tests {
             .into_iter()
             .map(|(a, b)| vec![vec![a, b]])
             .collect();
-        assert!(portfolio.judge_in_order(&moves).iter().all(Option::is_none));
+        assert!(portfolio
+            .judge_in_order(&moves, &Seen::default())
+            .iter()
+            .all(Option::is_none));
         assert!(portfolio.varied_start(&base).is_none());
     }
 
@@ -667,7 +787,7 @@ mod tests {
         };
         let portfolio = on_one_path(&part, &graph, &limits, &model);
         let started = std::time::Instant::now();
-        let whole = portfolio.judge_in_order(&one);
+        let whole = portfolio.judge_in_order(&one, &Seen::default());
         let took = started.elapsed();
         assert!(whole[0].as_ref().is_some_and(|j| j.margin.is_err()));
         let judged = std::thread::scope(|scope| {
@@ -675,7 +795,7 @@ mod tests {
                 std::thread::sleep(took / 8);
                 cancel.store(true, Ordering::Relaxed);
             });
-            portfolio.judge_in_order(&one)
+            portfolio.judge_in_order(&one, &Seen::default())
         });
         assert!(judged[0].is_none(), "the variant under way is stopped");
     }
