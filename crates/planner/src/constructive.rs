@@ -13,8 +13,6 @@
 //! so is the plan when it needs more than k weld paths. The global search decides what is
 //! feasible, best or impossible.
 
-use std::collections::btree_map::Entry;
-use std::collections::BTreeMap;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -153,12 +151,12 @@ pub fn layered_plan_from(
         } else {
             Vec::new()
         };
-        let layer_graph = WeldGraph::new(&layer.part);
-        let Some((pieces, continued)) = Solves::new(&layer, &layer_graph, backend).solve(
+        let Some((pieces, continued)) = layer.solve(
             &starts,
             &first_here,
             steer.as_ref(),
             new_fragments_left,
+            backend,
             limits,
         ) else {
             tracing::debug!(
@@ -209,51 +207,30 @@ pub fn layered_plan_from(
     }
 }
 
-/// A part's first layer, to ask which ways of beginning it can be covered from.
-pub struct FirstLayer {
-    range: std::ops::Range<usize>,
-    layer: Layer,
-    graph: WeldGraph,
-}
-
-impl FirstLayer {
-    /// `None` when the part has no layer.
-    pub fn new(part: &Part) -> Option<FirstLayer> {
-        let range = layer_ranges(part).into_iter().next()?;
-        let layer = Layer::new(part, range.clone());
-        let graph = WeldGraph::new(&layer.part);
-        Some(FirstLayer {
-            range,
-            layer,
-            graph,
-        })
-    }
-
-    /// Whether the layer has a cover by at most `k` paths that begin as `first` says
-    /// (global blocks, as [`layered_plan_from`] takes them): the first solve of that build,
-    /// without the layers above. A start inside a branch of a T has none: the portfolio
-    /// skips such starts at the cost of one small solve each, not a build.
-    pub fn allows<'s>(
-        &'s self,
-        k: usize,
-        backend: Backend,
-        limits: &'s Limits,
-    ) -> impl FnMut(&[Vec<usize>]) -> bool + 's {
-        move |first: &[Vec<usize>]| {
-            // A fresh search per question: on a box's 1,219-block floor (s8015) searches
-            // reused from start to start found 43 starts in 56 s, fresh ones 60 in 27 s.
-            let mut solves = Solves::new(&self.layer, &self.graph, backend);
-            let local: Option<Vec<Vec<usize>>> = first
-                .iter()
-                .map(|p| {
-                    p.iter()
-                        .map(|b| self.range.contains(b).then(|| b - self.range.start))
-                        .collect()
-                })
-                .collect();
-            local.is_some_and(|local| solves.solve(&[], &local, None, k, limits).is_some())
-        }
-    }
+/// Whether the first layer has a cover by at most `k` paths that begin as `first` says
+/// (global blocks, as [`layered_plan_from`] takes them): the first solve of that build,
+/// without the layers above. A start inside a branch of a T has none: the portfolio skips
+/// such starts at the cost of one small solve each, not a build. `None` when the part
+/// has no layer.
+pub fn first_layer_allows<'l>(
+    part: &Part,
+    k: usize,
+    backend: Backend,
+    limits: &'l Limits,
+) -> Option<impl Fn(&[Vec<usize>]) -> bool + 'l> {
+    let range = layer_ranges(part).into_iter().next()?;
+    let layer = Layer::new(part, range.clone());
+    Some(move |first: &[Vec<usize>]| {
+        let local: Option<Vec<Vec<usize>>> = first
+            .iter()
+            .map(|p| {
+                p.iter()
+                    .map(|b| range.contains(b).then(|| b - range.start))
+                    .collect()
+            })
+            .collect();
+        local.is_some_and(|local| layer.solve(&[], &local, None, k, backend, limits).is_some())
+    })
 }
 
 /// The covers of the first layer by as many paths as `base` (its pieces, global blocks in
@@ -611,32 +588,6 @@ impl Layer {
             run_limits,
         )
     }
-}
-
-/// Solves of one layer (`graph`: the layer's) that share its bound, its serpentines and,
-/// per number of paths, one incremental search: a layer's solve asks several questions
-/// (steered, then not; as few paths as may do, then more), each a set of assumptions, and
-/// the cycle cuts one learns hold for every cover.
-struct Solves<'a> {
-    layer: &'a Layer,
-    graph: &'a WeldGraph,
-    backend: Backend,
-    fewest: usize,
-    serpentines: Vec<Vec<usize>>,
-    searches: BTreeMap<usize, Search<'a>>,
-}
-
-impl<'a> Solves<'a> {
-    fn new(layer: &'a Layer, graph: &'a WeldGraph, backend: Backend) -> Solves<'a> {
-        Solves {
-            layer,
-            graph,
-            backend,
-            fewest: crate::layer_path_bound(&layer.part, graph)[0].1,
-            serpentines: layer.serpentines(),
-            searches: BTreeMap::new(),
-        }
-    }
 
     /// The layer's paths (global indices, in order) and how many of them start at the
     /// first of `arriving` (in that order: path i starts at `arriving[i]`), as many as
@@ -644,17 +595,19 @@ impl<'a> Solves<'a> {
     /// take one of `new_fragments_left`. `first` (local blocks): how the new paths begin
     /// (path i with `first[i]`), when no path arrives.
     fn solve(
-        &mut self,
+        &self,
         arriving: &[usize],
         first: &[Vec<usize>],
         steer: Option<&Steer>,
         new_fragments_left: usize,
+        backend: Backend,
         limits: &Limits,
     ) -> Option<(Vec<Vec<usize>>, usize)> {
-        let layer = self.layer;
-        let fewest = self.fewest;
+        let graph = WeldGraph::new(&self.part);
+        let fewest = crate::layer_path_bound(&self.part, &graph)[0].1;
         // Steered where that can work, else not.
         let steerings: Vec<Option<&Steer>> = steer.map(Some).into_iter().chain([None]).collect();
+        let serpentines = self.serpentines();
         // Continue as many arriving paths as possible, then fewer (the last ones first).
         for continued in (0..=arriving.len()).rev() {
             let starts = &arriving[..continued];
@@ -668,17 +621,18 @@ impl<'a> Solves<'a> {
                     && !starts
                         .iter()
                         .chain(own_starts)
-                        .all(|&b| layer.path_may_start(b))
+                        .all(|&b| self.path_may_start(b))
                 {
                     continue;
                 }
+                let mut cached = None;
                 for steer in &steerings {
                     // One path on a layer of whole rows: a serpentine, built directly (a
                     // SAT solve of a plate of 10^4 blocks takes minutes).
                     if paths == 1 {
                         let first = starts.first().or(own.first().and_then(|p| p.first()));
                         let begins = own.first().map_or(&[][..], |p| &p[..]);
-                        if let Some(path) = self.serpentines.iter().find(|p| {
+                        if let Some(path) = serpentines.iter().find(|p| {
                             first.is_none_or(|&b| p[0] == b)
                                 && p.starts_with(begins)
                                 && steer.is_none_or(|s| {
@@ -686,15 +640,13 @@ impl<'a> Solves<'a> {
                                     s.allowed[at] || (!s.ends && continued == 1)
                                 })
                         }) {
-                            let path = path.iter().map(|b| layer.first + b).collect();
+                            let path = path.iter().map(|b| self.first + b).collect();
                             return Some((vec![path], continued));
                         }
                     }
-                    let search = match self.searches.entry(paths) {
-                        Entry::Occupied(search) => search.into_mut(),
-                        Entry::Vacant(slot) => {
-                            slot.insert(layer.search(self.graph, paths, self.backend, limits)?)
-                        }
+                    let search = match &mut cached {
+                        Some(search) => search,
+                        None => cached.insert(self.search(&graph, paths, backend, limits)?),
                     };
                     let enc = &search.enc;
                     let mut assume: Vec<Lit> = starts
@@ -722,12 +674,12 @@ impl<'a> Solves<'a> {
                             }
                         }
                     }
-                    let deadline = limits.attempt(layer.part.len());
+                    let deadline = limits.attempt(self.part.len());
                     search.set_interrupt(Some(deadline), limits.cancel.clone());
                     if let Some(pieces) = search.next_candidate(&assume) {
                         let pieces = pieces
                             .into_iter()
-                            .map(|p| p.into_iter().map(|b| layer.first + b).collect())
+                            .map(|p| p.into_iter().map(|b| self.first + b).collect())
                             .collect();
                         return Some((pieces, continued));
                     }
@@ -740,7 +692,7 @@ impl<'a> Solves<'a> {
                     // same search failed too for 12 of 13 start variants whose floor the
                     // portfolio's filter had covered in about 0.5 s; fresh, for 4 of 26.
                     if search.interrupted {
-                        self.searches.remove(&paths);
+                        cached = None;
                     }
                 }
             }

@@ -141,15 +141,12 @@ impl Portfolio<'_> {
     /// in order; `None` when no variant keeps every window (or the run stopped first).
     pub fn varied_start(&self, base: &[Vec<usize>]) -> Option<Repaired> {
         let Portfolio { part, k, .. } = *self;
-        let first_layer = constructive::FirstLayer::new(part);
-        let mut allows = first_layer
-            .as_ref()
-            .map(|layer| layer.allows(k, self.backend, self.limits));
+        let allows = constructive::first_layer_allows(part, k, self.backend, self.limits);
         // One small solve of the first layer per start: on a big floor seconds each, so
         // the log says what they cost (box s8015 at 10^4: 27 s, benchmarks.md).
         let filtering = std::time::Instant::now();
         let moves = first_moves(part, self.graph, base, |first| {
-            allows.as_mut().is_some_and(|allows| allows(first))
+            allows.as_ref().is_some_and(|allows| allows(first))
         });
         tracing::debug!(
             "warm-start portfolio: {} start(s) the first layer can be covered from, found in {:.2} s{}",
@@ -501,7 +498,7 @@ fn first_moves(
     part: &Part,
     graph: &WeldGraph,
     base: &[Vec<usize>],
-    mut allows: impl FnMut(&[Vec<usize>]) -> bool,
+    allows: impl Fn(&[Vec<usize>]) -> bool,
 ) -> Vec<(usize, usize)> {
     let pieces = first_layer_pieces(part, base);
     let Some(first) = pieces.first() else {
@@ -822,13 +819,9 @@ mod tests {
             .expect("a T has a layer-by-layer plan");
         let pieces = first_layer_pieces(&part, &base);
         assert_eq!(pieces.len(), 2, "two paths start in the first layer");
-        let first_layer = constructive::FirstLayer::new(&part).expect("a part with a layer");
-        let moves = first_moves(
-            &part,
-            &graph,
-            &base,
-            first_layer.allows(2, Backend::Cadical, &limits),
-        );
+        let allows = constructive::first_layer_allows(&part, 2, Backend::Cadical, &limits)
+            .expect("a part with a layer");
+        let moves = first_moves(&part, &graph, &base, &allows);
         assert!(
             moves.iter().any(|&(a, _)| pieces[1].contains(&a)),
             "a start in the second path's piece: {moves:?}"
