@@ -305,11 +305,12 @@ impl CandidateRecorder {
         }
         candidate.prefix_len = u32::try_from(prefix_len).unwrap_or(u32::MAX);
         candidate.learned_clause_len = u32::try_from(clause_len).unwrap_or(u32::MAX);
-        if let Err(e) = self
+        match self
             .recorder
             .record(topics::CANDIDATES, &Qos::reliable(100), &candidate)
         {
-            self.error = Some(e.into());
+            Ok(()) => tracing::debug!("recorded candidate {}", self.index),
+            Err(e) => self.error = Some(e.into()),
         }
     }
 
