@@ -99,6 +99,8 @@ pub(crate) struct Broken {
     blocks: usize,
     block: usize,
     miss_s: f64,
+    /// The block cooled too fast (a Min window): its miss says how near the window is.
+    too_fast: bool,
 }
 
 impl Broken {
@@ -107,7 +109,16 @@ impl Broken {
             blocks: v.prefix_len.max(welded),
             block: v.block,
             miss_s: (v.window.min_s - v.t85_s).max(v.t85_s - v.window.max_s),
+            too_fast: v.kind == waam_thermal::ViolationKind::Min,
         }
+    }
+
+    /// Whether `self` is the same block cooling too fast as `other`, missed by less,
+    /// however many blocks come before the break: a seam moved round a ring moves when the
+    /// block is welded. (A Max window breaks the step its time runs out: its miss is
+    /// always about one step, so says nothing.)
+    fn nearer_than(&self, other: &Broken) -> bool {
+        self.block == other.block && self.too_fast && other.too_fast && self.miss_s < other.miss_s
     }
 
     /// Whether `self` gets further than `other`: more blocks welded before a window
@@ -155,6 +166,7 @@ impl<'a> Repair<'a> {
             blocks,
             block,
             miss_s: f64::INFINITY,
+            too_fast: false,
         };
         let mut step = 0;
         // The plan now simulated up to some deposits (the prefix every later plan shares up
@@ -318,7 +330,26 @@ impl<'a> Repair<'a> {
                     Some((_, kept)) if !b.further_than(&kept) => best,
                     _ => Some((c, b)),
                 });
-            let Some((c, further)) = best.filter(|(_, b)| b.further_than(&broken)) else {
+            // None gets further: the one that misses the same too-fast window by least, if
+            // by less than now (the step does not count as getting further).
+            let nearer = || {
+                verdicts
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(c, v)| match v {
+                        Some(Err(b)) if b.nearer_than(&broken) => Some((c, *b)),
+                        _ => None,
+                    })
+                    .fold(None, |best: Option<(usize, Broken)>, (c, b)| match best {
+                        Some((_, kept)) if !b.nearer_than(&kept) => best,
+                        _ => Some((c, b)),
+                    })
+            };
+            let (chosen, ahead) = match best.filter(|(_, b)| b.further_than(&broken)) {
+                Some(best) => (Some(best), true),
+                None => (nearer(), false),
+            };
+            let Some((c, further)) = chosen else {
                 tracing::debug!(
                     "warm-start repair: step {step}: none of {} changes gets past {} blocks",
                     candidates.len(),
@@ -346,7 +377,7 @@ impl<'a> Repair<'a> {
             let changed_at = candidates[c].0.at;
             plan = candidates.into_iter().nth(c).map(|(_, _, plan)| plan)?;
             broken = further;
-            got_further = true;
+            got_further |= ahead;
             saved.retain(|&(at, _)| at <= changed_at);
             // The chosen plan's states from its run, where the next step may change it.
             if let Some((_, _, states)) = kept.into_iter().find(|(k, _, _)| *k == c) {
@@ -1026,6 +1057,25 @@ mod tests {
     }
 
     #[test]
+    fn the_same_block_cooling_too_fast_is_nearer_by_its_miss_alone() {
+        let broken = |blocks, block, miss_s, too_fast| Broken {
+            blocks,
+            block,
+            miss_s,
+            too_fast,
+        };
+        // A seam moved so the block is welded sooner: fewer blocks, nearer its window.
+        let now = broken(8802, 7, 10.8, true);
+        assert!(broken(8684, 7, 9.7, true).nearer_than(&now));
+        assert!(!broken(8684, 7, 9.7, true).further_than(&now));
+        assert!(!broken(8900, 7, 11.0, true).nearer_than(&now));
+        // Another block, or a Max window (missed by about a step whenever it breaks): not.
+        assert!(!broken(8684, 8, 9.7, true).nearer_than(&now));
+        let max = broken(8802, 7, 0.06, false);
+        assert!(!broken(8684, 7, 0.05, false).nearer_than(&max));
+    }
+
+    #[test]
     fn only_candidates_that_may_be_chosen_keep_their_states() {
         let (part, graph, _) = wall_and_warm_start();
         let model = ThermalModel::new(&part, &graph);
@@ -1034,6 +1084,7 @@ mod tests {
             blocks,
             block: 0,
             miss_s: 0.0,
+            too_fast: false,
         };
         let states = || vec![(1, sim.clone())];
         let indices = |kept: &Vec<KeptStates>| kept.iter().map(|(c, _, _)| *c).collect::<Vec<_>>();
@@ -1066,6 +1117,7 @@ mod tests {
             blocks,
             block,
             miss_s: f64::INFINITY,
+            too_fast: false,
         };
         let seq = deposits(&warm);
         let repair = repair_of(&part, &graph, &model, None);
