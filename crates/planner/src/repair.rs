@@ -340,10 +340,8 @@ impl<'a> Repair<'a> {
                         Some(Err(b)) if b.nearer_than(&broken) => Some((c, *b)),
                         _ => None,
                     })
-                    .fold(None, |best: Option<(usize, Broken)>, (c, b)| match best {
-                        Some((_, kept)) if !b.nearer_than(&kept) => best,
-                        _ => Some((c, b)),
-                    })
+                    // The first of those nearest.
+                    .min_by(|(_, a), (_, b)| a.miss_s.total_cmp(&b.miss_s))
             };
             let (chosen, ahead) = match best.filter(|(_, b)| b.further_than(&broken)) {
                 Some(best) => (Some(best), true),
