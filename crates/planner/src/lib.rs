@@ -237,7 +237,9 @@ fn search_plans(
         };
         // Cube layers are covered by small SAT solves; a graph part's beads are walked.
         let graph_part = part.bead_part().is_some();
-        let warm = if graph_part {
+        let warm = if let Some(built) = &tuning.warm_start {
+            Some(built.clone())
+        } else if graph_part {
             contour::layered_plan(part, &graph, k, &limits)
         } else {
             constructive::layered_plan(part, &graph, k, opts.solver, &limits)
@@ -247,7 +249,7 @@ fn search_plans(
             // Stopped before a verdict: the loop below sees the timeout.
             let mut verdict = search.judge(&warm)?;
             if !matches!(verdict, Some(CandidateVerdict::Feasible)) {
-                tuning.note_warm_start_failed();
+                tuning.note_warm_start_failed(Some(&warm));
             }
             // The simulator says the warm start breaks a window: the portfolio varies the
             // cube construction's starts (in a race, the default and varisat racers do).
@@ -380,7 +382,7 @@ fn search_plans(
         }
     }
     if best.is_none() {
-        tuning.note_warm_start_failed();
+        tuning.note_warm_start_failed(None);
     }
     // Fewest fragments first: f = 1, 2, ... under an assumption (all of k when not optimizing).
     let levels: Vec<usize> = if optimize { (1..=k).collect() } else { vec![k] };

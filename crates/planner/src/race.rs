@@ -40,11 +40,13 @@
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
+use waam_part::graph::WeldGraph;
 use waam_part::Part;
 
+use crate::constructive::{layered_plan, Limits};
 use crate::sat::Backend;
 use crate::sharing::{ClausePool, Sharing};
 use crate::{
@@ -103,9 +105,21 @@ pub(crate) struct Tuning {
     /// A feasible plan another racer found: the search judges it first, in the warm
     /// start's place, and looks only for better plans.
     pub incumbent: Option<Vec<Vec<usize>>>,
-    /// Raised once the warm start is judged and is no feasible plan, or there is none (the
-    /// default racer's: the other racers start then).
-    pub warm_start_failed: Option<Arc<AtomicBool>>,
+    /// A warm start built before the search (the varisat racer's, built to compare it with
+    /// the default's): judged in place of building one.
+    pub warm_start: Option<Vec<Vec<usize>>>,
+    /// The default racer's: raised once its warm start is judged and is no feasible plan,
+    /// or there is none (the other racers start then).
+    pub warm_start_failed: Option<Arc<DefaultWarmStart>>,
+}
+
+/// The default racer's warm start as the other racers see it.
+#[derive(Default)]
+pub(crate) struct DefaultWarmStart {
+    /// Raised once it is judged and is no feasible plan, or there is none.
+    failed: AtomicBool,
+    /// The layer-by-layer plan it judged (set before `failed` is raised), if it built one.
+    plan: OnceLock<Vec<Vec<usize>>>,
 }
 
 impl Tuning {
@@ -114,7 +128,7 @@ impl Tuning {
         racer: Racer,
         lineup: &[Racer],
         sharing: Sharing,
-        warm_start_failed: Option<Arc<AtomicBool>>,
+        warm_start_failed: Option<Arc<DefaultWarmStart>>,
     ) -> Tuning {
         Tuning {
             varied_starts: racer.varies_starts(),
@@ -126,6 +140,7 @@ impl Tuning {
                 _ => None,
             },
             incumbent: None,
+            warm_start: None,
             warm_start_failed,
         }
     }
@@ -138,14 +153,20 @@ impl Tuning {
             sharing: None,
             seed: None,
             incumbent: None,
+            warm_start: None,
             warm_start_failed: None,
         }
     }
 
-    /// The warm start gave no feasible plan (raises [`Tuning::warm_start_failed`]).
-    pub fn note_warm_start_failed(&self) {
-        if let Some(flag) = &self.warm_start_failed {
-            flag.store(true, Ordering::Relaxed);
+    /// The warm start (`plan`, the layer-by-layer plan before any repair; `None`: there was
+    /// none) gave no feasible plan: raises [`Tuning::warm_start_failed`].
+    pub fn note_warm_start_failed(&self, plan: Option<&[Vec<usize>]>) {
+        if let Some(shared) = &self.warm_start_failed {
+            if let Some(plan) = plan {
+                // Only the first: a later call says there is still no plan.
+                let _ = shared.plan.set(plan.to_vec());
+            }
+            shared.failed.store(true, Ordering::Release);
         }
     }
 }
@@ -162,13 +183,60 @@ pub(crate) fn threads(opts: &Options) -> usize {
 }
 
 /// The configurations raced on `threads` threads, one each, in this order: the default,
-/// the other two a user can choose alone, then seeded CaDiCaL runs.
+/// the other two a user can choose alone (varisat first: see [`stand_in`]), then seeded
+/// CaDiCaL runs.
 pub(crate) fn racers(threads: usize) -> Vec<Racer> {
-    [Racer::Default, Racer::NoWarmStart, Racer::Varisat]
+    lineup().take(threads.max(1)).collect()
+}
+
+fn lineup() -> impl Iterator<Item = Racer> {
+    [Racer::Default, Racer::Varisat, Racer::NoWarmStart]
         .into_iter()
         .chain((1..).map(Racer::Seeded))
-        .take(threads.max(1))
-        .collect()
+}
+
+/// The racer that runs in the varisat racer's place when varisat's layer-by-layer plan is
+/// the default's own: the first of the line not racing already.
+///
+/// Why: varisat's racer is worth its thread for its warm start, a plan of its own (on a
+/// T or two rings varisat covers the layers otherwise than CaDiCaL), which its repair then
+/// mends. Where both solvers build the same plan (a floor walked as a serpentine, a box's
+/// rings, a bead part's contours) its repair repeats the default's, and the thread is
+/// better spent on the search without the warm start. On 2 threads that makes the second
+/// racer varisat on the parts where varisat's plan is a different one and `--no-warm-start`
+/// on the others: on 72 generated parts of 10^4 blocks the faster of the default and
+/// either fixed second racer was more than 2x slower than the best single configuration
+/// on three or four parts, of the default and this one on none (docs/benchmarks.md).
+fn stand_in(racing: &[Racer]) -> Racer {
+    lineup()
+        .find(|r| *r != Racer::Varisat && !racing.contains(r))
+        .expect("the line is endless")
+}
+
+/// Varisat's layer-by-layer plan of `part` when it is not `default` (the default racer's),
+/// else `None`: its racer would repeat the default's repair.
+fn own_varisat_plan(
+    part: &Part,
+    opts: &Options,
+    default: Option<&Vec<Vec<usize>>>,
+) -> Option<Vec<Vec<usize>>> {
+    // A bead part's warm start is walked along its contours, by no solver.
+    if part.bead_part().is_some() {
+        return None;
+    }
+    let graph = WeldGraph::new(part);
+    let limits = Limits {
+        deadline: opts.timeout.and_then(|t| Instant::now().checked_add(t)),
+        cancel: opts.cancel.clone(),
+    };
+    let plan = layered_plan(
+        part,
+        &graph,
+        max_fragments(part, opts),
+        Backend::Varisat,
+        &limits,
+    )?;
+    (default != Some(&plan)).then_some(plan)
 }
 
 /// How many racers fit `opts.max_memory_mb` side by side (each encodes the part), at
@@ -213,7 +281,7 @@ pub(crate) fn race(
     let shared = Arc::new((part.clone(), opts.clone()));
     let (tx, rx) = mpsc::channel::<Message>();
     let n = racers.len();
-    let warm_start_failed = Arc::new(AtomicBool::new(false));
+    let warm_start_failed = Arc::new(DefaultWarmStart::default());
     let gate = Gate {
         after: Some(Arc::clone(&warm_start_failed)),
         ..Gate::default()
@@ -221,22 +289,20 @@ pub(crate) fn race(
     for (i, &racer) in racers.iter().enumerate() {
         let sharing = Sharing::new(Arc::clone(&pool), i);
         // The default takes no clauses in: its proofs stay those of a run alone.
-        let (sharing, gate, failed) = match racer {
-            Racer::Default => (
-                sharing.publish_only(),
-                gate.open(),
-                Some(Arc::clone(&warm_start_failed)),
-            ),
-            _ => (sharing, gate.clone(), None),
+        let (entrant, gate) = match racer {
+            Racer::Default => {
+                let failed = Some(Arc::clone(&warm_start_failed));
+                let tuning = Tuning::racing(racer, &racers, sharing.publish_only(), failed);
+                (Entrant::new(racer, tuning), gate.open())
+            }
+            _ => (Entrant::racing(racer, &racers, sharing), gate.clone()),
         };
-        let tuning = Tuning::racing(racer, &racers, sharing, failed);
         spawn(
-            (racer, share(i, n, threads)),
+            (entrant, false, share(i, n, threads)),
             &shared,
             (started, &gate),
             &stop,
             &tx,
-            move |part, o, progress| run(racer, part, o, progress, tuning, false),
         );
     }
     drop(tx);
@@ -344,7 +410,7 @@ pub(crate) fn race_best(
     let (tx, rx) = mpsc::channel::<Message>();
     let from_plan_id = racers.len();
     let n = racers.len();
-    let warm_start_failed = Arc::new(AtomicBool::new(false));
+    let warm_start_failed = Arc::new(DefaultWarmStart::default());
     let gate = Gate {
         after: Some(Arc::clone(&warm_start_failed)),
         ..Gate::default()
@@ -356,22 +422,23 @@ pub(crate) fn race_best(
             let failed = Some(Arc::clone(&warm_start_failed));
             let tuning = Tuning::racing(racer, &racers, sharing.publish_only(), failed);
             spawn(
-                (racer, share(i, n, threads)),
+                (Entrant::new(racer, tuning), true, share(i, n, threads)),
                 &shared,
                 (started, &gate.open()),
                 &optimizers,
                 &tx,
-                move |part, o, progress| run(racer, part, o, progress, tuning, true),
             );
         } else {
-            let tuning = Tuning::racing(racer, &racers, sharing, None);
             spawn(
-                (racer, share(i, n, threads)),
+                (
+                    Entrant::racing(racer, &racers, sharing),
+                    false,
+                    share(i, n, threads),
+                ),
                 &shared,
                 (started, &gate),
                 &seekers,
                 &tx,
-                move |part, o, progress| run(racer, part, o, progress, tuning, false),
             );
         }
     }
@@ -448,17 +515,16 @@ pub(crate) fn race_best(
                         sharing: Some(Sharing::new(Arc::clone(&pool), from_plan_id)),
                         seed: None,
                         incumbent: Some(plan),
+                        warm_start: None,
                         warm_start_failed: None,
                     };
-                    let opt = Racer::FromPlan;
                     // Not counted among the racers: it is the default configuration again.
                     spawn(
-                        (opt, 1),
+                        (Entrant::new(Racer::FromPlan, tuning), true, 1),
                         &shared,
                         (started, &Gate::default()),
                         &optimizers,
                         &tx,
-                        move |part, o, progress| search_plans(part, o, progress, true, &tuning),
                     );
                     // Not proven optimal: the answer unless the optimizing searches find better.
                     r.proven = false;
@@ -531,12 +597,11 @@ fn share(i: usize, racers: usize, threads: usize) -> usize {
 /// Detached, not scoped: the answer does not wait for a loser that stops only between
 /// its solves (varisat); it ends on its own soon after its stop flag is raised.
 fn spawn(
-    (racer, threads): (Racer, usize),
+    (entrant, optimize, threads): (Entrant, bool, usize),
     shared: &Arc<(Part, Options)>,
     (started, gate): (Instant, &Gate),
     stop: &Arc<AtomicBool>,
     tx: &mpsc::Sender<Message>,
-    search: impl FnOnce(&Part, &Options, Progress) -> Result<Report, PlanError> + Send + 'static,
 ) {
     let (shared, stop, tx, gate) = (
         Arc::clone(shared),
@@ -557,6 +622,7 @@ fn spawn(
             threads,
             ..opts.clone()
         };
+        let (racer, tuning) = entrant.who_runs(part, &o, gate.default_plan());
         let mut forward = |event: Event<'_>| {
             if let Event::Candidate {
                 fragments,
@@ -572,13 +638,74 @@ fn spawn(
                 });
             }
         };
-        let result = search(part, &o, &mut forward);
+        let result = run(racer, part, &o, &mut forward, tuning, optimize);
         let _ = tx.send(Message::Done {
             racer,
             result: Box::new(result),
             offset,
         });
     });
+}
+
+/// A racer and its tuning, as its thread gets them.
+struct Entrant {
+    racer: Racer,
+    tuning: Tuning,
+    /// Varisat's racer: who runs in its place, with its tuning, when varisat's plan is the
+    /// default's own ([`stand_in`]).
+    stand_in: Option<(Racer, Tuning)>,
+}
+
+impl Entrant {
+    fn new(racer: Racer, tuning: Tuning) -> Entrant {
+        Entrant {
+            racer,
+            tuning,
+            stand_in: None,
+        }
+    }
+
+    /// A racer other than the default in a race of `lineup`, taking clauses in.
+    fn racing(racer: Racer, lineup: &[Racer], sharing: Sharing) -> Entrant {
+        let stand_in = (racer == Racer::Varisat).then(|| {
+            let other = stand_in(lineup);
+            (other, Tuning::racing(other, lineup, sharing.clone(), None))
+        });
+        Entrant {
+            racer,
+            tuning: Tuning::racing(racer, lineup, sharing, None),
+            stand_in,
+        }
+    }
+
+    /// The racer that runs, and its tuning: varisat's with its own plan as its warm start,
+    /// or the one standing in for it when that plan is `default`'s.
+    fn who_runs(
+        self,
+        part: &Part,
+        opts: &Options,
+        default: Option<&Vec<Vec<usize>>>,
+    ) -> (Racer, Tuning) {
+        let Some((other, tuning)) = self.stand_in else {
+            return (self.racer, self.tuning);
+        };
+        match own_varisat_plan(part, opts, default) {
+            Some(plan) => (
+                self.racer,
+                Tuning {
+                    warm_start: Some(plan),
+                    ..self.tuning
+                },
+            ),
+            None => {
+                tracing::debug!(
+                    "race: varisat's warm start is the default's; {} runs in its place",
+                    other.name()
+                );
+                (other, tuning)
+            }
+        }
+    }
 }
 
 /// When a racer starts, and how many have.
@@ -591,8 +718,8 @@ fn spawn(
 /// whole simulation of its own.
 #[derive(Clone, Default)]
 struct Gate {
-    /// None: start at once; else once it is raised.
-    after: Option<Arc<AtomicBool>>,
+    /// None: start at once; else once the default's warm start failed.
+    after: Option<Arc<DefaultWarmStart>>,
     /// Racers that started (a race's statistic).
     started: Arc<AtomicUsize>,
 }
@@ -601,7 +728,7 @@ impl Gate {
     /// Waits until the racer may start (true) or the race is stopped first (false).
     fn pass(&self, stop: &AtomicBool) -> bool {
         if let Some(after) = &self.after {
-            while !after.load(Ordering::Relaxed) {
+            while !after.failed.load(Ordering::Acquire) {
                 if stop.load(Ordering::Relaxed) {
                     return false;
                 }
@@ -613,6 +740,12 @@ impl Gate {
         }
         self.started.fetch_add(1, Ordering::Relaxed);
         true
+    }
+
+    /// The layer-by-layer plan of the default's warm start that failed, once the gate
+    /// opened after it.
+    fn default_plan(&self) -> Option<&Vec<Vec<usize>>> {
+        self.after.as_ref()?.plan.get()
     }
 
     /// The same count, starting at once.
@@ -675,10 +808,10 @@ mod tests {
         assert_eq!(report.stats.first_plan_racer.as_deref(), Some("default"));
         assert_eq!(report.stats.racers_started, 1, "{:?}", report.stats);
         // The default's warm start of this one breaks a window, and the search without it
-        // finds a plan about ten times sooner than the default's repair.
+        // (the third racer) finds a plan about ten times sooner than the default's repair.
         let part = test_part("race-tube-600.yaml");
-        let report = race(&part, &opts, &mut |_| {}, 2).unwrap();
-        assert_eq!(report.stats.racers_started, 2, "{:?}", report.stats);
+        let report = race(&part, &opts, &mut |_| {}, 3).unwrap();
+        assert_eq!(report.stats.racers_started, 3, "{:?}", report.stats);
         assert_eq!(
             report.stats.first_plan_racer.as_deref(),
             Some("no-warm-start")
@@ -726,6 +859,52 @@ mod tests {
         assert_eq!(report.stats.candidates, 2, "{:?}", report.stats);
     }
 
+    /// Varisat's racer runs when varisat's layer-by-layer plan is not the default's (then
+    /// with that plan as its warm start), and gives its thread to the next racer in line
+    /// when it is.
+    #[test]
+    fn varisat_gives_its_thread_away_when_its_plan_is_the_defaults() {
+        assert_eq!(racers(2), [Racer::Default, Racer::Varisat]);
+        assert_eq!(stand_in(&racers(2)), Racer::NoWarmStart);
+        assert_eq!(stand_in(&racers(3)), Racer::Seeded(1));
+        let opts = Options {
+            timeout: Some(Duration::from_secs(60)),
+            ..Options::default()
+        };
+        let plan = |part: &Part, backend| {
+            let graph = WeldGraph::new(part);
+            let limits = Limits {
+                deadline: None,
+                cancel: None,
+            };
+            layered_plan(part, &graph, max_fragments(part, &opts), backend, &limits).unwrap()
+        };
+        let entrant = || {
+            let sharing = Sharing::new(Arc::new(ClausePool::default()), 1);
+            Entrant::racing(Racer::Varisat, &racers(2), sharing)
+        };
+        // Either solver walks this plate's layers as the same serpentine.
+        let blocks = (0..3)
+            .flat_map(|z| (0..4).flat_map(move |y| (0..6).map(move |x| [x, y, z])))
+            .collect();
+        let plate =
+            Part::from_blocks("plate".into(), [6.0, 6.0, 2.5], [0.0; 3], 2, blocks).unwrap();
+        let default = plan(&plate, Backend::Cadical);
+        let (racer, tuning) = entrant().who_runs(&plate, &opts, Some(&default));
+        assert_eq!(racer, Racer::NoWarmStart);
+        assert!(tuning.warm_start.is_none() && !tuning.varied_starts);
+        // Varisat covers this tube's layers otherwise (its plan breaks a window, CaDiCaL's
+        // does not).
+        let tube = test_part("varisat-tube-400.yaml");
+        let default = plan(&tube, Backend::Cadical);
+        let own = plan(&tube, Backend::Varisat);
+        assert_ne!(own, default);
+        let (racer, tuning) = entrant().who_runs(&tube, &opts, Some(&default));
+        assert_eq!(racer, Racer::Varisat);
+        assert_eq!(tuning.warm_start, Some(own));
+        assert!(tuning.varied_starts);
+    }
+
     /// A run on its own whose warm start breaks a window that its repair does not keep
     /// tries varisat's layer-by-layer plan: on this double tube varisat's plan,
     /// repaired or varied, gives the default a plan without a solve (without it: one solve,
@@ -764,13 +943,13 @@ mod tests {
 
     #[test]
     fn one_racer_per_thread_the_default_first() {
-        assert_eq!(racers(2), [Racer::Default, Racer::NoWarmStart]);
+        assert_eq!(racers(2), [Racer::Default, Racer::Varisat]);
         assert_eq!(
             racers(5),
             [
                 Racer::Default,
-                Racer::NoWarmStart,
                 Racer::Varisat,
+                Racer::NoWarmStart,
                 Racer::Seeded(1),
                 Racer::Seeded(2)
             ]
@@ -845,6 +1024,7 @@ mod tests {
             sharing: None,
             seed: None,
             incumbent: Some(worst.clone()),
+            warm_start: None,
             warm_start_failed: None,
         };
         let from_plan = search_plans(&part, &opts, &mut |_| {}, true, &tuning).unwrap();
