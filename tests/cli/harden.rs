@@ -1064,6 +1064,35 @@ fn plan_stops_on_ctrl_c_within_a_second_and_says_so() {
     );
 }
 
+/// `waam bench scale` stops on Ctrl-C within a second, keeps the rows it has in its
+/// `--json` file and exits 130 (it exited 0, and its independent check of a plan did not
+/// look at Ctrl-C: a minute at 10^5 blocks).
+#[test]
+fn bench_scale_stops_on_ctrl_c_within_a_second_and_keeps_its_rows() {
+    let dir = tempfile::tempdir().unwrap();
+    let parts = dir.path().join("parts");
+    std::fs::create_dir(&parts).unwrap();
+    let ring = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/endless-ring.yaml");
+    std::fs::copy(ring, parts.join("endless-ring.yaml")).unwrap();
+    let mut child = crate::common::run::waam()
+        .args(["-q", "bench", "scale", "parts", "--timeout", "60"])
+        .args(["--json", "rows.json"])
+        .current_dir(dir.path())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let (status, stopped_after) = ctrl_c_after(&mut child, Duration::from_millis(2000));
+    assert_eq!(status.code(), Some(130), "{status:?}");
+    assert!(stopped_after < Duration::from_secs(1), "{stopped_after:?}");
+    let rows: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("rows.json")).unwrap()).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 1, "{rows:?}");
+    assert_eq!(rows[0]["part"], "endless-ring");
+    assert_eq!(rows[0]["first"]["found"], false);
+}
+
 /// A part file: two layers of a disc of radius `r` blocks, k = 16.
 fn disc_part(r: i64) -> String {
     let layer: String = (-r..=r)

@@ -10,12 +10,13 @@
 //!
 //! The racers ([`racers`]), one per thread: the default (CaDiCaL with the layer-by-layer
 //! warm start and, when that breaks a window, the varied starts of [`crate::portfolio`]:
-//! exactly the run of `--threads 1`), CaDiCaL without the warm start, varisat (its own warm
-//! start, repaired and varied as the default's is: exactly the run of `--solver varisat`),
-//! then CaDiCaL with other seeds. The default configuration, when its warm start cannot
-//! be repaired, also tries varisat's layer-by-layer plan
-//! ([`crate::portfolio::Portfolio::layered`]); in a race only when no varisat racer runs
-//! (on 2 threads): otherwise that racer has it. The default starts at once, the others as soon as its
+//! exactly the run of `--threads 1`), varisat (its own warm start, repaired and varied as
+//! the default's is: exactly the run of `--solver varisat`), CaDiCaL without the warm
+//! start, then CaDiCaL with other seeds. Varisat's racer runs only when its layer-by-layer
+//! plan is not the default's; otherwise the next configuration in line runs on its thread
+//! ([`stand_in`]). The default configuration alone, when its warm start cannot be
+//! repaired, also tries varisat's layer-by-layer plan
+//! ([`crate::portfolio::Portfolio::layered`]); in a race varisat's racer has it. The default starts at once, the others as soon as its
 //! warm start is judged and is no plan ([`Gate`]): a feasible warm start is the answer
 //! without a racer beside it slowing it down. Each racer is one thread (its varied starts
 //! too), so none waits for another once started and none shares its core: the race is as
@@ -108,9 +109,9 @@ pub(crate) struct Tuning {
     /// A warm start built before the search (the varisat racer's, built to compare it with
     /// the default's): judged in place of building one.
     pub warm_start: Option<Vec<Vec<usize>>>,
-    /// The default racer's: raised once its warm start is judged and is no feasible plan,
-    /// or there is none (the other racers start then).
-    pub warm_start_failed: Option<Arc<DefaultWarmStart>>,
+    /// The default racer's: its warm start as the other racers see it (they start once it
+    /// is judged and is no feasible plan).
+    pub default_warm_start: Option<Arc<DefaultWarmStart>>,
 }
 
 /// The default racer's warm start as the other racers see it.
@@ -123,12 +124,12 @@ pub(crate) struct DefaultWarmStart {
 }
 
 impl Tuning {
-    /// A racer's in a race of `lineup`; `warm_start_failed` for the default's to raise.
+    /// A racer's in a race of `lineup`; `default_warm_start` for the default's to tell.
     fn racing(
         racer: Racer,
         lineup: &[Racer],
         sharing: Sharing,
-        warm_start_failed: Option<Arc<DefaultWarmStart>>,
+        default_warm_start: Option<Arc<DefaultWarmStart>>,
     ) -> Tuning {
         Tuning {
             varied_starts: racer.varies_starts(),
@@ -141,7 +142,7 @@ impl Tuning {
             },
             incumbent: None,
             warm_start: None,
-            warm_start_failed,
+            default_warm_start,
         }
     }
 
@@ -154,14 +155,14 @@ impl Tuning {
             seed: None,
             incumbent: None,
             warm_start: None,
-            warm_start_failed: None,
+            default_warm_start: None,
         }
     }
 
     /// The warm start (`plan`, the layer-by-layer plan before any repair; `None`: there was
-    /// none) gave no feasible plan: raises [`Tuning::warm_start_failed`].
+    /// none) gave no feasible plan: tells the other racers ([`Tuning::default_warm_start`]).
     pub fn note_warm_start_failed(&self, plan: Option<&[Vec<usize>]>) {
-        if let Some(shared) = &self.warm_start_failed {
+        if let Some(shared) = &self.default_warm_start {
             if let Some(plan) = plan {
                 // Only the first: a later call says there is still no plan.
                 let _ = shared.plan.set(plan.to_vec());
@@ -204,9 +205,10 @@ fn lineup() -> impl Iterator<Item = Racer> {
 /// rings, a bead part's contours) its repair repeats the default's, and the thread is
 /// better spent on the search without the warm start. On 2 threads that makes the second
 /// racer varisat on the parts where varisat's plan is a different one and `--no-warm-start`
-/// on the others: on 72 generated parts of 10^4 blocks the faster of the default and
-/// either fixed second racer was more than 2x slower than the best single configuration
-/// on three or four parts, of the default and this one on none (docs/benchmarks.md).
+/// on the others. On 72 generated parts of 10^4 blocks, the faster of the default and a
+/// fixed second racer (each run alone) was more than 2x slower than the best single
+/// configuration on four parts with `--no-warm-start`, three with varisat, none with
+/// this rule; the race itself went from 66 to 71 of 72 within 2x (docs/benchmarks.md).
 fn stand_in(racing: &[Racer]) -> Racer {
     lineup()
         .find(|r| *r != Racer::Varisat && !racing.contains(r))
@@ -281,9 +283,9 @@ pub(crate) fn race(
     let shared = Arc::new((part.clone(), opts.clone()));
     let (tx, rx) = mpsc::channel::<Message>();
     let n = racers.len();
-    let warm_start_failed = Arc::new(DefaultWarmStart::default());
+    let default_warm_start = Arc::new(DefaultWarmStart::default());
     let gate = Gate {
-        after: Some(Arc::clone(&warm_start_failed)),
+        after: Some(Arc::clone(&default_warm_start)),
         ..Gate::default()
     };
     for (i, &racer) in racers.iter().enumerate() {
@@ -291,7 +293,7 @@ pub(crate) fn race(
         // The default takes no clauses in: its proofs stay those of a run alone.
         let (entrant, gate) = match racer {
             Racer::Default => {
-                let failed = Some(Arc::clone(&warm_start_failed));
+                let failed = Some(Arc::clone(&default_warm_start));
                 let tuning = Tuning::racing(racer, &racers, sharing.publish_only(), failed);
                 (Entrant::new(racer, tuning), gate.open())
             }
@@ -410,16 +412,16 @@ pub(crate) fn race_best(
     let (tx, rx) = mpsc::channel::<Message>();
     let from_plan_id = racers.len();
     let n = racers.len();
-    let warm_start_failed = Arc::new(DefaultWarmStart::default());
+    let default_warm_start = Arc::new(DefaultWarmStart::default());
     let gate = Gate {
-        after: Some(Arc::clone(&warm_start_failed)),
+        after: Some(Arc::clone(&default_warm_start)),
         ..Gate::default()
     };
     for (i, &racer) in racers.iter().enumerate() {
         let sharing = Sharing::new(Arc::clone(&pool), i);
         if racer == Racer::Default {
             // Takes no clauses in: its "no plan" is that of a run alone.
-            let failed = Some(Arc::clone(&warm_start_failed));
+            let failed = Some(Arc::clone(&default_warm_start));
             let tuning = Tuning::racing(racer, &racers, sharing.publish_only(), failed);
             spawn(
                 (Entrant::new(racer, tuning), true, share(i, n, threads)),
@@ -516,7 +518,7 @@ pub(crate) fn race_best(
                         seed: None,
                         incumbent: Some(plan),
                         warm_start: None,
-                        warm_start_failed: None,
+                        default_warm_start: None,
                     };
                     // Not counted among the racers: it is the default configuration again.
                     spawn(
@@ -761,7 +763,7 @@ impl Gate {
 const GATE_POLL: Duration = Duration::from_millis(5);
 
 /// One racer's run, stopped by `opts.cancel` (the race's) or its deadline; the default
-/// raises `tuning.warm_start_failed` when its warm start is no plan.
+/// tells `tuning.default_warm_start` when its warm start is no plan.
 fn run(
     racer: Racer,
     part: &Part,
@@ -1025,7 +1027,7 @@ mod tests {
             seed: None,
             incumbent: Some(worst.clone()),
             warm_start: None,
-            warm_start_failed: None,
+            default_warm_start: None,
         };
         let from_plan = search_plans(&part, &opts, &mut |_| {}, true, &tuning).unwrap();
         let (a, f) = (alone.best.unwrap(), from_plan.best.unwrap());

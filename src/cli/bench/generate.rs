@@ -14,7 +14,7 @@ use waam_planner::Options;
 use waam_thermal::Interrupt;
 
 use super::scale::{timed, ScaleArgs};
-use crate::cli::EXIT_OK;
+use crate::cli::{EXIT_INTERRUPTED, EXIT_OK};
 
 /// Generated benchmark parts (used with --generate).
 #[derive(Debug, Clone, clap::Args)]
@@ -157,5 +157,9 @@ pub fn run(args: &ScaleArgs, n: u64) -> anyhow::Result<ExitCode> {
         std::fs::write(file, serde_json::to_string_pretty(&json)?)
             .with_context(|| format!("cannot write {}", file.display()))?;
     }
-    Ok(ExitCode::from(EXIT_OK))
+    Ok(ExitCode::from(if stop.load(Ordering::Relaxed) {
+        EXIT_INTERRUPTED
+    } else {
+        EXIT_OK
+    }))
 }
