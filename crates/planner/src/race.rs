@@ -616,15 +616,19 @@ fn spawn(
             return;
         }
         let (part, opts) = &*shared;
-        let offset = started.elapsed();
-        // Its share of the threads: its varied starts take no other racer's core.
-        let o = Options {
+        // What is left of the race's time; its share of the threads: its varied starts
+        // take no other racer's core.
+        let left = |offset: Duration| Options {
             timeout: opts.timeout.map(|t| t.saturating_sub(offset)),
-            cancel: Some(stop),
+            cancel: Some(Arc::clone(&stop)),
             threads,
             ..opts.clone()
         };
-        let (racer, tuning) = entrant.who_runs(part, &o, gate.default_plan());
+        let (racer, tuning) = entrant.who_runs(part, &left(started.elapsed()), gate.default_plan());
+        // The search's times count from here (after varisat's plan was built to choose
+        // who runs), so they are shifted by the race's time until now.
+        let offset = started.elapsed();
+        let o = left(offset);
         let mut forward = |event: Event<'_>| {
             if let Event::Candidate {
                 fragments,
