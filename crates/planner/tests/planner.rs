@@ -992,13 +992,15 @@ fn the_race_gives_the_best_plan_its_first_plan() {
     // several times sooner than the default configuration (measured: 0.018 s against
     // 0.22 s, release build, `waam plan --threads 1`): on three threads (that racer is the
     // third) the best plan's first plan comes from it, and the optimisation goes on from
-    // it. The timeout only bounds the run (the margin is not proven within it); nothing
+    // it. The timeout only bounds the run (the margin is not proven within it), long
+    // enough for the default racer's own first plan, which the events report, on a loaded
+    // machine (three racers on CI's two cores beside other tests: not within 3 s); nothing
     // here is timed.
     let path = root().join("tests/data/race-tube-600.yaml");
     let part = Part::parse(&std::fs::read_to_string(path).unwrap()).unwrap();
     let opts = Options {
         threads: 3,
-        timeout: Some(Duration::from_secs(3)),
+        timeout: Some(Duration::from_secs(10)),
         ..Options::default()
     };
     let mut first_plan: Option<Vec<Vec<usize>>> = None;
