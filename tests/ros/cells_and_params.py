@@ -17,9 +17,8 @@ Node 2: `waam node --ros-args -r __ns:=/cell2 -r __node:=planner2 -r ~/status:=/
 (/tf_static is checked in tests/cli/ros_node.rs from its raw bytes: no tf2_msgs wheel exists.)
 """
 
-import time
-
 import os
+import time
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
@@ -35,12 +34,27 @@ CELL2 = "/cell2/planner2"
 CELL2_STATUS = "/cell2/state"
 
 
-def call(peer, srv_type, name, request, timeout=30):
+def call(peer, srv_type, name, request, timeout=30, resend_after=3):
+    """Calls service `name`, sending the request again every `resend_after` seconds.
+
+    `service_is_ready` says only that the node's request reader was found; a request that
+    arrives before the node has found this client's reply reader is answered into the void
+    (seen once on a loaded CI machine). The requests here are reads and idempotent sets, so
+    sending again is safe; no answer at all within `timeout` is a discovery failure."""
     client = peer.node.create_client(srv_type, name)
     peer.spin_until(f"service {name}", client.service_is_ready, timeout, discovery=True)
-    future = client.call_async(request)
-    peer.spin_until(f"the answer of {name}", future.done, timeout)
-    return future.result()
+    deadline = time.monotonic() + timeout
+    sent = []
+    while True:
+        sent.append(client.call_async(request))
+        left = deadline - time.monotonic()
+        try:
+            peer.spin_until(f"the answer of {name}", lambda: any(f.done() for f in sent),
+                            min(resend_after, max(left, 0)), discovery=True)
+            return next(f for f in sent if f.done()).result()
+        except waamtest.DiscoveryTimeout:
+            if time.monotonic() >= deadline:
+                raise
 
 
 def get(peer, node, *names):
