@@ -16,16 +16,18 @@
 //! plan is not the default's; otherwise the next configuration in line runs on its thread
 //! ([`stand_in`]). The default configuration alone, when its warm start cannot be
 //! repaired, also tries varisat's layer-by-layer plan
-//! ([`crate::portfolio::Portfolio::layered`]); in a race varisat's racer has it. The default starts at once, the others as soon as its
-//! warm start is judged and is no plan ([`Gate`]): a feasible warm start is the answer
-//! without a racer beside it slowing it down. Each racer is one thread (its varied starts
-//! too), so none waits for another once started and none shares its core: the race is as
-//! fast as the fastest of the configurations it runs, up to the default's warm start and
-//! what the racers cost each other in memory bandwidth. An earlier race ran the varied starts as a racer of their own and queued the
-//! other configurations behind them: on 2 threads a generated box waited 5.7 s for a plan
-//! that `--no-warm-start` finds in 0.5 s. Three racers on two cores were tried too: each
-//! CaDiCaL racer then ran about half as fast (cache and time slicing), more than the
-//! 1.5 the shares suggest. Racers that would not fit `max_memory_mb` together (each
+//! ([`crate::portfolio::Portfolio::layered`]); in a race varisat's racer has it. The
+//! default starts at once, the others as soon as its warm start is judged and is no plan
+//! ([`Gate`]): a feasible warm start is the answer without a racer beside it slowing it
+//! down. Each racer is one thread (its varied starts too), so none waits for another once
+//! started and none shares its core: the race is as fast as the fastest of the
+//! configurations it runs, up to the default's warm start and the simulation's pool (a
+//! configuration alone steps its simulations on every core, a racer mostly on its own:
+//! the pool serves one simulation at a time). An earlier race ran the varied starts as a
+//! racer of their own and queued the other configurations behind them: on 2 threads a
+//! generated box waited 5.7 s for a plan that `--no-warm-start` finds in 0.5 s. Three
+//! racers on two cores were tried too: each CaDiCaL racer then ran about half as fast
+//! (cache and time slicing), more than the 1.5 the shares suggest. Racers that would not fit `max_memory_mb` together (each
 //! encodes the part) are left out; the default always runs.
 //!
 //! The racers publish their learned thermal clauses ([`crate::sharing`]); the CaDiCaL
