@@ -70,9 +70,10 @@ pub struct PlanArgs {
     /// from it), the configurations raced, one thread each (1: the default configuration
     /// alone, its varied starts on one thread too). "No plan" is always the default's
     /// answer, and a proven best plan is the same plan on any number (the race helps the
-    /// best plan when --timeout or Ctrl-C comes before the proof). The thermal check of
-    /// each plan the search finds steps on every core whatever N, while no other
-    /// simulation of the run holds them (a race's racers mostly step on one core each).
+    /// best plan when --timeout or Ctrl-C comes before the proof). N bounds the thermal
+    /// checks too: a simulation steps on at most N threads (default: all cores, held by
+    /// one simulation at a time; a race's other racers step on one core each), so a run on
+    /// one thread keeps to one core.
     #[arg(long, value_name = "N", value_parser = super::at_least_one)]
     pub threads: Option<usize>,
     /// How cycles are excluded: lazily by cuts between solves, or eagerly by a rank order.

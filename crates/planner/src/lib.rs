@@ -120,6 +120,7 @@ fn new_search<'p>(
     )?;
     search.set_torch(opts.torch.map(|t| TorchAccess::new(part, &t)));
     search.set_executed(opts.executed.clone());
+    search.set_threads(opts.threads);
     Some(search)
 }
 
@@ -273,8 +274,8 @@ fn search_plans(
                     }),
                     cancel: limits.cancel.clone(),
                 };
-                // The run's threads: a racer's one, or all cores.
-                let workers = match opts.threads {
+                // The run's threads, or a racer's share of them (0: all cores).
+                let workers = match tuning.workers.unwrap_or(opts.threads) {
                     0 => portfolio::cores(),
                     n => n,
                 };

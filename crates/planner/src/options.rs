@@ -41,8 +41,10 @@ pub struct Options {
     pub max_memory_mb: u64,
     /// Worker threads of [`count`](crate::count) and [`enumerate`](crate::enumerate), each searching its own cubes of the
     /// plans ([`cubes`](crate::cubes); 0: the thermal model's default, the available cores unless set),
-    /// of [`first`](crate::first)'s race (one racer each) and of the varied starts (0: all cores).
-    /// Counts and the order of the plans are the same on any number.
+    /// of [`first`](crate::first)'s race (one racer each) and of the varied starts (0: all cores);
+    /// also the most threads one simulation of a candidate steps on (0: the thermal model's
+    /// default), so a run on one thread keeps to one core. Counts and the order of the plans
+    /// are the same on any number.
     pub threads: usize,
 }
 

@@ -22,8 +22,10 @@
 //! down. Each racer is one thread (its varied starts too), so none waits for another once
 //! started and none shares its core: the race is as fast as the fastest of the
 //! configurations it runs, up to the default's warm start and the simulation's pool (a
-//! configuration alone steps its simulations on every core, a racer mostly on its own:
-//! the pool serves one simulation at a time). An earlier race ran the varied starts as a
+//! configuration alone on all cores steps its simulations on every core, a racer mostly
+//! on its own: the pool serves one simulation at a time; every racer's simulations step
+//! on at most the race's threads, its repair and varied starts on its share,
+//! [`Tuning::workers`]). An earlier race ran the varied starts as a
 //! racer of their own and queued the other configurations behind them: on 2 threads a
 //! generated box waited 5.7 s for a plan that `--no-warm-start` finds in 0.5 s. Three
 //! racers on two cores were tried too: each CaDiCaL racer then ran about half as fast
@@ -114,6 +116,9 @@ pub(crate) struct Tuning {
     /// The default racer's: its warm start as the other racers see it (they start once it
     /// is judged and is no feasible plan).
     pub default_warm_start: Option<Arc<DefaultWarmStart>>,
+    /// The threads of the racer's repair and varied starts, its share of the race's
+    /// (None: the run's, `opts.threads`). Its simulations of candidates step on the run's.
+    pub workers: Option<usize>,
 }
 
 /// The default racer's warm start as the other racers see it.
@@ -145,6 +150,7 @@ impl Tuning {
             incumbent: None,
             warm_start: None,
             default_warm_start,
+            workers: None,
         }
     }
 
@@ -158,6 +164,7 @@ impl Tuning {
             incumbent: None,
             warm_start: None,
             default_warm_start: None,
+            workers: None,
         }
     }
 
@@ -521,6 +528,7 @@ pub(crate) fn race_best(
                         incumbent: Some(plan),
                         warm_start: None,
                         default_warm_start: None,
+                        workers: None,
                     };
                     // Not counted among the racers: it is the default configuration again.
                     spawn(
@@ -618,15 +626,18 @@ fn spawn(
             return;
         }
         let (part, opts) = &*shared;
-        // What is left of the race's time; its share of the threads: its varied starts
-        // take no other racer's core.
+        // What is left of the race's time.
         let left = |offset: Duration| Options {
             timeout: opts.timeout.map(|t| t.saturating_sub(offset)),
             cancel: Some(Arc::clone(&stop)),
-            threads,
             ..opts.clone()
         };
         let (racer, tuning) = entrant.who_runs(part, &left(started.elapsed()), gate.default_plan());
+        // Its share of the threads: its varied starts take no other racer's core.
+        let tuning = Tuning {
+            workers: Some(threads),
+            ..tuning
+        };
         // The search's times count from here (after varisat's plan was built to choose
         // who runs), so they are shifted by the race's time until now.
         let offset = started.elapsed();
@@ -1034,6 +1045,7 @@ mod tests {
             incumbent: Some(worst.clone()),
             warm_start: None,
             default_warm_start: None,
+            workers: None,
         };
         let from_plan = search_plans(&part, &opts, &mut |_| {}, true, &tuning).unwrap();
         let (a, f) = (alone.best.unwrap(), from_plan.best.unwrap());

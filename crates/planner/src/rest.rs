@@ -203,6 +203,7 @@ fn search_rest(
         built_len,
         budget: opts.lookahead_budget,
         interrupt: &interrupt,
+        threads: opts.threads,
     };
     let mut model = base.clone();
     let mut violations = vec![0usize; part.len()];
@@ -386,11 +387,17 @@ struct Judge<'a> {
     built_len: usize,
     budget: usize,
     interrupt: &'a thermal::Interrupt,
+    /// Threads the simulations step on (0: the thermal model's default).
+    threads: usize,
 }
 
 impl Judge<'_> {
     fn start<'m>(&self, model: &'m ThermalModel) -> Result<Simulation<'m>, StateError> {
-        Ok(Simulation::from_state(model, &self.built.state)?.interrupted_by(self.interrupt))
+        let mut sim = Simulation::from_state(model, &self.built.state)?;
+        if self.threads > 0 {
+            sim.set_threads(self.threads);
+        }
+        Ok(sim.interrupted_by(self.interrupt))
     }
 
     fn run(

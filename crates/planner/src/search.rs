@@ -68,6 +68,8 @@ pub struct Search<'p> {
     /// When simulations stop too (a stopped simulation gives no verdict).
     deadline: Option<Instant>,
     cancel: Option<Arc<AtomicBool>>,
+    /// Threads a candidate's simulation steps on (0: the thermal model's default).
+    threads: usize,
     /// The race's clause pool (None: not racing).
     sharing: Option<Sharing>,
 }
@@ -123,6 +125,7 @@ impl<'p> Search<'p> {
             learned: Vec::new(),
             deadline: None,
             cancel: None,
+            threads: 0,
             sharing: None,
         };
         search.set_interrupt(interrupt.deadline, interrupt.cancel);
@@ -133,6 +136,20 @@ impl<'p> Search<'p> {
     /// search (CaDiCaL), takes the other racers'. Call before [`Search::judge_inside`].
     pub fn share(&mut self, sharing: Sharing) {
         self.sharing = Some(sharing);
+    }
+
+    /// Steps the simulations of later candidates on up to `threads` threads (0: the
+    /// thermal model's default, the available cores).
+    pub fn set_threads(&mut self, threads: usize) {
+        self.threads = threads;
+    }
+
+    /// A simulation of the search's, on its threads.
+    fn on_threads<'m>(&self, mut sim: Simulation<'m>) -> Simulation<'m> {
+        if self.threads > 0 {
+            sim.set_threads(self.threads);
+        }
+        sim
     }
 
     /// Varies the solver's random choices (a racer's seed).
@@ -442,7 +459,7 @@ impl<'p> Search<'p> {
             seq,
             &keys,
         );
-        let mut sim = sim.with_deadline(self.deadline);
+        let mut sim = self.on_threads(sim).with_deadline(self.deadline);
         if let Some(cancel) = &self.cancel {
             sim = sim.with_cancel(Arc::clone(cancel));
         }
@@ -546,13 +563,14 @@ impl<'p> Search<'p> {
         model: &'m ThermalModel,
         prefix: &[(usize, bool)],
     ) -> (Simulation<'m>, usize) {
-        resume(
+        let (sim, at) = resume(
             model,
             &self.cache.borrow(),
             self.spacing,
             prefix,
             &prefix_keys(prefix),
-        )
+        );
+        (self.on_threads(sim), at)
     }
 
     /// Keeps `snap`, another simulation's state after depositing all of `fragments` on
@@ -578,7 +596,7 @@ impl<'p> Search<'p> {
             &keys,
         );
         // Replaying may cross long transits: stopped with the search.
-        let mut sim = sim.interrupted_by(&self.interrupt());
+        let mut sim = self.on_threads(sim).interrupted_by(&self.interrupt());
         for &(b, new) in &prefix[at..] {
             sim.deposit(b, new).ok()?;
         }

@@ -55,7 +55,8 @@ pub struct ScaleArgs {
     /// Search from scratch, without the layer-by-layer warm start.
     #[arg(long)]
     pub no_warm_start: bool,
-    /// Planner threads: the race's racers and the portfolio's variants [default: all cores].
+    /// Planner threads: the race's racers, the portfolio's variants and the most a
+    /// simulation steps on [default: all cores].
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
     /// Write the rows as a JSON array to FILE as well.
