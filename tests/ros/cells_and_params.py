@@ -128,7 +128,7 @@ def run(peer, waam, cell2):
     expected = {
         "process_file", "robot.urdf", "robot.tip_link", "robot.tcp", "robot.joint_limits",
         "planner.timeout_s",
-        "planner.default_max_fragments", "planner.max_memory_mb",
+        "planner.default_max_fragments", "planner.max_memory_mb", "planner.threads",
         "mesh.block_mm", "mesh.bead_mm", "mesh.t85_window_s", "topics.part",
         "topics.part_mesh", "topics.joint_trajectory", "topics.poses", "topics.path",
         "topics.markers", "topics.weld_plan", "topics.status", "topics.arc_on",

@@ -33,6 +33,21 @@ fn the_node_parameter_max_memory_mb_is_read_and_checked() {
     );
 }
 
+/// The node's thread bound is read and checked (0 = all cores; no negative count, no typo
+/// of a million threads).
+#[test]
+fn the_node_parameter_threads_is_read_and_checked() {
+    use waam_ros::node::params::NodeParams;
+    let file =
+        |v: &str| format!("waam_planner:\n  ros__parameters:\n    planner: {{threads: {v}}}\n");
+    assert_eq!(NodeParams::parse(&file("1")).unwrap().planner.threads, 1);
+    assert_eq!(NodeParams::parse(&file("0")).unwrap().planner.threads, 0);
+    for bad in ["-1", "1000000"] {
+        let err = NodeParams::parse(&file(bad)).unwrap_err().to_string();
+        assert!(err.contains("planner.threads"), "{bad}: {err}");
+    }
+}
+
 /// Issue #18, H2: the node took 3 GB from a 1 MB message (a 1,000 x 1,000 plate). Its
 /// pipeline, with the default parameters and the SAT planner, now answers with the
 /// memory-limit error within a second and without the memory.

@@ -5,7 +5,7 @@
 use ros2_client::parameters::{NumericRange, ParameterDescriptor, ParameterType};
 use ros2_client::ParameterValue;
 
-use super::params::{NodeParams, MAX_WAIT_S};
+use super::params::{NodeParams, MAX_THREADS, MAX_WAIT_S};
 
 /// One declared parameter.
 pub struct Declared {
@@ -204,6 +204,8 @@ pub static DECLARED: &[Declared] = &[
     declare!("planner.max_memory_mb", planner.max_memory_mb: i64, RUNTIME,
         Range::Int(1, 1 << 40),
         "Refuse a part whose search would need more memory than this, MB (estimated from its blocks and k)", ""),
+    declare!("planner.threads", planner.threads: i64, RUNTIME, Range::Int(0, MAX_THREADS),
+        "The most threads a planning run uses: the race's racers, the workers, each thermal check's steps (0 = all cores)", ""),
     declare!("mesh.block_mm", mesh.block_mm: Vec<f64>, RUNTIME, Range::None,
         "Block pitch [x, y, z] in mm for voxelizing ~/part_mesh", "3 lengths > 0"),
     declare!("mesh.bead_mm", mesh.bead_mm: Vec<f64>, RUNTIME, Range::None,

@@ -527,6 +527,7 @@ fn replan_setup(
                     .ok()
                     .filter(|t| !t.is_zero()),
                 max_memory_mb: params.planner.max_memory_mb.max(1) as u64,
+                threads: params.planner.threads.max(0) as usize,
                 ..waam_planner::Options::default()
             },
             wire_feed: (

@@ -333,7 +333,8 @@ mod tests {
             vec![
                 "planner.timeout_s",
                 "planner.default_max_fragments",
-                "planner.max_memory_mb"
+                "planner.max_memory_mb",
+                "planner.threads"
             ]
         );
         let e = store

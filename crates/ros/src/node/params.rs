@@ -65,6 +65,9 @@ pub struct PlannerParams {
     /// Refuse a part whose search would need more memory than this, MB (estimated from
     /// its blocks and k before planning starts).
     pub max_memory_mb: i64,
+    /// The most threads a planning run uses (racers, workers, each thermal check's
+    /// steps); 0 = all cores. Less leaves cores to the robot's driver on a shared PC.
+    pub threads: i64,
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize)]
@@ -204,6 +207,7 @@ impl Default for PlannerParams {
             timeout_s: 60.0,
             default_max_fragments: 2,
             max_memory_mb: waam_planner::DEFAULT_MAX_MEMORY_MB as i64,
+            threads: 0,
         }
     }
 }
@@ -267,6 +271,10 @@ impl Default for DryRunParams {
 /// The longest time limit or wait a parameter may set, s (a week): longer is a typo, and
 /// every duration stays far inside what `Duration` and `Instant` can hold.
 pub const MAX_WAIT_S: f64 = 7.0 * 24.0 * 3600.0;
+
+/// The most threads `planner.threads` may ask for: more is a typo (each racer encodes the
+/// part, and a thread's stack is reserved whether it has a core or not).
+pub const MAX_THREADS: i64 = 1024;
 
 /// Whether a parameters-file node key addresses the node `fqn` (`/ns/name`): its name
 /// (`waam_planner`, as this project's files have always said), its full name, or an rcl
@@ -397,6 +405,12 @@ impl NodeParams {
             return Err(ParamRule(format!(
                 "planner.max_memory_mb: expected an integer >= 1 (MB), got {}",
                 self.planner.max_memory_mb
+            )));
+        }
+        if !(0..=MAX_THREADS).contains(&self.planner.threads) {
+            return Err(ParamRule(format!(
+                "planner.threads: expected an integer in [0, {MAX_THREADS}] (0 = all cores), got {}",
+                self.planner.threads
             )));
         }
         if self.planner.default_max_fragments < 1 {

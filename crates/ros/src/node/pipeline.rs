@@ -171,6 +171,8 @@ pub struct PlanRequest<'a> {
     pub timeout_s: f64,
     /// Memory limit of the search, MB (`planner.max_memory_mb`).
     pub max_memory_mb: u64,
+    /// The most threads the run uses, 0 = all cores (`planner.threads`).
+    pub threads: usize,
     /// Stop at the first feasible plan instead of the best within the limit.
     pub first_feasible: bool,
     /// The job: cancel flag and progress.
@@ -233,6 +235,7 @@ pub struct PlanningPipeline {
     pub mesh: MeshSettings,
     pub timeout_s: f64,
     pub max_memory_mb: u64,
+    pub threads: usize,
     pub planner: Arc<PlanFn>,
     /// The session's recording, if any.
     pub recorder: Option<Recorder>,
@@ -259,6 +262,7 @@ impl PlanningPipeline {
             mesh: mesh_settings(params)?,
             timeout_s: params.planner.timeout_s,
             max_memory_mb: params.planner.max_memory_mb.max(1) as u64,
+            threads: params.planner.threads.max(0) as usize,
             planner,
             recorder: None,
         })
@@ -305,6 +309,7 @@ impl Pipeline for PlanningPipeline {
             part: &part,
             timeout_s,
             max_memory_mb: self.max_memory_mb,
+            threads: self.threads,
             first_feasible: job.first_feasible,
             ctx,
             recorder: self.recorder.as_ref(),
@@ -330,6 +335,7 @@ pub fn sat_planner() -> Arc<PlanFn> {
                 // candidates.
                 cancel: Some(ctx.cancel.flag()),
                 max_memory_mb: request.max_memory_mb,
+                threads: request.threads,
                 ..waam_planner::Options::default()
             },
             objective: Objective::Best,
@@ -529,5 +535,34 @@ mod tests {
         assert!(err.to_string().contains("invalid"), "{err}");
         // A block missing.
         assert!(check_plan(&part, &[vec![0, 1, 3]]).is_err());
+    }
+
+    /// The planner parameters reach the planner's request: `planner.threads` bounds the
+    /// run as `waam plan --threads` does, `planner.max_memory_mb` its memory.
+    #[test]
+    fn the_planner_parameters_reach_the_request() {
+        let mut params = NodeParams::default();
+        params.planner.threads = 3;
+        params.planner.max_memory_mb = 512;
+        let planner: Arc<PlanFn> = Arc::new(|r: &PlanRequest| {
+            Err(JobError::Other(format!(
+                "threads {} memory {}",
+                r.threads, r.max_memory_mb
+            )))
+        });
+        let pipeline = PlanningPipeline::from_params(&params, planner).unwrap();
+        let job = Job::from(PartInput::Document(
+            "name: w\nblock_mm: [6, 6, 2.5]\nmax_fragments: 1\nlayers:\n  - |\n    ##\n".into(),
+        ));
+        let ctx = JobContext::new(1, crate::node::worker::Cancel::new(), |_| {});
+        let Err(err) = pipeline.run(job, &ctx) else {
+            panic!("the test planner refuses every part");
+        };
+        assert_eq!(err.to_string(), "threads 3 memory 512");
+        assert_eq!(
+            NodeParams::default().planner.threads,
+            0,
+            "all cores by default"
+        );
     }
 }
