@@ -85,6 +85,8 @@ fn generated_parts_pass_waam_check_with_their_witness() {
     for row in rows {
         assert_eq!(row["first"]["threads"], 1, "{row}");
         assert_eq!(row["first"]["checked"], true, "{row}");
+        // One thread: no race, so no racer is named.
+        assert!(row["first"]["racer"].is_null(), "{row}");
     }
 }
 

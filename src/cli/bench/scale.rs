@@ -120,8 +120,11 @@ struct Row {
 /// One planner run on a part.
 #[derive(Debug, Serialize)]
 pub(super) struct Run {
-    /// The threads the planner was given (a chosen solver or --no-warm-start runs on one).
+    /// The threads the planner was given (a chosen solver or --no-warm-start runs one
+    /// configuration, its simulations on that many).
     threads: usize,
+    /// The racer whose plan came first (None: no race, or no plan).
+    racer: Option<String>,
     /// Seconds to the first feasible plan (None: none found).
     pub(super) first_feasible_s: Option<f64>,
     pub(super) total_s: f64,
@@ -299,6 +302,7 @@ pub(super) fn timed(
     };
     Ok(Run {
         threads: opts.threads,
+        racer: s.first_plan_racer.clone(),
         first_feasible_s: s.first_feasible_s,
         total_s: s.total_s,
         found: report.best.is_some(),
