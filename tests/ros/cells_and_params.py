@@ -87,7 +87,10 @@ def outcome(peer, topic, job, timeout=120):
     def done():
         return any(v.get("job") == str(job) and v["state"] in ("planned", "error")
                    for _, v in states(peer, topic))
-    peer.spin_until(f"the outcome of part {job} on {topic}", done, timeout)
+    # Nothing at all on the topic (not even "received" or "planning", which the node
+    # publishes on every change) means its publisher was never matched: discovery.
+    peer.spin_until(f"the outcome of part {job} on {topic}", done, timeout,
+                    discovery=lambda: not peer.received[topic])
     return [s for s in states(peer, topic) if s[1].get("job") == str(job)][-1]
 
 

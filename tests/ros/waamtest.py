@@ -259,13 +259,16 @@ class Peer:
 
     def spin_until(self, what, condition, timeout, discovery=False):
         """Spins until condition() is true; fails naming `what` after `timeout` seconds
-        (with DiscoveryTimeout when what is awaited is a peer's endpoint)."""
+        (with DiscoveryTimeout when what is awaited is a peer's endpoint: `discovery`
+        true, or a function that says so at the timeout)."""
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             if condition():
                 return
             rclpy.spin_once(self.node, timeout_sec=0.1)
         if not condition():
+            if callable(discovery):
+                discovery = discovery()
             failure = DiscoveryTimeout if discovery else Failure
             raise failure(f"timed out after {timeout} s waiting for {what}")
 
