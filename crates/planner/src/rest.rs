@@ -393,11 +393,9 @@ struct Judge<'a> {
 
 impl Judge<'_> {
     fn start<'m>(&self, model: &'m ThermalModel) -> Result<Simulation<'m>, StateError> {
-        let mut sim = Simulation::from_state(model, &self.built.state)?;
-        if self.threads > 0 {
-            sim.set_threads(self.threads);
-        }
-        Ok(sim.interrupted_by(self.interrupt))
+        Ok(Simulation::from_state(model, &self.built.state)?
+            .with_threads(self.threads)
+            .interrupted_by(self.interrupt))
     }
 
     fn run(

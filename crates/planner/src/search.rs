@@ -145,11 +145,8 @@ impl<'p> Search<'p> {
     }
 
     /// A simulation of the search's, on its threads.
-    fn on_threads<'m>(&self, mut sim: Simulation<'m>) -> Simulation<'m> {
-        if self.threads > 0 {
-            sim.set_threads(self.threads);
-        }
-        sim
+    fn on_threads<'m>(&self, sim: Simulation<'m>) -> Simulation<'m> {
+        sim.with_threads(self.threads)
     }
 
     /// Varies the solver's random choices (a racer's seed).

@@ -290,7 +290,8 @@ impl<'m> Simulation<'m> {
     }
 
     /// Steps on up to `threads` threads once the stepped range has at least
-    /// [`PARALLEL_MIN_SLOTS`] slots (1: always single-threaded). Results are the same.
+    /// [`PARALLEL_MIN_SLOTS`] slots (1: always single-threaded; 0: [`default_threads`]).
+    /// Results are the same.
     pub fn with_threads(mut self, threads: usize) -> Self {
         self.set_threads(threads);
         self
@@ -298,7 +299,10 @@ impl<'m> Simulation<'m> {
 
     /// [`Simulation::with_threads`] on a running simulation: from the next step on.
     pub fn set_threads(&mut self, threads: usize) {
-        self.threads = threads.max(1);
+        self.threads = match threads {
+            0 => default_threads(),
+            n => n,
+        };
     }
 
     /// Threads as in [`Simulation::with_threads`], from `min_slots` slots on.
