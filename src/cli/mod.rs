@@ -129,6 +129,17 @@ pub fn at_least_one(text: &str) -> Result<usize, String> {
     }
 }
 
+/// clap's parser of a thread count: 1 to the planner's [`waam_planner::MAX_THREADS`].
+pub fn thread_count(text: &str) -> Result<usize, String> {
+    match at_least_one(text)? {
+        n if n > waam_planner::MAX_THREADS => Err(format!(
+            "must be at most {} (one thread per core is what helps)",
+            waam_planner::MAX_THREADS
+        )),
+        n => Ok(n),
+    }
+}
+
 /// clap's parser of the planner's acyclicity methods, each listed with its help line.
 pub fn acyclicity_parser() -> impl clap::builder::TypedValueParser<Value = Acyclicity> {
     use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser as _};

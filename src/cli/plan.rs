@@ -73,8 +73,8 @@ pub struct PlanArgs {
     /// best plan when --timeout or Ctrl-C comes before the proof). N bounds the thermal
     /// checks too: a simulation steps on at most N threads (default: all cores, held by
     /// one simulation at a time; a race's other racers step on one core each), so a run on
-    /// one thread keeps to one core.
-    #[arg(long, value_name = "N", value_parser = super::at_least_one)]
+    /// one thread keeps to one core. 1 to 1024.
+    #[arg(long, value_name = "N", value_parser = super::thread_count)]
     pub threads: Option<usize>,
     /// How cycles are excluded: lazily by cuts between solves, or eagerly by a rank order.
     #[arg(long, value_parser = super::acyclicity_parser(), default_value = "lazy")]

@@ -939,6 +939,12 @@ fn every_command_line_reproducer_is_a_one_line_error_or_a_bounded_answer() {
             "--max-fragments",
         ),
         case(
+            "threads 1025",
+            &["plan", s1, "--first", "--threads", "1025"],
+            2,
+            "--threads <N>': must be at most 1024",
+        ),
+        case(
             "missing parent link",
             &["plan", s1, "--robot", "orphan.urdf"],
             2,

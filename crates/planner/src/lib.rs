@@ -43,6 +43,7 @@ use crate::prefix_cache::deposits;
 pub use encoding::Acyclicity;
 pub use options::{
     estimated_memory_mb, ExecutedCheck, JudgeExecuted, Options, Rejection, DEFAULT_MAX_MEMORY_MB,
+    MAX_THREADS,
 };
 pub use report::{
     CandidateVerdict, Counts, Event, Found, NoPlan, PlanError, Progress, Report, Stats,

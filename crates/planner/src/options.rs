@@ -79,6 +79,11 @@ impl std::fmt::Debug for ExecutedCheck {
 /// k = 2, more than about 100,000 blocks) is refused unless the limit is raised.
 pub const DEFAULT_MAX_MEMORY_MB: u64 = 2048;
 
+/// The most threads [`Options::threads`] may ask for, as the command line and the node
+/// check it: more is a typo (each racer encodes the part, each thread reserves its stack
+/// whether it has a core or not).
+pub const MAX_THREADS: usize = 1024;
+
 /// What searching a part of `blocks` blocks with at most `k` fragments takes, MB: the
 /// encoding, CaDiCaL's clause database and the layer-by-layer warm start grow with the
 /// blocks and with k. Measured peaks lie at or below 12 KiB + 4 KiB x k per block: plates

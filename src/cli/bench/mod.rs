@@ -36,7 +36,7 @@ pub enum BenchWhat {
         repeat: Option<usize>,
         /// Threads of the multi-threaded run [default: the available cores]; the
         /// 1-thread figure is printed beside it.
-        #[arg(long)]
+        #[arg(long, value_parser = crate::cli::thread_count)]
         threads: Option<usize>,
         /// Step kernel: scalar, avx2 or avx512 [default: the best the CPU runs].
         #[arg(long, value_parser = ["scalar", "avx2", "avx512"])]

@@ -56,8 +56,8 @@ pub struct ScaleArgs {
     #[arg(long)]
     pub no_warm_start: bool,
     /// Planner threads: the race's racers, the portfolio's variants and the most a
-    /// simulation steps on [default: all cores].
-    #[arg(long, value_name = "N")]
+    /// simulation steps on, 1 to 1024 [default: all cores].
+    #[arg(long, value_name = "N", value_parser = crate::cli::thread_count)]
     pub threads: Option<usize>,
     /// Write the rows as a JSON array to FILE as well.
     #[arg(long, value_name = "FILE")]

@@ -272,9 +272,8 @@ impl Default for DryRunParams {
 /// every duration stays far inside what `Duration` and `Instant` can hold.
 pub const MAX_WAIT_S: f64 = 7.0 * 24.0 * 3600.0;
 
-/// The most threads `planner.threads` may ask for: more is a typo (each racer encodes the
-/// part, and a thread's stack is reserved whether it has a core or not).
-pub const MAX_THREADS: i64 = 1024;
+/// The most threads `planner.threads` may ask for: the planner's limit.
+pub const MAX_THREADS: i64 = waam_planner::MAX_THREADS as i64;
 
 /// Whether a parameters-file node key addresses the node `fqn` (`/ns/name`): its name
 /// (`waam_planner`, as this project's files have always said), its full name, or an rcl
