@@ -526,8 +526,8 @@ fn replan_setup(
                 timeout: Duration::try_from_secs_f64(timeout_s)
                     .ok()
                     .filter(|t| !t.is_zero()),
-                max_memory_mb: params.planner.max_memory_mb.max(1) as u64,
-                threads: params.planner.threads.max(0) as usize,
+                max_memory_mb: params.planner.memory_limit_mb(),
+                threads: params.planner.thread_count(),
                 ..waam_planner::Options::default()
             },
             wire_feed: (

@@ -70,6 +70,18 @@ pub struct PlannerParams {
     pub threads: i64,
 }
 
+impl PlannerParams {
+    /// `max_memory_mb` as the planner takes it (checked positive when read).
+    pub fn memory_limit_mb(&self) -> u64 {
+        self.max_memory_mb.max(1) as u64
+    }
+
+    /// `threads` as the planner takes it (checked in [0, MAX_THREADS] when read).
+    pub fn thread_count(&self) -> usize {
+        self.threads.max(0) as usize
+    }
+}
+
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MeshParams {

@@ -261,8 +261,8 @@ impl PlanningPipeline {
             cell,
             mesh: mesh_settings(params)?,
             timeout_s: params.planner.timeout_s,
-            max_memory_mb: params.planner.max_memory_mb.max(1) as u64,
-            threads: params.planner.threads.max(0) as usize,
+            max_memory_mb: params.planner.memory_limit_mb(),
+            threads: params.planner.thread_count(),
             planner,
             recorder: None,
         })
