@@ -20,7 +20,13 @@
 //! of the broken block's weld path (its seam, which every layer's seam above follows) is
 //! rotated too when no nearer change gets further: on a double tube that seam is the lever.
 //! Which piece and change is kept is the simulator's verdict (the furthest first broken
-//! window, counted in blocks welded): no threshold. The mirrors and new weld paths of a
+//! window, counted in blocks welded): no threshold. Where the same block's Max window
+//! breaks again, the count says little: a block that stays between 500 and 800 °C breaks
+//! its window `max_s` after it was last above 800 °C, so more blocks before the break
+//! mostly mean that the blocks above reheated it later. There the change kept is the one under
+//! which the block got lowest in the band, nearest to dipping below 500 °C (where its time
+//! stops counting: two generated tubes' hidden plans keep their windows so, and their
+//! repairs, which had ended one step short, now get there). The mirrors and new weld paths of a
 //! step are judged all up to the first that keeps every window (those after it could not
 //! be chosen); the rotations, tried in order of promise, up to the first that gets further
 //! than the plan now (the nearest start that helps: on a generated box, judging all 26 of
@@ -101,29 +107,58 @@ pub(crate) struct Broken {
     miss_s: f64,
     /// The block cooled too fast (a Min window): its miss says how near the window is.
     too_fast: bool,
+    /// A block that stayed too long between 500 and 800 °C (a Max window): the lowest it
+    /// got there, °C (+inf: not known). Its miss is always about one step, but the nearer
+    /// it came to 500 °C, the nearer it came to dipping below, where its time stops
+    /// counting (the hidden plans of two generated tubes keep such a window that way).
+    low_c: f64,
 }
 
 impl Broken {
-    fn of(v: &waam_thermal::Violation, welded: usize) -> Broken {
+    /// `v`, broken in `sim` after `welded` deposits.
+    fn of(v: &waam_thermal::Violation, welded: usize, sim: &Simulation) -> Broken {
+        let too_fast = v.kind == waam_thermal::ViolationKind::Min;
         Broken {
             blocks: v.prefix_len.max(welded),
             block: v.block,
             miss_s: (v.window.min_s - v.t85_s).max(v.t85_s - v.window.max_s),
-            too_fast: v.kind == waam_thermal::ViolationKind::Min,
+            too_fast,
+            low_c: match too_fast {
+                true => f64::INFINITY,
+                false => sim.lowest_in_band_c(v.block).unwrap_or(f64::INFINITY),
+            },
         }
     }
 
     /// Whether `self` is the same block cooling too fast as `other`, missed by less,
     /// however many blocks come before the break: a seam moved round a ring moves when the
-    /// block is welded. (A Max window breaks the step its time runs out: its miss is
-    /// always about one step, so says nothing.)
+    /// block is welded. (Staying too long in the band, lower there is further.)
     fn nearer_than(&self, other: &Broken) -> bool {
         self.block == other.block && self.too_fast && other.too_fast && self.miss_s < other.miss_s
     }
 
-    /// Whether `self` gets further than `other`: more blocks welded before a window
-    /// breaks, or as many with the same window missed by less.
+    /// Whether `self` gets further than `other`: [`Broken::later_than`], but the same block
+    /// staying too long in the band gets further the lower it got there (when it breaks
+    /// says mostly when it was last above 800 °C, which is later the more the blocks above
+    /// reheat it).
     fn further_than(&self, other: &Broken) -> bool {
+        if self.block == other.block
+            && !self.too_fast
+            && !other.too_fast
+            && self.low_c.is_finite()
+            && self.low_c != other.low_c
+        {
+            return self.low_c < other.low_c;
+        }
+        self.later_than(other)
+    }
+
+    /// Whether `self` breaks later than `other`: more blocks welded before a window breaks,
+    /// or as many with the same window missed by less. A batch of changes judged up to the
+    /// first that gets further ends at the first that breaks later: that a block got lower
+    /// in the band by a hundredth of a degree is no reason to leave the rest unjudged (on a
+    /// generated box the rotation that kept every window came after one that did).
+    fn later_than(&self, other: &Broken) -> bool {
         self.blocks > other.blocks
             || (self.blocks == other.blocks
                 && self.block == other.block
@@ -167,6 +202,7 @@ impl<'a> Repair<'a> {
             block,
             miss_s: f64::INFINITY,
             too_fast: false,
+            low_c: f64::INFINITY,
         };
         let mut step = 0;
         // The plan now simulated up to some deposits (the prefix every later plan shares up
@@ -263,7 +299,7 @@ impl<'a> Repair<'a> {
                 if batch.is_empty() {
                     continue;
                 }
-                let further = |v: &Verdict| matches!(v, Some(Err(b)) if b.further_than(&broken));
+                let further = |v: &Verdict| matches!(v, Some(Err(b)) if b.later_than(&broken));
                 if n == 2 && verdicts.iter().any(further) {
                     break;
                 }
@@ -356,14 +392,16 @@ impl<'a> Repair<'a> {
                 return None;
             };
             tracing::debug!(
-                "warm-start repair: step {step}: {:?} at {:?} of {} changes: a window breaks after {} blocks, missed by {:.2} s (was {}, {:.2} s)",
+                "warm-start repair: step {step}: {:?} at {:?} of {} changes: a window breaks after {} blocks, missed by {:.2} s, lowest {:.1} °C (was {}, {:.2} s, {:.1} °C)",
                 candidates[c].1,
                 self.part.block(plan[candidates[c].0.f][candidates[c].0.i]),
                 candidates.len(),
                 further.blocks,
                 further.miss_s,
+                further.low_c,
                 broken.blocks,
-                broken.miss_s
+                broken.miss_s,
+                broken.low_c
             );
             if self.reached.borrow().contains(&further) {
                 tracing::debug!(
@@ -559,7 +597,7 @@ impl<'a> Repair<'a> {
         let last_judged = AtomicUsize::new(usize::MAX);
         let ends_judging = |v: &Verdict| match v {
             Some(Ok(())) => true,
-            Some(Err(b)) => first_further && b.further_than(&broken),
+            Some(Err(b)) => first_further && b.later_than(&broken),
             None => false,
         };
         // Candidates being simulated. The last one still running (often the one that gets
@@ -690,23 +728,19 @@ type KeptStates<'s> = (usize, Broken, Vec<(usize, Simulation<'s>)>);
 const KEPT_CANDIDATES: usize = 4;
 
 /// Adds candidate `c`'s states (it breaks a window at `b`) to `kept` when it may be chosen:
-/// it gets as far as the furthest kept so far (those that get less far are dropped), and
-/// fewer than [`KEPT_CANDIDATES`] kept do, or it comes before one of them. Only speed
-/// depends on it: a chosen candidate whose states were dropped is simulated again.
+/// none kept so far gets further (those it gets further than are dropped), and fewer than
+/// [`KEPT_CANDIDATES`] kept are left, or it comes before one of them. Only speed depends on
+/// it: a chosen candidate whose states were dropped is simulated again.
 fn keep<'s>(
     kept: &mut Vec<KeptStates<'s>>,
     c: usize,
     b: Broken,
     states: Vec<(usize, Simulation<'s>)>,
 ) {
-    if states.is_empty() {
+    if states.is_empty() || kept.iter().any(|(_, k, _)| k.further_than(&b)) {
         return;
     }
-    let furthest = kept.iter().map(|(_, k, _)| k.blocks).max().unwrap_or(0);
-    if b.blocks < furthest {
-        return;
-    }
-    kept.retain(|(_, k, _)| k.blocks >= b.blocks);
+    kept.retain(|(_, k, _)| !b.further_than(k));
     kept.push((c, b, states));
     kept.sort_by_key(|(c, _, _)| *c);
     kept.truncate(KEPT_CANDIDATES);
@@ -771,7 +805,7 @@ fn run_from<'m>(
         sim.set_threads(threads);
         if let Err(v) = sim.deposit(b, new) {
             return Run {
-                verdict: Some(Err(Broken::of(&v, d + 1))),
+                verdict: Some(Err(Broken::of(&v, d + 1, &sim))),
                 end: None,
                 states: states.into(),
             };
@@ -794,7 +828,7 @@ fn run_from<'m>(
             states: Vec::new(),
         },
         Err(v) => Run {
-            verdict: Some(Err(Broken::of(&v, seq.len()))),
+            verdict: Some(Err(Broken::of(&v, seq.len(), &sim))),
             end: None,
             states: states.into(),
         },
@@ -1061,16 +1095,77 @@ mod tests {
             block,
             miss_s,
             too_fast,
+            low_c: f64::INFINITY,
         };
         // A seam moved so the block is welded sooner: fewer blocks, nearer its window.
         let now = broken(8802, 7, 10.8, true);
         assert!(broken(8684, 7, 9.7, true).nearer_than(&now));
         assert!(!broken(8684, 7, 9.7, true).further_than(&now));
         assert!(!broken(8900, 7, 11.0, true).nearer_than(&now));
-        // Another block, or a Max window (missed by about a step whenever it breaks): not.
+        // Another block, or the block's Max window: not.
         assert!(!broken(8684, 8, 9.7, true).nearer_than(&now));
-        let max = broken(8802, 7, 0.06, false);
-        assert!(!broken(8684, 7, 0.05, false).nearer_than(&max));
+        assert!(!broken(8684, 7, 0.05, false).nearer_than(&now));
+    }
+
+    #[test]
+    fn the_same_block_too_long_in_the_band_is_further_the_lower_it_got() {
+        let broken = |blocks, block, miss_s, too_fast, low_c| Broken {
+            blocks,
+            block,
+            miss_s,
+            too_fast,
+            low_c,
+        };
+        // A Max window is missed by about a step whenever it breaks, and breaks the later
+        // the later the block was last above 800 °C: neither says how near it is.
+        let now = broken(6201, 7, 0.03, false, 512.0);
+        assert!(!broken(6205, 7, 0.01, false, 530.0).further_than(&now));
+        // Lower in the band, nearer to dipping below 500 °C: further, however many blocks.
+        assert!(broken(6197, 7, 0.03, false, 504.0).further_than(&now));
+        // Another block: by blocks alone.
+        assert!(!broken(6197, 8, 0.03, false, 504.0).further_than(&now));
+        assert!(broken(6205, 8, 0.03, false, 530.0).further_than(&now));
+        // The same block cooling too fast, or with no temperature known: by blocks.
+        assert!(!broken(6197, 7, 0.03, true, 504.0).further_than(&now));
+        assert!(!broken(6197, 7, 0.03, false, f64::INFINITY).further_than(&now));
+        assert!(broken(6205, 7, 0.03, false, f64::INFINITY).further_than(&now));
+    }
+
+    #[test]
+    fn a_block_too_long_in_the_band_says_how_low_it_got_there() {
+        // A wall whose one window, on a block of its second layer, cannot be kept: the
+        // block spends more than a step between 500 and 800 °C.
+        let blocks = (0..4)
+            .flat_map(|z| (0..10).map(move |x| [x, 0, z]))
+            .collect();
+        let mut part =
+            Part::from_blocks("wall".into(), [6.0, 6.0, 2.5], [0.0; 3], 1, blocks).expect("a wall");
+        let b = part
+            .index_of([4, 0, 1])
+            .expect("a block of the second layer");
+        part.set_window(
+            b,
+            Window {
+                min_s: 0.0,
+                max_s: 0.01,
+            },
+        );
+        let graph = WeldGraph::new(&part);
+        let model = ThermalModel::new(&part, &graph);
+        let serpentine: Vec<usize> = (0..4)
+            .flat_map(|z| (0..10).map(move |x| [if z % 2 == 0 { x } else { 9 - x }, 0, z]))
+            .map(|p| part.index_of(p).expect("a block"))
+            .collect();
+        let mut sim = Simulation::new(&model);
+        let v = deposits(&[serpentine])
+            .into_iter()
+            .find_map(|(b, new)| sim.deposit(b, new).err())
+            .or_else(|| sim.finish().ok()?.err())
+            .expect("the window breaks");
+        assert_eq!((v.block, v.kind), (b, waam_thermal::ViolationKind::Max));
+        let b = Broken::of(&v, v.prefix_len, &sim);
+        assert!((500.0..=800.0).contains(&b.low_c), "{} °C", b.low_c);
+        assert!(!b.too_fast);
     }
 
     #[test]
@@ -1083,6 +1178,7 @@ mod tests {
             block: 0,
             miss_s: 0.0,
             too_fast: false,
+            low_c: f64::INFINITY,
         };
         let states = || vec![(1, sim.clone())];
         let indices = |kept: &Vec<KeptStates>| kept.iter().map(|(c, _, _)| *c).collect::<Vec<_>>();
@@ -1116,6 +1212,7 @@ mod tests {
             block,
             miss_s: f64::INFINITY,
             too_fast: false,
+            low_c: f64::INFINITY,
         };
         let seq = deposits(&warm);
         let repair = repair_of(&part, &graph, &model, None);
@@ -1144,7 +1241,7 @@ mod tests {
         };
         let first = verdicts
             .iter()
-            .position(|v| matches!(v, Some(Err(b)) if b.further_than(&now)))
+            .position(|v| matches!(v, Some(Err(b)) if b.later_than(&now)))
             .expect("a change gets further");
         assert!(
             verdicts[first + 1..].iter().any(Option::is_some),

@@ -30,6 +30,7 @@ pub struct Snapshot {
     temps: Vec<f64>,
     counts: Vec<u64>,
     crossed: Vec<(u64, u64)>,
+    lows: Vec<f64>,
 }
 
 impl Snapshot {
@@ -44,6 +45,7 @@ impl Snapshot {
             + self.temps.capacity() * std::mem::size_of::<f64>()
             + self.counts.capacity() * std::mem::size_of::<u64>()
             + self.crossed.capacity() * std::mem::size_of::<(u64, u64)>()
+            + self.lows.capacity() * std::mem::size_of::<f64>()
     }
 }
 
@@ -143,6 +145,10 @@ pub struct Simulation<'m> {
     /// The least and the most t8/5 count at a downward crossing of 500 °C so far
     /// ([`NOT_CROSSED`] before the first): the plan's margin without recording crossings.
     w_crossed: Vec<(u64, u64)>,
+    /// The lowest temperature between 500 and 800 °C since the block was last above
+    /// 800 °C (+inf: none yet): how near a block that stays too long in the band came to
+    /// leaving it (no verdict depends on it).
+    w_low: Vec<f64>,
     pub(crate) crossings: Option<Vec<Crossing>>,
     threads: usize,
     parallel_min: usize,
@@ -187,6 +193,7 @@ impl<'m> Simulation<'m> {
             w_block: Vec::new(),
             w_count: Vec::new(),
             w_crossed: Vec::new(),
+            w_low: Vec::new(),
             crossings: None,
             threads: default_threads(),
             parallel_min: PARALLEL_MIN_SLOTS,
@@ -451,6 +458,16 @@ impl<'m> Simulation<'m> {
         self.is_welded[block]
     }
 
+    /// The lowest temperature of windowed `block` between 500 and 800 °C since it was last
+    /// above 800 °C, °C: how near a block that stays too long in the band came to leaving
+    /// it. `None` before it is welded, if it has no window, or if it has not been in the
+    /// band since (or the simulation was resumed from a [`BuildState`], which has no record
+    /// of it).
+    pub fn lowest_in_band_c(&self, block: usize) -> Option<f64> {
+        let a = self.w_block.iter().position(|&b| b as usize == block)?;
+        Some(self.w_low[a]).filter(|t| t.is_finite())
+    }
+
     /// Runs the cooldown after the last block: steps until every windowed block is below
     /// 500 °C. `Ok(Ok(()))` is a feasible end, `Ok(Err(v))` a violation while cooling.
     pub fn finish(&mut self) -> Result<Result<(), Violation>, NotCooled> {
@@ -492,6 +509,8 @@ impl<'m> Simulation<'m> {
         s.counts.extend_from_slice(&self.w_count);
         s.crossed.clear();
         s.crossed.extend_from_slice(&self.w_crossed);
+        s.lows.clear();
+        s.lows.extend_from_slice(&self.w_low);
     }
 
     /// Returns to a snapshot taken on this simulation while its first `snap.welded()`
@@ -504,6 +523,7 @@ impl<'m> Simulation<'m> {
         }
         self.w_count.copy_from_slice(&snap.counts);
         self.w_crossed.copy_from_slice(&snap.crossed);
+        self.w_low.copy_from_slice(&snap.lows);
         self.fragments = snap.fragments;
         self.steps = snap.steps;
     }
@@ -583,6 +603,7 @@ impl<'m> Simulation<'m> {
                 self.w_block.pop();
                 self.w_count.pop();
                 self.w_crossed.pop();
+                self.w_low.pop();
             }
         }
     }
@@ -614,6 +635,7 @@ impl<'m> Simulation<'m> {
             self.w_block.push(block as u32);
             self.w_count.push(0);
             self.w_crossed.push(NOT_CROSSED);
+            self.w_low.push(f64::INFINITY);
         }
     }
 
@@ -755,8 +777,10 @@ impl<'m> Simulation<'m> {
             warm |= v >= WARM_C;
             if v > HOT_C {
                 self.w_count[a] = 0;
+                self.w_low[a] = f64::INFINITY;
             } else if v >= WARM_C {
                 self.w_count[a] += 1;
+                self.w_low[a] = self.w_low[a].min(v);
                 // The same as `count · dt > max_s + TOLERANCE_S`, without the conversion.
                 if self.w_count[a] >= self.w_over[a] {
                     keep(a, ViolationKind::Max, &self.w_block);
@@ -832,6 +856,22 @@ mod tests {
         assert_eq!(ta, tf);
         assert_eq!(a.steps(), fresh.steps());
         assert_eq!(a.exposed, fresh.exposed);
+        // Down to the lowest temperature each windowed block had between 500 and 800 °C.
+        let lows = |s: &Simulation| {
+            order
+                .iter()
+                .map(|&b| s.lowest_in_band_c(b))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(lows(&a), lows(&fresh));
+        assert!(lows(&a)
+            .iter()
+            .flatten()
+            .all(|t| (500.0..=800.0).contains(t)));
+        assert!(
+            lows(&a).iter().any(Option::is_some),
+            "a block has been in the band"
+        );
     }
 
     /// More heat is not always hotter in this model, so no clause may be shortened on the
