@@ -28,7 +28,7 @@
 //! stops counting: two generated tubes' hidden plans keep their windows so, and their
 //! repairs, which had ended one step short, now get there). The mirrors and new weld paths of a
 //! step are judged all up to the first that keeps every window (those after it could not
-//! be chosen); the rotations, tried in order of promise, up to the first that gets further
+//! be chosen); the rotations, tried in order of promise, up to the first that breaks later
 //! than the plan now (the nearest start that helps: on a generated box, judging all 26 of
 //! a first step took 6.2 s, eight of them simulated 6,000 deposits on to the same far
 //! window; up to the first that got further, 0.7 s).
@@ -78,9 +78,9 @@ pub struct Repair<'a> {
     /// of the given deposits that is simulated already (the search's snapshots of the plan
     /// it judged), and its length; none: from the first deposit.
     pub resume: Option<&'a Resume<'a>>,
-    /// Where the plans its runs got to first break a window (empty at first: see
-    /// [`Repair::repaired`]).
-    pub(crate) reached: RefCell<Vec<Broken>>,
+    /// Where the plans its runs got to first break a window, per [`Measure`] (empty at
+    /// first: see [`Repair::repaired`]).
+    pub(crate) reached: RefCell<[Vec<Broken>; 2]>,
 }
 
 /// A simulation at the longest known prefix of a deposit sequence, and its length.
@@ -137,12 +137,12 @@ impl Broken {
         self.block == other.block && self.too_fast && other.too_fast && self.miss_s < other.miss_s
     }
 
-    /// Whether `self` gets further than `other`: [`Broken::later_than`], but the same block
-    /// staying too long in the band gets further the lower it got there (when it breaks
-    /// says mostly when it was last above 800 °C, which is later the more the blocks above
-    /// reheat it).
-    fn further_than(&self, other: &Broken) -> bool {
-        if self.block == other.block
+    /// Whether `self` gets further than `other` by `measure`: [`Broken::later_than`], or
+    /// with [`Measure::Lower`] the same block staying too long in the band the lower it
+    /// got there.
+    fn further_than(&self, other: &Broken, measure: Measure) -> bool {
+        if measure == Measure::Lower
+            && self.block == other.block
             && !self.too_fast
             && !other.too_fast
             && self.low_c.is_finite()
@@ -151,6 +151,12 @@ impl Broken {
             return self.low_c < other.low_c;
         }
         self.later_than(other)
+    }
+
+    /// Whether the block stayed too long between 500 and 800 °C, and how low it got there
+    /// is known.
+    fn too_long_in_band(&self) -> bool {
+        !self.too_fast && self.low_c.is_finite()
     }
 
     /// Whether `self` breaks later than `other`: more blocks welded before a window breaks,
@@ -164,6 +170,19 @@ impl Broken {
                 && self.block == other.block
                 && self.miss_s < other.miss_s)
     }
+}
+
+/// What gets a repair further when the same block's Max window breaks again: the break
+/// may come later because the blocks above reheat the block above 800 °C later (its time
+/// starts afresh: a generated double tube is repaired that way) or because it dips below
+/// 500 °C (its time stops counting: two generated tubes are repaired that way, and there
+/// a later break says only the first, and misleads).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Measure {
+    /// More blocks before a window breaks.
+    Later,
+    /// For the same block staying too long in the band: lower there.
+    Lower,
 }
 
 /// The blocks `i..j` of weld path `f`, all in one layer; `at`: deposits before it.
@@ -194,7 +213,31 @@ impl<'a> Repair<'a> {
     /// there, as far as the simulator can tell) ends there: the earlier run went on from
     /// that point without keeping every window (on a cup, a raster's repair retraced the
     /// first repair's steps to its dead end, 13 s).
+    /// A repair that gets more blocks welded each step ([`Measure::Later`]) and ends on a
+    /// block staying too long in the band is tried again from `plan`, each step getting
+    /// that block lower there ([`Measure::Lower`]).
     pub fn repaired(&self, plan: &[Vec<usize>], blocks: usize, block: usize) -> Option<Repaired> {
+        let mut ended = None;
+        if let Some(found) = self.repaired_by(plan, blocks, block, Measure::Later, &mut ended) {
+            return Some(found);
+        }
+        if !ended.is_some_and(|b: Broken| b.too_long_in_band()) || self.limits.stopped() {
+            return None;
+        }
+        tracing::debug!("warm-start repair: again, getting the block lower in the band");
+        self.repaired_by(plan, blocks, block, Measure::Lower, &mut ended)
+    }
+
+    /// [`Repair::repaired`] by one measure; `ended`: where the last plan it had breaks a
+    /// window.
+    fn repaired_by(
+        &self,
+        plan: &[Vec<usize>],
+        blocks: usize,
+        block: usize,
+        by: Measure,
+        ended: &mut Option<Broken>,
+    ) -> Option<Repaired> {
         let mut plan = plan.to_vec();
         // By how much it is missed is measured in the first step.
         let mut broken = Broken {
@@ -284,8 +327,8 @@ impl<'a> Repair<'a> {
             }
             // The rotations (many, each re-simulating a weld path from its start) are
             // judged only when no mirror or new weld path keeps every window, and only up
-            // to the first that gets further; the seam's (re-simulating the plan from the
-            // path's start) only when nothing nearer gets further either.
+            // to the first that breaks later; the seam's (re-simulating the plan from the
+            // path's start) only when nothing nearer breaks later either.
             let (plain, rotated): (Vec<_>, Vec<_>) = near
                 .into_iter()
                 .partition(|(_, c, _)| !matches!(c, Change::Rotate(_)));
@@ -306,13 +349,13 @@ impl<'a> Repair<'a> {
                 // How far the plan now gets is measured once, with the first candidates.
                 let measure = broken.miss_s.is_infinite() && candidates.is_empty();
                 // Every mirror and new weld path; the rotations (nearest the broken
-                // block's column first) up to the first that gets further.
+                // block's column first) up to the first that breaks later.
                 let first_further = n > 0;
                 let judged = self.judge(
                     &seq,
                     &batch,
                     &mut saved,
-                    (measure, broken),
+                    (measure, broken, by),
                     first_further,
                     until,
                 );
@@ -325,7 +368,7 @@ impl<'a> Repair<'a> {
                     broken = now;
                 }
                 for (c, b, states) in judged.states {
-                    keep(&mut kept, offset + c, b, states);
+                    keep(&mut kept, offset + c, b, states, by);
                 }
                 candidates.extend(batch);
                 verdicts.extend(judged.verdicts);
@@ -363,7 +406,7 @@ impl<'a> Repair<'a> {
                 })
                 // The first of those that get furthest.
                 .fold(None, |best: Option<(usize, Broken)>, (c, b)| match best {
-                    Some((_, kept)) if !b.further_than(&kept) => best,
+                    Some((_, kept)) if !b.further_than(&kept, by) => best,
                     _ => Some((c, b)),
                 });
             // None gets further: the one that misses the same too-fast window by least, if
@@ -379,7 +422,8 @@ impl<'a> Repair<'a> {
                     // The first of those nearest.
                     .min_by(|(_, a), (_, b)| a.miss_s.total_cmp(&b.miss_s))
             };
-            let (chosen, ahead) = match best.filter(|(_, b)| b.further_than(&broken)) {
+            *ended = Some(broken);
+            let (chosen, ahead) = match best.filter(|(_, b)| b.further_than(&broken, by)) {
                 Some(best) => (Some(best), true),
                 None => (nearer(), false),
             };
@@ -403,13 +447,14 @@ impl<'a> Repair<'a> {
                 broken.miss_s,
                 broken.low_c
             );
-            if self.reached.borrow().contains(&further) {
+            let i = by as usize;
+            if self.reached.borrow()[i].contains(&further) {
                 tracing::debug!(
                     "warm-start repair: step {step}: an earlier repair got here and no further"
                 );
                 return None;
             }
-            self.reached.borrow_mut().push(further);
+            self.reached.borrow_mut()[i].push(further);
             let changed_at = candidates[c].0.at;
             plan = candidates.into_iter().nth(c).map(|(_, _, plan)| plan)?;
             broken = further;
@@ -468,7 +513,7 @@ impl<'a> Repair<'a> {
             .flat_map(|d| [(nearest + d) % n, (nearest + n - d % n) % n])
             .filter(|&r| r != 0)
             .collect();
-        // Nearest first: those after the first that gets further (or keeps every window)
+        // Nearest first: those after the first that breaks later (or keeps every window)
         // are not judged (on a double tube the column's own rotation came eighth of
         // fifteen when sorted by index, 0.75 s of simulation each).
         let mut seen = HashSet::new();
@@ -528,14 +573,14 @@ impl<'a> Repair<'a> {
     /// breaks a window at `broken`, measured again when `measure`), on `workers` threads;
     /// slot i holds candidate i's verdict whichever thread judged it. The candidates are
     /// judged up to the first that keeps every window, or with `first_further` up to the
-    /// first that gets further than the plan now: those after it are not judged (their
-    /// slots stay empty), on any number of threads.
+    /// first that breaks later than the plan now ([`Broken::later_than`]): those after it
+    /// are not judged (their slots stay empty), on any number of threads.
     fn judge<'s>(
         &'s self,
         seq: &[(usize, bool)],
         candidates: &[(Piece, Change, Vec<Vec<usize>>)],
         saved: &mut Vec<(usize, Simulation<'s>)>,
-        (measure, broken): (bool, Broken),
+        (measure, broken, by): (bool, Broken, Measure),
         first_further: bool,
         until: Option<Instant>,
     ) -> Judged<'s> {
@@ -592,8 +637,8 @@ impl<'a> Repair<'a> {
         };
         let next = AtomicUsize::new(0);
         // The candidate that ends the judging: the first found to keep every window (or,
-        // with `first_further`, to get further); a later one cannot be chosen, so it is not
-        // judged, or no further (the choice stays the same on any number of threads).
+        // with `first_further`, to break later); a later one is not judged, or no further
+        // (the choice stays the same on any number of threads).
         let last_judged = AtomicUsize::new(usize::MAX);
         let ends_judging = |v: &Verdict| match v {
             Some(Ok(())) => true,
@@ -666,6 +711,7 @@ impl<'a> Repair<'a> {
                             c,
                             b,
                             run.states,
+                            by,
                         );
                     }
                     results.lock().expect("no worker panics")[c] = verdict;
@@ -736,11 +782,12 @@ fn keep<'s>(
     c: usize,
     b: Broken,
     states: Vec<(usize, Simulation<'s>)>,
+    measure: Measure,
 ) {
-    if states.is_empty() || kept.iter().any(|(_, k, _)| k.further_than(&b)) {
+    if states.is_empty() || kept.iter().any(|(_, k, _)| k.further_than(&b, measure)) {
         return;
     }
-    kept.retain(|(_, k, _)| !b.further_than(k));
+    kept.retain(|(_, k, _)| !b.further_than(k, measure));
     kept.push((c, b, states));
     kept.sort_by_key(|(c, _, _)| *c);
     kept.truncate(KEPT_CANDIDATES);
@@ -1100,7 +1147,7 @@ mod tests {
         // A seam moved so the block is welded sooner: fewer blocks, nearer its window.
         let now = broken(8802, 7, 10.8, true);
         assert!(broken(8684, 7, 9.7, true).nearer_than(&now));
-        assert!(!broken(8684, 7, 9.7, true).further_than(&now));
+        assert!(!broken(8684, 7, 9.7, true).further_than(&now, Measure::Later));
         assert!(!broken(8900, 7, 11.0, true).nearer_than(&now));
         // Another block, or the block's Max window: not.
         assert!(!broken(8684, 8, 9.7, true).nearer_than(&now));
@@ -1117,18 +1164,20 @@ mod tests {
             low_c,
         };
         // A Max window is missed by about a step whenever it breaks, and breaks the later
-        // the later the block was last above 800 °C: neither says how near it is.
+        // the later the block was last above 800 °C: with `Later` further, with `Lower` not.
         let now = broken(6201, 7, 0.03, false, 512.0);
-        assert!(!broken(6205, 7, 0.01, false, 530.0).further_than(&now));
+        assert!(broken(6205, 7, 0.01, false, 530.0).further_than(&now, Measure::Later));
+        assert!(!broken(6205, 7, 0.01, false, 530.0).further_than(&now, Measure::Lower));
+        assert!(!broken(6197, 7, 0.03, false, 504.0).further_than(&now, Measure::Later));
         // Lower in the band, nearer to dipping below 500 °C: further, however many blocks.
-        assert!(broken(6197, 7, 0.03, false, 504.0).further_than(&now));
+        assert!(broken(6197, 7, 0.03, false, 504.0).further_than(&now, Measure::Lower));
         // Another block: by blocks alone.
-        assert!(!broken(6197, 8, 0.03, false, 504.0).further_than(&now));
-        assert!(broken(6205, 8, 0.03, false, 530.0).further_than(&now));
+        assert!(!broken(6197, 8, 0.03, false, 504.0).further_than(&now, Measure::Lower));
+        assert!(broken(6205, 8, 0.03, false, 530.0).further_than(&now, Measure::Lower));
         // The same block cooling too fast, or with no temperature known: by blocks.
-        assert!(!broken(6197, 7, 0.03, true, 504.0).further_than(&now));
-        assert!(!broken(6197, 7, 0.03, false, f64::INFINITY).further_than(&now));
-        assert!(broken(6205, 7, 0.03, false, f64::INFINITY).further_than(&now));
+        assert!(!broken(6197, 7, 0.03, true, 504.0).further_than(&now, Measure::Lower));
+        assert!(!broken(6197, 7, 0.03, false, f64::INFINITY).further_than(&now, Measure::Lower));
+        assert!(broken(6205, 7, 0.03, false, f64::INFINITY).further_than(&now, Measure::Lower));
     }
 
     #[test]
@@ -1183,20 +1232,20 @@ mod tests {
         let states = || vec![(1, sim.clone())];
         let indices = |kept: &Vec<KeptStates>| kept.iter().map(|(c, _, _)| *c).collect::<Vec<_>>();
         let mut kept = Vec::new();
-        keep(&mut kept, 5, broken(10), states());
+        keep(&mut kept, 5, broken(10), states(), Measure::Later);
         // One that gets less far can never be chosen.
-        keep(&mut kept, 2, broken(8), states());
+        keep(&mut kept, 2, broken(8), states(), Measure::Later);
         assert_eq!(indices(&kept), [5]);
         // One that gets further: the others can no longer be chosen.
-        keep(&mut kept, 7, broken(12), states());
+        keep(&mut kept, 7, broken(12), states(), Measure::Later);
         assert_eq!(indices(&kept), [7]);
         // As far: on a tie the first is chosen, so the lowest indices are kept.
         for c in [9, 3, 8, 11, 4, 6] {
-            keep(&mut kept, c, broken(12), states());
+            keep(&mut kept, c, broken(12), states(), Measure::Later);
         }
         assert_eq!(indices(&kept), [3, 4, 6, 7][..KEPT_CANDIDATES]);
         // A run that kept no state adds nothing.
-        keep(&mut kept, 1, broken(20), Vec::new());
+        keep(&mut kept, 1, broken(20), Vec::new(), Measure::Later);
         assert_eq!(indices(&kept), [3, 4, 6, 7][..KEPT_CANDIDATES]);
     }
 
@@ -1228,7 +1277,7 @@ mod tests {
                 &seq,
                 &candidates,
                 &mut Vec::new(),
-                (true, broken),
+                (true, broken, Measure::Later),
                 first_further,
                 None,
             );
@@ -1242,7 +1291,7 @@ mod tests {
         let first = verdicts
             .iter()
             .position(|v| matches!(v, Some(Err(b)) if b.later_than(&now)))
-            .expect("a change gets further");
+            .expect("a change breaks later");
         assert!(
             verdicts[first + 1..].iter().any(Option::is_some),
             "changes after it are judged when the batch does not end there"
@@ -1256,7 +1305,7 @@ mod tests {
             assert_eq!(cut[..=first], verdicts[..=first], "{workers} workers");
             assert!(
                 cut[first + 1..].iter().all(Option::is_none),
-                "none judged after the first that gets further, on {workers} workers"
+                "none judged after the first that breaks later, on {workers} workers"
             );
             assert!(kept.iter().all(|&c| c <= first));
         }
@@ -1288,7 +1337,7 @@ mod tests {
         assert!(repair.repaired(&warm, blocks, block).is_none());
         let reached = repair.reached.borrow().clone();
         assert!(
-            !reached.is_empty(),
+            !reached[Measure::Later as usize].is_empty(),
             "the first run got further before its dead end"
         );
         // The same plan again: its first step that gets further gets where the first run
