@@ -21,14 +21,15 @@
 //! rotated too when no nearer change gets further: on a double tube that seam is the lever.
 //! Which piece and change is kept is the simulator's verdict (the furthest first broken
 //! window, counted in blocks welded): no threshold. Where the same block's Max window
-//! breaks again, the count says little: a block that stays between 500 and 800 °C breaks
-//! its window `max_s` after it was last above 800 °C, so more blocks before the break
-//! mostly mean that the blocks above reheated it later. There the change kept is the one under
-//! which the block got lowest in the band, nearest to dipping below 500 °C (where its time
-//! stops counting: two generated tubes' hidden plans keep their windows so, and their
-//! repairs, which had ended one step short, now get there). The mirrors and new weld paths of a
-//! step are judged all up to the first that keeps every window (those after it could not
-//! be chosen); the rotations, tried in order of promise, up to the first that breaks later
+//! breaks again, the count can mislead: a block staying between 500 and 800 °C breaks its
+//! window `max_s` after it was last above 800 °C, so a later break may mean only that the
+//! blocks above reheated it later, while what keeps the window may be that it dips below
+//! 500 °C, where its time stops counting (the hidden plans of two generated tubes do so).
+//! A repair that ends on such a break is tried again from its first plan, keeping at each
+//! step the change under which that block got lowest in the band ([`Measure`]); as the
+//! only measure, it lost a double tube whose repair needs the later reheat. The mirrors
+//! and new weld paths of a step are judged all up to the first that keeps every window
+//! (those after it could not be chosen); the rotations, tried in order of promise, up to the first that breaks later
 //! than the plan now (the nearest start that helps: on a generated box, judging all 26 of
 //! a first step took 6.2 s, eight of them simulated 6,000 deposits on to the same far
 //! window; up to the first that got further, 0.7 s).
