@@ -29,10 +29,10 @@
 //! step the change under which that block got lowest in the band ([`Measure`]); as the
 //! only measure, it lost a double tube whose repair needs the later reheat. The mirrors
 //! and new weld paths of a step are judged all up to the first that keeps every window
-//! (those after it could not be chosen); the rotations, tried in order of promise, up to the first that breaks later
-//! than the plan now (the nearest start that helps: on a generated box, judging all 26 of
-//! a first step took 6.2 s, eight of them simulated 6,000 deposits on to the same far
-//! window; up to the first that got further, 0.7 s).
+//! (those after it could not be chosen); the rotations, tried in order of promise, up to
+//! the first that breaks later than the plan now (the nearest start that helps: on a
+//! generated box, judging all 26 of a first step took 6.2 s, eight of them simulated 6,000
+//! deposits on to the same far window; up to the first that got further, 0.7 s).
 //! Either way the choice does not depend on the thread count.
 //!
 //! Why no wider neighbourhood: changes further down, down to the first layer, are what the
@@ -133,7 +133,7 @@ impl Broken {
 
     /// Whether `self` is the same block cooling too fast as `other`, missed by less,
     /// however many blocks come before the break: a seam moved round a ring moves when the
-    /// block is welded. (Staying too long in the band, lower there is further.)
+    /// block is welded. (A block staying too long in the band: see [`Measure`].)
     fn nearer_than(&self, other: &Broken) -> bool {
         self.block == other.block && self.too_fast && other.too_fast && self.miss_s < other.miss_s
     }
@@ -459,6 +459,7 @@ impl<'a> Repair<'a> {
             let changed_at = candidates[c].0.at;
             plan = candidates.into_iter().nth(c).map(|(_, _, plan)| plan)?;
             broken = further;
+            *ended = Some(broken);
             got_further |= ahead;
             saved.retain(|&(at, _)| at <= changed_at);
             // The chosen plan's states from its run, where the next step may change it.
