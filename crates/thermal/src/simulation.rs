@@ -767,38 +767,45 @@ impl<'m> Simulation<'m> {
         let dt = self.model.dt;
         let mut warm = false;
         let mut worst: Option<(usize, ViolationKind)> = None;
-        let mut keep = |a: usize, kind, w_block: &[u32]| match worst {
-            Some((b, _)) if w_block[b] <= w_block[a] => {}
+        // Every window's columns cut to one length: the loop below runs without bounds
+        // checks on them (it runs for every windowed block on every step).
+        let n = self.w_slot.len();
+        let (slots, blocks) = (&self.w_slot[..n], &self.w_block[..n]);
+        let (over, lo) = (&self.w_over[..n], &self.w_lo[..n]);
+        let (counts, lows) = (&mut self.w_count[..n], &mut self.w_low[..n]);
+        let crossed = &mut self.w_crossed[..n];
+        let mut keep = |a: usize, kind| match worst {
+            Some((b, _)) if blocks[b] <= blocks[a] => {}
             _ => worst = Some((a, kind)),
         };
-        for a in 0..self.w_slot.len() {
-            let s = self.w_slot[a] as usize + PAD;
+        for a in 0..n {
+            let s = slots[a] as usize + PAD;
             let (u, v) = (self.temp[s], self.next[s]);
             warm |= v >= WARM_C;
             if v > HOT_C {
-                self.w_count[a] = 0;
-                self.w_low[a] = f64::INFINITY;
+                counts[a] = 0;
+                lows[a] = f64::INFINITY;
             } else if v >= WARM_C {
-                self.w_count[a] += 1;
-                self.w_low[a] = self.w_low[a].min(v);
+                counts[a] += 1;
+                lows[a] = lows[a].min(v);
                 // The same as `count · dt > max_s + TOLERANCE_S`, without the conversion.
-                if self.w_count[a] >= self.w_over[a] {
-                    keep(a, ViolationKind::Max, &self.w_block);
+                if counts[a] >= over[a] {
+                    keep(a, ViolationKind::Max);
                 }
             } else if u >= WARM_C {
-                let t85_s = self.w_count[a] as f64 * dt;
-                let (least, most) = &mut self.w_crossed[a];
-                *least = (*least).min(self.w_count[a]);
-                *most = (*most).max(self.w_count[a]);
+                let t85_s = counts[a] as f64 * dt;
+                let (least, most) = &mut crossed[a];
+                *least = (*least).min(counts[a]);
+                *most = (*most).max(counts[a]);
                 if let Some(c) = &mut self.crossings {
                     c.push(Crossing {
-                        block: self.w_block[a] as usize,
+                        block: blocks[a] as usize,
                         t85_s,
                         time_s: self.steps as f64 * dt,
                     });
                 }
-                if t85_s < self.w_lo[a] - TOLERANCE_S {
-                    keep(a, ViolationKind::Min, &self.w_block);
+                if t85_s < lo[a] - TOLERANCE_S {
+                    keep(a, ViolationKind::Min);
                 }
             }
         }
