@@ -27,13 +27,18 @@
 //! 500 °C, where its time stops counting (the hidden plans of two generated tubes do so).
 //! A repair that ends on such a break is tried again from its first plan, keeping at each
 //! step the change under which that block got lowest in the band ([`Measure`]); as the
-//! only measure, it lost a double tube whose repair needs the later reheat. The mirrors
-//! and new weld paths of a step are judged all up to the first that keeps every window
-//! (those after it could not be chosen); the rotations, tried in order of promise, up to
-//! the first that breaks later than the plan now (the nearest start that helps: on a
-//! generated box, judging all 26 of a first step took 6.2 s, eight of them simulated 6,000
-//! deposits on to the same far window; up to the first that got further, 0.7 s).
-//! Either way the choice does not depend on the thread count.
+//! only measure, it lost a double tube whose repair needs the later reheat. When no
+//! single change gets further, two mirrors at once are judged (a piece and a later one:
+//! the layers between go round the other way, those above as they went): a mirror turns
+//! every layer above it too, and two generated double tubes whose repair had ended with a
+//! block one step too long in the band, at 500.001 °C, got their plans through such pairs
+//! (9 s and 15 s, where none came in 60 s). The mirrors and new weld paths of a step are
+//! judged all up to the first that keeps every window (those after it could not be
+//! chosen); the rotations (in order of promise) and the pairs up to the first that breaks
+//! later than the plan now (the nearest start that helps: on a generated box,
+//! judging all 26 of a first step took 6.2 s, eight of them simulated 6,000 deposits on to
+//! the same far window; up to the first that got further, 0.7 s). Either way the choice
+//! does not depend on the thread count.
 //!
 //! Why no wider neighbourhood: changes further down, down to the first layer, are what the
 //! warm-start portfolio tries next (other starts and covers of the first layer, varisat's
@@ -204,6 +209,10 @@ enum Change {
     /// weld path rotated with it: at a weld path's first piece in place, elsewhere as a
     /// new weld path.
     Rotate(usize),
+    /// Mirrored here and again at the later piece that begins this many deposits in: the
+    /// pieces between go the other way, those after it as they went (one layer's way
+    /// round turned alone, where a mirror turns every layer above it too).
+    MirrorTwice(usize),
 }
 
 impl<'a> Repair<'a> {
@@ -333,19 +342,47 @@ impl<'a> Repair<'a> {
             let (plain, rotated): (Vec<_>, Vec<_>) = near
                 .into_iter()
                 .partition(|(_, c, _)| !matches!(c, Change::Rotate(_)));
+            // Where a mirror is valid: two of them at once are judged when no single
+            // change gets further.
+            let mirrored: Vec<Piece> = plain
+                .iter()
+                .filter(|(_, c, _)| *c == Change::Mirror)
+                .map(|&(p, _, _)| p)
+                .collect();
+            let mut batches = [plain, rotated, seam_rotated];
             let mut candidates = Vec::new();
             let mut verdicts: Vec<Verdict> = Vec::new();
             // The first feasible candidate's simulation at its end.
             let mut end = None;
             // The states kept by the candidates that may be chosen.
             let mut kept = Vec::new();
-            for (n, batch) in [plain, rotated, seam_rotated].into_iter().enumerate() {
-                if batch.is_empty() {
-                    continue;
-                }
+            for n in 0..4 {
                 let further = |v: &Verdict| matches!(v, Some(Err(b)) if b.later_than(&broken));
                 if n == 2 && verdicts.iter().any(further) {
                     break;
+                }
+                let batch = match batches.get_mut(n) {
+                    Some(batch) => std::mem::take(batch),
+                    None if verdicts
+                        .iter()
+                        .any(|v| matches!(v, Some(Err(b)) if b.further_than(&broken, by))) =>
+                    {
+                        break;
+                    }
+                    None => valid(
+                        mirrored
+                            .iter()
+                            .enumerate()
+                            .flat_map(|(a, &p)| {
+                                mirrored[a + 1..]
+                                    .iter()
+                                    .map(move |q| (p, Change::MirrorTwice(q.at)))
+                            })
+                            .collect(),
+                    ),
+                };
+                if batch.is_empty() {
+                    continue;
                 }
                 // How far the plan now gets is measured once, with the first candidates.
                 let measure = broken.miss_s.is_infinite() && candidates.is_empty();
@@ -534,6 +571,11 @@ impl<'a> Repair<'a> {
             Change::NewPath | Change::NewPathMirrored => true,
             Change::Rotate(_) => piece.i > 0,
             Change::Mirror => false,
+            Change::MirrorTwice(at) => {
+                let once = self.changed(plan, piece, Change::Mirror)?;
+                let then = pieces(self.part, &once).into_iter().find(|p| p.at == at)?;
+                return self.changed(&once, then, Change::Mirror);
+            }
         };
         if new_path && (piece.i == 0 || plan.len() >= self.k) {
             return None;
@@ -545,7 +587,7 @@ impl<'a> Repair<'a> {
                 Some(mirror(self.part, self.graph, blocks)?)
             }
             Change::Rotate(r) => Some(rotation(self.part, self.graph, blocks, r)?),
-            Change::NewPath => None,
+            Change::NewPath | Change::MirrorTwice(_) => None,
         };
         if let Some(map) = map {
             for b in &mut tail {
@@ -1067,10 +1109,8 @@ mod tests {
         (v.prefix_len, v.block)
     }
 
-    #[test]
-    fn a_seam_is_turned_to_the_broken_blocks_column_first() {
-        // A one-block 8 x 8 ring, 4 layers: the rotations of its first layer, for a broken
-        // block on the third, start at the ring block under it, then 1, 2, 4 either side.
+    /// A one-block 8 x 8 ring, 4 layers, and its layer-by-layer plan (one weld path).
+    fn ring_and_warm_start() -> (Part, WeldGraph, Vec<Vec<usize>>) {
         let blocks = (0..4)
             .flat_map(|z| {
                 (0..8).flat_map(move |y| {
@@ -1083,9 +1123,17 @@ mod tests {
         let part =
             Part::from_blocks("ring".into(), [6.0, 6.0, 2.5], [0.0; 3], 1, blocks).expect("a ring");
         let graph = WeldGraph::new(&part);
-        let model = ThermalModel::new(&part, &graph);
         let plan = constructive::layered_plan(&part, &graph, 1, Backend::Cadical, &NO_LIMITS)
             .expect("a ring has a layer-by-layer plan");
+        (part, graph, plan)
+    }
+
+    #[test]
+    fn a_seam_is_turned_to_the_broken_blocks_column_first() {
+        // The rotations of the ring's first layer, for a broken block on the third, start
+        // at the ring block under it, then 1, 2, 4 either side.
+        let (part, graph, plan) = ring_and_warm_start();
+        let model = ThermalModel::new(&part, &graph);
         let first = pieces(&part, &plan)[0];
         let ring = &plan[0][first.i..first.j];
         assert_eq!(ring.len(), 28);
@@ -1099,6 +1147,47 @@ mod tests {
         distinct.sort_unstable();
         distinct.dedup();
         assert_eq!(distinct.len(), rotations.len(), "each rotation once");
+    }
+
+    #[test]
+    fn two_mirrors_turn_the_layers_between_them_alone() {
+        let (part, graph, plan) = ring_and_warm_start();
+        let model = ThermalModel::new(&part, &graph);
+        let repair = repair_of(&part, &graph, &model, None);
+        // Which way round a ring piece goes: the sign of the area it encloses.
+        let way = |plan: &[Vec<usize>], p: Piece| -> i64 {
+            let ring = &plan[p.f][p.i..p.j];
+            let area: i64 = (0..ring.len())
+                .map(|a| {
+                    let [x0, y0, _] = part.block(ring[a]);
+                    let [x1, y1, _] = part.block(ring[(a + 1) % ring.len()]);
+                    x0 * y1 - x1 * y0
+                })
+                .sum();
+            area.signum()
+        };
+        let ways = |plan: &[Vec<usize>]| -> Vec<i64> {
+            pieces(&part, plan)
+                .into_iter()
+                .map(|p| way(plan, p))
+                .collect()
+        };
+        let before = ways(&plan);
+        assert_eq!(before.len(), 4);
+        assert!(before.iter().all(|&w| w != 0), "{before:?}");
+        let layers = pieces(&part, &plan);
+        let once = repair
+            .changed(&plan, layers[1], Change::Mirror)
+            .expect("a valid mirror");
+        let twice = repair
+            .changed(&plan, layers[1], Change::MirrorTwice(layers[2].at))
+            .expect("a valid pair of mirrors");
+        // One mirror turns its layer and every layer above; two turn the second alone.
+        let turned =
+            |w: &[i64]| -> Vec<bool> { w.iter().zip(&before).map(|(a, b)| a != b).collect() };
+        assert_eq!(turned(&ways(&once)), [false, true, true, true]);
+        assert_eq!(turned(&ways(&twice)), [false, true, false, false]);
+        assert_eq!(deposits(&twice).len(), deposits(&plan).len());
     }
 
     #[test]
