@@ -210,8 +210,8 @@ enum Change {
     /// new weld path.
     Rotate(usize),
     /// Mirrored here and again at the later piece that begins this many deposits in: the
-    /// pieces between go the other way, those after it as they went (one layer's way
-    /// round turned alone, where a mirror turns every layer above it too).
+    /// pieces between go the other way, those from it on as they went (where a mirror
+    /// turns every piece after it too).
     MirrorTwice(usize),
 }
 
@@ -361,6 +361,8 @@ impl<'a> Repair<'a> {
                 if n == 2 && verdicts.iter().any(further) {
                     break;
                 }
+                // The mirrors and new paths, the rotations, the seam's rotations; last the
+                // pairs of mirrors, built only when no single change got further.
                 let batch = match batches.get_mut(n) {
                     Some(batch) => std::mem::take(batch),
                     None if verdicts
