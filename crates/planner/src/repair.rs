@@ -28,11 +28,19 @@
 //! A repair that ends on such a break is tried again from its first plan, keeping at each
 //! step the change under which that block got lowest in the band ([`Measure`]); as the
 //! only measure, it lost a double tube whose repair needs the later reheat. When no
-//! single change gets further, two mirrors at once are judged (a piece and a later one:
-//! the layers between go round the other way, those above as they went): a mirror turns
-//! every layer above it too, and two generated double tubes whose repair had ended with a
-//! block one step too long in the band, at 500.001 °C, got their plans through such pairs
-//! (9 s and 15 s, where none came in 60 s). The mirrors and new weld paths of a step are
+//! single change gets further, the ways round are searched ([`Repair::ways_round`]): each
+//! piece welded while the broken block cools (from the one under it to the one its window
+//! breaks in) going round as now or the other way, depth first from the break back, a way
+//! that breaks a window before its next piece taken no further. A mirror turns every layer
+//! above it too, where a generated part's hidden plan sets off each layer either way: a
+//! box whose repair had missed a Min window by 100 s got its plan in 6 s so, where none
+//! came in 60 s. The search simulates at most as many deposits as the plan has (what
+//! judging one change of its first layer costs; 2^n ways of n pieces can cost more);
+//! where it stops before judging every way, two mirrors at once are judged (a piece and a
+//! later one: the layers between go round the other way, those above as they went), as
+//! before: two generated double tubes whose repair had ended with a block one step too
+//! long in the band, at 500.001 °C, got their plans through such pairs (9 s and 15 s,
+//! where none came in 60 s). The mirrors and new weld paths of a step are
 //! judged all up to the first that keeps every window (those after it could not be
 //! chosen); the rotations (in order of promise) and the pairs up to the first that breaks
 //! later than the plan now (the nearest start that helps: on a generated box,
@@ -213,6 +221,9 @@ enum Change {
     /// pieces between go the other way, those from it on as they went (where a mirror
     /// turns every piece after it too).
     MirrorTwice(usize),
+    /// Each piece from here to the break turned or not, as [`Repair::ways_round`] found
+    /// (this many of them turned).
+    WaysRound(usize),
 }
 
 impl<'a> Repair<'a> {
@@ -356,21 +367,63 @@ impl<'a> Repair<'a> {
             let mut end = None;
             // The states kept by the candidates that may be chosen.
             let mut kept = Vec::new();
-            for n in 0..4 {
+            // Whether the search over the ways round judged every way (the pairs are
+            // among them).
+            let mut every_way = false;
+            for n in 0..5 {
                 let further = |v: &Verdict| matches!(v, Some(Err(b)) if b.later_than(&broken));
                 if n == 2 && verdicts.iter().any(further) {
                     break;
                 }
-                // The mirrors and new paths, the rotations, the seam's rotations; last the
-                // pairs of mirrors, built only when no single change got further.
-                let batch = match batches.get_mut(n) {
-                    Some(batch) => std::mem::take(batch),
-                    None if verdicts
-                        .iter()
-                        .any(|v| matches!(v, Some(Err(b)) if b.further_than(&broken, by))) =>
-                    {
+                let got_further = verdicts
+                    .iter()
+                    .any(|v| matches!(v, Some(Err(b)) if b.further_than(&broken, by)));
+                // When no single change got further: each piece up to the break turned or
+                // not, searched; its plan that gets furthest is one more candidate.
+                if n == 3 {
+                    if got_further {
                         break;
                     }
+                    let to = pieces
+                        .iter()
+                        .rposition(|p| p.at < broken.blocks)
+                        .unwrap_or(anchor)
+                        .max(anchor);
+                    let sim = self.state_at(&seq, pieces[anchor].at, &saved)?;
+                    let t = Instant::now();
+                    // At most as many deposits as the plan has: what judging a change
+                    // of its first layer costs.
+                    let budget = seq.len();
+                    let ways =
+                        self.ways_round(&plan, &pieces, (anchor, to), sim, budget, until, by);
+                    tracing::debug!(
+                        "warm-start repair: step {step}: the ways round of pieces {anchor}..={to} judged in {:.2} s (all: {}): {:?}",
+                        t.elapsed().as_secs_f64(),
+                        ways.every_way,
+                        ways.best.as_ref().map(|(t, _, v)| (t, v))
+                    );
+                    if ways.stopped && this_step.stopped() {
+                        return None;
+                    }
+                    every_way = ways.every_way;
+                    if let Some((turned, found, verdict)) = ways.best {
+                        if let Some(snap) = ways.end {
+                            end = end.or(Some((candidates.len(), snap)));
+                        }
+                        candidates.push((pieces[anchor], Change::WaysRound(turned), found));
+                        verdicts.push(verdict);
+                    }
+                    if verdicts.iter().any(|v| matches!(v, Some(Ok(())))) {
+                        break;
+                    }
+                    continue;
+                }
+                // The mirrors and new paths, the rotations, the seam's rotations; last the
+                // pairs of mirrors, built only when nothing got further and the search over
+                // the ways round stopped before judging them all.
+                let batch = match batches.get_mut(n) {
+                    Some(batch) => std::mem::take(batch),
+                    None if got_further || every_way => break,
                     None => valid(
                         mirrored
                             .iter()
@@ -573,6 +626,7 @@ impl<'a> Repair<'a> {
             Change::NewPath | Change::NewPathMirrored => true,
             Change::Rotate(_) => piece.i > 0,
             Change::Mirror => false,
+            Change::WaysRound(_) => return None,
             Change::MirrorTwice(at) => {
                 let once = self.changed(plan, piece, Change::Mirror)?;
                 let then = pieces(self.part, &once).into_iter().find(|p| p.at == at)?;
@@ -589,7 +643,7 @@ impl<'a> Repair<'a> {
                 Some(mirror(self.part, self.graph, blocks)?)
             }
             Change::Rotate(r) => Some(rotation(self.part, self.graph, blocks, r)?),
-            Change::NewPath | Change::MirrorTwice(_) => None,
+            Change::NewPath | Change::MirrorTwice(_) | Change::WaysRound(_) => None,
         };
         if let Some(map) = map {
             for b in &mut tail {
@@ -641,16 +695,7 @@ impl<'a> Repair<'a> {
             .copied()
             .find(|&s| !saved.iter().any(|(at, _)| *at == s))
             .unwrap_or(last);
-        let (from, sim) = match saved.iter().rev().find(|(at, _)| *at <= first) {
-            Some((at, s)) => (*at, s.clone()),
-            None => match self.resume {
-                Some(resume) => {
-                    let (sim, at) = resume(&seq[..first]);
-                    (at, self.limited(sim))
-                }
-                None => (0, self.simulation()),
-            },
-        };
+        let (from, sim) = self.state_before(seq, first, saved);
         // Alone until the candidates are judged: on every thread; stopped at this step's end.
         let mut sim = sim.with_deadline(until);
         sim.set_threads(self.workers);
@@ -785,6 +830,152 @@ impl<'a> Repair<'a> {
         }
     }
 
+    /// The latest state of the plan now (`seq`) at or before deposit `at` — one saved, else
+    /// the search's, else none simulated — and where it is.
+    fn state_before<'s>(
+        &'s self,
+        seq: &[(usize, bool)],
+        at: usize,
+        saved: &[(usize, Simulation<'s>)],
+    ) -> (usize, Simulation<'s>) {
+        match saved.iter().rev().find(|(s, _)| *s <= at) {
+            Some((s, sim)) => (*s, sim.clone()),
+            None => match self.resume {
+                Some(resume) => {
+                    let (sim, s) = resume(&seq[..at]);
+                    (s, self.limited(sim))
+                }
+                None => (0, self.simulation()),
+            },
+        }
+    }
+
+    /// The plan now (`seq`) simulated up to deposit `at`, from the latest state saved at
+    /// or before it; `None` when the run stopped.
+    fn state_at<'s>(
+        &'s self,
+        seq: &[(usize, bool)],
+        at: usize,
+        saved: &[(usize, Simulation<'s>)],
+    ) -> Option<Simulation<'s>> {
+        let (from, mut sim) = self.state_before(seq, at, saved);
+        sim.set_threads(self.workers);
+        for &(b, new) in &seq[from..at] {
+            if sim.deposit(b, new).is_err() || sim.cancelled() {
+                return None;
+            }
+        }
+        Some(sim)
+    }
+
+    /// The pieces `from..=to` (from the one under the broken block to the one it breaks
+    /// in) each going round as now or turned: a mirror there, which turns every piece after
+    /// it too, so each is turned against the one before it. A block's t8/5 is set by which
+    /// way each layer welded while it cools goes round (where a layer's seam lies follows
+    /// from the layers before), and a generated tube's hidden plan sets off each layer
+    /// either way: a single change or a pair turns at most two of them alone.
+    /// Depth first, each piece as now before turned (so the pieces nearest the break are
+    /// changed first, and a way shares its prefix with the one before); a way that breaks
+    /// a window before its next piece is not taken further (what comes after cannot
+    /// mend it). Up to the first plan that keeps every window, `budget` deposits simulated
+    /// or `until`. `sim`: the plan simulated up to piece `from`.
+    #[allow(clippy::too_many_arguments)]
+    fn ways_round<'s>(
+        &'s self,
+        plan: &[Vec<usize>],
+        pieces: &[Piece],
+        (from, to): (usize, usize),
+        sim: Simulation<'s>,
+        budget: usize,
+        until: Option<Instant>,
+        by: Measure,
+    ) -> WaysRound {
+        let mut left = budget;
+        let mut ways = WaysRound {
+            best: None,
+            end: None,
+            every_way: false,
+            stopped: false,
+        };
+        let mut note = |turned: usize, plan: Vec<Vec<usize>>, verdict: Result<(), Broken>| {
+            let further = match (&verdict, &ways.best) {
+                (Ok(()), _) | (_, None) => true,
+                (Err(b), Some((_, _, Some(Err(best))))) => b.further_than(best, by),
+                _ => false,
+            };
+            if further {
+                ways.best = Some((turned, plan, Some(verdict)));
+            }
+        };
+        // Ways to take on: a plan, the piece of it to simulate next (its way decided), how
+        // many pieces it turned, and the state at that piece's start. The last pushed is
+        // taken first.
+        let mut sim = sim.with_deadline(until);
+        sim.set_threads(self.workers);
+        let mut stack = Vec::new();
+        let turn = |plan: &[Vec<usize>], j: usize| self.changed(plan, pieces[j], Change::Mirror);
+        if let Some(turned) = turn(plan, from) {
+            stack.push((turned, from, 1, sim.clone()));
+        }
+        stack.push((plan.to_vec(), from, 0, sim));
+        while let Some((plan, j, turned, mut sim)) = stack.pop() {
+            let seq = deposits(&plan);
+            let next = pieces.get(j + 1).map_or(seq.len(), |p| p.at);
+            let Some(spent) = left.checked_sub(next - pieces[j].at) else {
+                return ways;
+            };
+            left = spent;
+            let mut broke = None;
+            for (d, &(b, new)) in seq.iter().enumerate().take(next).skip(pieces[j].at) {
+                if let Err(v) = sim.deposit(b, new) {
+                    broke = Some(Broken::of(&v, d + 1, &sim));
+                    break;
+                }
+                if sim.cancelled() {
+                    ways.stopped = true;
+                    return ways;
+                }
+            }
+            if let Some(b) = broke {
+                // The plan as it is breaks where it did: known.
+                if turned > 0 {
+                    note(turned, plan, Err(b));
+                }
+                continue;
+            }
+            if j < to {
+                if let Some(other) = turn(&plan, j + 1) {
+                    stack.push((other, j + 1, turned + 1, sim.clone()));
+                }
+                stack.push((plan, j + 1, turned, sim));
+                continue;
+            }
+            if turned == 0 {
+                continue;
+            }
+            // Every piece up to the break decided: the rest of the plan.
+            let Some(spent) = left.checked_sub(seq.len() - next) else {
+                return ways;
+            };
+            left = spent;
+            let run = run_from(sim, &seq, next, (&[], 0), &|| Some(self.workers));
+            match run.verdict {
+                None => {
+                    ways.stopped = true;
+                    return ways;
+                }
+                Some(Ok(())) => {
+                    note(turned, plan, Ok(()));
+                    ways.end = run.end;
+                    return ways;
+                }
+                Some(Err(b)) => note(turned, plan, Err(b)),
+            }
+        }
+        ways.every_way = true;
+        ways
+    }
+
     fn simulation(&self) -> Simulation<'a> {
         self.limited(Simulation::new(self.model))
     }
@@ -810,6 +1001,19 @@ struct Judged<'s> {
     end: Option<(usize, Snapshot)>,
     /// The states the candidates that may be chosen kept from their runs.
     states: Vec<KeptStates<'s>>,
+}
+
+/// What [`Repair::ways_round`] found.
+struct WaysRound {
+    /// The way that got furthest (the first that keeps every window, else the first of
+    /// those that break one latest): how many pieces it turned, its plan, its verdict.
+    best: Option<(usize, Vec<Vec<usize>>, Verdict)>,
+    /// A feasible way's state after its last deposit.
+    end: Option<Snapshot>,
+    /// Every way judged.
+    every_way: bool,
+    /// The run stopped it.
+    stopped: bool,
 }
 
 /// A candidate's index, where it breaks a window, and the states its run kept.
@@ -1190,6 +1394,89 @@ mod tests {
         assert_eq!(turned(&ways(&once)), [false, true, true, true]);
         assert_eq!(turned(&ways(&twice)), [false, true, false, false]);
         assert_eq!(deposits(&twice).len(), deposits(&plan).len());
+    }
+
+    #[test]
+    fn the_ways_round_turn_layers_no_single_change_or_pair_turns() {
+        // A hidden plan whose second and fourth layers go the other way round, alone: no
+        // single mirror and no pair of them gives it.
+        let (mut part, graph, warm) = ring_and_warm_start();
+        let layers = pieces(&part, &warm);
+        // Windows around the hidden plan's t8/5 on the second and third layers (crossings
+        // are recorded for blocks with a window).
+        let watched: Vec<usize> = warm[0][layers[1].i..layers[3].i].to_vec();
+        let wide = Window {
+            min_s: 0.0,
+            max_s: 1e6,
+        };
+        for &b in &watched {
+            part.set_window(b, wide);
+        }
+        let (hidden, seen) = {
+            let model = ThermalModel::new(&part, &graph);
+            let repair = repair_of(&part, &graph, &model, None);
+            let second = repair
+                .changed(&warm, layers[1], Change::MirrorTwice(layers[2].at))
+                .expect("a valid pair of mirrors");
+            let hidden = repair
+                .changed(&second, layers[3], Change::Mirror)
+                .expect("a valid mirror");
+            let seen = waam_thermal::simulate(&model, &hidden)
+                .expect("cools")
+                .crossings;
+            (hidden, seen)
+        };
+        for &b in &watched {
+            let t85 = || seen.iter().filter(|c| c.block == b).map(|c| c.t85_s);
+            if t85().next().is_none() {
+                continue;
+            }
+            let window = Window {
+                min_s: 0.99 * t85().fold(f64::INFINITY, f64::min),
+                max_s: 1.01 * t85().fold(0.0, f64::max),
+            };
+            part.set_window(b, window);
+        }
+        let model = ThermalModel::new(&part, &graph);
+        let keeps = |plan: &[Vec<usize>]| {
+            waam_thermal::simulate(&model, plan)
+                .expect("cools")
+                .violation
+                .is_none()
+        };
+        assert!(keeps(&hidden));
+        assert!(!keeps(&warm), "the warm start breaks a window");
+        let repair = repair_of(&part, &graph, &model, None);
+        for (a, &p) in layers.iter().enumerate() {
+            let mirrors = std::iter::once(Change::Mirror)
+                .chain(layers[a + 1..].iter().map(|q| Change::MirrorTwice(q.at)));
+            for change in mirrors {
+                let changed = repair.changed(&warm, p, change);
+                assert!(
+                    !changed.is_some_and(|c| keeps(&c)),
+                    "{change:?} at {} keeps every window",
+                    p.at
+                );
+            }
+        }
+        let ways = repair.ways_round(
+            &warm,
+            &layers,
+            (0, 3),
+            repair.simulation(),
+            usize::MAX,
+            None,
+            Measure::Later,
+        );
+        let Some((turned, plan, Some(Ok(())))) = ways.best else {
+            panic!(
+                "no way round keeps every window: {:?}",
+                ways.best.map(|b| b.2)
+            );
+        };
+        assert!(keeps(&plan), "the plan found keeps every window");
+        assert!(turned >= 1 && plan != warm);
+        assert!(ways.end.is_some(), "its state after the last deposit");
     }
 
     #[test]
