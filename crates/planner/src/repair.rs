@@ -919,16 +919,17 @@ impl<'a> Repair<'a> {
         }
         stack.push((plan.to_vec(), from, 0, sim));
         while let Some((plan, j, turned, mut sim)) = stack.pop() {
-            let seq = deposits(&plan);
-            let next = pieces.get(j + 1).map_or(seq.len(), |p| p.at);
-            let Some(spent) = left.checked_sub(next - pieces[j].at) else {
+            let p = pieces[j];
+            let next = p.at + (p.j - p.i);
+            let Some(spent) = left.checked_sub(p.j - p.i) else {
                 return ways;
             };
             left = spent;
             let mut broke = None;
-            for (d, &(b, new)) in seq.iter().enumerate().take(next).skip(pieces[j].at) {
-                if let Err(v) = sim.deposit(b, new) {
-                    broke = Some(Broken::of(&v, d + 1, &sim));
+            // The piece's own deposits: the whole plan's sequence only for a way's rest.
+            for (k, &b) in plan[p.f][p.i..p.j].iter().enumerate() {
+                if let Err(v) = sim.deposit(b, p.i + k == 0) {
+                    broke = Some(Broken::of(&v, p.at + k + 1, &sim));
                     break;
                 }
                 if sim.cancelled() {
@@ -954,6 +955,7 @@ impl<'a> Repair<'a> {
                 continue;
             }
             // Every piece up to the break decided: the rest of the plan.
+            let seq = deposits(&plan);
             let Some(spent) = left.checked_sub(seq.len() - next) else {
                 return ways;
             };
