@@ -186,6 +186,27 @@ impl Broken {
     }
 }
 
+/// For the repair's trace: "after 9977 blocks, block 8741 too long in the band by 0.01 s
+/// (lowest 500.04 °C)".
+impl std::fmt::Display for Broken {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let how = if self.too_fast {
+            "too fast"
+        } else {
+            "too long in the band"
+        };
+        write!(
+            f,
+            "after {} blocks, block {} {how} by {:.2} s",
+            self.blocks, self.block, self.miss_s
+        )?;
+        if self.low_c.is_finite() {
+            write!(f, " (lowest {:.2} °C)", self.low_c)?;
+        }
+        Ok(())
+    }
+}
+
 /// What gets a repair further when the same block's Max window breaks again: the break
 /// may come later because the blocks above reheat the block above 800 °C later (its time
 /// starts afresh: a generated double tube is repaired that way) or because it dips below
@@ -396,11 +417,17 @@ impl<'a> Repair<'a> {
                     let budget = seq.len();
                     let ways =
                         self.ways_round(&plan, &pieces, (anchor, to), sim, budget, until, by);
+                    let furthest = match &ways.best {
+                        Some((turned, _, Some(Ok(())))) => {
+                            format!("{turned} turned keep every window")
+                        }
+                        Some((turned, _, Some(Err(b)))) => format!("{turned} turned: {b}"),
+                        _ => "no way judged".into(),
+                    };
                     tracing::debug!(
-                        "warm-start repair: step {step}: the ways round of pieces {anchor}..={to} judged in {:.2} s (all: {}): {:?}",
+                        "warm-start repair: step {step}: the ways round of pieces {anchor}..={to} judged in {:.2} s ({}): furthest {furthest}",
                         t.elapsed().as_secs_f64(),
-                        ways.every_way,
-                        ways.best.as_ref().map(|(t, _, v)| (t, v))
+                        if ways.every_way { "every way" } else { "stopped short" },
                     );
                     if ways.stopped && this_step.stopped() {
                         return None;
@@ -529,16 +556,10 @@ impl<'a> Repair<'a> {
                 return None;
             };
             tracing::debug!(
-                "warm-start repair: step {step}: {:?} at {:?} of {} changes: a window breaks after {} blocks, missed by {:.2} s, lowest {:.1} °C (was {}, {:.2} s, {:.1} °C)",
+                "warm-start repair: step {step}: {:?} at {:?} of {} changes: a window breaks {further}; before: {broken}",
                 candidates[c].1,
                 self.part.block(plan[candidates[c].0.f][candidates[c].0.i]),
                 candidates.len(),
-                further.blocks,
-                further.miss_s,
-                further.low_c,
-                broken.blocks,
-                broken.miss_s,
-                broken.low_c
             );
             let i = by as usize;
             if self.reached.borrow()[i].contains(&further) {
