@@ -27,7 +27,11 @@
 //! 500 °C, where its time stops counting (the hidden plans of two generated tubes do so).
 //! A repair that ends on such a break is tried again from its first plan, keeping at each
 //! step the change under which that block got lowest in the band ([`Measure`]); as the
-//! only measure, it lost a double tube whose repair needs the later reheat. When no
+//! only measure, it lost a double tube whose repair needs the later reheat. A block
+//! cooling too fast misleads the count the same way (reheated above 800 °C later, its
+//! time starts afresh, as short): a repair that ends on one is tried again keeping at
+//! each step the change that misses its window by least (a generated cup, none in 60 s
+//! before, got its plan in 20 s so). When no
 //! single change gets further, the ways round are searched ([`Repair::ways_round`]): each
 //! piece welded while the broken block cools (from the one under it to the one its window
 //! breaks in) going round as now or the other way, depth first from the break back, a way
@@ -94,7 +98,7 @@ pub struct Repair<'a> {
     pub resume: Option<&'a Resume<'a>>,
     /// Where the plans its runs got to first break a window, per [`Measure`] (empty at
     /// first: see [`Repair::repaired`]).
-    pub(crate) reached: RefCell<[Vec<Broken>; 2]>,
+    pub(crate) reached: RefCell<[Vec<Broken>; 3]>,
 }
 
 /// A simulation at the longest known prefix of a deposit sequence, and its length.
@@ -153,8 +157,17 @@ impl Broken {
 
     /// Whether `self` gets further than `other` by `measure`: [`Broken::later_than`], or
     /// with [`Measure::Lower`] the same block staying too long in the band the lower it
-    /// got there.
+    /// got there, with [`Measure::Nearer`] the same block cooling too fast the nearer its
+    /// window.
     fn further_than(&self, other: &Broken, measure: Measure) -> bool {
+        if measure == Measure::Nearer
+            && self.block == other.block
+            && self.too_fast
+            && other.too_fast
+            && self.miss_s != other.miss_s
+        {
+            return self.miss_s < other.miss_s;
+        }
         if measure == Measure::Lower
             && self.block == other.block
             && !self.too_fast
@@ -207,17 +220,22 @@ impl std::fmt::Display for Broken {
     }
 }
 
-/// What gets a repair further when the same block's Max window breaks again: the break
-/// may come later because the blocks above reheat the block above 800 °C later (its time
-/// starts afresh: a generated double tube is repaired that way) or because it dips below
-/// 500 °C (its time stops counting: two generated tubes are repaired that way, and there
-/// a later break says only the first, and misleads).
+/// What gets a repair further when the same block's window breaks again. A Max window's
+/// break may come later because the blocks above reheat the block above 800 °C later (its
+/// time starts afresh: a generated double tube is repaired that way) or because it dips
+/// below 500 °C (its time stops counting: two generated tubes are repaired that way, and
+/// there a later break says only the first, and misleads). A Min window's break comes
+/// later when the blocks above reheat the block above 800 °C again, its time starting
+/// afresh as short or shorter: on a generated cup a later break had missed by 86 s where
+/// the plan before had missed by 12, and only the misses getting smaller led to a plan.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Measure {
     /// More blocks before a window breaks.
     Later,
     /// For the same block staying too long in the band: lower there.
     Lower,
+    /// For the same block cooling too fast: its window missed by less.
+    Nearer,
 }
 
 /// The blocks `i..j` of weld path `f`, all in one layer; `at`: deposits before it.
@@ -254,30 +272,42 @@ impl<'a> Repair<'a> {
     /// after as many blocks, missed by the same amount to the bit: the same plan up to
     /// there, as far as the simulator can tell) ends there: the earlier run went on from
     /// that point without keeping every window (on a cup, a raster's repair retraced the
-    /// first repair's steps to its dead end, 13 s).
+    /// first repair's steps to its dead end, 13 s), and, where that run was an earlier
+    /// call's, is not tried again by another measure (that run went on to that too).
     /// A repair that gets more blocks welded each step ([`Measure::Later`]) and ends on a
     /// block staying too long in the band is tried again from `plan`, each step getting
-    /// that block lower there ([`Measure::Lower`]).
+    /// that block lower there ([`Measure::Lower`]); one that ends on a block cooling too
+    /// fast, each step missing that block's window by less ([`Measure::Nearer`]).
     pub fn repaired(&self, plan: &[Vec<usize>], blocks: usize, block: usize) -> Option<Repaired> {
+        // The states earlier calls' runs got to: a run that gets to one of them ends, and
+        // what that run went on to do (trying again by another measure too) is not redone.
+        let known: [usize; 3] = std::array::from_fn(|i| self.reached.borrow()[i].len());
         let mut ended = None;
-        if let Some(found) = self.repaired_by(plan, blocks, block, Measure::Later, &mut ended) {
-            return Some(found);
+        let found = self.repaired_by(plan, (blocks, block), Measure::Later, known, &mut ended);
+        if found.is_some() {
+            return found;
         }
-        if !ended.is_some_and(|b: Broken| b.too_long_in_band()) || self.limits.stopped() {
+        let again = match ended {
+            Some(b) if b.too_long_in_band() => Measure::Lower,
+            Some(b) if b.too_fast => Measure::Nearer,
+            _ => return None,
+        };
+        if self.limits.stopped() {
             return None;
         }
-        tracing::debug!("warm-start repair: again, getting the block lower in the band");
-        self.repaired_by(plan, blocks, block, Measure::Lower, &mut ended)
+        tracing::debug!("warm-start repair: again, by {again:?}");
+        self.repaired_by(plan, (blocks, block), again, known, &mut ended)
     }
 
     /// [`Repair::repaired`] by one measure; `ended`: where the last plan it had breaks a
-    /// window.
+    /// window (none when the run got to one of the first `known` states an earlier call's
+    /// runs got to, by this measure).
     fn repaired_by(
         &self,
         plan: &[Vec<usize>],
-        blocks: usize,
-        block: usize,
+        (blocks, block): (usize, usize),
         by: Measure,
+        known: [usize; 3],
         ended: &mut Option<Broken>,
     ) -> Option<Repaired> {
         let mut plan = plan.to_vec();
@@ -562,10 +592,13 @@ impl<'a> Repair<'a> {
                 candidates.len(),
             );
             let i = by as usize;
-            if self.reached.borrow()[i].contains(&further) {
+            if let Some(at) = self.reached.borrow()[i].iter().position(|b| *b == further) {
                 tracing::debug!(
                     "warm-start repair: step {step}: an earlier repair got here and no further"
                 );
+                if at < known[i] {
+                    *ended = None;
+                }
                 return None;
             }
             self.reached.borrow_mut()[i].push(further);
@@ -1555,6 +1588,16 @@ mod tests {
         // Another block, or the block's Max window: not.
         assert!(!broken(8684, 8, 9.7, true).nearer_than(&now));
         assert!(!broken(8684, 7, 0.05, false).nearer_than(&now));
+        // Reheated above 800 °C later and cooled fast again: later, so further by `Later`;
+        // by `Nearer` the same block's miss alone decides, however many blocks.
+        let reheated = broken(8900, 7, 85.0, true);
+        assert!(reheated.further_than(&now, Measure::Later));
+        assert!(!reheated.further_than(&now, Measure::Nearer));
+        assert!(broken(8684, 7, 9.7, true).further_than(&now, Measure::Nearer));
+        // Another block, or the block's Max window: by blocks.
+        assert!(broken(8900, 8, 85.0, true).further_than(&now, Measure::Nearer));
+        assert!(!broken(8684, 8, 9.7, true).further_than(&now, Measure::Nearer));
+        assert!(!broken(8684, 7, 0.05, false).further_than(&now, Measure::Nearer));
     }
 
     #[test]
