@@ -31,7 +31,7 @@
 //! cooling too fast misleads the count the same way (reheated above 800 °C later, its
 //! time starts afresh, as short): a repair that ends on one is tried again keeping at
 //! each step the change that misses its window by least (a generated cup, none in 60 s
-//! before, got its plan in 20 s so). When no
+//! before, got its plan in 10 s so). When no
 //! single change gets further, the ways round are searched ([`Repair::ways_round`]): each
 //! piece welded while the broken block cools (from the one under it to the one its window
 //! breaks in) going round as now or the other way, depth first from the break back, a way
@@ -98,7 +98,7 @@ pub struct Repair<'a> {
     pub resume: Option<&'a Resume<'a>>,
     /// Where the plans its runs got to first break a window, per [`Measure`] (empty at
     /// first: see [`Repair::repaired`]).
-    pub(crate) reached: RefCell<[Vec<Broken>; 3]>,
+    pub(crate) reached: RefCell<[Vec<Broken>; MEASURES]>,
 }
 
 /// A simulation at the longest known prefix of a deposit sequence, and its length.
@@ -238,6 +238,9 @@ enum Measure {
     Nearer,
 }
 
+/// How many [`Measure`]s there are (a repair keeps the states its runs reached per measure).
+const MEASURES: usize = 3;
+
 /// The blocks `i..j` of weld path `f`, all in one layer; `at`: deposits before it.
 #[derive(Debug, Clone, Copy)]
 struct Piece {
@@ -281,7 +284,7 @@ impl<'a> Repair<'a> {
     pub fn repaired(&self, plan: &[Vec<usize>], blocks: usize, block: usize) -> Option<Repaired> {
         // The states earlier calls' runs got to: a run that gets to one of them ends, and
         // what that run went on to do (trying again by another measure too) is not redone.
-        let known: [usize; 3] = std::array::from_fn(|i| self.reached.borrow()[i].len());
+        let known: [usize; MEASURES] = std::array::from_fn(|i| self.reached.borrow()[i].len());
         let mut ended = None;
         let found = self.repaired_by(plan, (blocks, block), Measure::Later, known, &mut ended);
         if found.is_some() {
@@ -307,7 +310,7 @@ impl<'a> Repair<'a> {
         plan: &[Vec<usize>],
         (blocks, block): (usize, usize),
         by: Measure,
-        known: [usize; 3],
+        known: [usize; MEASURES],
         ended: &mut Option<Broken>,
     ) -> Option<Repaired> {
         let mut plan = plan.to_vec();
@@ -449,7 +452,7 @@ impl<'a> Repair<'a> {
                         self.ways_round(&plan, &pieces, (anchor, to), sim, budget, until, by);
                     let furthest = match &ways.best {
                         Some((turned, _, Some(Ok(())))) => {
-                            format!("{turned} turned keep every window")
+                            format!("{turned} turned: keeps every window")
                         }
                         Some((turned, _, Some(Err(b)))) => format!("{turned} turned: {b}"),
                         _ => "no way judged".into(),
