@@ -160,13 +160,8 @@ impl Broken {
     /// got there, with [`Measure::Nearer`] the same block cooling too fast the nearer its
     /// window.
     fn further_than(&self, other: &Broken, measure: Measure) -> bool {
-        if measure == Measure::Nearer
-            && self.block == other.block
-            && self.too_fast
-            && other.too_fast
-            && self.miss_s != other.miss_s
-        {
-            return self.miss_s < other.miss_s;
+        if measure == Measure::Nearer && (self.nearer_than(other) || other.nearer_than(self)) {
+            return self.nearer_than(other);
         }
         if measure == Measure::Lower
             && self.block == other.block
